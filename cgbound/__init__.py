@@ -1,0 +1,28 @@
+"""cgbound: boundary-aware coarse graining of discrete-particle data.
+
+Goldhirsch's coarse graining extended to boundaries by Weinhart, Thornton,
+Luding and Bokhove (2012), with a C core. Stresses follow the paper's
+tension-positive sign unless ``convention="compression"`` is asked for.
+"""
+from . import _core
+from .box import Box
+from .coarse import CoarseGrain, coarse_grain
+from .fields import FIELDS
+from .grid import Grid, Points
+from .kernels import Gaussian, Heaviside, Lucy
+from .residual import MomentumBalance, momentum_balance_residual
+from .result import Result
+from .snapshot import Contacts, Snapshot
+
+__version__ = "0.1.0"
+
+FIELD_NAMES = tuple(FIELDS)
+
+__all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", "Heaviside", "Lucy",
+           "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
+           "have_openmp"]
+
+
+def have_openmp():
+    """Whether the C core was built with OpenMP threads."""
+    return _core.have_openmp()

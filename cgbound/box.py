@@ -1,0 +1,59 @@
+"""The simulation box: bounds and periodicity per axis."""
+import numpy as np
+
+from ._validate import real_array
+
+AXIS_NAMES = ("x", "y", "z")
+
+
+class Box:
+    """Axis-aligned box ``[lower, upper]`` with a periodic flag per axis.
+
+    Parameters
+    ----------
+    lower, upper : array_like, shape (D,)
+        Bounds, D = 2 or 3, with ``lower < upper``. In 2D the axes are called x and z.
+    periodic : bool or sequence of D bools
+        Periodic axes; branch vectors use the minimum image along them and kernels
+        are summed over all periodic images.
+    """
+
+    def __init__(self, lower, upper, periodic=False):
+        lower = real_array(lower, "lower", ndim=1)
+        upper = real_array(upper, "upper", ndim=1)
+        if lower.shape[0] not in (2, 3):
+            raise ValueError(f"lower: expected 2 or 3 coordinates, got {lower.shape[0]}")
+        if upper.shape != lower.shape:
+            raise ValueError(f"upper: expected {lower.shape[0]} coordinates like lower, got {upper.shape[0]}")
+        if np.any(upper <= lower):
+            raise ValueError(f"upper: expected upper > lower on every axis, got lower={lower.tolist()}, upper={upper.tolist()}")
+        if np.ndim(periodic) == 0:
+            periodic = (bool(periodic),) * lower.shape[0]
+        periodic = tuple(periodic)
+        if len(periodic) != lower.shape[0] or not all(isinstance(p, (bool, np.bool_)) for p in periodic):
+            raise ValueError(f"periodic: expected a bool or {lower.shape[0]} bools, got {periodic!r}")
+        self.lower = lower
+        self.upper = upper
+        self.periodic = tuple(bool(p) for p in periodic)
+
+    @property
+    def dim(self):
+        return self.lower.shape[0]
+
+    @property
+    def lengths(self):
+        return self.upper - self.lower
+
+    @property
+    def axis_names(self):
+        return ("x", "z") if self.dim == 2 else AXIS_NAMES
+
+    def __eq__(self, other):
+        return (isinstance(other, Box) and self.dim == other.dim and np.array_equal(self.lower, other.lower)
+                and np.array_equal(self.upper, other.upper) and self.periodic == other.periodic)
+
+    def __hash__(self):
+        return hash((tuple(self.lower), tuple(self.upper), self.periodic))
+
+    def __repr__(self):
+        return f"Box(lower={self.lower.tolist()}, upper={self.upper.tolist()}, periodic={self.periodic})"

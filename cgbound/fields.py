@@ -1,0 +1,250 @@
+"""Which continuum fields exist, what each needs, and how they are computed.
+
+A snapshot is reduced to *primary* sums (one kernel pass each, computed only
+when a requested field needs them); requested fields are derived from the
+primaries after any averaging over snapshots. Momentum is accumulated relative
+to a reference velocity ``u_ref`` so that a large uniform flow does not cost
+digits in the kinetic stress.
+"""
+import numpy as np
+
+from . import _core
+
+#: field name -> (rank, primaries it needs)
+FIELDS = {
+    "density": (0, ("rho",)),
+    "momentum": (1, ("rho", "p_w")),
+    "velocity": (1, ("rho", "p_w")),
+    "momentum_flux": (2, ("k",)),
+    "kinetic_stress": (2, ("rho", "p_w", "sk")),
+    "contact_stress": (2, ("sb",)),
+    "boundary_stress": (2, ("sw",)),
+    "interaction_force_density": (1, ("t",)),
+    "body_force_density": (1, ("b",)),
+    "stress": (2, ("rho", "p_w", "sk", "sb", "sw")),
+    "extended_stress": (2, ("rho", "p_w", "sk", "sb", "sx")),
+    "volume_fraction": (0, ("phi",)),
+    "pressure": (0, ("rho", "p_w", "sk", "sb", "sw")),
+    "temperature": (0, ("rho", "p_w", "sk")),
+}
+
+#: fields whose sign depends on the stress convention
+STRESS_FIELDS = ("kinetic_stress", "contact_stress", "boundary_stress", "stress", "extended_stress")
+
+CONVENTIONS = ("tension", "compression")
+
+
+def check_fields(fields):
+    if isinstance(fields, str):
+        fields = (fields,)
+    try:
+        fields = tuple(fields)
+    except TypeError:
+        raise TypeError(f"fields: expected a sequence of field names, got {fields!r}") from None
+    if not fields:
+        raise ValueError("fields: expected at least one field name")
+    for name in fields:
+        if name not in FIELDS:
+            raise ValueError(f"fields: unknown field {name!r}; expected some of {', '.join(FIELDS)}")
+    return tuple(dict.fromkeys(fields))
+
+
+def check_convention(convention):
+    if convention not in CONVENTIONS:
+        raise ValueError(f"convention: expected 'tension' (the paper's sign) or 'compression' (MercuryCG's), "
+                         f"got {convention!r}")
+    return convention
+
+
+def needed_primaries(fields):
+    needed = set()
+    for name in fields:
+        needed.update(FIELDS[name][1])
+    return needed
+
+
+def reference_velocity(snapshot):
+    """Mass-weighted mean velocity of the flowing particles (any constant would do)."""
+    flow = snapshot.flowing
+    if snapshot.velocities is None or not flow.any():
+        return np.zeros(snapshot.dim)
+    m = snapshot.masses[flow]
+    return (m[:, None] * snapshot.velocities[flow]).sum(axis=0) / m.sum()
+
+
+def _outer(a, b):
+    return (a[:, :, None] * b[:, None, :]).reshape(a.shape[0], -1)
+
+
+def compute_primaries(snapshot, target, kernel, needed, u_ref):
+    """Primary sums of one snapshot at the target's nodes, flat over nodes: shape (P, ...)."""
+    dim = snapshot.dim
+    P = target.size
+    core_target = target._core_target(snapshot.box)
+    core_kernel = kernel._core_args(target.avg_extent)
+    flow = snapshot.flowing
+    pos = snapshot.positions[flow]
+    m = snapshot.masses[flow]
+    has_velocity = snapshot.velocities is not None
+    v_w = snapshot.velocities[flow] - u_ref if has_velocity else None
+    out = {}
+
+    def points(positions, values):
+        return _core.scatter_points(core_target, core_kernel, positions, values)
+
+    if "rho" in needed:
+        out["rho"] = points(pos, m[:, None])[:, 0]
+    if "p_w" in needed:
+        out["p_w"] = points(pos, m[:, None] * v_w) if has_velocity else np.zeros((P, dim))
+    if "k" in needed:
+        if has_velocity:
+            v = snapshot.velocities[flow]
+            out["k"] = points(pos, m[:, None] * _outer(v, v)).reshape(P, dim, dim)
+        else:
+            out["k"] = np.zeros((P, dim, dim))
+    if "sk" in needed:
+        if has_velocity and pos.shape[0]:
+            rho = out["rho"]
+            node_v = np.zeros((P, dim))
+            np.divide(out["p_w"], rho[:, None], out=node_v, where=rho[:, None] > 0)
+            out["sk"] = _core.scatter_fluctuation(core_target, core_kernel, pos, m, v_w, node_v)
+        else:
+            out["sk"] = np.zeros((P, dim, dim))
+    if "b" in needed:
+        if snapshot.body_force is not None:
+            out["b"] = points(pos, m[:, None] * snapshot.body_force[flow])
+        else:
+            out["b"] = np.zeros((P, dim))
+    if "phi" in needed:
+        if snapshot.radii is None:
+            raise ValueError("volume_fraction: the snapshot needs radii")
+        r = snapshot.radii[flow]
+        vol = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
+        out["phi"] = points(pos, vol[:, None])[:, 0]
+
+    contact_primaries = needed & {"sb", "sw", "t", "sx"}
+    if contact_primaries:
+        bulk, boundary = snapshot.split_contacts()
+        zero_tensor = np.zeros((P, dim, dim))
+        if "sb" in needed:
+            if bulk["i"].size:
+                start = snapshot.positions[bulk["i"]]
+                values = -_outer(bulk["force"], bulk["branch"])
+                out["sb"] = _core.scatter_segments(core_target, core_kernel, start, -bulk["branch"],
+                                                   values).reshape(P, dim, dim)
+            else:
+                out["sb"] = zero_tensor
+        if needed & {"sw", "sx"} and boundary["i"].size:
+            start = snapshot.positions[boundary["i"]]
+            values = -_outer(boundary["force"], boundary["branch"])
+        if "sw" in needed:
+            if boundary["i"].size:
+                out["sw"] = _core.scatter_segments(core_target, core_kernel, start, -boundary["branch"],
+                                                   values).reshape(P, dim, dim)
+            else:
+                out["sw"] = zero_tensor.copy()
+        if "sx" in needed:
+            if boundary["i"].size:
+                if np.any(np.all(boundary["branch"] == 0.0, axis=1)):
+                    raise ValueError("extended_stress: a boundary contact has its contact point at the particle "
+                                     "centre, so the direction of its ray (eq. 24) is undefined")
+                out["sx"] = _core.scatter_segments(core_target, core_kernel, start, -boundary["branch"],
+                                                   values, ray=True).reshape(P, dim, dim)
+            else:
+                out["sx"] = zero_tensor.copy()
+        if "t" in needed:
+            if boundary["i"].size:
+                out["t"] = points(boundary["point"], boundary["force"])
+            else:
+                out["t"] = np.zeros((P, dim))
+    return out
+
+
+class PrimaryAverage:
+    """Weighted mean of primaries over snapshots, exact for the kinetic stress.
+
+    Linear sums are averaged directly. The kinetic stress of the mean is the
+    mean of the per-snapshot (fluctuation-form) kinetic stresses minus the
+    spread of the snapshot velocities about the mean velocity (the parallel
+    variance formula), all in the frame of u_ref.
+    """
+
+    def __init__(self, needed):
+        self.needed = set(needed)
+        self.sums = {}
+        self.weight = 0.0
+        self.count = 0
+        self.spread = None  # sum of w rho V V (frame of u_ref)
+
+    def add(self, primaries, weight=1.0):
+        for name, value in primaries.items():
+            if name in self.sums:
+                self.sums[name] += weight * value
+            else:
+                self.sums[name] = weight * value
+        if "sk" in self.needed:
+            rho, p = primaries["rho"], primaries["p_w"]
+            V = np.zeros_like(p)
+            np.divide(p, rho[:, None], out=V, where=rho[:, None] > 0)
+            term = weight * rho[:, None, None] * V[:, :, None] * V[:, None, :]
+            self.spread = term if self.spread is None else self.spread + term
+        self.weight += weight
+        self.count += 1
+
+    def result(self):
+        if self.count == 0:
+            raise ValueError("no snapshots were averaged")
+        out = {name: value / self.weight for name, value in self.sums.items()}
+        if "sk" in self.needed and self.count > 1:
+            rho, p = out["rho"], out["p_w"]
+            V = np.zeros_like(p)
+            np.divide(p, rho[:, None], out=V, where=rho[:, None] > 0)
+            mean_spread = self.spread / self.weight - rho[:, None, None] * V[:, :, None] * V[:, None, :]
+            out["sk"] = out["sk"] - mean_spread
+        return out
+
+
+def derive(primaries, fields, u_ref, dim, convention):
+    """Requested fields (flat over nodes) from averaged primaries."""
+    pr = primaries
+    out = {}
+    rho = pr.get("rho")
+    sign = -1.0 if convention == "compression" else 1.0
+
+    def velocity_w():
+        V = np.full(pr["p_w"].shape, np.nan)
+        np.divide(pr["p_w"], rho[:, None], out=V, where=rho[:, None] > 0)
+        return V
+
+    for name in fields:
+        if name == "density":
+            value = rho.copy()
+        elif name == "momentum":
+            value = pr["p_w"] + rho[:, None] * u_ref
+        elif name == "velocity":
+            value = velocity_w() + u_ref
+        elif name == "momentum_flux":
+            value = pr["k"].copy()
+        elif name == "kinetic_stress":
+            value = sign * pr["sk"]
+        elif name == "contact_stress":
+            value = sign * pr["sb"]
+        elif name == "boundary_stress":
+            value = sign * pr["sw"]
+        elif name == "interaction_force_density":
+            value = pr["t"].copy()
+        elif name == "body_force_density":
+            value = pr["b"].copy()
+        elif name == "stress":
+            value = sign * (pr["sk"] + pr["sb"] + pr["sw"])
+        elif name == "extended_stress":
+            value = sign * (pr["sk"] + pr["sb"] + pr["sx"])
+        elif name == "volume_fraction":
+            value = pr["phi"].copy()
+        elif name == "pressure":
+            value = -np.trace(pr["sk"] + pr["sb"] + pr["sw"], axis1=1, axis2=2) / dim
+        elif name == "temperature":
+            value = np.full(rho.shape, np.nan)
+            np.divide(-np.trace(pr["sk"], axis1=1, axis2=2), dim * rho, out=value, where=rho > 0)
+        out[name] = value
+    return out

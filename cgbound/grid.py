@@ -1,0 +1,140 @@
+"""Where fields are evaluated: regular grids (with averaged axes) and point sets."""
+import numbers
+
+import numpy as np
+
+from ._validate import real_array
+from .box import Box
+
+
+def _axis_index(name, dim):
+    names = ("x", "z") if dim == 2 else ("x", "y", "z")
+    if isinstance(name, str):
+        if name not in names:
+            raise ValueError(f"average: unknown axis {name!r}; expected some of {names}")
+        return names.index(name)
+    if isinstance(name, numbers.Integral) and 0 <= int(name) < dim:
+        return int(name)
+    raise ValueError(f"average: expected axis names {names} or indices, got {name!r}")
+
+
+class Grid:
+    """Regular grid of cell-centred nodes, ``lower + (k + 1/2) h`` along each resolved axis.
+
+    Parameters
+    ----------
+    box : Box
+        The region covered (also where averaged axes take their extent).
+    shape : sequence of D ints
+        Nodes per axis; averaged axes must have 1.
+    average : sequence of axis names ("x", "y", "z"; in 2D "x", "z") or indices
+        Axes averaged over analytically (exact kernel marginals divided by the box extent).
+    """
+
+    def __init__(self, box, shape, average=()):
+        if not isinstance(box, Box):
+            raise TypeError(f"box: expected a cg.Box, got {type(box).__name__}")
+        dim = box.dim
+        if isinstance(average, (str, numbers.Integral)):
+            average = (average,)
+        averaged = sorted({_axis_index(a, dim) for a in average})
+        if isinstance(shape, numbers.Integral):
+            shape = tuple(1 if d in averaged else int(shape) for d in range(dim))
+        shape = tuple(shape)
+        if len(shape) != dim or not all(isinstance(n, numbers.Integral) and not isinstance(n, bool) for n in shape):
+            raise ValueError(f"shape: expected {dim} integers, got {shape!r}")
+        if any(n < 1 for n in shape):
+            raise ValueError(f"shape: expected positive node counts, got {shape!r}")
+        for d in averaged:
+            if shape[d] != 1:
+                raise ValueError(f"shape: averaged axis {box.axis_names[d]} must have 1 node, got {shape[d]}")
+        self.box = box
+        self.shape = tuple(int(n) for n in shape)
+        self.averaged = tuple(averaged)
+        self.resolved = tuple(d for d in range(dim) if d not in averaged)
+        spacing = box.lengths / np.array(self.shape, dtype=float)
+        self.spacing = spacing
+        self.axis_coordinates = tuple(box.lower[d] + (np.arange(self.shape[d]) + 0.5) * spacing[d] for d in range(dim))
+        for c in self.axis_coordinates:
+            c.setflags(write=False)
+
+    @property
+    def dim(self):
+        return self.box.dim
+
+    @property
+    def size(self):
+        return int(np.prod(self.shape))
+
+    @property
+    def avg_extent(self):
+        return float(np.prod([self.box.lengths[d] for d in self.averaged])) if self.averaged else 1.0
+
+    @property
+    def coordinates(self):
+        """Node coordinates, shape ``shape + (D,)``; averaged axes hold the box centre."""
+        mesh = np.meshgrid(*self.axis_coordinates, indexing="ij")
+        return np.stack(mesh, axis=-1)
+
+    @property
+    def field_shape(self):
+        return self.shape
+
+    def _core_target(self, box):
+        return (self.dim, self.resolved, [self.axis_coordinates[d] for d in self.resolved], None,
+                [box.periodic[d] for d in self.resolved], [float(box.lengths[d]) for d in self.resolved])
+
+    def __repr__(self):
+        names = self.box.axis_names
+        res = "".join(names[d] for d in self.resolved).upper() or "O"
+        return f"Grid({res}, shape={self.shape}, averaged={tuple(names[d] for d in self.averaged)})"
+
+
+class Points:
+    """Arbitrary evaluation points, shape (P, D); fields come back with shape (P, ...)."""
+
+    averaged = ()
+    avg_extent = 1.0
+
+    def __init__(self, positions):
+        pts = real_array(positions, "points", ndim=2)
+        if pts.shape[1] not in (2, 3):
+            raise ValueError(f"points: expected shape (P, 2) or (P, 3), got {pts.shape}")
+        self.positions = pts
+
+    @property
+    def dim(self):
+        return self.positions.shape[1]
+
+    @property
+    def resolved(self):
+        return tuple(range(self.dim))
+
+    @property
+    def size(self):
+        return self.positions.shape[0]
+
+    @property
+    def field_shape(self):
+        return (self.positions.shape[0],)
+
+    @property
+    def coordinates(self):
+        return self.positions
+
+    def _core_target(self, box):
+        return (self.dim, tuple(range(self.dim)), None, self.positions, list(box.periodic),
+                [float(x) for x in box.lengths])
+
+    def __repr__(self):
+        return f"Points({self.positions.shape[0]} points in {self.dim}D)"
+
+
+def check_target(where, dim, name="grid"):
+    if isinstance(where, (Grid, Points)):
+        target = where
+    else:
+        target = Points(where)
+    if target.dim != dim:
+        raise ValueError(f"{name}: expected a {dim}D grid or points like the snapshot, got {target.dim}D")
+    return target

@@ -1,0 +1,61 @@
+"""Coarse-grained fields as NumPy arrays shaped like the grid, with metadata."""
+import numpy as np
+
+from .fields import FIELDS
+
+
+class Result:
+    """Fields on a grid or at points.
+
+    Each requested field is an attribute (and an item): an array shaped like the
+    grid (``grid.shape``, or ``(P,)`` for points), followed by ``(D,)`` for vectors
+    and ``(D, D)`` for tensors; with ``time_average="none"`` or time smoothing a
+    leading time axis comes first. Velocity and temperature are NaN where the
+    density is zero.
+    """
+
+    def __init__(self, fields, grid, kernel, convention, times, box):
+        self._fields = dict(fields)
+        self.grid = grid
+        self.kernel = kernel
+        self.convention = convention
+        self.times = np.asarray(times, dtype=float)
+        self.box = box
+
+    @property
+    def fields(self):
+        return tuple(self._fields)
+
+    @property
+    def coordinates(self):
+        """Node coordinates, shape ``grid.shape + (D,)`` (or ``(P, D)`` for points)."""
+        return self.grid.coordinates
+
+    def __getattr__(self, name):
+        fields = self.__dict__.get("_fields", {})
+        if name in fields:
+            return fields[name]
+        if name in FIELDS:
+            raise AttributeError(f"field {name!r} was not requested; computed fields: {', '.join(fields)}")
+        raise AttributeError(name)
+
+    def __getitem__(self, name):
+        return self._fields[name]
+
+    def __contains__(self, name):
+        return name in self._fields
+
+    def __dir__(self):
+        return list(super().__dir__()) + list(self._fields)
+
+    def as_dict(self):
+        return dict(self._fields)
+
+    def __repr__(self):
+        lines = [f"<cgbound.Result {self.grid!r}, {self.kernel!r}, convention={self.convention!r}, "
+                 f"{self.times.size} snapshot time(s)>"]
+        for name, value in self._fields.items():
+            finite = value[np.isfinite(value)]
+            rng = f"[{finite.min():.4g}, {finite.max():.4g}]" if finite.size else "[no finite values]"
+            lines.append(f"  {name:<26} {str(value.shape):<18} {rng}")
+        return "\n".join(lines)

@@ -1,0 +1,227 @@
+"""One frame of particle data: positions, velocities, masses, contacts, box."""
+import numbers
+
+import numpy as np
+
+from . import _core
+from ._validate import bool_array, index_array, real_array
+from .box import Box
+
+
+class Contacts:
+    """Contact list: ``force[c]`` acts ON particle ``i[c]`` FROM ``j[c]`` at ``point[c]``.
+
+    ``j = -1`` marks a wall (no particle). Each pair appears once; listing a
+    contact as (j, i, -force) is equivalent.
+    """
+
+    def __init__(self, i, j, force, point):
+        self.i = index_array(i, "contacts.i")
+        m = self.i.shape[0]
+        self.j = index_array(j, "contacts.j", length=m)
+        if m == 0 and np.size(force) == 0 and np.size(point) == 0:
+            force = point = np.zeros((0, np.shape(force)[-1] if np.ndim(force) == 2 else 0))
+        self.force = real_array(force, "contacts.force", ndim=2)
+        self.point = real_array(point, "contacts.point", ndim=2)
+        if self.force.shape[0] != m:
+            raise ValueError(f"contacts.force: expected {m} rows like contacts.i, got {self.force.shape[0]}")
+        if self.point.shape != self.force.shape:
+            raise ValueError(f"contacts.point: expected shape {self.force.shape} like contacts.force, got {self.point.shape}")
+
+    @classmethod
+    def empty(cls, dim):
+        return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)))
+
+    def __len__(self):
+        return self.i.shape[0]
+
+    def __repr__(self):
+        return f"Contacts({len(self)} contacts)"
+
+
+class Snapshot:
+    """Particle data at one instant (DESIGN.md section 1).
+
+    Parameters
+    ----------
+    positions : (N, D) array
+        Centres of all particles, flowing and fixed. D = 2 (axes x, z) or 3.
+    velocities : (N, D) array or None
+        None means a static snapshot: no kinetic contribution is computed.
+    masses : (N,) array
+        Positive for flowing particles; ignored for fixed ones.
+    box : Box, optional
+        Defaults to the non-periodic bounding box of the positions.
+    contacts : Contacts, optional
+    fixed : (N,) bool, optional
+        Boundary particles (infinite mass).
+    species : (N,) int, optional
+    body_force : (D,) or (N, D), optional
+        Body force per unit mass (e.g. gravity).
+    radii : (N,), optional
+        Needed for the volume fraction.
+    time : float
+    """
+
+    def __init__(self, positions, velocities=None, masses=None, box=None, contacts=None, fixed=None,
+                 species=None, body_force=None, radii=None, time=0.0):
+        self.positions = real_array(positions, "positions", ndim=2)
+        n, dim = self.positions.shape
+        if dim not in (2, 3):
+            raise ValueError(f"positions: expected shape (N, 2) or (N, 3), got {self.positions.shape}")
+        self.velocities = None if velocities is None else real_array(velocities, "velocities", ndim=2, shape=(n, dim))
+        if masses is None:
+            raise TypeError("masses: expected an array of N positive masses, got None")
+        self.masses = real_array(masses, "masses", ndim=1, shape=(n,))
+        self.fixed = np.zeros(n, bool) if fixed is None else bool_array(fixed, "fixed", n)
+        bad = (~self.fixed) & ~(self.masses > 0)
+        if np.any(bad):
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"masses: expected positive masses for flowing particles, got {self.masses[k]} at index {k}")
+        if box is None:
+            if n == 0:
+                raise ValueError("box: needed when there are no particles")
+            lo, hi = self.positions.min(axis=0), self.positions.max(axis=0)
+            pad = np.maximum(hi - lo, 1.0) * 1e-9
+            box = Box(lo - pad, hi + pad)
+        if not isinstance(box, Box):
+            raise TypeError(f"box: expected a cg.Box, got {type(box).__name__}")
+        if box.dim != dim:
+            raise ValueError(f"box: expected a {dim}D box like positions, got {box.dim}D")
+        self.box = box
+        self.species = None if species is None else index_array(species, "species", length=n)
+        if body_force is None:
+            self.body_force = None
+        else:
+            g = real_array(body_force, "body_force")
+            if g.shape == (dim,):
+                g = np.broadcast_to(g, (n, dim))
+            elif g.shape != (n, dim):
+                raise ValueError(f"body_force: expected shape ({dim},) or ({n}, {dim}), got {g.shape}")
+            self.body_force = g
+        self.radii = None
+        if radii is not None:
+            self.radii = real_array(radii, "radii", ndim=1, shape=(n,))
+            if np.any(self.radii < 0):
+                raise ValueError("radii: expected non-negative radii")
+        if isinstance(time, bool) or not isinstance(time, numbers.Real) or not np.isfinite(time):
+            raise ValueError(f"time: expected a finite number, got {time!r}")
+        self.time = float(time)
+        if contacts is None:
+            contacts = Contacts.empty(dim)
+        if not isinstance(contacts, Contacts):
+            raise TypeError(f"contacts: expected a cg.Contacts, got {type(contacts).__name__}")
+        self.contacts = contacts
+        self._check_contacts()
+
+    # ------------------------------------------------------------------
+    @property
+    def dim(self):
+        return self.positions.shape[1]
+
+    @property
+    def n_particles(self):
+        return self.positions.shape[0]
+
+    @property
+    def flowing(self):
+        return ~self.fixed
+
+    def _check_contacts(self):
+        c, n, dim = self.contacts, self.n_particles, self.dim
+        m = len(c)
+        if m == 0:
+            return
+        if c.force.shape[1] != dim:
+            raise ValueError(f"contacts.force: expected shape ({m}, {dim}) for a {dim}D snapshot, got {c.force.shape}")
+        if np.any((c.i < 0) | (c.i >= n)):
+            k = int(np.flatnonzero((c.i < 0) | (c.i >= n))[0])
+            raise IndexError(f"contacts.i: expected particle indices in [0, {n}), got {c.i[k]} at contact {k}")
+        if np.any((c.j < -1) | (c.j >= n)):
+            k = int(np.flatnonzero((c.j < -1) | (c.j >= n))[0])
+            raise IndexError(f"contacts.j: expected particle indices in [0, {n}) or -1 for a wall, got {c.j[k]} at contact {k}")
+        same = c.i == c.j
+        if np.any(same):
+            k = int(np.flatnonzero(same)[0])
+            raise ValueError(f"contacts.j: a contact cannot join particle {c.i[k]} to itself (contact {k})")
+        pairs = c.j >= 0
+        lo = np.where(pairs, np.minimum(c.i, c.j), c.i)
+        hi = np.where(pairs, np.maximum(c.i, c.j), -1)
+        key = np.stack([lo, hi], axis=1)
+        if pairs.any():
+            uniq, counts = np.unique(key[pairs], axis=0, return_counts=True)
+            if np.any(counts > 1):
+                a, b = uniq[counts > 1][0]
+                raise ValueError(f"contacts: the pair ({a}, {b}) is listed more than once; "
+                                 "give each contact once (as (i, j, f) or (j, i, -f))")
+
+    # ------------------------------------------------------------------
+    def with_fixed(self, fixed):
+        """A copy in which ``fixed`` (N bools) marks the boundary particles."""
+        out = object.__new__(Snapshot)
+        out.__dict__.update(self.__dict__)
+        out.fixed = bool_array(fixed, "fixed", self.n_particles)
+        return out
+
+    def species_view(self, species):
+        """The snapshot seen by one species: particles of other species act as boundary.
+
+        Coarse graining this view gives partial fields of that species, and its
+        interaction force density is the force density from the other species
+        (and from true boundaries), placed at the contact points.
+        """
+        if self.species is None:
+            raise ValueError("species: this snapshot has no species array")
+        return self.with_fixed(self.fixed | (self.species != species))
+
+    def split_contacts(self):
+        """Classify contacts (DESIGN.md section 1).
+
+        Returns ``(bulk, boundary)`` dicts of arrays: bulk has i, j, force, branch
+        (r_i - r_j, minimum image); boundary has i (the flowing particle), force
+        (on it), branch a = r_i - c (minimum image) and point c = r_i - a.
+        """
+        c = self.contacts
+        box = self.box
+        dim = self.dim
+        if len(c) == 0:
+            empty = np.zeros((0, dim))
+            idx = np.zeros(0, np.int64)
+            return ({"i": idx, "j": idx, "force": empty, "branch": empty},
+                    {"i": idx, "force": empty, "branch": empty, "point": empty})
+        i, j, f, pt = c.i, c.j, c.force, c.point
+        fixed_i = self.fixed[i]
+        wall = j < 0
+        fixed_j = np.where(wall, True, self.fixed[np.where(wall, 0, j)])
+        bulk = ~fixed_i & ~fixed_j
+        boundary_i = ~fixed_i & fixed_j           # already oriented on the flowing particle
+        boundary_j = fixed_i & ~fixed_j & ~wall   # flip: the flowing particle is j
+        periodic, lengths = list(box.periodic), [float(x) for x in box.lengths]
+
+        bi, bj = i[bulk], j[bulk]
+        r_ij = _core.minimum_image(self.positions[bi] - self.positions[bj], periodic, lengths)
+        bulk_out = {"i": bi, "j": bj, "force": f[bulk], "branch": r_ij}
+
+        k = np.concatenate([i[boundary_i], j[boundary_j]])
+        fk = np.concatenate([f[boundary_i], -f[boundary_j]])
+        ck = np.concatenate([pt[boundary_i], pt[boundary_j]])
+        a = _core.minimum_image(self.positions[k] - ck, periodic, lengths)
+        boundary_out = {"i": k, "force": fk, "branch": a, "point": self.positions[k] - a}
+        return bulk_out, boundary_out
+
+    def particle_forces(self):
+        """Total force on every particle from its contacts and body force (fixed: contacts only)."""
+        f = np.zeros((self.n_particles, self.dim))
+        c = self.contacts
+        if len(c):
+            np.add.at(f, c.i, c.force)
+            pair = c.j >= 0
+            np.add.at(f, c.j[pair], -c.force[pair])
+        if self.body_force is not None:
+            f += self.masses[:, None] * self.body_force
+        return f
+
+    def __repr__(self):
+        nf = int(self.fixed.sum())
+        return (f"Snapshot({self.n_particles} particles ({nf} fixed), {len(self.contacts)} contacts, "
+                f"{self.dim}D, t={self.time:g})")

@@ -1,0 +1,404 @@
+/*
+ * _coremodule.c -- the CPython binding of the cgbound core (cg.h).
+ *
+ * This is the only file that sees Python: it converts arguments to
+ * contiguous float64 arrays, checks shapes and finiteness (naming the bad
+ * argument), releases the GIL around the C work and maps cg_status codes to
+ * Python exceptions once the GIL is held again.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
+
+#include <math.h>
+#include <string.h>
+
+#include "cg.h"
+
+/* ------------------------------------------------------------------ */
+/* argument conversion                                                  */
+
+/* A C-contiguous, aligned float64 copy/view of obj with ndim dimensions;
+   shape entries >= 0 are required, -1 is free. Checks finiteness. */
+static PyArrayObject *as_array(PyObject *obj, const char *name, int ndim, const npy_intp *shape)
+{
+    PyArrayObject *arr = (PyArrayObject *)PyArray_FROM_OTF(obj, NPY_DOUBLE, NPY_ARRAY_IN_ARRAY);
+    if (!arr) {
+        PyErr_Format(PyExc_TypeError, "%s: expected an array of real numbers", name);
+        return NULL;
+    }
+    if (PyArray_NDIM(arr) != ndim) {
+        PyErr_Format(PyExc_ValueError, "%s: expected a %d-dimensional array, got %d dimensions",
+                     name, ndim, PyArray_NDIM(arr));
+        Py_DECREF(arr);
+        return NULL;
+    }
+    for (int d = 0; d < ndim; ++d) {
+        if (shape[d] >= 0 && PyArray_DIM(arr, d) != shape[d]) {
+            PyErr_Format(PyExc_ValueError, "%s: expected length %zd along axis %d, got %zd",
+                         name, (Py_ssize_t)shape[d], d, (Py_ssize_t)PyArray_DIM(arr, d));
+            Py_DECREF(arr);
+            return NULL;
+        }
+    }
+    const double *data = (const double *)PyArray_DATA(arr);
+    const npy_intp size = PyArray_SIZE(arr);
+    for (npy_intp i = 0; i < size; ++i) {
+        if (!isfinite(data[i])) {
+            char *text = PyOS_double_to_string(data[i], 'r', 0, 0, NULL);
+            PyErr_Format(PyExc_ValueError, "%s: expected finite values, found %s at flat index %zd",
+                         name, text ? text : "?", (Py_ssize_t)i);
+            PyMem_Free(text);
+            Py_DECREF(arr);
+            return NULL;
+        }
+    }
+    return arr;
+}
+
+typedef struct converted_target {
+    cg_target target;
+    PyArrayObject *coords[3];
+    PyArrayObject *points;
+} converted_target;
+
+static void release_target(converted_target *ct)
+{
+    for (int a = 0; a < 3; ++a) Py_XDECREF(ct->coords[a]);
+    Py_XDECREF(ct->points);
+}
+
+/* target = (dim, axes, coords or None, points or None, periodic, period) */
+static int convert_target(PyObject *obj, converted_target *ct)
+{
+    memset(ct, 0, sizeof *ct);
+    int dim;
+    PyObject *axes, *coords, *points, *periodic, *period;
+    if (!PyTuple_Check(obj) ||
+        !PyArg_ParseTuple(obj, "iOOOOO", &dim, &axes, &coords, &points, &periodic, &period)) {
+        PyErr_SetString(PyExc_TypeError, "target: expected (dim, axes, coords, points, periodic, period)");
+        return 0;
+    }
+    if (dim < 2 || dim > 3) {
+        PyErr_Format(PyExc_ValueError, "target: dim must be 2 or 3, got %d", dim);
+        return 0;
+    }
+    cg_target *t = &ct->target;
+    t->dim = dim;
+    PyObject *seq = PySequence_Fast(axes, "target: axes must be a sequence");
+    if (!seq) return 0;
+    const Py_ssize_t nr = PySequence_Fast_GET_SIZE(seq);
+    if (nr > dim) {
+        Py_DECREF(seq);
+        PyErr_SetString(PyExc_ValueError, "target: more resolved axes than dimensions");
+        return 0;
+    }
+    t->n_resolved = (int)nr;
+    for (Py_ssize_t a = 0; a < nr; ++a) {
+        const long v = PyLong_AsLong(PySequence_Fast_GET_ITEM(seq, a));
+        if (v < 0 || v >= dim || (a > 0 && v <= t->axes[a - 1])) {
+            Py_DECREF(seq);
+            if (!PyErr_Occurred())
+                PyErr_SetString(PyExc_ValueError, "target: axes must be increasing data axes");
+            return 0;
+        }
+        t->axes[a] = (int)v;
+    }
+    Py_DECREF(seq);
+    if (!PySequence_Check(periodic) || !PySequence_Check(period) ||
+        PySequence_Size(periodic) != nr || PySequence_Size(period) != nr) {
+        PyErr_SetString(PyExc_ValueError, "target: periodic and period need one entry per resolved axis");
+        return 0;
+    }
+    for (Py_ssize_t a = 0; a < nr; ++a) {
+        PyObject *p = PySequence_GetItem(periodic, a), *L = PySequence_GetItem(period, a);
+        if (!p || !L) { Py_XDECREF(p); Py_XDECREF(L); return 0; }
+        t->periodic[a] = PyObject_IsTrue(p);
+        t->period[a] = PyFloat_AsDouble(L);
+        Py_DECREF(p);
+        Py_DECREF(L);
+        if (PyErr_Occurred()) return 0;
+        if (t->periodic[a] && !(t->period[a] > 0.0 && isfinite(t->period[a]))) {
+            PyErr_SetString(PyExc_ValueError, "target: a periodic axis needs a positive finite period");
+            return 0;
+        }
+    }
+    if (coords != Py_None) {
+        t->is_grid = 1;
+        if (!PySequence_Check(coords) || PySequence_Size(coords) != nr) {
+            PyErr_SetString(PyExc_ValueError, "target: coords needs one array per resolved axis");
+            return 0;
+        }
+        for (Py_ssize_t a = 0; a < nr; ++a) {
+            PyObject *c = PySequence_GetItem(coords, a);
+            if (!c) return 0;
+            const npy_intp any = -1;
+            ct->coords[a] = as_array(c, "grid coordinates", 1, &any);
+            Py_DECREF(c);
+            if (!ct->coords[a]) { release_target(ct); return 0; }
+            t->shape[a] = PyArray_DIM(ct->coords[a], 0);
+            if (t->shape[a] < 1) {
+                PyErr_SetString(PyExc_ValueError, "grid coordinates: every resolved axis needs at least one node");
+                release_target(ct);
+                return 0;
+            }
+            t->coords[a] = (const double *)PyArray_DATA(ct->coords[a]);
+        }
+    } else {
+        if (points == Py_None) {
+            PyErr_SetString(PyExc_ValueError, "target: give coords (grid) or points");
+            return 0;
+        }
+        const npy_intp shape[2] = {-1, nr};
+        ct->points = as_array(points, "points", 2, shape);
+        if (!ct->points) return 0;
+        t->n_points = PyArray_DIM(ct->points, 0);
+        t->points = (const double *)PyArray_DATA(ct->points);
+    }
+    return 1;
+}
+
+/* kernel = (type, width, radius, truncated, avg_extent) */
+static int convert_kernel(PyObject *obj, const cg_target *t, cg_kernel *k)
+{
+    memset(k, 0, sizeof *k);
+    if (!PyTuple_Check(obj) ||
+        !PyArg_ParseTuple(obj, "iddid", &k->type, &k->width, &k->radius, &k->truncated_norm, &k->avg_extent)) {
+        PyErr_SetString(PyExc_TypeError, "kernel: expected (type, width, radius, truncated, avg_extent)");
+        return 0;
+    }
+    k->dim = t->dim;
+    k->n_resolved = t->n_resolved;
+    if (cg_kernel_init(k) != CG_OK) {
+        PyErr_SetString(PyExc_ValueError,
+                        "kernel: type must be 0, 1 or 2 and width, radius, avg_extent positive and finite");
+        return 0;
+    }
+    return 1;
+}
+
+static PyObject *raise_status(cg_status st)
+{
+    switch (st) {
+    case CG_ERR_NOMEM: return PyErr_NoMemory();
+    case CG_ERR_INTERRUPTED: PyErr_SetNone(PyExc_KeyboardInterrupt); return NULL;
+    case CG_ERR_UNSUPPORTED: PyErr_SetString(PyExc_NotImplementedError, cg_strerror(st)); return NULL;
+    default: PyErr_SetString(PyExc_ValueError, cg_strerror(st)); return NULL;
+    }
+}
+
+/* output array of shape (P, extra...) filled with zeros */
+static PyArrayObject *zeros(npy_intp P, int n_extra, const npy_intp *extra)
+{
+    npy_intp shape[4] = {P, 1, 1, 1};
+    for (int i = 0; i < n_extra; ++i) shape[1 + i] = extra[i];
+    return (PyArrayObject *)PyArray_ZEROS(1 + n_extra, shape, NPY_DOUBLE, 0);
+}
+
+/* ------------------------------------------------------------------ */
+
+static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
+{
+    static char *kw_points[] = {"target", "kernel", "positions", "values", "gradient", NULL};
+    static char *kw_segments[] = {"target", "kernel", "starts", "vectors", "values", "ray", "gradient", NULL};
+    PyObject *target_obj, *kernel_obj, *pos_obj, *vec_obj = NULL, *val_obj;
+    int ray = 0, gradient = 0;
+    if (segments) {
+        if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOO|pp", kw_segments, &target_obj, &kernel_obj,
+                                         &pos_obj, &vec_obj, &val_obj, &ray, &gradient))
+            return NULL;
+    } else {
+        if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOO|p", kw_points, &target_obj, &kernel_obj,
+                                         &pos_obj, &val_obj, &gradient))
+            return NULL;
+    }
+    converted_target ct;
+    if (!convert_target(target_obj, &ct)) return NULL;
+    cg_kernel kernel;
+    PyArrayObject *pos = NULL, *vec = NULL, *val = NULL, *out = NULL;
+    if (!convert_kernel(kernel_obj, &ct.target, &kernel)) goto fail;
+    const int D = ct.target.dim;
+    const npy_intp pshape[2] = {-1, D};
+    pos = as_array(pos_obj, segments ? "starts" : "positions", 2, pshape);
+    if (!pos) goto fail;
+    const npy_intp n = PyArray_DIM(pos, 0);
+    const npy_intp nshape[2] = {n, D};
+    if (segments) {
+        vec = as_array(vec_obj, "vectors", 2, nshape);
+        if (!vec) goto fail;
+    }
+    const npy_intp vshape[2] = {n, -1};
+    val = as_array(val_obj, "values", 2, vshape);
+    if (!val) goto fail;
+    const int n_values = (int)PyArray_DIM(val, 1);
+    if (n_values < 1) {
+        PyErr_SetString(PyExc_ValueError, "values: expected at least one column");
+        goto fail;
+    }
+    const npy_intp P = cg_target_size(&ct.target);
+    npy_intp extra[2] = {n_values, ct.target.n_resolved};
+    out = zeros(P, gradient ? 2 : 1, extra);
+    if (!out) goto fail;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    if (segments)
+        st = cg_scatter_segments(&ct.target, &kernel, n, PyArray_DATA(pos), PyArray_DATA(vec), ray,
+                                 n_values, PyArray_DATA(val), gradient, PyArray_DATA(out));
+    else
+        st = cg_scatter_points(&ct.target, &kernel, n, PyArray_DATA(pos), n_values, PyArray_DATA(val),
+                               gradient, PyArray_DATA(out));
+    Py_END_ALLOW_THREADS
+    if (st != CG_OK) {
+        raise_status(st);
+        goto fail;
+    }
+    Py_DECREF(pos);
+    Py_XDECREF(vec);
+    Py_DECREF(val);
+    release_target(&ct);
+    return (PyObject *)out;
+fail:
+    Py_XDECREF(pos);
+    Py_XDECREF(vec);
+    Py_XDECREF(val);
+    Py_XDECREF(out);
+    release_target(&ct);
+    return NULL;
+}
+
+static PyObject *py_scatter_points(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    return py_scatter(args, kwds, 0);
+}
+
+static PyObject *py_scatter_segments(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    return py_scatter(args, kwds, 1);
+}
+
+static PyObject *py_scatter_fluctuation(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    static char *kw[] = {"target", "kernel", "positions", "masses", "velocities", "node_velocity", NULL};
+    PyObject *target_obj, *kernel_obj, *pos_obj, *mass_obj, *vel_obj, *nodev_obj;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOO", kw, &target_obj, &kernel_obj, &pos_obj,
+                                     &mass_obj, &vel_obj, &nodev_obj))
+        return NULL;
+    converted_target ct;
+    if (!convert_target(target_obj, &ct)) return NULL;
+    cg_kernel kernel;
+    PyArrayObject *pos = NULL, *mass = NULL, *vel = NULL, *nodev = NULL, *out = NULL;
+    if (!convert_kernel(kernel_obj, &ct.target, &kernel)) goto fail;
+    const int D = ct.target.dim;
+    const npy_intp pshape[2] = {-1, D};
+    pos = as_array(pos_obj, "positions", 2, pshape);
+    if (!pos) goto fail;
+    const npy_intp n = PyArray_DIM(pos, 0);
+    const npy_intp nshape[2] = {n, D};
+    mass = as_array(mass_obj, "masses", 1, &n);
+    if (!mass) goto fail;
+    vel = as_array(vel_obj, "velocities", 2, nshape);
+    if (!vel) goto fail;
+    const npy_intp P = cg_target_size(&ct.target);
+    const npy_intp vshape[2] = {P, D};
+    nodev = as_array(nodev_obj, "node_velocity", 2, vshape);
+    if (!nodev) goto fail;
+    const npy_intp extra[2] = {D, D};
+    out = zeros(P, 2, extra);
+    if (!out) goto fail;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_scatter_fluctuation(&ct.target, &kernel, n, PyArray_DATA(pos), PyArray_DATA(mass),
+                                PyArray_DATA(vel), PyArray_DATA(nodev), PyArray_DATA(out));
+    Py_END_ALLOW_THREADS
+    if (st != CG_OK) {
+        raise_status(st);
+        goto fail;
+    }
+    Py_DECREF(pos);
+    Py_DECREF(mass);
+    Py_DECREF(vel);
+    Py_DECREF(nodev);
+    release_target(&ct);
+    return (PyObject *)out;
+fail:
+    Py_XDECREF(pos);
+    Py_XDECREF(mass);
+    Py_XDECREF(vel);
+    Py_XDECREF(nodev);
+    Py_XDECREF(out);
+    release_target(&ct);
+    return NULL;
+}
+
+static PyObject *py_minimum_image(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *vec_obj, *periodic_obj, *period_obj;
+    if (!PyArg_ParseTuple(args, "OOO", &vec_obj, &periodic_obj, &period_obj)) return NULL;
+    const npy_intp any[2] = {-1, -1};
+    PyArrayObject *vec = as_array(vec_obj, "vectors", 2, any);
+    if (!vec) return NULL;
+    const int D = (int)PyArray_DIM(vec, 1);
+    if (D < 1 || D > 3 || PySequence_Size(periodic_obj) != D || PySequence_Size(period_obj) != D) {
+        Py_DECREF(vec);
+        PyErr_SetString(PyExc_ValueError, "minimum_image: periodic and period need one entry per column");
+        return NULL;
+    }
+    int periodic[3] = {0, 0, 0};
+    double period[3] = {0.0, 0.0, 0.0};
+    for (int d = 0; d < D; ++d) {
+        PyObject *p = PySequence_GetItem(periodic_obj, d), *L = PySequence_GetItem(period_obj, d);
+        if (!p || !L) { Py_XDECREF(p); Py_XDECREF(L); Py_DECREF(vec); return NULL; }
+        periodic[d] = PyObject_IsTrue(p);
+        period[d] = PyFloat_AsDouble(L);
+        Py_DECREF(p);
+        Py_DECREF(L);
+        if (PyErr_Occurred()) { Py_DECREF(vec); return NULL; }
+        if (periodic[d] && !(period[d] > 0.0 && isfinite(period[d]))) {
+            Py_DECREF(vec);
+            PyErr_SetString(PyExc_ValueError, "minimum_image: a periodic axis needs a positive finite period");
+            return NULL;
+        }
+    }
+    PyArrayObject *out = (PyArrayObject *)PyArray_NewCopy(vec, NPY_CORDER);
+    Py_DECREF(vec);
+    if (!out) return NULL;
+    cg_minimum_image(PyArray_DIM(out, 0), D, PyArray_DATA(out), periodic, period);
+    return (PyObject *)out;
+}
+
+static PyObject *py_have_openmp(PyObject *self, PyObject *args)
+{
+    (void)self;
+    (void)args;
+    return PyBool_FromLong(cg_have_openmp());
+}
+
+static PyMethodDef methods[] = {
+    {"scatter_points", (PyCFunction)(void (*)(void))py_scatter_points, METH_VARARGS | METH_KEYWORDS,
+     "scatter_points(target, kernel, positions, values, gradient=False) -> (P, K) or (P, K, D_res)\n\n"
+     "Sum of values[o] * M(node - positions[o]) over objects o (or of its gradient)."},
+    {"scatter_segments", (PyCFunction)(void (*)(void))py_scatter_segments, METH_VARARGS | METH_KEYWORDS,
+     "scatter_segments(target, kernel, starts, vectors, values, ray=False, gradient=False)\n\n"
+     "Sum of values[o] * int_0^S M(node - starts[o] - s vectors[o]) ds, S = 1 or infinity (ray)."},
+    {"scatter_fluctuation", (PyCFunction)(void (*)(void))py_scatter_fluctuation, METH_VARARGS | METH_KEYWORDS,
+     "scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity) -> (P, D, D)\n\n"
+     "Kinetic stress -sum m (v - V(node)) (v - V(node)) M(node - x) in fluctuation form."},
+    {"minimum_image", py_minimum_image, METH_VARARGS,
+     "minimum_image(vectors, periodic, period) -> copy of vectors wrapped to the minimum image."},
+    {"have_openmp", py_have_openmp, METH_NOARGS, "Whether the core was built with OpenMP."},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_core",
+                                       "cgbound's C core: kernel scatters onto grids and points.", -1,
+                                       methods, NULL, NULL, NULL, NULL};
+
+PyMODINIT_FUNC PyInit__core(void)
+{
+    import_array();
+    return PyModule_Create(&moduledef);
+}

@@ -1,0 +1,162 @@
+/*
+ * cg.h -- the public C interface of cgbound's coarse-graining core.
+ *
+ * Plain C11, no Python. Every function that can fail returns a cg_status;
+ * cg_strerror() turns it into a message. The core never allocates memory
+ * that the caller must free: callers own every array they pass in, and the
+ * output arrays are accumulated into (+=), so the caller zeroes them first.
+ *
+ * Vocabulary
+ *   D        spatial dimension of the data (2 or 3).
+ *   resolved axes   the data axes the evaluation nodes vary along (D_res of
+ *            them, 0..D). The other D_avg = D - D_res axes are averaged: the
+ *            kernel used is the marginal of the D-dimensional kernel over them,
+ *            divided by avg_extent (the product of the averaged extents).
+ *   target   where fields are evaluated: a regular grid (tensor product of
+ *            1-D node coordinates with uniform spacing) or a list of points.
+ *   object   what is smeared by the kernel: a point (particle, contact point)
+ *            or a segment/ray (contact branch) for the line integral
+ *            psi(r) = int_0^S W(r - x0 - s e) ds, S = 1 (segment) or infinity (ray).
+ *
+ * Kernels (all radial, integral 1 in D dimensions)
+ *   Gaussian   W = (2 pi w^2)^(-D/2) exp(-r^2 / 2 w^2), cut off at radius R.
+ *              Over averaged axes the exact marginal of the untruncated
+ *              Gaussian is used, truncated at R in the resolved subspace.
+ *              truncated_norm != 0 renormalises over the truncated support
+ *              (MercuryCG's convention). Line integrals: exact erf forms.
+ *   Lucy       W = C (1 + 3x)(1 - x)^3, x = r/R < 1. Exact marginals over
+ *              averaged axes; line integrals by graded Gauss-Legendre
+ *              quadrature converged to round-off.
+ *   Heaviside  uniform ball of radius R. Exact marginals and line integrals.
+ *
+ * Periodic resolved axes: every object is summed over all kernel images that
+ * reach the target, so the result is right for any R / period.
+ */
+#ifndef CGBOUND_CG_H
+#define CGBOUND_CG_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef int64_t cg_index;
+
+typedef enum cg_status {
+    CG_OK = 0,
+    CG_ERR_ARGUMENT = 1,     /* an argument is out of its documented range */
+    CG_ERR_NOMEM = 2,        /* an internal allocation failed */
+    CG_ERR_DIVERGENT = 3,    /* a ray never leaves the target: its integral is infinite */
+    CG_ERR_UNSUPPORTED = 4,  /* e.g. a gradient of a kernel/marginal that has none */
+    CG_ERR_INTERRUPTED = 5   /* *interrupt became non-zero during the work */
+} cg_status;
+
+/* A static message for a status code (never NULL). */
+const char *cg_strerror(cg_status status);
+
+/* Whether the core was built with OpenMP, and how many threads it may use. */
+int cg_have_openmp(void);
+
+typedef enum cg_kernel_type {
+    CG_KERNEL_GAUSSIAN = 0,
+    CG_KERNEL_LUCY = 1,
+    CG_KERNEL_HEAVISIDE = 2
+} cg_kernel_type;
+
+typedef struct cg_kernel {
+    /* set by the caller */
+    int type;             /* cg_kernel_type */
+    int dim;              /* D, 2 or 3 */
+    int n_resolved;       /* D_res, 0..D */
+    double width;         /* Gaussian standard deviation w (> 0); ignored otherwise */
+    double radius;        /* support radius R (> 0): cutoff for the Gaussian */
+    int truncated_norm;   /* Gaussian only: renormalise over the cut-off ball */
+    double avg_extent;    /* product of the averaged extents (1 when none), > 0 */
+    /* filled by cg_kernel_init */
+    double prefactor;
+} cg_kernel;
+
+/* Validate the kernel and compute its prefactor. */
+cg_status cg_kernel_init(cg_kernel *kernel);
+
+/* Marginal kernel M at squared distance rho2 in the resolved subspace. */
+double cg_kernel_value(const cg_kernel *kernel, double rho2);
+
+/* Gradient of the marginal at x (D_res components) into grad; returns M(x).
+   Only for D_avg = 0 (full-dimensional kernel); Heaviside's gradient is 0. */
+double cg_kernel_gradient(const cg_kernel *kernel, const double *x, double *grad);
+
+/* psi = int_0^1 M(|q - s e|^2) ds for the resolved vectors q (node minus
+   segment start) and e (segment vector). If grad != NULL it receives the
+   gradient of psi with respect to the node position (interior derivative,
+   D_avg = 0 only). */
+double cg_kernel_line(const cg_kernel *kernel, const double *q, const double *e, double *grad);
+
+/* Where fields are evaluated. */
+typedef struct cg_target {
+    int dim;              /* D */
+    int n_resolved;       /* D_res */
+    int axes[3];          /* data axis of each resolved axis, increasing */
+    int is_grid;          /* 1: grid, 0: points */
+    /* grid: node k of resolved axis a is at coords[a][k]; the spacing must be uniform */
+    cg_index shape[3];
+    const double *coords[3];
+    /* points: n_points x n_resolved, row-major */
+    cg_index n_points;
+    const double *points;
+    /* periodicity of each resolved axis */
+    int periodic[3];
+    double period[3];
+    /* Optional: polled during the work; when it reads non-zero the call
+       returns CG_ERR_INTERRUPTED (outputs are then partial). May be NULL. */
+    const volatile int *interrupt;
+} cg_target;
+
+/* Number of evaluation nodes of a target (product of the grid shape, 1 for a
+   grid with no resolved axis, or n_points). */
+cg_index cg_target_size(const cg_target *target);
+
+/*
+ * Point objects:  out[p, k] += sum_o values[o, k] * M(node_p - x_o)
+ * positions: n x D, values: n x n_values.
+ * gradient = 0: out is P x n_values.
+ * gradient = 1: out is P x n_values x D_res and receives grad M instead.
+ */
+cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
+                            cg_index n, const double *positions,
+                            int n_values, const double *values,
+                            int gradient, double *out);
+
+/*
+ * Segment objects: out[p, k] += sum_o values[o, k] * psi_o(node_p) with
+ * psi_o(r) = int_0^S M(r - start_o - s vec_o) ds; S = 1, or infinity if ray.
+ * starts, vecs: n x D; values: n x n_values; gradient as for points.
+ * A ray whose resolved projection never leaves the target (zero projection,
+ * or only along periodic axes) gives CG_ERR_DIVERGENT before any work.
+ */
+cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
+                              cg_index n, const double *starts, const double *vecs,
+                              int ray, int n_values, const double *values,
+                              int gradient, double *out);
+
+/*
+ * Kinetic stress in fluctuation form (eq. 17a):
+ *   out[p, a, b] -= sum_o m_o (v_o - V_p)_a (v_o - V_p)_b M(node_p - x_o)
+ * positions, velocities: n x D; masses: n; node_velocity: P x D; out: P x D x D.
+ */
+cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kernel,
+                                 cg_index n, const double *positions,
+                                 const double *masses, const double *velocities,
+                                 const double *node_velocity, double *out);
+
+/* Replace each row of vecs (n x D) by its minimum image along the periodic
+   data axes (periodic[d] != 0, period[d] > 0). */
+void cg_minimum_image(cg_index n, int dim, double *vecs,
+                      const int *periodic, const double *period);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* CGBOUND_CG_H */

@@ -1,0 +1,419 @@
+/*
+ * cg_scatter.c -- accumulate kernel-weighted quantities of points and
+ * segments onto evaluation nodes. One loop serves every field: for each
+ * object, each periodic image that reaches the target, each node of its
+ * stencil, a weight (or gradient) is computed and handed to accumulate().
+ *
+ * Threads: objects are split into contiguous blocks, one per thread; each
+ * thread accumulates into its own buffer and the buffers are added in thread
+ * order, so a run is deterministic for a given thread count.
+ */
+#include "cg.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+cg_index cg_target_size(const cg_target *t)
+{
+    if (!t->is_grid) return t->n_points;
+    cg_index size = 1;
+    for (int a = 0; a < t->n_resolved; ++a) size *= t->shape[a];
+    return size;
+}
+
+void cg_minimum_image(cg_index n, int dim, double *vecs, const int *periodic, const double *period)
+{
+    for (int d = 0; d < dim; ++d) {
+        if (!periodic[d]) continue;
+        const double L = period[d];
+        for (cg_index i = 0; i < n; ++i) {
+            double *x = vecs + i * dim + d;
+            if (fabs(*x) > 0.5 * L) *x -= L * nearbyint(*x / L);
+        }
+    }
+}
+
+/* ------------------------------------------------------------------ */
+
+/* more images than this along one axis means a ray (nearly) parallel to a
+   periodic axis: treated as divergent rather than looping for ever */
+#define MAX_IMAGES 1e6
+
+typedef enum { MODE_VALUE, MODE_GRADIENT, MODE_FLUCTUATION } scatter_mode;
+
+typedef struct job {
+    const cg_target *target;
+    const cg_kernel *kernel;
+    scatter_mode mode;
+    int is_segment;
+    int ray;
+    cg_index n;
+    const double *positions;   /* n x D: point or segment start */
+    const double *vecs;        /* n x D or NULL */
+    int n_values;
+    const double *values;      /* n x n_values */
+    const double *masses;      /* fluctuation */
+    const double *velocities;  /* fluctuation, n x D */
+    const double *node_velocity; /* fluctuation, P x D */
+    int out_width;             /* doubles per node in out */
+    double lo[3], hi[3];       /* extent of the nodes along each resolved axis */
+    double spacing[3];
+} job;
+
+static void accumulate(const job *jb, double *out, cg_index obj, cg_index node, double weight, const double *grad)
+{
+    const int nv = jb->n_values;
+    double *o = out + node * jb->out_width;
+    switch (jb->mode) {
+    case MODE_VALUE: {
+        const double *v = jb->values + obj * nv;
+        for (int k = 0; k < nv; ++k) o[k] += weight * v[k];
+        break;
+    }
+    case MODE_GRADIENT: {
+        const int nr = jb->target->n_resolved;
+        const double *v = jb->values + obj * nv;
+        for (int k = 0; k < nv; ++k)
+            for (int d = 0; d < nr; ++d) o[k * nr + d] += grad[d] * v[k];
+        break;
+    }
+    case MODE_FLUCTUATION: {
+        const int D = jb->target->dim;
+        const double *v = jb->velocities + obj * D;
+        const double *V = jb->node_velocity + node * D;
+        double dv[3];
+        for (int a = 0; a < D; ++a) dv[a] = v[a] - V[a];
+        const double mw = jb->masses[obj] * weight;
+        for (int a = 0; a < D; ++a)
+            for (int b = 0; b < D; ++b) o[a * D + b] -= mw * dv[a] * dv[b];
+        break;
+    }
+    }
+}
+
+/* weight of one object (already shifted to an image) at a node offset q;
+   scale multiplies a segment's line integral (rays cut to finite length) */
+static double object_weight(const job *jb, const double *q, const double *e, double scale, double *grad)
+{
+    const int want = jb->mode == MODE_GRADIENT;
+    if (jb->is_segment) {
+        const double psi = cg_kernel_line(jb->kernel, q, e, want ? grad : NULL);
+        if (want && scale != 1.0)
+            for (int d = 0; d < jb->target->n_resolved; ++d) grad[d] *= scale;
+        return psi * scale;
+    }
+    if (want) return cg_kernel_gradient(jb->kernel, q, grad);
+    double rho2 = 0.0;
+    for (int d = 0; d < jb->target->n_resolved; ++d) rho2 += q[d] * q[d];
+    return cg_kernel_value(jb->kernel, rho2);
+}
+
+/* Visit every node within the support of the object [x, x + e] (resolved
+   coordinates, one image). */
+static void visit_nodes(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale)
+{
+    const cg_target *t = jb->target;
+    const int nr = t->n_resolved;
+    const double R = jb->kernel->radius;
+    double q[3], grad[3] = {0.0, 0.0, 0.0};
+    double bmin[3], bmax[3];
+    for (int a = 0; a < nr; ++a) {
+        const double end = x[a] + e[a];
+        bmin[a] = fmin(x[a], end) - R;
+        bmax[a] = fmax(x[a], end) + R;
+        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return;
+    }
+    if (!t->is_grid) {
+        for (cg_index p = 0; p < t->n_points; ++p) {
+            const double *pt = t->points + p * nr;
+            int inside = 1;
+            for (int a = 0; a < nr; ++a) {
+                if (pt[a] < bmin[a] || pt[a] > bmax[a]) { inside = 0; break; }
+                q[a] = pt[a] - x[a];
+            }
+            if (!inside) continue;
+            const double w = object_weight(jb, q, e, scale, grad);
+            if (w != 0.0 || jb->mode == MODE_GRADIENT) accumulate(jb, out, obj, p, w, grad);
+        }
+        return;
+    }
+    /* grid: index range of the stencil along each resolved axis */
+    cg_index first[3] = {0, 0, 0}, last[3] = {0, 0, 0}, stride[3] = {1, 1, 1};
+    for (int a = 0; a < nr; ++a) {
+        const double c0 = t->coords[a][0], h = jb->spacing[a];
+        const cg_index n = t->shape[a];
+        if (n == 1 || h == 0.0) { first[a] = 0; last[a] = n - 1; continue; }
+        double f = floor((bmin[a] - c0) / h), l = ceil((bmax[a] - c0) / h);
+        if (f < 0.0) f = 0.0;
+        if (l > (double)(n - 1)) l = (double)(n - 1);
+        if (f > l) return;
+        first[a] = (cg_index)f;
+        last[a] = (cg_index)l;
+    }
+    for (int a = nr - 2; a >= 0; --a) stride[a] = stride[a + 1] * t->shape[a + 1];
+    cg_index idx[3] = {first[0], first[1], first[2]};
+    for (;;) {
+        cg_index node = 0;
+        for (int a = 0; a < nr; ++a) {
+            q[a] = t->coords[a][idx[a]] - x[a];
+            node += idx[a] * stride[a];
+        }
+        const double w = object_weight(jb, q, e, scale, grad);
+        if (w != 0.0) accumulate(jb, out, obj, node, w, grad);
+        else if (jb->mode == MODE_GRADIENT) {
+            int nz = 0;
+            for (int a = 0; a < nr; ++a) nz |= grad[a] != 0.0;
+            if (nz) accumulate(jb, out, obj, node, w, grad);
+        }
+        /* odometer over the stencil box, last axis fastest */
+        int a = nr - 1;
+        while (a >= 0) {
+            if (++idx[a] <= last[a]) break;
+            idx[a] = first[a];
+            --a;
+        }
+        if (a < 0) break;
+    }
+}
+
+/* For a ray, the parameter beyond which it cannot reach any node: the first
+   exit from [lo - R, hi + R] along a non-periodic resolved axis. Returns 0 for
+   an object that never contributes, -1 if the ray never leaves. */
+static int ray_length(const job *jb, const double *x, const double *e, double *s_max)
+{
+    const cg_target *t = jb->target;
+    const double R = jb->kernel->radius;
+    double smax = INFINITY;
+    for (int a = 0; a < t->n_resolved; ++a) {
+        if (t->periodic[a] || e[a] == 0.0) continue;
+        const double bound = e[a] > 0.0 ? jb->hi[a] + R : jb->lo[a] - R;
+        const double s = (bound - x[a]) / e[a];
+        if (s < smax) smax = s;
+    }
+    if (!isfinite(smax)) return -1;
+    if (!(smax > 0.0)) return 0;
+    *s_max = smax;
+    return 1;
+}
+
+/* One object: resolve its coordinates, turn a ray into a finite segment, and
+   visit all periodic images that can reach the target. */
+static cg_status scatter_object(const job *jb, double *out, cg_index obj)
+{
+    const cg_target *t = jb->target;
+    const int nr = t->n_resolved, D = t->dim;
+    const double R = jb->kernel->radius;
+    double x[3] = {0.0, 0.0, 0.0}, e[3] = {0.0, 0.0, 0.0}, scale = 1.0;
+    for (int a = 0; a < nr; ++a) {
+        x[a] = jb->positions[obj * D + t->axes[a]];
+        if (jb->is_segment) e[a] = jb->vecs[obj * D + t->axes[a]];
+    }
+    if (nr == 0) {
+        const double dummy[3] = {0.0, 0.0, 0.0};
+        accumulate(jb, out, obj, 0, jb->kernel->prefactor, dummy);
+        return CG_OK;
+    }
+    if (jb->is_segment && jb->ray) {
+        double s_max;
+        const int r = ray_length(jb, x, e, &s_max);
+        if (r < 0) return CG_ERR_DIVERGENT;
+        if (r == 0) return CG_OK;
+        /* int_0^smax M(q - s e) ds = smax * int_0^1 M(q - s' (smax e)) ds' */
+        for (int a = 0; a < nr; ++a) e[a] *= s_max;
+        scale = s_max;
+    }
+    /* periodic images: first bring the start next to the target, so that
+       image indices stay small whatever the input coordinates */
+    cg_index kmin[3] = {0, 0, 0}, kmax[3] = {0, 0, 0};
+    for (int a = 0; a < nr; ++a) {
+        if (!t->periodic[a]) continue;
+        const double L = t->period[a];
+        x[a] -= L * floor((x[a] - jb->lo[a]) / L);
+        const double omin = fmin(x[a], x[a] + e[a]), omax = fmax(x[a], x[a] + e[a]);
+        const double first = ceil((jb->lo[a] - omax - R) / L), last = floor((jb->hi[a] - omin + R) / L);
+        if (last - first > MAX_IMAGES) return CG_ERR_DIVERGENT; /* a ray almost parallel to a periodic axis */
+        kmin[a] = (cg_index)first;
+        kmax[a] = (cg_index)last;
+        if (kmin[a] > kmax[a]) return CG_OK;
+    }
+    cg_index k[3] = {kmin[0], kmin[1], kmin[2]};
+    for (;;) {
+        double xs[3];
+        for (int a = 0; a < nr; ++a) xs[a] = t->periodic[a] ? x[a] + (double)k[a] * t->period[a] : x[a];
+        visit_nodes(jb, out, obj, xs, e, scale);
+        int a = nr - 1;
+        while (a >= 0) {
+            if (t->periodic[a] && ++k[a] <= kmax[a]) break;
+            k[a] = kmin[a];
+            --a;
+        }
+        if (a < 0) break;
+    }
+    return CG_OK;
+}
+
+static cg_status prepare(job *jb)
+{
+    const cg_target *t = jb->target;
+    if (t->dim != jb->kernel->dim || t->n_resolved != jb->kernel->n_resolved) return CG_ERR_ARGUMENT;
+    if (t->n_resolved < 0 || t->n_resolved > t->dim) return CG_ERR_ARGUMENT;
+    for (int a = 0; a < t->n_resolved; ++a) {
+        if (t->periodic[a] && !(t->period[a] > 0.0)) return CG_ERR_ARGUMENT;
+        if (t->is_grid) {
+            const cg_index n = t->shape[a];
+            if (n < 1) return CG_ERR_ARGUMENT;
+            jb->lo[a] = t->coords[a][0];
+            jb->hi[a] = t->coords[a][n - 1];
+            jb->spacing[a] = n > 1 ? (jb->hi[a] - jb->lo[a]) / (double)(n - 1) : 0.0;
+        } else {
+            double lo = INFINITY, hi = -INFINITY;
+            for (cg_index p = 0; p < t->n_points; ++p) {
+                const double v = t->points[p * t->n_resolved + a];
+                if (v < lo) lo = v;
+                if (v > hi) hi = v;
+            }
+            jb->lo[a] = lo;
+            jb->hi[a] = hi;
+        }
+    }
+    if (jb->mode == MODE_GRADIENT) {
+        const cg_kernel *k = jb->kernel;
+        if (k->type != CG_KERNEL_GAUSSIAN && k->dim != k->n_resolved) return CG_ERR_UNSUPPORTED;
+    }
+    return CG_OK;
+}
+
+/* Rays of a block are checked before any work so that an error leaves out untouched. */
+static cg_status check_rays(const job *jb)
+{
+    if (!(jb->is_segment && jb->ray)) return CG_OK;
+    const cg_target *t = jb->target;
+    const int nr = t->n_resolved, D = t->dim;
+    if (nr == 0) return jb->n > 0 ? CG_ERR_DIVERGENT : CG_OK;
+    for (cg_index o = 0; o < jb->n; ++o) {
+        double x[3], e[3], s;
+        for (int a = 0; a < nr; ++a) {
+            x[a] = jb->positions[o * D + t->axes[a]];
+            e[a] = jb->vecs[o * D + t->axes[a]];
+        }
+        if (ray_length(jb, x, e, &s) < 0) return CG_ERR_DIVERGENT;
+    }
+    return CG_OK;
+}
+
+static cg_status run(job *jb, double *out)
+{
+    cg_status st = prepare(jb);
+    if (st != CG_OK) return st;
+    st = check_rays(jb);
+    if (st != CG_OK) return st;
+    const cg_index P = cg_target_size(jb->target);
+    const size_t width = (size_t)jb->out_width;
+    if (jb->n == 0 || P == 0) return CG_OK;
+
+    int n_threads = 1;
+#ifdef _OPENMP
+    n_threads = omp_get_max_threads();
+    if ((cg_index)n_threads > jb->n) n_threads = (int)jb->n;
+    if (n_threads < 1) n_threads = 1;
+#endif
+    double *buffers = NULL;
+    if (n_threads > 1) {
+        buffers = calloc((size_t)(n_threads - 1) * (size_t)P * width, sizeof(double));
+        if (!buffers) n_threads = 1; /* fall back to one thread rather than fail */
+    }
+    volatile int failed = CG_OK;
+#ifdef _OPENMP
+#pragma omp parallel num_threads(n_threads)
+#endif
+    {
+        int tid = 0;
+#ifdef _OPENMP
+        tid = omp_get_thread_num();
+#endif
+        double *mine = tid == 0 ? out : buffers + (size_t)(tid - 1) * (size_t)P * width;
+        const cg_index begin = jb->n * tid / n_threads, end = jb->n * (tid + 1) / n_threads;
+        for (cg_index o = begin; o < end; ++o) {
+            if (failed != CG_OK) break;
+            if (jb->target->interrupt && *jb->target->interrupt) { failed = CG_ERR_INTERRUPTED; break; }
+            const cg_status s = scatter_object(jb, mine, o);
+            if (s != CG_OK) { failed = s; break; }
+        }
+    }
+    if (buffers) {
+        const size_t total = (size_t)P * width;
+        for (int tid = 1; tid < n_threads; ++tid) {
+            const double *b = buffers + (size_t)(tid - 1) * total;
+            for (size_t i = 0; i < total; ++i) out[i] += b[i];
+        }
+        free(buffers);
+    }
+    return (cg_status)failed;
+}
+
+cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
+                            cg_index n, const double *positions,
+                            int n_values, const double *values,
+                            int gradient, double *out)
+{
+    if (n < 0 || n_values < 1) return CG_ERR_ARGUMENT;
+    job jb;
+    memset(&jb, 0, sizeof jb);
+    jb.target = target;
+    jb.kernel = kernel;
+    jb.mode = gradient ? MODE_GRADIENT : MODE_VALUE;
+    jb.n = n;
+    jb.positions = positions;
+    jb.n_values = n_values;
+    jb.values = values;
+    jb.out_width = gradient ? n_values * target->n_resolved : n_values;
+    return run(&jb, out);
+}
+
+cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
+                              cg_index n, const double *starts, const double *vecs,
+                              int ray, int n_values, const double *values,
+                              int gradient, double *out)
+{
+    if (n < 0 || n_values < 1) return CG_ERR_ARGUMENT;
+    job jb;
+    memset(&jb, 0, sizeof jb);
+    jb.target = target;
+    jb.kernel = kernel;
+    jb.mode = gradient ? MODE_GRADIENT : MODE_VALUE;
+    jb.is_segment = 1;
+    jb.ray = ray;
+    jb.n = n;
+    jb.positions = starts;
+    jb.vecs = vecs;
+    jb.n_values = n_values;
+    jb.values = values;
+    jb.out_width = gradient ? n_values * target->n_resolved : n_values;
+    return run(&jb, out);
+}
+
+cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kernel,
+                                 cg_index n, const double *positions,
+                                 const double *masses, const double *velocities,
+                                 const double *node_velocity, double *out)
+{
+    if (n < 0) return CG_ERR_ARGUMENT;
+    job jb;
+    memset(&jb, 0, sizeof jb);
+    jb.target = target;
+    jb.kernel = kernel;
+    jb.mode = MODE_FLUCTUATION;
+    jb.n = n;
+    jb.positions = positions;
+    jb.n_values = 1;
+    jb.masses = masses;
+    jb.velocities = velocities;
+    jb.node_velocity = node_velocity;
+    jb.out_width = target->dim * target->dim;
+    return run(&jb, out);
+}

@@ -1,0 +1,31 @@
+/* cg_status.c -- status messages and build facts of the core. */
+#include "cg.h"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+const char *cg_strerror(cg_status status)
+{
+    switch (status) {
+    case CG_OK: return "success";
+    case CG_ERR_ARGUMENT: return "invalid argument";
+    case CG_ERR_NOMEM: return "out of memory";
+    case CG_ERR_DIVERGENT: return "a ray stays inside the evaluation region forever "
+                                  "(its direction has no component along a resolved, non-periodic axis), "
+                                  "so its line integral is infinite";
+    case CG_ERR_UNSUPPORTED: return "gradients are only available for the Gaussian kernel and for "
+                                    "full-dimensional Lucy or Heaviside kernels";
+    case CG_ERR_INTERRUPTED: return "interrupted";
+    default: return "unknown error";
+    }
+}
+
+int cg_have_openmp(void)
+{
+#ifdef _OPENMP
+    return 1;
+#else
+    return 0;
+#endif
+}
