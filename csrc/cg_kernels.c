@@ -379,8 +379,16 @@ static void quadrature_line(const cg_kernel *k, const segment_frame *f, double s
     const double R = k->radius;
     const int smooth_kink = (k->type == CG_KERNEL_HEAVISIDE); /* polynomial in t on each side */
     const double scale = fmax(sqrt(f->a2), 1e-5 * R);
-    const int edge_levels = (k->type == CG_KERNEL_LUCY && n_avg == 1) ? 12 : 0;
-    const int e0 = clipped0 ? edge_levels : 0, e1 = clipped1 ? edge_levels : 0;
+    /* Lucy's one-axis marginal has an algebraic branch point, (R - rho)^(7/2),
+       at the support edge t = +-b: grade toward an end by its distance to it */
+    int e0 = 0, e1 = 0;
+    if (k->type == CG_KERNEL_LUCY && n_avg == 1) {
+        const double b = sqrt(fmax(R * R - f->a2, 0.0)), len = (s1 - s0) * f->L;
+        const double d0 = clipped0 ? 0.0 : b - fabs(t_at(f, s0));
+        const double d1 = clipped1 ? 0.0 : b - fabs(t_at(f, s1));
+        e0 = levels_for(len, fmax(d0, 1e-7 * R));
+        e1 = levels_for(len, fmax(d1, 1e-7 * R));
+    }
     const double s_star = f->u / f->L;
     if (s_star > s0 && s_star < s1) {
         const int l0 = smooth_kink ? 0 : levels_for((s_star - s0) * f->L, scale);

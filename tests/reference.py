@@ -1,0 +1,418 @@
+"""A slow pure-NumPy reference ("oracle") for every field, written from the formulas.
+
+It shares no numerics with the C core: marginals over averaged axes are
+integrated numerically from the D-dimensional kernel, line integrals use the
+substitution t = b sin(theta) with graded Gauss-Legendre panels (no erf), the
+Gaussian's truncated normalisation is a numerical ball integral, periodic
+images are summed by brute force over a generous range, and contacts are
+classified with plain Python loops.
+"""
+import math
+
+import numpy as np
+
+GL_X, GL_W = np.polynomial.legendre.leggauss(12)
+GL40_X, GL40_W = np.polynomial.legendre.leggauss(40)
+
+
+def _gl(f, a, b, x=GL_X, w=GL_W):
+    """Gauss-Legendre of f over [a, b]; a, b arrays (broadcast), f vectorised over a trailing node axis."""
+    a = np.asarray(a, float)[..., None]
+    b = np.asarray(b, float)[..., None]
+    half = 0.5 * (b - a)
+    nodes = a + half + half * x
+    return (f(nodes) * w).sum(axis=-1) * half[..., 0]
+
+
+def _graded_panels(lo, hi, scale):
+    """Panel edges on [lo, hi]: split at 0 and graded geometrically toward 0 down to
+    ``scale`` (where the integrand has a near-singularity of that width)."""
+    edges = {lo, hi}
+    span = max(abs(lo), abs(hi))
+    if lo < 0.0 < hi:
+        edges.add(0.0)
+    levels = int(math.ceil(math.log2(span / scale))) + 2 if span > scale else 1
+    for k in range(0, min(levels, 60)):
+        for sgn in (-1.0, 1.0):
+            x = sgn * span * 2.0**-k
+            if lo < x < hi:
+                edges.add(x)
+    edges = sorted(edges)
+    fine = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        fine += [a, 0.5 * (a + b)]
+    fine.append(edges[-1])
+    return fine
+
+
+class RefKernel:
+    """Kernel from its textbook definition in D dimensions."""
+
+    def __init__(self, kind, dim, width, radius, truncated=False):
+        self.kind, self.dim, self.w, self.R, self.truncated = kind, dim, width, radius, truncated
+        self._norms = {}
+
+    # full D-dimensional kernel (for Lucy/Heaviside), as a function of r
+    def full(self, r, dim=None):
+        dim = dim or self.dim
+        R = self.R
+        x = r / R
+        if self.kind == "lucy":
+            C = {1: 5 / (4 * R), 2: 5 / (math.pi * R**2), 3: 105 / (16 * math.pi * R**3)}[dim]
+            return np.where(x < 1, C * (1 + 3 * x) * (1 - x) ** 3, 0.0)
+        if self.kind == "heaviside":
+            V = {1: 2 * R, 2: math.pi * R**2, 3: 4 / 3 * math.pi * R**3}[dim]
+            return np.where(x < 1, 1.0 / V, 0.0)
+        raise ValueError(self.kind)
+
+    def gaussian_norm(self, n_res):
+        if n_res not in self._norms:
+            self._norms[n_res] = self._gaussian_norm(n_res)
+        return self._norms[n_res]
+
+    def _gaussian_norm(self, n_res):
+        w, R = self.w, self.R
+        if not self.truncated:
+            return (2 * math.pi * w * w) ** (n_res / 2)
+        # numerical radial integral over the ball in n_res dimensions
+        surface = {1: 2.0, 2: 2 * math.pi, 3: 4 * math.pi}[n_res]
+        val = sum(_gl(lambda r: np.exp(-r**2 / (2 * w * w)) * r ** (n_res - 1), a, b, GL40_X, GL40_W)
+                  for a, b in zip(np.linspace(0, R, 9)[:-1], np.linspace(0, R, 9)[1:]))
+        return surface * val
+
+    def marginal(self, rho2, n_res, avg_extent):
+        """Kernel in the resolved subspace (n_res dims) at squared distance rho2."""
+        rho2 = np.asarray(rho2, float)
+        n_avg = self.dim - n_res
+        if n_res == 0:
+            return np.full(rho2.shape, 1.0 / avg_extent)
+        R = self.R
+        inside = rho2 < R * R
+        if self.kind == "gaussian":
+            val = np.exp(-rho2 / (2 * self.w**2)) / self.gaussian_norm(n_res)
+            return np.where(inside, val, 0.0) / avg_extent
+        rho = np.sqrt(np.minimum(rho2, R * R))
+        if n_avg == 0:
+            val = self.full(rho)
+        elif n_avg == 1:
+            # int over y in [-h, h] of W(sqrt(rho^2 + y^2)); y = rho sinh(tau) smooths small rho
+            h = np.sqrt(np.maximum(R * R - rho2, 0.0))
+            safe = np.maximum(rho, 1e-300)
+            tau_max = np.arcsinh(h / safe)
+            f = lambda tau: self.full(safe[..., None] * np.cosh(tau)) * safe[..., None] * np.cosh(tau)
+            val = np.zeros_like(rho)
+            for a, b in [(0.0, 0.25), (0.25, 0.5), (0.5, 0.75), (0.75, 1.0)]:
+                val += 2 * _gl(f, a * tau_max, b * tau_max, GL40_X, GL40_W)
+            # rho = 0: the integrand is the 1-D profile W(|y|)
+            zero = rho < 1e-300
+            if np.any(zero):
+                g = lambda y: self.full(y)
+                val = np.where(zero, 2 * _gl(g, np.zeros_like(h), h, GL40_X, GL40_W), val)
+        else:
+            # int over the plane = 2 pi int_{|z|}^{R} W(r) r dr
+            f = lambda r: self.full(r) * r
+            val = 2 * math.pi * _gl(f, rho, np.full_like(rho, R), GL40_X, GL40_W)
+        return np.where(inside, val, 0.0) / avg_extent
+
+    def line(self, q, e, n_res, avg_extent, ray=False):
+        """psi(q) = int_0^S M(|q - s e|^2) ds for nodes q (P x n_res), one segment e."""
+        q = np.atleast_2d(q)
+        if n_res == 0:
+            if ray:
+                raise ValueError("ray with no resolved axis")
+            return np.full(q.shape[0], 1.0 / avg_extent)
+        L = float(np.linalg.norm(e))
+        if L == 0.0:
+            return self.marginal((q * q).sum(axis=1), n_res, avg_extent)
+        n = e / L
+        u = q @ n
+        a2 = np.maximum((q * q).sum(axis=1) - u * u, 0.0)
+        b2 = self.R**2 - a2
+        out = np.zeros(q.shape[0])
+        for p in np.flatnonzero(b2 > 0):
+            b = math.sqrt(b2[p])
+            t_hi = min(u[p], b)
+            t_lo = -b if ray else max(u[p] - L, -b)
+            if t_lo >= t_hi:
+                continue
+            th_lo, th_hi = math.asin(max(-1.0, t_lo / b)), math.asin(min(1.0, t_hi / b))
+            f = lambda th, a2p=a2[p], b=b: self.marginal(a2p + (b * np.sin(th)) ** 2, n_res, avg_extent) * b * np.cos(th)
+            edges = _graded_panels(th_lo, th_hi, max(math.sqrt(a2[p]) / b, 1e-6))
+            total = 0.0
+            for x0, x1 in zip(edges[:-1], edges[1:]):
+                total += float(_gl(f, x0, x1))
+            out[p] = total / L
+        return out
+
+    def radial_derivative(self, r):
+        """dW/dr of the full-dimensional kernel, from its textbook form."""
+        R = self.R
+        if self.kind == "gaussian":
+            return np.where(r < R, -r / self.w**2 * np.exp(-r**2 / (2 * self.w**2)) / self.gaussian_norm(self.dim), 0.0)
+        if self.kind == "lucy":
+            C = {2: 5 / (math.pi * R**2), 3: 105 / (16 * math.pi * R**3)}[self.dim]
+            x = r / R
+            # d/dr [C (1 + 3x)(1 - x)^3] = C [3 (1 - x)^3 - 3 (1 + 3x)(1 - x)^2] / R
+            return np.where(x < 1, C * (3 * (1 - x) ** 3 - 3 * (1 + 3 * x) * (1 - x) ** 2) / R, 0.0)
+        return np.zeros_like(r)
+
+    def gradient(self, x):
+        """Gradient of W at offsets x (P x D)."""
+        r = np.sqrt((x * x).sum(axis=1))
+        safe = np.where(r > 0, r, 1.0)
+        return (self.radial_derivative(r) / safe)[:, None] * x
+
+    def line_gradient(self, q, e):
+        """grad_r psi for nodes q (P x D) of int_0^1 W(q - s e) ds: quadrature of grad W along the segment."""
+        q = np.atleast_2d(q)
+        L = float(np.linalg.norm(e))
+        if L == 0.0:
+            return self.gradient(q)
+        n = e / L
+        u = q @ n
+        qperp = q - u[:, None] * n
+        a2 = (qperp * qperp).sum(axis=1)
+        out = np.zeros_like(q)
+        for p in np.flatnonzero(a2 < self.R**2):
+            b = math.sqrt(self.R**2 - a2[p])
+            t_hi, t_lo = min(u[p], b), max(u[p] - L, -b)
+            if t_lo >= t_hi:
+                continue
+            th_lo, th_hi = math.asin(max(-1.0, t_lo / b)), math.asin(min(1.0, t_hi / b))
+            for comp in range(q.shape[1]):
+                def f(th, p=p, b=b, comp=comp):
+                    t = b * np.sin(th)
+                    x = qperp[p][None, None, :] + t[..., None] * n
+                    shape = t.shape
+                    g = self.gradient(x.reshape(-1, q.shape[1]))[:, comp].reshape(shape)
+                    return g * b * np.cos(th)
+                edges = _graded_panels(th_lo, th_hi, max(math.sqrt(a2[p]) / b, 1e-6))
+                out[p, comp] = sum(float(_gl(f, x0, x1)) for x0, x1 in zip(edges[:-1], edges[1:])) / L
+        return out
+
+
+# ----------------------------------------------------------------------
+# evaluation targets
+
+
+def target_nodes(grid_or_points, box):
+    """(nodes (P x n_res), resolved axes, periodic flags, periods, avg_extent) computed independently."""
+    from cgbound import Grid
+
+    dim = box.dim
+    if isinstance(grid_or_points, Grid):
+        g = grid_or_points
+        lo, hi = np.asarray(box.lower, float), np.asarray(box.upper, float)
+        resolved = [d for d in range(dim) if d not in g.averaged]
+        axes = []
+        for d in resolved:
+            h = (hi[d] - lo[d]) / g.shape[d]
+            axes.append(np.array([lo[d] + (k + 0.5) * h for k in range(g.shape[d])]))
+        if resolved:
+            mesh = np.meshgrid(*axes, indexing="ij")
+            nodes = np.stack([m.ravel() for m in mesh], axis=1)
+        else:
+            nodes = np.zeros((1, 0))
+        avg = float(np.prod([hi[d] - lo[d] for d in g.averaged])) if g.averaged else 1.0
+    else:
+        nodes = np.asarray(grid_or_points.positions, float)
+        resolved = list(range(dim))
+        avg = 1.0
+    periodic = [box.periodic[d] for d in resolved]
+    periods = [float(box.upper[d] - box.lower[d]) for d in resolved]
+    return nodes, resolved, periodic, periods, avg
+
+
+def _shell(periodic, periods, k):
+    """Image shifts whose largest index along the periodic axes is exactly k."""
+    ranges = [range(-k, k + 1) if p else range(0, 1) for p in periodic]
+    out = []
+    for combo in np.ndindex(*[len(r) for r in ranges]):
+        idx = [ranges[a][c] for a, c in enumerate(combo)]
+        if max((abs(i) for i in idx), default=0) == k:
+            out.append([i * periods[a] for a, i in enumerate(idx)])
+    return np.array(out, float).reshape(-1, len(periodic))
+
+
+def _sum_images(weight_of_shift, periodic, periods, P):
+    """Sum weights over periodic images, shell by shell, until two shells add nothing
+    (contributing images form a contiguous block once the object is wrapped next to the nodes)."""
+    total = np.zeros(P)
+    empty = 0
+    k = 0
+    while True:
+        shifts = _shell(periodic, periods, k)
+        if shifts.shape[0] == 0:
+            break
+        added = sum(weight_of_shift(s) for s in shifts)
+        total += added
+        if not any(periodic):
+            break
+        empty = empty + 1 if not np.any(added) else 0
+        if empty >= 2 or k > 2000:
+            break
+        k += 1
+    return total
+
+
+def _wrap(x, tgt):
+    """Bring an object's resolved start into the node range along periodic axes."""
+    nodes, resolved, periodic, periods, _ = tgt
+    x = np.array(x, float)
+    for a, (p, L) in enumerate(zip(periodic, periods)):
+        if p:
+            lo = nodes[:, a].min()
+            x[a] -= L * math.floor((x[a] - lo) / L)
+    return x
+
+
+def ref_points(kernel, tgt, positions, values, n_images=4):
+    nodes, resolved, periodic, periods, avg = tgt
+    n_res = len(resolved)
+    out = np.zeros((nodes.shape[0], values.shape[1]))
+    for x, v in zip(positions, values):
+        xr = _wrap(x[resolved], tgt)
+        if n_res == 0:
+            w = np.full(nodes.shape[0], 1.0 / avg)
+        else:
+            def weight(s, xr=xr):
+                d = nodes - (xr + s)
+                return kernel.marginal((d * d).sum(axis=1), n_res, avg)
+            w = _sum_images(weight, periodic, periods, nodes.shape[0])
+        out += w[:, None] * v[None, :]
+    return out
+
+
+def ref_segments(kernel, tgt, starts, vecs, values, ray=False, n_images=4):
+    nodes, resolved, periodic, periods, avg = tgt
+    n_res = len(resolved)
+    out = np.zeros((nodes.shape[0], values.shape[1]))
+    for x, e, v in zip(starts, vecs, values):
+        xr, er = _wrap(x[resolved], tgt), e[resolved]
+        if n_res == 0:
+            w = np.full(nodes.shape[0], 1.0 / avg)
+        else:
+            w = _sum_images(lambda s, xr=xr, er=er: kernel.line(nodes - (xr + s), er, n_res, avg, ray=ray),
+                            periodic, periods, nodes.shape[0])
+        out += w[:, None] * v[None, :]
+    return out
+
+
+def ref_fluctuation(kernel, tgt, positions, masses, velocities, node_velocity, n_images=4):
+    nodes, resolved, periodic, periods, avg = tgt
+    n_res = len(resolved)
+    D = positions.shape[1] if positions.size else node_velocity.shape[1]
+    out = np.zeros((nodes.shape[0], D, D))
+    for x, m, v in zip(positions, masses, velocities):
+        xr = _wrap(x[resolved], tgt)
+        if n_res == 0:
+            w = np.full(nodes.shape[0], 1.0 / avg)
+        else:
+            def weight(s, xr=xr):
+                d = nodes - (xr + s)
+                return kernel.marginal((d * d).sum(axis=1), n_res, avg)
+            w = _sum_images(weight, periodic, periods, nodes.shape[0])
+        dv = v[None, :] - node_velocity
+        out -= (m * w)[:, None, None] * dv[:, :, None] * dv[:, None, :]
+    return out
+
+
+# ----------------------------------------------------------------------
+# fields
+
+
+def _min_image(vec, box):
+    vec = np.array(vec, float)
+    for d in range(box.dim):
+        if box.periodic[d]:
+            L = box.upper[d] - box.lower[d]
+            vec[..., d] -= L * np.round(vec[..., d] / L)
+    return vec
+
+
+def classify(snap):
+    """Bulk and boundary contacts by plain loops (DESIGN section 1)."""
+    bulk, boundary = [], []
+    c = snap.contacts
+    for k in range(len(c)):
+        i, j = int(c.i[k]), int(c.j[k])
+        f, pt = np.array(c.force[k]), np.array(c.point[k])
+        fi = bool(snap.fixed[i])
+        fj = True if j < 0 else bool(snap.fixed[j])
+        if not fi and not fj:
+            bulk.append((i, j, f))
+        elif not fi and fj:
+            boundary.append((i, f, pt))
+        elif fi and not fj:
+            boundary.append((j, -f, pt))
+    return bulk, boundary
+
+
+def ref_fields(snap, where, kernel_obj, fields, convention="tension", n_images=4):
+    """All requested fields, flat over nodes (P, ...), from the formulas of DESIGN section 2."""
+    import cgbound as cg
+
+    kind = {cg.Gaussian: "gaussian", cg.Lucy: "lucy", cg.Heaviside: "heaviside"}[type(kernel_obj)]
+    kernel = RefKernel(kind, snap.dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
+                       truncated=getattr(kernel_obj, "truncated", False))
+    box = snap.box
+    tgt = target_nodes(where, box)
+    D = snap.dim
+    P = tgt[0].shape[0]
+    flow = ~np.asarray(snap.fixed)
+    pos = np.asarray(snap.positions)[flow]
+    m = np.asarray(snap.masses)[flow]
+    vel = np.zeros_like(pos) if snap.velocities is None else np.asarray(snap.velocities)[flow]
+
+    rho = ref_points(kernel, tgt, pos, m[:, None], n_images)[:, 0]
+    p = ref_points(kernel, tgt, pos, m[:, None] * vel, n_images)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        V = np.where(rho[:, None] > 0, p / rho[:, None], np.nan)
+    k = ref_points(kernel, tgt, pos, (m[:, None, None] * vel[:, :, None] * vel[:, None, :]).reshape(-1, D * D),
+                   n_images).reshape(P, D, D)
+    sk = ref_fluctuation(kernel, tgt, pos, m, vel, np.nan_to_num(V), n_images)
+
+    bulk, boundary = classify(snap)
+    X = np.asarray(snap.positions)
+    sb = np.zeros((P, D * D))
+    for i, j, f in bulk:
+        r_ij = _min_image(X[i] - X[j], box)
+        sb += ref_segments(kernel, tgt, X[i][None], -r_ij[None], -np.outer(f, r_ij).reshape(1, -1), False, n_images)
+    sw = np.zeros((P, D * D))
+    sx = np.zeros((P, D * D))
+    t = np.zeros((P, D))
+    for i, f, c in boundary:
+        a = _min_image(X[i] - c, box)
+        vals = -np.outer(f, a).reshape(1, -1)
+        if "boundary_stress" in fields or "stress" in fields or "pressure" in fields:
+            sw += ref_segments(kernel, tgt, X[i][None], -a[None], vals, False, n_images)
+        if "extended_stress" in fields:
+            sx += ref_segments(kernel, tgt, X[i][None], -a[None], vals, True, n_images)
+        t += ref_points(kernel, tgt, (X[i] - a)[None], f[None], n_images)
+    sb, sw, sx = (x.reshape(P, D, D) for x in (sb, sw, sx))
+    if snap.body_force is not None:
+        b = ref_points(kernel, tgt, pos, m[:, None] * np.asarray(snap.body_force)[flow], n_images)
+    else:
+        b = np.zeros((P, D))
+    sign = -1.0 if convention == "compression" else 1.0
+    out = {}
+    for name in fields:
+        out[name] = {
+            "density": lambda: rho,
+            "momentum": lambda: p,
+            "velocity": lambda: V,
+            "momentum_flux": lambda: k,
+            "kinetic_stress": lambda: sign * sk,
+            "contact_stress": lambda: sign * sb,
+            "boundary_stress": lambda: sign * sw,
+            "interaction_force_density": lambda: t,
+            "body_force_density": lambda: b,
+            "stress": lambda: sign * (sk + sb + sw),
+            "extended_stress": lambda: sign * (sk + sb + sx),
+            "volume_fraction": lambda: ref_points(kernel, tgt, pos, (
+                (math.pi * np.asarray(snap.radii)[flow] ** 2) if D == 2 else
+                (4 / 3 * math.pi * np.asarray(snap.radii)[flow] ** 3))[:, None], n_images)[:, 0],
+            "pressure": lambda: -np.trace(sk + sb + sw, axis1=1, axis2=2) / D,
+            "temperature": lambda: np.where(rho > 0, -np.trace(sk, axis1=1, axis2=2) / (D * np.where(rho > 0, rho, 1)), np.nan),
+        }[name]()
+    return out
