@@ -1,0 +1,19 @@
+"""Writes that never leave a half-written file: write a temporary file beside the target, then rename."""
+import os
+import tempfile
+
+
+def atomic_write(path, write, suffix=""):
+    """Call ``write(tmp_path)`` and move the result onto ``path`` only if it succeeded."""
+    path = os.fspath(path)
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".cgbound-", suffix=suffix or os.path.splitext(path)[1], dir=directory)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
