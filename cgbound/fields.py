@@ -73,7 +73,7 @@ def reference_velocity(snapshot):
 
 
 def _outer(a, b):
-    return (a[:, :, None] * b[:, None, :]).reshape(a.shape[0], -1)
+    return (a[:, :, None] * b[:, None, :]).reshape(a.shape[0], a.shape[1] * b.shape[1])
 
 
 def compute_primaries(snapshot, target, kernel, needed, u_ref):

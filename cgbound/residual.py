@@ -2,6 +2,7 @@
 import numpy as np
 
 from . import _core
+from .fields import _outer as outer
 from .grid import Points, check_target
 from .kernels import check_kernel
 from .snapshot import Snapshot
@@ -80,7 +81,6 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
 
     terms = {"forcing": points_value(pos, forces[flow])}
     bulk, boundary = snapshot.split_contacts()
-    outer = lambda f, r: (f[:, :, None] * r[:, None, :]).reshape(f.shape[0], -1)
     zero = np.zeros((P, dim))
     terms["div_contact_stress"] = (divergence(snapshot.positions[bulk["i"]], -bulk["branch"],
                                               -outer(bulk["force"], bulk["branch"]))
