@@ -235,3 +235,28 @@ def test_species_partial_fields_add_up_and_interaction_is_antisymmetric():
     # contact points on the centre lines: the two partial stresses rebuild the bulk stress
     partial = a.contact_stress + a.boundary_stress + b.contact_stress + b.boundary_stress
     assert_fields_close(partial, total.contact_stress, 1e-12, "contact stress")
+
+
+def test_the_gil_is_released_during_core_work():
+    """While a long computation runs in a thread, the main thread keeps running Python code."""
+    import threading
+    import time
+
+    rng = np.random.default_rng(0)
+    box = cg.Box([0, 0, 0], [10, 10, 10])
+    snap = cg.Snapshot(rng.uniform(0, 10, (2500, 3)), None, np.ones(2500), box=box)
+    grid = cg.Grid(box, (40, 40, 40))
+    kernel = cg.Gaussian(1.0, cutoff=4.0)
+    start = time.perf_counter()
+    cg.coarse_grain(snap, grid, kernel, fields=("density",))
+    single = time.perf_counter() - start
+    worker = threading.Thread(target=cg.coarse_grain, args=(snap, grid, kernel), kwargs={"fields": ("density",)})
+    stamps = []
+    worker.start()
+    while worker.is_alive():
+        stamps.append(time.perf_counter())
+        time.sleep(0.001)
+    worker.join()
+    assert single > 0.2, "workload too small to tell"
+    gaps = np.diff(stamps)
+    assert len(stamps) > 20 and gaps.max() < 0.25 * single
