@@ -266,52 +266,42 @@ def _wrap(x, tgt):
     return x
 
 
-def ref_points(kernel, tgt, positions, values, n_images=4):
+def object_weights(kernel, tgt, x, e=None, ray=False):
+    """Kernel weight (e is None) or line integral of one object at every node, summed over images."""
     nodes, resolved, periodic, periods, avg = tgt
     n_res = len(resolved)
-    out = np.zeros((nodes.shape[0], values.shape[1]))
+    if n_res == 0:
+        return np.full(nodes.shape[0], 1.0 / avg)
+    xr = _wrap(x[resolved], tgt)
+    if e is None:
+        def weight(s):
+            d = nodes - (xr + s)
+            return kernel.marginal((d * d).sum(axis=1), n_res, avg)
+    else:
+        def weight(s):
+            return kernel.line(nodes - (xr + s), e[resolved], n_res, avg, ray=ray)
+    return _sum_images(weight, periodic, periods, nodes.shape[0])
+
+
+def ref_points(kernel, tgt, positions, values):
+    out = np.zeros((tgt[0].shape[0], values.shape[1]))
     for x, v in zip(positions, values):
-        xr = _wrap(x[resolved], tgt)
-        if n_res == 0:
-            w = np.full(nodes.shape[0], 1.0 / avg)
-        else:
-            def weight(s, xr=xr):
-                d = nodes - (xr + s)
-                return kernel.marginal((d * d).sum(axis=1), n_res, avg)
-            w = _sum_images(weight, periodic, periods, nodes.shape[0])
-        out += w[:, None] * v[None, :]
+        out += object_weights(kernel, tgt, x)[:, None] * v[None, :]
     return out
 
 
-def ref_segments(kernel, tgt, starts, vecs, values, ray=False, n_images=4):
-    nodes, resolved, periodic, periods, avg = tgt
-    n_res = len(resolved)
-    out = np.zeros((nodes.shape[0], values.shape[1]))
+def ref_segments(kernel, tgt, starts, vecs, values, ray=False):
+    out = np.zeros((tgt[0].shape[0], values.shape[1]))
     for x, e, v in zip(starts, vecs, values):
-        xr, er = _wrap(x[resolved], tgt), e[resolved]
-        if n_res == 0:
-            w = np.full(nodes.shape[0], 1.0 / avg)
-        else:
-            w = _sum_images(lambda s, xr=xr, er=er: kernel.line(nodes - (xr + s), er, n_res, avg, ray=ray),
-                            periodic, periods, nodes.shape[0])
-        out += w[:, None] * v[None, :]
+        out += object_weights(kernel, tgt, x, e, ray)[:, None] * v[None, :]
     return out
 
 
-def ref_fluctuation(kernel, tgt, positions, masses, velocities, node_velocity, n_images=4):
-    nodes, resolved, periodic, periods, avg = tgt
-    n_res = len(resolved)
-    D = positions.shape[1] if positions.size else node_velocity.shape[1]
-    out = np.zeros((nodes.shape[0], D, D))
+def ref_fluctuation(kernel, tgt, positions, masses, velocities, node_velocity):
+    D = node_velocity.shape[1]
+    out = np.zeros((tgt[0].shape[0], D, D))
     for x, m, v in zip(positions, masses, velocities):
-        xr = _wrap(x[resolved], tgt)
-        if n_res == 0:
-            w = np.full(nodes.shape[0], 1.0 / avg)
-        else:
-            def weight(s, xr=xr):
-                d = nodes - (xr + s)
-                return kernel.marginal((d * d).sum(axis=1), n_res, avg)
-            w = _sum_images(weight, periodic, periods, nodes.shape[0])
+        w = object_weights(kernel, tgt, x)
         dv = v[None, :] - node_velocity
         out -= (m * w)[:, None, None] * dv[:, :, None] * dv[:, None, :]
     return out
@@ -348,7 +338,7 @@ def classify(snap):
     return bulk, boundary
 
 
-def ref_fields(snap, where, kernel_obj, fields, convention="tension", n_images=4):
+def ref_fields(snap, where, kernel_obj, fields, convention="tension"):
     """All requested fields, flat over nodes (P, ...), from the formulas of DESIGN section 2."""
     import cgbound as cg
 
@@ -364,20 +354,19 @@ def ref_fields(snap, where, kernel_obj, fields, convention="tension", n_images=4
     m = np.asarray(snap.masses)[flow]
     vel = np.zeros_like(pos) if snap.velocities is None else np.asarray(snap.velocities)[flow]
 
-    rho = ref_points(kernel, tgt, pos, m[:, None], n_images)[:, 0]
-    p = ref_points(kernel, tgt, pos, m[:, None] * vel, n_images)
+    rho = ref_points(kernel, tgt, pos, m[:, None])[:, 0]
+    p = ref_points(kernel, tgt, pos, m[:, None] * vel)
     with np.errstate(invalid="ignore", divide="ignore"):
         V = np.where(rho[:, None] > 0, p / rho[:, None], np.nan)
-    k = ref_points(kernel, tgt, pos, (m[:, None, None] * vel[:, :, None] * vel[:, None, :]).reshape(-1, D * D),
-                   n_images).reshape(P, D, D)
-    sk = ref_fluctuation(kernel, tgt, pos, m, vel, np.nan_to_num(V), n_images)
+    k = ref_points(kernel, tgt, pos, (m[:, None, None] * vel[:, :, None] * vel[:, None, :]).reshape(-1, D * D)).reshape(P, D, D)
+    sk = ref_fluctuation(kernel, tgt, pos, m, vel, np.nan_to_num(V))
 
     bulk, boundary = classify(snap)
     X = np.asarray(snap.positions)
     sb = np.zeros((P, D * D))
     for i, j, f in bulk:
         r_ij = _min_image(X[i] - X[j], box)
-        sb += ref_segments(kernel, tgt, X[i][None], -r_ij[None], -np.outer(f, r_ij).reshape(1, -1), False, n_images)
+        sb += ref_segments(kernel, tgt, X[i][None], -r_ij[None], -np.outer(f, r_ij).reshape(1, -1), False)
     sw = np.zeros((P, D * D))
     sx = np.zeros((P, D * D))
     t = np.zeros((P, D))
@@ -385,13 +374,13 @@ def ref_fields(snap, where, kernel_obj, fields, convention="tension", n_images=4
         a = _min_image(X[i] - c, box)
         vals = -np.outer(f, a).reshape(1, -1)
         if "boundary_stress" in fields or "stress" in fields or "pressure" in fields:
-            sw += ref_segments(kernel, tgt, X[i][None], -a[None], vals, False, n_images)
+            sw += ref_segments(kernel, tgt, X[i][None], -a[None], vals, False)
         if "extended_stress" in fields:
-            sx += ref_segments(kernel, tgt, X[i][None], -a[None], vals, True, n_images)
-        t += ref_points(kernel, tgt, (X[i] - a)[None], f[None], n_images)
+            sx += ref_segments(kernel, tgt, X[i][None], -a[None], vals, True)
+        t += ref_points(kernel, tgt, (X[i] - a)[None], f[None])
     sb, sw, sx = (x.reshape(P, D, D) for x in (sb, sw, sx))
     if snap.body_force is not None:
-        b = ref_points(kernel, tgt, pos, m[:, None] * np.asarray(snap.body_force)[flow], n_images)
+        b = ref_points(kernel, tgt, pos, m[:, None] * np.asarray(snap.body_force)[flow])
     else:
         b = np.zeros((P, D))
     sign = -1.0 if convention == "compression" else 1.0
@@ -411,7 +400,7 @@ def ref_fields(snap, where, kernel_obj, fields, convention="tension", n_images=4
             "extended_stress": lambda: sign * (sk + sb + sx),
             "volume_fraction": lambda: ref_points(kernel, tgt, pos, (
                 (math.pi * np.asarray(snap.radii)[flow] ** 2) if D == 2 else
-                (4 / 3 * math.pi * np.asarray(snap.radii)[flow] ** 3))[:, None], n_images)[:, 0],
+                (4 / 3 * math.pi * np.asarray(snap.radii)[flow] ** 3))[:, None])[:, 0],
             "pressure": lambda: -np.trace(sk + sb + sw, axis1=1, axis2=2) / D,
             "temperature": lambda: np.where(rho > 0, -np.trace(sk, axis1=1, axis2=2) / (D * np.where(rho > 0, rho, 1)), np.nan),
         }[name]()

@@ -358,16 +358,21 @@ def test_single_particle():
 ALL = tuple(cg.FIELD_NAMES)
 
 
+def assert_empty_fields(out):
+    """No flowing matter: velocity and temperature NaN, every other field exactly zero."""
+    for name in ALL:
+        value = out[name]
+        if name in ("velocity", "temperature"):
+            assert np.all(np.isnan(value)), name
+        else:
+            assert np.all(value == 0), name
+
+
 def test_no_particles():
     box = cg.Box([0, 0, 0], [2, 2, 2])
     snap = cg.Snapshot(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), box=box, radii=np.zeros(0))
     out = cg.coarse_grain(snap, cg.Grid(box, (3, 3, 3)), cg.Gaussian(0.5), fields=ALL)
-    for name in ALL:
-        value = out[name]
-        if name in ("velocity", "temperature"):
-            assert np.all(np.isnan(value))
-        else:
-            assert np.all(value == 0), name
+    assert_empty_fields(out)
     record("N = 0", 0.0)
 
 
@@ -391,10 +396,5 @@ def test_all_particles_fixed():
     frozen = cg.Snapshot(snap.positions, snap.velocities, snap.masses, box=snap.box, contacts=c,
                          fixed=np.ones(snap.n_particles, bool), body_force=snap.body_force, radii=snap.radii)
     out = cg.coarse_grain(frozen, cg.Grid(snap.box, (3, 3, 4)), cg.Gaussian(0.5), fields=ALL)
-    for name in ALL:
-        value = out[name]
-        if name in ("velocity", "temperature"):
-            assert np.all(np.isnan(value))
-        else:
-            assert np.all(value == 0), name
+    assert_empty_fields(out)
     record("all particles fixed", 0.0)
