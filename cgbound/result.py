@@ -51,6 +51,26 @@ class Result:
     def as_dict(self):
         return dict(self._fields)
 
+    def to_hdf5(self, path, provenance=None):
+        """Write fields, coordinates and metadata to HDF5 (atomically); returns the path."""
+        from .writers import write_hdf5
+        return write_hdf5(self, path, provenance)
+
+    def to_npz(self, path):
+        """Write fields, coordinates and JSON metadata to a compressed .npz (atomically)."""
+        from .writers import write_npz
+        return write_npz(self, path)
+
+    def to_vtk(self, path, frame=None):
+        """Write a legacy VTK rectilinear grid for ParaView (atomically)."""
+        from .writers import write_vtk
+        return write_vtk(self, path, frame)
+
+    def to_xarray(self):
+        """The fields as an xarray.Dataset (needs xarray)."""
+        from .writers import to_xarray
+        return to_xarray(self)
+
     def __repr__(self):
         lines = [f"<cgbound.Result {self.grid!r}, {self.kernel!r}, convention={self.convention!r}, "
                  f"{self.times.size} snapshot time(s)>"]

@@ -1,0 +1,159 @@
+"""cgbound's own HDF5 schema for many snapshots (read lazily, written atomically).
+
+Schema (version 1)::
+
+    /                       attrs: format = "cgbound-snapshots", schema_version = 1,
+                                   dim, cgbound_version, provenance (free text, JSON if possible)
+    /box                    attrs: lower (D,), upper (D,), periodic (D,) bool
+    /frames/000000          attrs: time; a group per frame, numbered from 0
+        positions   (N, D)  float64
+        masses      (N,)    float64
+        velocities  (N, D)  float64   optional (absent: static snapshot)
+        fixed       (N,)    bool      optional
+        species     (N,)    int64     optional
+        radii       (N,)    float64   optional
+        body_force  (N, D)  float64   optional
+        contacts/i, contacts/j (M,) int64; contacts/force, contacts/point (M, D) float64
+
+Datasets are chunked and gzip-compressed. A frame with another box than /box stores its
+own box attrs on the frame group.
+"""
+import json
+import os
+
+import numpy as np
+
+from .._atomic import atomic_write
+from ..box import Box
+from ..snapshot import Contacts, Snapshot
+
+FORMAT = "cgbound-snapshots"
+SCHEMA_VERSION = 1
+_OPTIONAL = ("velocities", "fixed", "species", "radii", "body_force")
+
+
+def _h5py():
+    try:
+        import h5py
+    except ImportError as exc:  # pragma: no cover - h5py is a dependency
+        raise ImportError("reading and writing HDF5 needs h5py: pip install h5py") from exc
+    return h5py
+
+
+def _put(group, name, data):
+    data = np.asarray(data)
+    kwargs = {}
+    if data.size > 0:
+        kwargs = dict(chunks=True, compression="gzip", compression_opts=4, shuffle=True)
+    group.create_dataset(name, data=data, **kwargs)
+
+
+def write_snapshots(path, snapshots, provenance=None):
+    """Write snapshots (an iterable of Snapshot) to ``path`` in the schema above; returns the count.
+
+    The file is written beside the target and renamed into place, so an existing file
+    is never left half-written.
+    """
+    h5py = _h5py()
+    from .. import __version__
+
+    count = 0
+
+    def write(tmp):
+        nonlocal count
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = FORMAT
+            f.attrs["schema_version"] = SCHEMA_VERSION
+            f.attrs["cgbound_version"] = __version__
+            f.attrs["provenance"] = provenance if isinstance(provenance, str) else json.dumps(provenance or {})
+            frames = f.create_group("frames")
+            box = None
+            for k, snap in enumerate(snapshots):
+                if not isinstance(snap, Snapshot):
+                    raise TypeError(f"snapshots: item {k} is a {type(snap).__name__}, expected a cg.Snapshot")
+                g = frames.create_group(f"{k:06d}")
+                g.attrs["time"] = snap.time
+                if box is None:
+                    box = snap.box
+                    b = f.create_group("box")
+                    b.attrs["lower"], b.attrs["upper"] = snap.box.lower, snap.box.upper
+                    b.attrs["periodic"] = np.array(snap.box.periodic)
+                    f.attrs["dim"] = snap.dim
+                elif snap.box != box:
+                    g.attrs["lower"], g.attrs["upper"] = snap.box.lower, snap.box.upper
+                    g.attrs["periodic"] = np.array(snap.box.periodic)
+                _put(g, "positions", snap.positions)
+                _put(g, "masses", snap.masses)
+                for name in _OPTIONAL:
+                    value = getattr(snap, name)
+                    if name == "fixed" and not value.any():
+                        continue
+                    if value is not None:
+                        _put(g, name, np.ascontiguousarray(value))
+                c = g.create_group("contacts")
+                for name in ("i", "j", "force", "point"):
+                    _put(c, name, getattr(snap.contacts, name))
+                count += 1
+            f.attrs["n_frames"] = count
+
+    atomic_write(path, write, suffix=".h5")
+    return count
+
+
+class HDF5Snapshots:
+    """Lazy sequence of the Snapshots in a cgbound HDF5 file: ``len()``, indexing, slicing.
+
+    Cheap to pickle (holds the path and frame indices, not arrays); each access opens the
+    file, so it is safe to hand to worker processes.
+    """
+
+    def __init__(self, path, frames=None):
+        self.path = os.fspath(path)
+        h5py = _h5py()
+        with h5py.File(self.path, "r") as f:
+            if f.attrs.get("format") != FORMAT:
+                raise ValueError(f"path: {self.path!r} is not a cgbound snapshot file (format attribute missing)")
+            if int(f.attrs.get("schema_version", 0)) > SCHEMA_VERSION:
+                raise ValueError(f"path: schema version {f.attrs['schema_version']} is newer than this cgbound reads")
+            n = len(f["frames"])
+            self.provenance = f.attrs.get("provenance", "")
+        self._frames = list(range(n)) if frames is None else list(frames)
+
+    def __len__(self):
+        return len(self._frames)
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return HDF5Snapshots._with_frames(self, self._frames[index])
+        try:
+            frame = self._frames[index]
+        except IndexError:
+            raise IndexError(f"index: frame {index} out of range for {len(self)} frames") from None
+        return self._read(frame)
+
+    def __iter__(self):
+        for k in range(len(self)):
+            yield self[k]
+
+    @classmethod
+    def _with_frames(cls, other, frames):
+        out = object.__new__(cls)
+        out.__dict__.update(other.__dict__)
+        out._frames = list(frames)
+        return out
+
+    def _read(self, frame):
+        h5py = _h5py()
+        with h5py.File(self.path, "r") as f:
+            g = f["frames"][f"{frame:06d}"]
+            src = g if "lower" in g.attrs else f["box"]
+            box = Box(src.attrs["lower"], src.attrs["upper"], periodic=tuple(bool(p) for p in src.attrs["periodic"]))
+            data = {name: g[name][()] for name in _OPTIONAL if name in g}
+            c = g["contacts"]
+            contacts = Contacts(c["i"][()], c["j"][()], c["force"][()], c["point"][()])
+            return Snapshot(g["positions"][()], data.get("velocities"), g["masses"][()], box=box, contacts=contacts,
+                            fixed=data.get("fixed"), species=data.get("species"), body_force=data.get("body_force"),
+                            radii=data.get("radii"), time=float(g.attrs["time"]))
+
+    def __repr__(self):
+        return f"HDF5Snapshots({self.path!r}, {len(self)} frames)"

@@ -1,0 +1,165 @@
+"""Writers for coarse-grained results: HDF5, NumPy .npz, VTK (ParaView) and xarray.
+
+Every writer goes through a temporary file and a rename, so an existing file is
+replaced only by a complete new one.
+"""
+import json
+
+import numpy as np
+
+from ._atomic import atomic_write
+from .fields import FIELDS
+from .grid import Grid
+
+
+def _metadata(result):
+    from . import __version__
+
+    k = result.kernel
+    meta = {
+        "cgbound_version": __version__,
+        "kernel": type(k).__name__,
+        "width": float(getattr(k, "width", None) or k.radius),
+        "cutoff": float(k.radius),
+        "normalize": getattr(k, "normalize", ""),
+        "convention": result.convention,
+        "times": [float(t) for t in np.atleast_1d(result.times)],
+        "box_lower": result.box.lower.tolist(),
+        "box_upper": result.box.upper.tolist(),
+        "periodic": list(result.box.periodic),
+    }
+    g = result.grid
+    if isinstance(g, Grid):
+        meta.update(grid_shape=list(g.shape), averaged=[g.box.axis_names[d] for d in g.averaged])
+    return meta
+
+
+def write_hdf5(result, path, provenance=None):
+    """Fields, grid coordinates and metadata (kernel, width, cutoff, convention, version, provenance)."""
+    import h5py
+
+    meta = _metadata(result)
+
+    def write(tmp):
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = "cgbound-fields"
+            for key, value in meta.items():
+                f.attrs[key] = value if not isinstance(value, list) or value else np.array([])
+            f.attrs["provenance"] = provenance if isinstance(provenance, str) else json.dumps(provenance or {})
+            f.create_dataset("coordinates", data=result.coordinates)
+            if isinstance(result.grid, Grid):
+                for name, axis in zip(result.box.axis_names, result.grid.axis_coordinates):
+                    f.create_dataset(f"axes/{name}", data=axis)
+            fields = f.create_group("fields")
+            for name in result.fields:
+                fields.create_dataset(name, data=result[name], chunks=True if result[name].size > 1 else None,
+                                      compression="gzip" if result[name].size > 1 else None)
+    return atomic_write(path, write, suffix=".h5")
+
+
+def write_npz(result, path):
+    """Fields plus ``coordinates`` and a JSON ``metadata`` string in one compressed .npz."""
+    arrays = {name: result[name] for name in result.fields}
+    arrays["coordinates"] = result.coordinates
+    arrays["metadata"] = np.array(json.dumps(_metadata(result)))
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            np.savez_compressed(f, **arrays)
+    return atomic_write(path, write, suffix=".npz")
+
+
+def write_vtk(result, path, frame=None):
+    """Legacy binary VTK RECTILINEAR_GRID readable by ParaView (regular grids only).
+
+    Scalars become SCALARS, vectors VECTORS (3 components; 2-D data is padded with a zero
+    y component and laid out in ParaView's x, y, z), tensors TENSORS (3 x 3). With a
+    leading time axis, ``frame`` selects which one to write.
+    """
+    grid = result.grid
+    if not isinstance(grid, Grid):
+        raise TypeError("result: VTK output needs a result on a cg.Grid, not on points")
+    dim = grid.dim
+    leading = result[result.fields[0]].ndim - len(grid.shape) - FIELDS[result.fields[0]][0]
+    if leading and frame is None:
+        raise ValueError("frame: this result has a time axis; choose a frame index")
+    axes3 = list(grid.axis_coordinates) if dim == 3 else [grid.axis_coordinates[0], np.zeros(1), grid.axis_coordinates[1]]
+    shape3 = [a.size for a in axes3]
+    n = int(np.prod(shape3))
+
+    def to3(vec):
+        return vec if dim == 3 else np.stack([vec[..., 0], np.zeros(vec.shape[:-1]), vec[..., 1]], axis=-1)
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            f.write(b"# vtk DataFile Version 3.0\ncgbound fields\nBINARY\nDATASET RECTILINEAR_GRID\n")
+            f.write(f"DIMENSIONS {shape3[0]} {shape3[1]} {shape3[2]}\n".encode())
+            for label, axis in zip("XYZ", axes3):
+                f.write(f"{label}_COORDINATES {axis.size} double\n".encode())
+                f.write(np.asarray(axis, ">f8").tobytes() + b"\n")
+            f.write(f"POINT_DATA {n}\n".encode())
+            for name in result.fields:
+                value = result[name] if not leading else result[name][frame]
+                rank = FIELDS[name][0]
+                if dim == 2:
+                    value = value.reshape((grid.shape[0], 1, grid.shape[1]) + value.shape[2:])
+                # VTK point order: x fastest
+                value = np.moveaxis(value, (0, 1, 2), (2, 1, 0))
+                if rank == 0:
+                    f.write(f"SCALARS {name} double 1\nLOOKUP_TABLE default\n".encode())
+                    data = value
+                elif rank == 1:
+                    f.write(f"VECTORS {name} double\n".encode())
+                    data = to3(value)
+                else:
+                    f.write(f"TENSORS {name} double\n".encode())
+                    data = value if dim == 3 else _pad_tensor(value)
+                f.write(np.ascontiguousarray(np.nan_to_num(data, nan=np.nan), ">f8").tobytes() + b"\n")
+    return atomic_write(path, write, suffix=".vtk")
+
+
+def _pad_tensor(t):
+    out = np.zeros(t.shape[:-2] + (3, 3))
+    idx = [0, 2]
+    for a in range(2):
+        for b in range(2):
+            out[..., idx[a], idx[b]] = t[..., a, b]
+    return out
+
+
+def to_xarray(result):
+    """An xarray.Dataset with named dimensions and coordinates (xarray is optional)."""
+    try:
+        import xarray as xr
+    except ImportError as exc:
+        raise ImportError("to_xarray needs xarray: pip install xarray") from exc
+    grid = result.grid
+    names = result.box.axis_names
+    comp = list(names)
+    data_vars = {}
+    coords = {}
+    leading_dims = ()
+    times = np.atleast_1d(result.times)
+    for name in result.fields:
+        value = result[name]
+        rank = FIELDS[name][0]
+        if isinstance(grid, Grid):
+            space = tuple(names)
+        else:
+            space = ("point",)
+        n_lead = value.ndim - len(space) - rank
+        leading_dims = ("time",) * n_lead
+        dims = leading_dims + space + (("component",) if rank >= 1 else ()) + (("component2",) if rank == 2 else ())
+        data_vars[name] = (dims, value)
+    if isinstance(grid, Grid):
+        for name, axis in zip(names, grid.axis_coordinates):
+            coords[name] = axis
+    else:
+        for d, name in enumerate(names):
+            coords[name] = ("point", grid.positions[:, d])
+    coords["component"] = comp
+    coords["component2"] = comp
+    if leading_dims:
+        coords["time"] = times
+    attrs = {k: (json.dumps(v) if isinstance(v, list) else v) for k, v in _metadata(result).items()}
+    return xr.Dataset(data_vars, coords=coords, attrs=attrs)

@@ -1,0 +1,138 @@
+"""HDF5 snapshot schema round trip; result writers read back with independent readers; atomic writes."""
+import json
+import os
+import pickle
+
+import numpy as np
+import pytest
+
+import cgbound as cg
+from helpers import random_snapshot
+
+h5py = pytest.importorskip("h5py")
+from cgbound.readers.hdf5 import HDF5Snapshots, write_snapshots  # noqa: E402
+
+
+def same_snapshot(a, b):
+    for name in ("positions", "velocities", "masses", "fixed", "radii", "body_force", "species"):
+        x, y = getattr(a, name), getattr(b, name)
+        if x is None or y is None:
+            assert x is None and y is None, name
+        else:
+            np.testing.assert_array_equal(x, y, err_msg=name)
+    for name in ("i", "j", "force", "point"):
+        np.testing.assert_array_equal(getattr(a.contacts, name), getattr(b.contacts, name))
+    assert a.box == b.box and a.time == b.time
+
+
+def test_snapshot_file_round_trip_lazy_and_picklable(tmp_path):
+    snaps = [random_snapshot(k, dim=3) for k in range(4)] + [random_snapshot(9, dim=3, velocities=False)]
+    path = tmp_path / "snaps.h5"
+    assert write_snapshots(path, snaps, provenance={"source": "test"}) == 5
+    reader = HDF5Snapshots(path)
+    assert len(reader) == 5 and json.loads(reader.provenance) == {"source": "test"}
+    for a, b in zip(snaps, reader):
+        same_snapshot(a, b)
+    part = reader[1:5:2]
+    assert len(part) == 2
+    same_snapshot(part[1], snaps[3])
+    clone = pickle.loads(pickle.dumps(part))
+    assert len(pickle.dumps(part)) < 1000      # carries the path, not arrays
+    same_snapshot(clone[0], snaps[1])
+    with pytest.raises(IndexError, match="index"):
+        reader[7]
+    avg = cg.CoarseGrain(reader, cg.Grid(snaps[0].box, (1, 1, 8), average=("x", "y")), cg.Lucy(1.0),
+                         fields=("density",)).run()
+    direct = cg.CoarseGrain(snaps, cg.Grid(snaps[0].box, (1, 1, 8), average=("x", "y")), cg.Lucy(1.0),
+                            fields=("density",)).run()
+    np.testing.assert_array_equal(avg.results.density, direct.results.density)
+
+
+def test_snapshot_file_rejects_foreign_files(tmp_path):
+    path = tmp_path / "other.h5"
+    with h5py.File(path, "w") as f:
+        f.attrs["format"] = "something else"
+    with pytest.raises(ValueError, match="not a cgbound snapshot file"):
+        HDF5Snapshots(path)
+
+
+def result_3d():
+    snap = random_snapshot(3, dim=3)
+    return cg.coarse_grain(snap, cg.Grid(snap.box, (4, 3, 5)), cg.Gaussian(0.5),
+                           fields=("density", "velocity", "stress"))
+
+
+def result_2d():
+    snap = random_snapshot(4, dim=2)
+    return cg.coarse_grain(snap, cg.Grid(snap.box, (6, 5)), cg.Lucy(1.2), fields=("density", "velocity", "stress"))
+
+
+def test_hdf5_result_round_trip(tmp_path):
+    out = result_3d()
+    path = out.to_hdf5(tmp_path / "fields.h5", provenance="unit test")
+    with h5py.File(path, "r") as f:
+        for name in out.fields:
+            np.testing.assert_array_equal(f["fields"][name][()], out[name])
+        np.testing.assert_array_equal(f["coordinates"][()], out.coordinates)
+        assert f.attrs["kernel"] == "Gaussian" and f.attrs["width"] == 0.5 and f.attrs["cutoff"] == 2.5
+        assert f.attrs["convention"] == "tension" and f.attrs["provenance"] == "unit test"
+        assert f.attrs["cgbound_version"] == cg.__version__
+
+
+def test_npz_round_trip(tmp_path):
+    out = result_2d()
+    path = out.to_npz(tmp_path / "fields.npz")
+    with np.load(path) as data:
+        for name in out.fields:
+            np.testing.assert_array_equal(data[name], out[name])
+        assert json.loads(str(data["metadata"]))["kernel"] == "Lucy"
+
+
+@pytest.mark.parametrize("make", [result_3d, result_2d])
+def test_vtk_is_read_back_by_meshio(tmp_path, make):
+    meshio = pytest.importorskip("meshio")
+    out = make()
+    path = out.to_vtk(tmp_path / "fields.vtk")
+    mesh = meshio.read(path)
+    grid = out.grid
+    dim = grid.dim
+    # meshio lists points x fastest: rebuild our ordering from the coordinates it returns
+    pts = mesh.points
+    coords = out.coordinates.reshape(-1, dim)
+    ours3 = coords if dim == 3 else np.stack([coords[:, 0], np.zeros(len(coords)), coords[:, 1]], axis=1)
+    order = {tuple(np.round(p, 12)): k for k, p in enumerate(pts)}
+    index = np.array([order[tuple(np.round(p, 12))] for p in ours3])
+    np.testing.assert_allclose(mesh.point_data["density"].ravel()[index], out.density.ravel(), rtol=1e-15)
+    vel = mesh.point_data["velocity"][index]
+    expected = out.velocity.reshape(-1, dim)
+    np.testing.assert_allclose(vel[:, [0, 1, 2] if dim == 3 else [0, 2]], expected, rtol=1e-15)
+    stress = mesh.point_data["stress"].reshape(-1, 3, 3)[index]
+    sel = [0, 1, 2] if dim == 3 else [0, 2]
+    np.testing.assert_allclose(stress[:, sel][:, :, sel], out.stress.reshape(-1, dim, dim), rtol=1e-15)
+
+
+def test_xarray_view():
+    xr = pytest.importorskip("xarray")
+    out = result_3d()
+    ds = out.to_xarray()
+    assert isinstance(ds, xr.Dataset)
+    assert ds["stress"].dims == ("x", "y", "z", "component", "component2")
+    np.testing.assert_array_equal(ds["density"].values, out.density)
+    np.testing.assert_array_equal(ds["z"].values, out.grid.axis_coordinates[2])
+    zz = ds["stress"].sel(component="z", component2="z").mean(dim=("x", "y"))
+    np.testing.assert_allclose(zz.values, out.stress[..., 2, 2].mean(axis=(0, 1)))
+
+
+def test_a_failed_write_leaves_the_existing_file_untouched(tmp_path, monkeypatch):
+    out = result_3d()
+    path = tmp_path / "fields.npz"
+    path.write_bytes(b"precious")
+    import cgbound.writers as writers
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("disk full")
+    monkeypatch.setattr(writers.np, "savez_compressed", boom)
+    with pytest.raises(RuntimeError, match="disk full"):
+        out.to_npz(path)
+    assert path.read_bytes() == b"precious"
+    assert [p.name for p in tmp_path.iterdir()] == ["fields.npz"]      # no temporary left behind
