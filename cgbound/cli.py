@@ -22,8 +22,8 @@ def demo(args):
     rng = np.random.default_rng(0)
     pts = snap.box.lower + rng.uniform(0, 1, (200, 2)) * snap.box.lengths
     res = momentum_balance_residual(snap, pts, kernel)
-    t_norm = np.linalg.norm(out.interaction_force_density, axis=-1)
-    sigma_norm = np.abs(np.linalg.eigvalsh(out.stress)).max(axis=-1)
+    from .plot import norm
+    t_norm, sigma_norm = norm(out, "interaction_force_density"), norm(out, "stress")
     print(f"{snap!r}")
     print(f"kernel {kernel!r}, grid {grid.shape[0]} x {grid.shape[1]} nodes")
     print(f"weight of the flow           : {weight[1]:.12f}")
@@ -41,25 +41,18 @@ def demo(args):
     if args.png:
         try:
             import matplotlib
-            matplotlib.use("Agg")
-            import matplotlib.pyplot as plt
         except ImportError:
             print("matplotlib is not installed: no PNG written", file=sys.stderr)
-            return 0
-        fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), constrained_layout=True)
-        extent = (snap.box.lower[0], snap.box.upper[0], snap.box.lower[1], snap.box.upper[1])
-        for ax, field, title in zip(axes, (t_norm, sigma_norm), ("|t| (interaction force density)", "max |eig σ|")):
-            im = ax.imshow(field.T, origin="lower", extent=extent, cmap="viridis")
-            for p, fixed in zip(snap.positions, snap.fixed):
-                ax.add_patch(plt.Circle(p, 0.5, fill=False, color="w", lw=0.8))
-                if fixed:
-                    ax.plot(*p, "w+", ms=6)
-            ax.set_title(title)
-            ax.set_xlabel("x")
-            ax.set_ylabel("z")
-            fig.colorbar(im, ax=ax, shrink=0.8)
-        atomic_write(args.png, lambda path: fig.savefig(path, dpi=110, format="png"), suffix=".png")
-        print(f"wrote {args.png}")
+        else:
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+            from . import plot
+            fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), constrained_layout=True)
+            for ax, name in zip(axes, ("interaction_force_density", "stress")):
+                plot.field_map(out, name, ax=ax)
+                plot.particles(ax, snap)
+            atomic_write(args.png, lambda path: fig.savefig(path, dpi=110, format="png"), suffix=".png")
+            print(f"wrote {args.png}")
     ok = res.relative.max() < 1e-8 and abs(carried[1] - weight[1]) < 1e-8 * weight[1]
     return 0 if ok else 1
 
