@@ -4,7 +4,7 @@ Goldhirsch's coarse graining extended to boundaries by Weinhart, Thornton,
 Luding and Bokhove (2012), with a C core. Stresses follow the paper's
 tension-positive sign unless ``convention="compression"`` is asked for.
 """
-from . import _core
+from . import _core, readers
 from .box import Box
 from .coarse import CoarseGrain, coarse_grain
 from .fields import FIELDS
