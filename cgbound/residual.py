@@ -55,10 +55,12 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
         raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
     kernel = check_kernel(kernel)
     if not kernel.differentiable:
-        raise ValueError(f"kernel: the momentum balance needs a differentiable kernel (Gaussian or Lucy), got {kernel!r}")
+        raise ValueError(f"kernel: expected a differentiable kernel (Gaussian or Lucy) for the momentum balance, "
+                         f"got {kernel!r}")
     target = check_target(points, snapshot.dim, name="points")
     if not isinstance(target, Points):
-        raise TypeError("points: expected cg.Points or a (P, D) array (a grid with averaged axes has no pointwise balance)")
+        raise TypeError(f"points: expected cg.Points or a (P, D) array (the balance is checked pointwise), "
+                        f"got {type(target).__name__}")
     dim, P = snapshot.dim, target.size
     if forces is None:
         forces = snapshot.particle_forces()
