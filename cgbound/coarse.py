@@ -3,6 +3,7 @@ import sys
 
 import numpy as np
 
+from ._memory import check_fits, core_threads, per_node_doubles
 from ._validate import flag, integer, positive_number, real_array
 from .fields import (PrimaryAverage, check_computable, check_convention, check_fields, compute_primaries, derive,
                      needed_primaries, reference_velocity, FIELDS)
@@ -25,6 +26,17 @@ def _prepare(snapshot, grid, kernel, fields, convention, species):
     if species is not None:
         snapshot = snapshot.species_view(species)
     return snapshot, target, kernel, fields, convention
+
+
+def _field_ranks():
+    return {name: spec[0] for name, spec in FIELDS.items()}
+
+
+def _check_memory(target, fields, dim, threads, frames=1, time_average="mean", n_times=1):
+    needed = needed_primaries(fields)
+    doubles = per_node_doubles(needed, fields, _field_ranks(), dim, threads, frames, time_average, n_times)
+    check_fits("grid", target.size, doubles, what=f"fields {', '.join(fields)}"
+               + (f" over {frames} frames" if frames > 1 else ""))
 
 
 def _shape_fields(flat, target, dim, leading=()):
@@ -62,6 +74,7 @@ def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tens
     snapshot, target, kernel, fields, convention = _prepare(snapshot, grid, kernel, fields, convention, species)
     needed = needed_primaries(fields)
     split = check_computable(snapshot, needed)
+    _check_memory(target, fields, snapshot.dim, core_threads(max(snapshot.n_particles, len(snapshot.contacts))))
     u_ref = reference_velocity(snapshot)
     primaries = compute_primaries(snapshot, target, kernel, needed, u_ref, split)
     flat = derive(primaries, fields, u_ref, snapshot.dim, convention)
@@ -149,6 +162,9 @@ class CoarseGrain:
         total = None
         if hasattr(self.snapshots, "__len__"):
             total = len(range(*slice(start, stop, step).indices(len(self.snapshots))))
+        n_times = len(self.times) if self.times is not None else (total or 1)
+        _check_memory(self._target, self.fields, self._target.dim, core_threads(), frames=total or 1,
+                      time_average=self.time_average, n_times=n_times)
         frames = []
         averages = None
         u_ref = None

@@ -2,6 +2,7 @@
 import numpy as np
 
 from . import _core
+from ._memory import check_fits, core_threads
 from .grid import Points, check_target
 from .kernels import check_kernel
 from .snapshot import Snapshot
@@ -66,6 +67,9 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
         forces = snapshot.particle_forces()
     else:
         forces = real_array(forces, "forces", ndim=2, shape=(snapshot.n_particles, dim))
+    # the gradient scatter has D^3 doubles per node (and per thread); the terms D each
+    threads = core_threads(max(snapshot.n_particles, len(snapshot.contacts)))
+    check_fits("points", P, threads * dim ** 3 + 8 * dim, what="the momentum balance terms")
     core_target = target._core_target(snapshot.box)
     core_kernel = kernel._core_args(1.0)
     flow = snapshot.flowing
