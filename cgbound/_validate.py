@@ -4,16 +4,43 @@ import numbers
 import numpy as np
 
 
+def _as_raw_array(value, name, what):
+    """np.asarray(value) with the conversion errors named; ragged input is a ValueError."""
+    try:
+        return np.asarray(value)
+    except ValueError as exc:
+        raise ValueError(f"{name}: expected a rectangular array of {what}, got a ragged sequence ({exc})") from None
+    except TypeError as exc:
+        raise TypeError(f"{name}: expected an array of {what} ({exc})") from None
+
+
+def _check_object_reals(raw, name):
+    """An object array converts to float only if every element is a real, non-bool number."""
+    for index, item in np.ndenumerate(raw):
+        if isinstance(item, (bool, np.bool_)) or not isinstance(item, numbers.Real):
+            raise TypeError(f"{name}: expected real numbers, got {item!r} at index {tuple(int(k) for k in index)}")
+
+
 def real_array(value, name, ndim=None, shape=None, copy=True):
-    """A float64 C-contiguous copy of value, checked for dimensions, shape and finiteness."""
+    """A float64 C-contiguous copy of value, checked for dtype, dimensions, shape and finiteness.
+
+    Strings, booleans, complex numbers, date-times and objects other than real
+    numbers are a TypeError (no silent parsing, truncation or NaN from None).
+    """
     if value is None:
         raise TypeError(f"{name}: expected an array of real numbers, got None")
+    raw = _as_raw_array(value, name, "real numbers")
+    kind = raw.dtype.kind
+    if kind == "c":
+        raise TypeError(f"{name}: expected real numbers, got complex values (dtype {raw.dtype})")
+    if kind == "O":
+        _check_object_reals(raw, name)
+    elif kind not in "iuf":
+        raise TypeError(f"{name}: expected real numbers, got dtype {raw.dtype}")
     try:
-        arr = np.array(value, dtype=np.float64, copy=copy, order="C")
-    except (TypeError, ValueError) as exc:
+        arr = np.array(raw, dtype=np.float64, copy=copy, order="C")
+    except (TypeError, ValueError, OverflowError) as exc:
         raise TypeError(f"{name}: expected an array of real numbers ({exc})") from None
-    if np.iscomplexobj(np.asarray(value)):
-        raise TypeError(f"{name}: expected real numbers, got complex values")
     if ndim is not None and arr.ndim != ndim:
         raise ValueError(f"{name}: expected a {ndim}-dimensional array, got shape {arr.shape}")
     if shape is not None:
@@ -22,55 +49,121 @@ def real_array(value, name, ndim=None, shape=None, copy=True):
                 raise ValueError(f"{name}: expected shape {_shape_text(shape)}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         bad = np.argwhere(~np.isfinite(arr))[0]
-        raise ValueError(f"{name}: expected finite values, found {arr[tuple(bad)]} at index {tuple(int(b) for b in bad)}")
+        raise ValueError(f"{name}: expected finite values, got {arr[tuple(bad)]} at index {tuple(int(b) for b in bad)}")
     arr.setflags(write=False)
     return arr
 
 
+_INT64_MAX = np.iinfo(np.int64).max
+
+
 def index_array(value, name, length=None):
-    """An int64 1-D array; rejects non-integer values instead of truncating them."""
+    """An int64 1-D array; rejects non-integer values instead of truncating them.
+
+    Integer dtypes of any width and signedness are accepted, and so are floats
+    holding integral values; booleans, strings, complex and objects are a TypeError,
+    NaN, Inf, fractions and values beyond int64 a ValueError.
+    """
     if value is None:
         raise TypeError(f"{name}: expected an array of integers, got None")
-    raw = np.asarray(value)
+    raw = _as_raw_array(value, name, "integers")
     if raw.dtype.kind == "b" or raw.dtype.kind not in "iuf":
-        if raw.size == 0 and raw.dtype.kind not in "b":
-            raw = raw.astype(np.int64)
+        if raw.size == 0 and raw.dtype.kind not in "bc":
+            raw = np.zeros(raw.shape, np.int64)
         else:
             raise TypeError(f"{name}: expected integers, got dtype {raw.dtype}")
+    if raw.ndim != 1:
+        raise ValueError(f"{name}: expected a 1-dimensional array, got shape {raw.shape}")
+    if length is not None and raw.shape[0] != length:
+        raise ValueError(f"{name}: expected length {length}, got {raw.shape[0]}")
     if raw.dtype.kind == "f":
-        if not np.all(np.isfinite(raw)) or np.any(raw != np.round(raw)):
-            raise TypeError(f"{name}: expected integers, got non-integral values")
+        finite = np.isfinite(raw)
+        if not np.all(finite):
+            k = int(np.flatnonzero(~finite)[0])
+            raise ValueError(f"{name}: expected finite integers, got {raw[k]} at index {k}")
+        frac = raw != np.round(raw)
+        if np.any(frac):
+            k = int(np.flatnonzero(frac)[0])
+            raise ValueError(f"{name}: expected integral values, got {raw[k]} at index {k}")
+        big = np.abs(raw) >= 2.0**63
+        if np.any(big):
+            k = int(np.flatnonzero(big)[0])
+            raise ValueError(f"{name}: expected integers that fit in int64, got {raw[k]} at index {k}")
+    elif raw.dtype.kind == "u" and raw.size and raw.max() > _INT64_MAX:
+        k = int(np.argmax(raw > _INT64_MAX))
+        raise ValueError(f"{name}: expected integers that fit in int64, got {raw[k]} at index {k}")
     arr = np.array(raw, dtype=np.int64, order="C")
-    if arr.ndim != 1:
-        raise ValueError(f"{name}: expected a 1-dimensional array, got shape {arr.shape}")
-    if length is not None and arr.shape[0] != length:
-        raise ValueError(f"{name}: expected length {length}, got {arr.shape[0]}")
     arr.setflags(write=False)
     return arr
 
 
 def bool_array(value, name, length):
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "biu":
+    """A bool 1-D array from booleans, or from integers / floats holding 0 and 1."""
+    if value is None:
+        raise TypeError(f"{name}: expected an array of booleans, got None")
+    arr = _as_raw_array(value, name, "booleans")
+    if arr.dtype.kind not in "biuf":
         raise TypeError(f"{name}: expected booleans, got dtype {arr.dtype}")
     if arr.shape != (length,):
         raise ValueError(f"{name}: expected shape ({length},), got {arr.shape}")
-    if arr.dtype.kind != "b" and not np.all((arr == 0) | (arr == 1)):
-        raise ValueError(f"{name}: expected booleans (0 or 1)")
+    if arr.dtype.kind != "b":
+        bad = ~((arr == 0) | (arr == 1))
+        if np.any(bad):
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"{name}: expected booleans (0 or 1), got {arr[k]} at index {k}")
     out = np.array(arr, dtype=bool)
     out.setflags(write=False)
     return out
 
 
+def _scalar(value):
+    """A 0-d numeric array stands for its element."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "biufc":
+        return value[()]
+    return value
+
+
 def positive_number(value, name, allow_none=False):
     if value is None and allow_none:
         return None
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    value = _scalar(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name}: expected a positive number, got {value!r}")
     value = float(value)
     if not (np.isfinite(value) and value > 0.0):
         raise ValueError(f"{name}: expected a positive finite number, got {value!r}")
     return value
+
+
+def finite_number(value, name):
+    value = _scalar(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected a finite real number, got {value!r}")
+    value = float(value)
+    if not np.isfinite(value):
+        raise ValueError(f"{name}: expected a finite real number, got {value!r}")
+    return value
+
+
+def integer(value, name, allow_none=False):
+    """A Python int from an integer (not bool); None passes if allowed."""
+    if value is None and allow_none:
+        return None
+    value = _scalar(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        what = "an integer or None" if allow_none else "an integer"
+        raise TypeError(f"{name}: expected {what}, got {value!r}")
+    return int(value)
+
+
+def flag(value, name):
+    """A Python bool from a bool (or 0/1 integer); anything else (strings, None) is a TypeError."""
+    value = _scalar(value)
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, numbers.Integral) and int(value) in (0, 1):
+        return bool(value)
+    raise TypeError(f"{name}: expected True or False, got {value!r}")
 
 
 def _shape_text(shape):

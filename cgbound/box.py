@@ -1,7 +1,7 @@
 """The simulation box: bounds and periodicity per axis."""
 import numpy as np
 
-from ._validate import real_array
+from ._validate import flag, real_array
 
 AXIS_NAMES = ("x", "y", "z")
 
@@ -27,11 +27,17 @@ class Box:
             raise ValueError(f"upper: expected {lower.shape[0]} coordinates like lower, got {upper.shape[0]}")
         if np.any(upper <= lower):
             raise ValueError(f"upper: expected upper > lower on every axis, got lower={lower.tolist()}, upper={upper.tolist()}")
+        dim = lower.shape[0]
+        if isinstance(periodic, (str, bytes)) or periodic is None:
+            raise TypeError(f"periodic: expected a bool or {dim} bools, got {periodic!r}")
         if np.ndim(periodic) == 0:
-            periodic = (bool(periodic),) * lower.shape[0]
-        periodic = tuple(periodic)
-        if len(periodic) != lower.shape[0] or not all(isinstance(p, (bool, np.bool_)) for p in periodic):
-            raise ValueError(f"periodic: expected a bool or {lower.shape[0]} bools, got {periodic!r}")
+            periodic = (flag(periodic, "periodic"),) * dim
+        else:
+            given = periodic
+            periodic = list(np.asarray(periodic, dtype=object).ravel()) if np.ndim(periodic) == 1 else []
+            if len(periodic) != dim:
+                raise ValueError(f"periodic: expected a bool or {dim} bools, got {given!r}")
+            periodic = tuple(flag(p, "periodic") for p in periodic)
         self.lower = lower
         self.upper = upper
         self.periodic = tuple(bool(p) for p in periodic)

@@ -3,10 +3,11 @@ import sys
 
 import numpy as np
 
-from ._validate import positive_number, real_array
-from .fields import (PrimaryAverage, check_convention, check_fields, compute_primaries, derive,
+from ._memory import check_fits, core_threads, per_node_doubles
+from ._validate import flag, integer, positive_number, real_array
+from .fields import (PrimaryAverage, check_computable, check_convention, check_fields, compute_primaries, derive,
                      needed_primaries, reference_velocity, FIELDS)
-from .grid import check_target
+from .grid import Grid, Points, check_target
 from .kernels import check_kernel
 from .result import Result
 from .snapshot import Snapshot
@@ -21,9 +22,21 @@ def _prepare(snapshot, grid, kernel, fields, convention, species):
     kernel = check_kernel(kernel)
     fields = check_fields(fields)
     convention = check_convention(convention)
+    species = integer(species, "species", allow_none=True)
     if species is not None:
         snapshot = snapshot.species_view(species)
     return snapshot, target, kernel, fields, convention
+
+
+def _field_ranks():
+    return {name: spec[0] for name, spec in FIELDS.items()}
+
+
+def _check_memory(target, fields, dim, threads, frames=1, time_average="mean", n_times=1):
+    needed = needed_primaries(fields)
+    doubles = per_node_doubles(needed, fields, _field_ranks(), dim, threads, frames, time_average, n_times)
+    check_fits("grid", target.size, doubles, what=f"fields {', '.join(fields)}"
+               + (f" over {frames} frames" if frames > 1 else ""))
 
 
 def _shape_fields(flat, target, dim, leading=()):
@@ -60,8 +73,10 @@ def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tens
     """
     snapshot, target, kernel, fields, convention = _prepare(snapshot, grid, kernel, fields, convention, species)
     needed = needed_primaries(fields)
+    split = check_computable(snapshot, needed)
+    _check_memory(target, fields, snapshot.dim, core_threads(max(snapshot.n_particles, len(snapshot.contacts))))
     u_ref = reference_velocity(snapshot)
-    primaries = compute_primaries(snapshot, target, kernel, needed, u_ref)
+    primaries = compute_primaries(snapshot, target, kernel, needed, u_ref, split)
     flat = derive(primaries, fields, u_ref, snapshot.dim, convention)
     return Result(_shape_fields(flat, target, snapshot.dim), target, kernel, convention, [snapshot.time], snapshot.box)
 
@@ -86,12 +101,18 @@ class CoarseGrain:
 
     def __init__(self, snapshots, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None,
                  time_average="mean", times=None):
+        if isinstance(snapshots, Snapshot):
+            raise TypeError("snapshots: expected a sequence or iterable of cg.Snapshot, got a single cg.Snapshot "
+                            "(use cg.coarse_grain, or wrap it in a list)")
+        if not (hasattr(snapshots, "__iter__") or (hasattr(snapshots, "__len__") and hasattr(snapshots, "__getitem__"))):
+            raise TypeError(f"snapshots: expected a sequence or iterable of cg.Snapshot, got {type(snapshots).__name__}")
         self.snapshots = snapshots
         self.grid = grid
+        self._target = grid if isinstance(grid, (Grid, Points)) else Points(grid, _name="grid")
         self.kernel = check_kernel(kernel)
         self.fields = check_fields(fields)
         self.convention = check_convention(convention)
-        self.species = species
+        self.species = integer(species, "species", allow_none=True)
         if isinstance(time_average, str):
             if time_average not in ("mean", "none"):
                 raise ValueError(f"time_average: expected 'mean', 'none' or a positive width, got {time_average!r}")
@@ -100,6 +121,9 @@ class CoarseGrain:
             self.time_width = positive_number(time_average, "time_average")
             time_average = "smooth"
         self.time_average = time_average
+        if times is not None and time_average != "smooth":
+            raise ValueError(f"times: expected None unless time_average is a width (Gaussian smoothing in time), "
+                             f"got times with time_average={time_average!r}")
         self.times = None if times is None else real_array(times, "times", ndim=1)
         self.results = None
 
@@ -111,7 +135,8 @@ class CoarseGrain:
         else:
             if any(x is not None for x in (start, stop, step)) and not all(
                     (x is None or x >= 0) for x in (start, stop, step)):
-                raise ValueError("start, stop, step: negative values need a sequence of snapshots with len()")
+                raise ValueError("start, stop, step: expected values >= 0 for snapshots without len(), "
+                                 f"got start={start}, stop={stop}, step={step}")
             import itertools
             for index, snap in itertools.islice(enumerate(snaps), start, stop, step):
                 yield index, snap
@@ -127,10 +152,19 @@ class CoarseGrain:
 
     def run(self, start=None, stop=None, step=None, verbose=False):
         """Coarse-grain frames ``start:stop:step``; returns self, with the fields in ``results``."""
+        start = integer(start, "start", allow_none=True)
+        stop = integer(stop, "stop", allow_none=True)
+        step = integer(step, "step", allow_none=True)
+        if step == 0:
+            raise ValueError("step: expected a non-zero integer or None, got 0")
+        verbose = flag(verbose, "verbose")
         needed = needed_primaries(self.fields)
         total = None
         if hasattr(self.snapshots, "__len__"):
             total = len(range(*slice(start, stop, step).indices(len(self.snapshots))))
+        n_times = len(self.times) if self.times is not None else (total or 1)
+        _check_memory(self._target, self.fields, self._target.dim, core_threads(), frames=total or 1,
+                      time_average=self.time_average, n_times=n_times)
         frames = []
         averages = None
         u_ref = None
@@ -148,8 +182,12 @@ class CoarseGrain:
                 u_ref = reference_velocity(snap)
                 dim, box = snap.dim, snap.box
             elif snap.dim != dim:
-                raise ValueError(f"frame {index}: expected a {dim}D snapshot like the first frame")
-            prim = compute_primaries(snap, target, kernel, needed, u_ref)
+                raise ValueError(f"frame {index}: snapshot: expected a {dim}D snapshot like the first frame, got {snap.dim}D")
+            try:
+                split = check_computable(snap, needed)
+            except ValueError as exc:
+                raise ValueError(f"frame {index}: {exc}") from exc
+            prim = compute_primaries(snap, target, kernel, needed, u_ref, split)
             times.append(snap.time)
             if self.time_average == "mean":
                 if averages is None:
@@ -160,7 +198,10 @@ class CoarseGrain:
             else:
                 smooth_buffer.append(prim)
         if not times:
-            raise ValueError("run: no frames selected")
+            if total is not None and len(self.snapshots) == 0:
+                raise ValueError("snapshots: expected at least one snapshot, got an empty sequence")
+            raise ValueError(f"start, stop, step: expected a selection of at least one frame, got none "
+                             f"(start={start}, stop={stop}, step={step})")
         if self.time_average == "mean":
             flat = derive(averages.result(), self.fields, u_ref, dim, self.convention)
             shaped = _shape_fields(flat, target, dim)
@@ -177,7 +218,8 @@ class CoarseGrain:
                 for t_s, prim in zip(times, smooth_buffer):
                     acc.add(prim, float(np.exp(-0.5 * ((t_s - t_out) / self.time_width) ** 2)))
                 if acc.weight == 0.0:
-                    raise ValueError(f"times: no frame within reach of output time {t_out}")
+                    raise ValueError(f"times: expected output times within reach of the frames (Gaussian weights "
+                                     f"underflow beyond ~38 widths), got {t_out} with no frame in reach")
                 per_time.append(derive(acc.result(), self.fields, u_ref, dim, self.convention))
             shaped = {name: np.stack([f[name] for f in per_time]) for name in self.fields}
             shaped = _shape_fields(shaped, target, dim, leading=(len(per_time),))

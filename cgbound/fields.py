@@ -42,14 +42,18 @@ def check_fields(fields):
     except TypeError:
         raise TypeError(f"fields: expected a sequence of field names, got {fields!r}") from None
     if not fields:
-        raise ValueError("fields: expected at least one field name")
+        raise ValueError("fields: expected at least one field name, got none")
     for name in fields:
+        if not isinstance(name, str):
+            raise TypeError(f"fields: expected field names (strings), got {name!r}")
         if name not in FIELDS:
-            raise ValueError(f"fields: unknown field {name!r}; expected some of {', '.join(FIELDS)}")
+            raise ValueError(f"fields: expected some of {', '.join(FIELDS)}, got unknown field {name!r}")
     return tuple(dict.fromkeys(fields))
 
 
 def check_convention(convention):
+    if not isinstance(convention, str):
+        raise TypeError(f"convention: expected 'tension' or 'compression', got {convention!r}")
     if convention not in CONVENTIONS:
         raise ValueError(f"convention: expected 'tension' (the paper's sign) or 'compression' (MercuryCG's), "
                          f"got {convention!r}")
@@ -76,8 +80,34 @@ def _outer(a, b):
     return (a[:, :, None] * b[:, None, :]).reshape(a.shape[0], a.shape[1] * b.shape[1])
 
 
-def compute_primaries(snapshot, target, kernel, needed, u_ref):
-    """Primary sums of one snapshot at the target's nodes, flat over nodes: shape (P, ...)."""
+def check_computable(snapshot, needed, split=None):
+    """Raise, before any kernel work, if the snapshot lacks what the needed primaries require.
+
+    Returns the split contacts (or None if no contact primary is needed) so that they are not split twice.
+    """
+    if "phi" in needed and snapshot.radii is None:
+        raise ValueError("snapshot.radii: expected radii for the field 'volume_fraction', got None")
+    if not needed & {"sb", "sw", "t", "sx"}:
+        return None
+    if split is None:
+        split = snapshot.split_contacts()
+    boundary = split[1]
+    if "sx" in needed and boundary["i"].size:
+        at_centre = np.all(boundary["branch"] == 0.0, axis=1)
+        if np.any(at_centre):
+            k = int(boundary["i"][np.flatnonzero(at_centre)[0]])
+            raise ValueError("contacts.point: expected boundary contact points away from the particle centre for "
+                             "'extended_stress' (the direction of the ray, eq. 24, is undefined), got one at the "
+                             f"centre of particle {k}")
+    return split
+
+
+def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
+    """Primary sums of one snapshot at the target's nodes, flat over nodes: shape (P, ...).
+
+    ``split``: the result of ``check_computable`` if already called (checks are repeated otherwise).
+    """
+    split = check_computable(snapshot, needed, split)
     dim = snapshot.dim
     P = target.size
     core_target = target._core_target(snapshot.box)
@@ -116,15 +146,13 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref):
         else:
             out["b"] = np.zeros((P, dim))
     if "phi" in needed:
-        if snapshot.radii is None:
-            raise ValueError("volume_fraction: the snapshot needs radii")
         r = snapshot.radii[flow]
         vol = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
         out["phi"] = points(pos, vol[:, None])[:, 0]
 
     contact_primaries = needed & {"sb", "sw", "t", "sx"}
     if contact_primaries:
-        bulk, boundary = snapshot.split_contacts()
+        bulk, boundary = split
         zero_tensor = np.zeros((P, dim, dim))
         if "sb" in needed:
             if bulk["i"].size:
@@ -145,9 +173,6 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref):
                 out["sw"] = zero_tensor.copy()
         if "sx" in needed:
             if boundary["i"].size:
-                if np.any(np.all(boundary["branch"] == 0.0, axis=1)):
-                    raise ValueError("extended_stress: a boundary contact has its contact point at the particle "
-                                     "centre, so the direction of its ray (eq. 24) is undefined")
                 out["sx"] = _core.scatter_segments(core_target, core_kernel, start, -boundary["branch"],
                                                    values, ray=True).reshape(P, dim, dim)
             else:

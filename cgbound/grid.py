@@ -1,4 +1,5 @@
 """Where fields are evaluated: regular grids (with averaged axes) and point sets."""
+import math
 import numbers
 
 import numpy as np
@@ -11,11 +12,30 @@ def _axis_index(name, dim):
     names = ("x", "z") if dim == 2 else ("x", "y", "z")
     if isinstance(name, str):
         if name not in names:
-            raise ValueError(f"average: unknown axis {name!r}; expected some of {names}")
+            raise ValueError(f"average: expected axis names {names} or indices, got unknown axis {name!r}")
         return names.index(name)
-    if isinstance(name, numbers.Integral) and 0 <= int(name) < dim:
-        return int(name)
-    raise ValueError(f"average: expected axis names {names} or indices, got {name!r}")
+    if isinstance(name, (bool, np.bool_)) or not isinstance(name, numbers.Integral):
+        raise TypeError(f"average: expected axis names {names} or indices, got {name!r}")
+    if not 0 <= int(name) < dim:
+        raise ValueError(f"average: expected axis indices in [0, {dim}), got {int(name)}")
+    return int(name)
+
+
+def _averaged_axes(average, dim):
+    if isinstance(average, (str, numbers.Integral)):
+        average = (average,)
+    try:
+        average = tuple(average)
+    except TypeError:
+        raise TypeError(f"average: expected a sequence of axis names or indices, got {average!r}") from None
+    axes = [_axis_index(a, dim) for a in average]
+    if len(set(axes)) != len(axes):
+        raise ValueError(f"average: expected each axis at most once, got {average!r}")
+    return sorted(axes)
+
+
+def _node_count(n):
+    return isinstance(n, numbers.Integral) and not isinstance(n, (bool, np.bool_))
 
 
 class Grid:
@@ -35,19 +55,26 @@ class Grid:
         if not isinstance(box, Box):
             raise TypeError(f"box: expected a cg.Box, got {type(box).__name__}")
         dim = box.dim
-        if isinstance(average, (str, numbers.Integral)):
-            average = (average,)
-        averaged = sorted({_axis_index(a, dim) for a in average})
+        averaged = _averaged_axes(average, dim)
+        if isinstance(shape, (bool, np.bool_)):
+            raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}")
         if isinstance(shape, numbers.Integral):
             shape = tuple(1 if d in averaged else int(shape) for d in range(dim))
-        shape = tuple(shape)
-        if len(shape) != dim or not all(isinstance(n, numbers.Integral) and not isinstance(n, bool) for n in shape):
-            raise ValueError(f"shape: expected {dim} integers, got {shape!r}")
+        if isinstance(shape, (str, bytes)):
+            raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}")
+        try:
+            shape = tuple(shape)
+        except TypeError:
+            raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}") from None
+        if len(shape) != dim:
+            raise ValueError(f"shape: expected {dim} positive integers (one per axis), got {shape!r}")
+        if not all(_node_count(n) for n in shape):
+            raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}")
         if any(n < 1 for n in shape):
             raise ValueError(f"shape: expected positive node counts, got {shape!r}")
         for d in averaged:
             if shape[d] != 1:
-                raise ValueError(f"shape: averaged axis {box.axis_names[d]} must have 1 node, got {shape[d]}")
+                raise ValueError(f"shape: expected 1 node along the averaged axis {box.axis_names[d]}, got {shape[d]}")
         self.box = box
         self.shape = tuple(int(n) for n in shape)
         self.averaged = tuple(averaged)
@@ -64,7 +91,7 @@ class Grid:
 
     @property
     def size(self):
-        return int(np.prod(self.shape))
+        return math.prod(self.shape)  # a Python int: no overflow for absurd shapes
 
     @property
     def avg_extent(self):
@@ -96,10 +123,10 @@ class Points:
     averaged = ()
     avg_extent = 1.0
 
-    def __init__(self, positions):
-        pts = real_array(positions, "points", ndim=2)
+    def __init__(self, positions, _name="points"):
+        pts = real_array(positions, _name, ndim=2)
         if pts.shape[1] not in (2, 3):
-            raise ValueError(f"points: expected shape (P, 2) or (P, 3), got {pts.shape}")
+            raise ValueError(f"{_name}: expected shape (P, 2) or (P, 3), got {pts.shape}")
         self.positions = pts
 
     @property
@@ -134,7 +161,7 @@ def check_target(where, dim, name="grid"):
     if isinstance(where, (Grid, Points)):
         target = where
     else:
-        target = Points(where)
+        target = Points(where, _name=name)
     if target.dim != dim:
-        raise ValueError(f"{name}: expected a {dim}D grid or points like the snapshot, got {target.dim}D")
+        raise ValueError(f"{name}: expected a {dim}D grid or points like the snapshot, got a {target.dim}D {type(target).__name__}")
     return target

@@ -53,6 +53,8 @@ class Gaussian(Kernel):
         if cutoff is None:
             cutoff = DEFAULT_GAUSSIAN_CUTOFF * self.width
         self.radius = positive_number(cutoff, "cutoff")
+        if not isinstance(normalize, str):
+            raise TypeError(f"normalize: expected 'full' or 'truncated', got {normalize!r}")
         if normalize not in ("full", "truncated"):
             raise ValueError(f"normalize: expected 'full' or 'truncated', got {normalize!r}")
         self.normalize = normalize

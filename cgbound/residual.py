@@ -2,6 +2,7 @@
 import numpy as np
 
 from . import _core
+from ._memory import check_fits, core_threads
 from .fields import _outer as outer
 from .grid import Points, check_target
 from .kernels import check_kernel
@@ -56,15 +57,20 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
         raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
     kernel = check_kernel(kernel)
     if not kernel.differentiable:
-        raise ValueError(f"kernel: the momentum balance needs a differentiable kernel (Gaussian or Lucy), got {kernel!r}")
+        raise ValueError(f"kernel: expected a differentiable kernel (Gaussian or Lucy) for the momentum balance, "
+                         f"got {kernel!r}")
     target = check_target(points, snapshot.dim, name="points")
     if not isinstance(target, Points):
-        raise TypeError("points: expected cg.Points or a (P, D) array (a grid with averaged axes has no pointwise balance)")
+        raise TypeError(f"points: expected cg.Points or a (P, D) array (the balance is checked pointwise), "
+                        f"got {type(target).__name__}")
     dim, P = snapshot.dim, target.size
     if forces is None:
         forces = snapshot.particle_forces()
     else:
         forces = real_array(forces, "forces", ndim=2, shape=(snapshot.n_particles, dim))
+    # the gradient scatter has D^3 doubles per node (and per thread); the terms D each
+    threads = core_threads(max(snapshot.n_particles, len(snapshot.contacts)))
+    check_fits("points", P, threads * dim ** 3 + 8 * dim, what="the momentum balance terms")
     core_target = target._core_target(snapshot.box)
     core_kernel = kernel._core_args(1.0)
     flow = snapshot.flowing

@@ -1,10 +1,9 @@
 """One frame of particle data: positions, velocities, masses, contacts, box."""
-import numbers
 
 import numpy as np
 
 from . import _core
-from ._validate import bool_array, index_array, real_array
+from ._validate import bool_array, finite_number, index_array, real_array
 from .box import Box
 
 
@@ -80,7 +79,7 @@ class Snapshot:
             raise ValueError(f"masses: expected positive masses for flowing particles, got {self.masses[k]} at index {k}")
         if box is None:
             if n == 0:
-                raise ValueError("box: needed when there are no particles")
+                raise ValueError("box: expected a cg.Box when there are no particles, got None")
             lo, hi = self.positions.min(axis=0), self.positions.max(axis=0)
             pad = np.maximum(hi - lo, 1.0) * 1e-9
             box = Box(lo - pad, hi + pad)
@@ -103,10 +102,9 @@ class Snapshot:
         if radii is not None:
             self.radii = real_array(radii, "radii", ndim=1, shape=(n,))
             if np.any(self.radii < 0):
-                raise ValueError("radii: expected non-negative radii")
-        if isinstance(time, bool) or not isinstance(time, numbers.Real) or not np.isfinite(time):
-            raise ValueError(f"time: expected a finite number, got {time!r}")
-        self.time = float(time)
+                k = int(np.flatnonzero(self.radii < 0)[0])
+                raise ValueError(f"radii: expected non-negative radii, got {self.radii[k]} at index {k}")
+        self.time = finite_number(time, "time")
         if contacts is None:
             contacts = Contacts.empty(dim)
         if not isinstance(contacts, Contacts):
@@ -143,7 +141,8 @@ class Snapshot:
         same = c.i == c.j
         if np.any(same):
             k = int(np.flatnonzero(same)[0])
-            raise ValueError(f"contacts.j: a contact cannot join particle {c.i[k]} to itself (contact {k})")
+            raise ValueError(f"contacts.j: expected a particle other than contacts.i (or -1 for a wall), "
+                             f"got particle {c.i[k]} joined to itself at contact {k}")
         pairs = c.j >= 0
         lo = np.where(pairs, np.minimum(c.i, c.j), c.i)
         hi = np.where(pairs, np.maximum(c.i, c.j), -1)
@@ -152,8 +151,9 @@ class Snapshot:
             uniq, counts = np.unique(key[pairs], axis=0, return_counts=True)
             if np.any(counts > 1):
                 a, b = uniq[counts > 1][0]
-                raise ValueError(f"contacts: the pair ({a}, {b}) is listed more than once; "
-                                 "give each contact once (as (i, j, f) or (j, i, -f))")
+                where = np.flatnonzero(pairs & (lo == a) & (hi == b))
+                raise ValueError(f"contacts: expected each pair once (as (i, j, f) or (j, i, -f)), got the pair "
+                                 f"({a}, {b}) at contacts {', '.join(str(int(k)) for k in where)}")
 
     # ------------------------------------------------------------------
     def with_fixed(self, fixed):
@@ -171,7 +171,7 @@ class Snapshot:
         (and from true boundaries), placed at the contact points.
         """
         if self.species is None:
-            raise ValueError("species: this snapshot has no species array")
+            raise ValueError(f"species: expected None for a snapshot without a species array, got {species!r}")
         return self.with_fixed(self.fixed | (self.species != species))
 
     def split_contacts(self):
