@@ -19,18 +19,22 @@ class MomentumBalance:
     with ``forcing = sum_i f_i W_i``.
 
     Attributes: residual, forcing, div_contact_stress, div_boundary_stress,
-    interaction_force_density, body_force_density (all (P, D)), scale (the
-    largest term magnitude over all points) and relative (|residual| / scale, (P,)).
+    interaction_force_density, body_force_density (all (P, D)), scale and
+    relative (|residual| / scale, (P,)). The scale is the largest magnitude a term
+    can reach: the peak kernel value times the largest particle or contact force
+    (or a larger term actually seen), so points out of everyone's reach, where all
+    terms vanish, do not turn round-off into a relative error of 1.
     """
 
-    def __init__(self, points, terms):
+    def __init__(self, points, terms, reach=0.0):
         self.points = points
         for name, value in terms.items():
             setattr(self, name, value)
         self.residual = (self.forcing - self.div_contact_stress - self.div_boundary_stress
                          - self.interaction_force_density - self.body_force_density)
         mags = [np.linalg.norm(v, axis=1) for v in terms.values()]
-        self.scale = float(max((m.max() if m.size else 0.0) for m in mags)) if mags else 0.0
+        seen = max((m.max() if m.size else 0.0) for m in mags) if mags else 0.0
+        self.scale = float(max(seen, reach))
         norm = np.linalg.norm(self.residual, axis=1)
         self.relative = norm / self.scale if self.scale > 0 else norm
 
@@ -100,4 +104,11 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
         terms["interaction_force_density"] = zero
     terms["body_force_density"] = (points_value(pos, m[:, None] * snapshot.body_force[flow])
                                    if snapshot.body_force is not None else zero)
-    return MomentumBalance(target, terms)
+    # largest possible term magnitude: peak kernel value times the largest force
+    origin = np.zeros((1, dim))
+    peak = _core.scatter_points((dim, tuple(range(dim)), None, origin, [False] * dim, [1.0] * dim), core_kernel,
+                                origin, np.ones((1, 1)))[0, 0]
+    largest = max(np.abs(forces[flow]).max(initial=0.0), np.abs(snapshot.contacts.force).max(initial=0.0),
+                  np.abs(m[:, None] * snapshot.body_force[flow]).max(initial=0.0) if snapshot.body_force is not None
+                  else 0.0)
+    return MomentumBalance(target, terms, reach=peak * largest)
