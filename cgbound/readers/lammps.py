@@ -161,7 +161,8 @@ def _scan(path, kind):
             if n is None:
                 raise ValueError(f"{path}: no '{count_item}' in the frame at timestep {timestep}")
             for _ in range(n):
-                if not fh.readline():
+                row = fh.readline()
+                if not row.endswith(b"\n"):
                     raise ValueError(f"{path}: truncated frame at timestep {timestep}: expected {n} rows")
             frames.append((offset, timestep))
     return frames
