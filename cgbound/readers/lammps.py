@@ -11,8 +11,9 @@ Three kinds of LAMMPS output are combined, frame by frame (matched by TIMESTEP):
   (optional). The values verified on LAMMPS 29 Sep 2021 (Debian 20220106) output:
 
   - ``fx fy fz`` of pair/local is the force on ``patom1`` from ``patom2``. For the granular pair
-    styles (``gran/hooke``, ``gran/hooke/history``, ``gran/hertz/history`` and ``granular``)
-    it is only the NORMAL part (including normal damping);
+    styles it is only the NORMAL part (including normal damping). Verified for
+    ``gran/hooke/history`` and ``granular`` (hertz + mindlin, hooke + linear_history);
+    ``gran/hooke`` and ``gran/hertz/history`` share the documented convention but were not run;
   - ``p1 p2 p3`` is the tangential force on ``patom1`` (``p4`` its magnitude), for both the
     ``gran/*`` styles and ``pair granular``;
   - for ``pair granular`` only, ``p10 p11 p12`` is the branch vector ``x_patom1 - x_patom2``
@@ -24,9 +25,10 @@ Three kinds of LAMMPS output are combined, frame by frame (matched by TIMESTEP):
 * wall contacts from ``fix wall/gran ... contacts`` (and ``fix wall/gran/region ... contacts``),
   dumped as the fix's per-atom array ``f_ID[1..8]``: 1 = contact flag, 2-4 = force on the
   particle from the wall, 5-7 = contact point (on the wall surface), 8 = radius. Give the fix IDs
-  as ``walls=["ID", ...]``; they become boundary contacts with ``j = -1``. A particle touching
-  two walls of one ``fix wall/gran/region`` cannot be represented by this output (LAMMPS stores
-  one contact per particle and fix).
+  as ``walls=["ID", ...]``; they become boundary contacts with ``j = -1``. Verified for
+  ``fix wall/gran`` (plane walls); ``fix wall/gran/region ... contacts`` has the same layout
+  but was not run. LAMMPS stores one contact per particle and fix, so a particle touching two
+  walls of one fix cannot be represented by this output.
 
 Writing consistent dumps
 ------------------------
@@ -59,7 +61,9 @@ body_force=(0, 0, -1))``. Use ``%.17g`` so the balance holds to round-off. Bound
 (fixed) particles should simply not be integrated (no ``fix nve``, no gravity); do not zero
 their forces with ``fix setforce`` or ``fix freeze`` if you want their balance checked.
 :meth:`LammpsReader.force_mismatch` reports how well a frame balances (~1e-15 for ``run 0``
-frames; ~1e-3..1e-1 for frames dumped during a run with damping).
+frames with ``newton on``, ~1e-13 with ``newton off``, where LAMMPS evaluates a contact
+across a periodic boundary once from each side; ~1e-3..1e-1 for frames dumped during a run
+with damping).
 
 With ``pair_style granular``, list ``p1 ... p12`` in pair/local to get the branch vector; the
 reader finds the columns from ``pair_values`` (the keywords of ``compute pair/local`` in order).
