@@ -71,7 +71,14 @@ def run(args):
     from . import CoarseGrain, Gaussian, Grid, Heaviside, Lucy
     from .readers import open_dataset
 
-    data = open_dataset(args.input, format=args.format)
+    options = {}
+    if args.format == "lammps":
+        options = dict(pairs=args.pairs, pair_style=args.pair_style, dimension=args.dimension,
+                       fixed_types=_ints(args.fixed_types) if args.fixed_types else (),
+                       walls=tuple(w for w in (args.walls or "").split(",") if w))
+        if args.gravity:
+            options["body_force"] = [float(x) for x in args.gravity.split(",")]
+    data = open_dataset(args.input, format=args.format, **options)
     if len(data) == 0:
         raise SystemExit(f"{args.input}: no snapshots")
     first = data[0]
@@ -134,12 +141,19 @@ def main(argv=None):
 
     r = sub.add_parser(
         "run", help="coarse-grain a dataset and write the fields",
-        description="Read snapshots (cgbound HDF5 ...), coarse-grain them and write HDF5, .npz or VTK.",
+        description="Read snapshots (cgbound HDF5, or LAMMPS dumps), coarse-grain them and write HDF5, .npz or VTK.",
         epilog="example: cgbound run chute.h5 --grid 1,1,400 --average x,y --width 0.25 "
                "--fields density,stress,interaction_force_density -o profile.h5 --png profile.png",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     r.add_argument("input", help="dataset to read (format from the extension unless --format is given)")
-    r.add_argument("--format", choices=["hdf5"], help="input format")
+    r.add_argument("--format", choices=["hdf5", "lammps"], help="input format (.h5 files are hdf5)")
+    r.add_argument("--pairs", help="lammps: the contact dump local file (compute pair/local + property/local)")
+    r.add_argument("--pair-style", choices=["gran", "granular"], default="gran",
+                   help="lammps: pair style family that wrote the contact dump")
+    r.add_argument("--fixed-types", default="", help="lammps: atom types of fixed boundary particles, e.g. 2")
+    r.add_argument("--walls", default="", help="lammps: IDs of fix wall/gran ... contacts, e.g. floor")
+    r.add_argument("--gravity", default="", help="lammps: body force per unit mass, e.g. 0,0,-1")
+    r.add_argument("--dimension", type=int, choices=[2, 3], default=3, help="lammps: dimension of the run")
     r.add_argument("-o", "--output", default="cgbound_fields.h5", help="output file: .h5, .npz or .vtk")
     r.add_argument("--kernel", choices=KERNELS, default="gaussian", help="coarse-graining kernel")
     r.add_argument("--width", type=float, default=0.25, help="Gaussian width w (also the default scale of the others)")

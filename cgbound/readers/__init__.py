@@ -1,13 +1,21 @@
-"""Readers: each yields cg.Snapshot objects lazily, with len() and slicing where the format allows."""
+"""Readers: each yields cg.Snapshot objects lazily, with len() and slicing where the format allows
+(DESIGN.md section 1)."""
 from .hdf5 import HDF5Snapshots, write_snapshots
+from .lammps import LammpsFrame, LammpsReader, pair_local_columns
 
-__all__ = ["HDF5Snapshots", "open_dataset", "write_snapshots"]
+__all__ = ["HDF5Snapshots", "LammpsFrame", "LammpsReader", "open_dataset", "pair_local_columns", "write_snapshots"]
 
 
 def open_dataset(path, format=None, **options):
-    """Open a dataset as a lazy sequence of Snapshots; ``format`` defaults from the extension."""
+    """Open a dataset as a lazy sequence of Snapshots; ``format`` defaults from the extension.
+
+    ``format="lammps"`` takes the particle dump as ``path`` and the reader's options
+    (e.g. ``pairs=`` the contact dump, ``fixed_types=``) as keywords.
+    """
     import os
     fmt = format or {".h5": "hdf5", ".hdf5": "hdf5"}.get(os.path.splitext(str(path))[1].lower())
     if fmt == "hdf5":
         return HDF5Snapshots(path, **options)
-    raise ValueError(f"format: cannot tell the format of {str(path)!r}; expected one of: hdf5")
+    if fmt == "lammps":
+        return LammpsReader(path, **options)
+    raise ValueError(f"format: cannot tell the format of {str(path)!r}; expected one of: hdf5, lammps")

@@ -1,0 +1,639 @@
+"""Read LAMMPS granular dumps as a lazy sequence of :class:`cgbound.Snapshot`.
+
+Three kinds of LAMMPS output are combined, frame by frame (matched by TIMESTEP):
+
+* a particle ``dump custom`` with columns such as ``id type x y z vx vy vz fx fy fz radius mass``
+  in any order (the order is read from the ``ITEM: ATOMS`` header). Positions may be plain
+  (``x y z``), scaled (``xs ys zs``), unwrapped (``xu yu zu``) or scaled and unwrapped
+  (``xsu ysu zsu``). ``ITEM: BOX BOUNDS`` gives the box; an axis is periodic when its flag is
+  ``pp``. Triclinic boxes are not supported.
+* a contact ``dump local`` of ``compute pair/local`` and ``compute property/local patom1 patom2``
+  (optional). The values verified on LAMMPS 29 Sep 2021 (Debian 20220106) output:
+
+  - ``fx fy fz`` of pair/local is the force on ``patom1`` from ``patom2``. For the granular pair
+    styles it is only the NORMAL part (including normal damping). Verified for
+    ``gran/hooke/history`` and ``granular`` (hertz + mindlin, hooke + linear_history);
+    ``gran/hooke`` and ``gran/hertz/history`` share the documented convention but were not run;
+  - ``p1 p2 p3`` is the tangential force on ``patom1`` (``p4`` its magnitude), for both the
+    ``gran/*`` styles and ``pair granular``;
+  - for ``pair granular`` only, ``p10 p11 p12`` is the branch vector ``x_patom1 - x_patom2``
+    (minimum image), which the reader uses when present.
+
+  The contact force on ``patom1`` from ``patom2`` is then ``(fx, fy, fz) + (p1, p2, p3)``, and
+  the contact point is rebuilt as ``c = x_i - (R_i - delta/2) n`` with ``n`` the unit vector
+  from j to i (minimum image) and ``delta = R_i + R_j - |x_i - x_j|`` the overlap.
+* wall contacts from ``fix wall/gran ... contacts`` (and ``fix wall/gran/region ... contacts``),
+  dumped as the fix's per-atom array ``f_ID[1..8]``: 1 = contact flag, 2-4 = force on the
+  particle from the wall, 5-7 = contact point (on the wall surface), 8 = radius. Give the fix IDs
+  as ``walls=["ID", ...]``; they become boundary contacts with ``j = -1``. Verified for
+  ``fix wall/gran`` (plane walls); ``fix wall/gran/region ... contacts`` has the same layout
+  but was not run. LAMMPS stores one contact per particle and fix, so a particle touching two
+  walls of one fix cannot be represented by this output.
+
+Writing consistent dumps
+------------------------
+LAMMPS evaluates ``compute pair/local`` when the dump is written, at the END of a step, with
+the end-of-step velocities and contact histories, while the per-atom forces ``fx fy fz`` were
+computed mid-step (velocity-Verlet, half-step velocities). Velocity-dependent damping makes the
+two disagree, so frames dumped during a ``run`` do not balance: the per-contact forces plus the
+body forces do not add up to the dumped per-particle forces. Inside ``run 0`` both come from
+the same force evaluation (and contact histories are not advanced in setup). Write each frame
+inside its own ``run 0``::
+
+    compute         pl all pair/local dist fx fy fz p1 p2 p3 p4 cutoff radius
+    compute         pp all property/local patom1 patom2 cutoff radius
+    fix             w flow wall/gran hooke/history ... zplane 0.0 NULL contacts
+    variable        k loop 10
+    label           frame
+    run             1000
+    dump            a all custom 1 atoms.dump id type x y z vx vy vz fx fy fz radius mass f_w[*]
+    dump            c all local 1 pairs.dump index c_pp[*] c_pl[*]
+    dump_modify     a format float %.17g append yes
+    dump_modify     c format float %.17g append yes
+    run             0
+    undump          a
+    undump          c
+    next            k
+    jump            SELF frame
+
+and read them with ``LammpsReader("atoms.dump", "pairs.dump", walls=["w"], fixed_types=[2],
+body_force=(0, 0, -1))``. Use ``%.17g`` so the balance holds to round-off. Boundary
+(fixed) particles should simply not be integrated (no ``fix nve``, no gravity); do not zero
+their forces with ``fix setforce`` or ``fix freeze`` if you want their balance checked.
+:meth:`LammpsReader.force_mismatch` reports how well a frame balances (~1e-15 for ``run 0``
+frames with ``newton on``, ~1e-13 with ``newton off``, where LAMMPS evaluates a contact
+across a periodic boundary once from each side; ~1e-3..1e-1 for frames dumped during a run
+with damping).
+
+With ``pair_style granular``, list ``p1 ... p12`` in pair/local to get the branch vector; the
+reader finds the columns from ``pair_values`` (the keywords of ``compute pair/local`` in order).
+Set the column names explicitly with ``pair_columns`` for other layouts.
+
+Two dimensions
+--------------
+With ``dimension=2`` the LAMMPS x and y columns become cgbound's 2-D axes (x, z); the LAMMPS z
+column is ignored. ``body_force`` is then given in cgbound axes (2 values, e.g. ``(0, -1)`` for
+LAMMPS ``fix gravity 1.0 vector 0 -1 0``) or as the 3 LAMMPS components (z must be 0).
+
+Particle order
+--------------
+Particles are sorted by LAMMPS atom ID in every frame, so index k is the same atom in every frame
+(as long as no atoms are created or lost). :meth:`LammpsReader.frame` also returns the IDs, types,
+timestep and the dumped per-particle forces.
+"""
+import io
+import numbers
+import os
+
+import numpy as np
+
+from ..box import Box
+from ..snapshot import Contacts, Snapshot
+
+__all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
+
+PAIR_STYLES = ("gran", "granular", "total")
+
+DEFAULT_PAIR_VALUES = ("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4")
+DEFAULT_GRANULAR_VALUES = ("dist", "fx", "fy", "fz") + tuple(f"p{k}" for k in range(1, 13))
+
+_POSITION_COLUMNS = (("x", "y", "z", False, False), ("xu", "yu", "zu", False, True),
+                     ("xs", "ys", "zs", True, False), ("xsu", "ysu", "zsu", True, True))
+
+
+def pair_local_columns(pair_compute="pl", pair_values=DEFAULT_PAIR_VALUES, property_compute="pp",
+                       property_values=("patom1", "patom2"), pair_style="gran"):
+    """Column names of a ``dump local`` written as ``index c_PP[*] c_PL[*]``.
+
+    ``pair_values`` and ``property_values`` are the keywords given to ``compute pair/local`` and
+    ``compute property/local``, in order. Returns a dict with keys ``id1``, ``id2``, ``force``
+    (3 names), ``tangential`` (3 names or None) and ``branch`` (3 names or None).
+    """
+    if pair_style not in PAIR_STYLES:
+        raise ValueError(f"pair_style: expected one of {PAIR_STYLES}, got {pair_style!r}")
+    pv, qv = list(pair_values), list(property_values)
+
+    def col(compute, values, key, what):
+        if key not in values:
+            raise ValueError(f"{what}: expected the keyword {key!r} among {values}")
+        if len(values) == 1:
+            return f"c_{compute}"
+        return f"c_{compute}[{values.index(key) + 1}]"
+
+    out = {"id1": col(property_compute, qv, "patom1", "property_values"),
+           "id2": col(property_compute, qv, "patom2", "property_values"),
+           "force": tuple(col(pair_compute, pv, k, "pair_values") for k in ("fx", "fy", "fz")),
+           "tangential": None, "branch": None}
+    if pair_style in ("gran", "granular"):
+        out["tangential"] = tuple(col(pair_compute, pv, k, "pair_values") for k in ("p1", "p2", "p3"))
+    if pair_style == "granular" and all(k in pv for k in ("p10", "p11", "p12")):
+        out["branch"] = tuple(col(pair_compute, pv, k, "pair_values") for k in ("p10", "p11", "p12"))
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# Low-level dump parsing
+
+def _scan(path, kind):
+    """Byte offsets of the frames of a LAMMPS text dump: list of (offset, timestep)."""
+    count_item = "ITEM: NUMBER OF ATOMS" if kind == "atoms" else "ITEM: NUMBER OF ENTRIES"
+    frames = []
+    with open(path, "rb") as fh:
+        while True:
+            offset = fh.tell()
+            line = fh.readline()
+            if not line:
+                break
+            if not line.strip():
+                continue
+            if not line.startswith(b"ITEM: TIMESTEP"):
+                raise ValueError(f"{path}: expected 'ITEM: TIMESTEP' at byte {offset}, got {line[:60]!r}")
+            timestep = int(fh.readline().split()[0])
+            n = None
+            while True:
+                line = fh.readline()
+                if not line:
+                    raise ValueError(f"{path}: truncated frame at timestep {timestep}")
+                text = line.decode()
+                if text.startswith(count_item):
+                    n = int(fh.readline().split()[0])
+                elif text.startswith("ITEM: NUMBER OF"):
+                    other = "dump local" if kind == "atoms" else "dump custom (atoms)"
+                    raise ValueError(f"{path}: found {text.strip()!r}; this looks like a {other} file")
+                elif text.startswith("ITEM: ATOMS") or text.startswith("ITEM: ENTRIES"):
+                    break
+            if n is None:
+                raise ValueError(f"{path}: no '{count_item}' in the frame at timestep {timestep}")
+            for _ in range(n):
+                row = fh.readline()
+                if not row.endswith(b"\n"):
+                    raise ValueError(f"{path}: truncated frame at timestep {timestep}: expected {n} rows")
+            frames.append((offset, timestep))
+    return frames
+
+
+def _read_frame(path, offset):
+    """One frame: dict with timestep, time (or None), box bounds/flags, column names and rows."""
+    with open(path, "rb") as fh:
+        fh.seek(offset)
+        head = {"time": None, "bounds": None, "flags": None, "triclinic": False}
+        line = fh.readline().decode()
+        assert line.startswith("ITEM: TIMESTEP")
+        head["timestep"] = int(fh.readline().split()[0])
+        n = 0
+        while True:
+            text = fh.readline().decode()
+            if text.startswith("ITEM: TIME"):
+                head["time"] = float(fh.readline().split()[0])
+            elif text.startswith("ITEM: NUMBER OF"):
+                n = int(fh.readline().split()[0])
+            elif text.startswith("ITEM: BOX BOUNDS"):
+                words = text.split()[3:]
+                if words[:3] == ["xy", "xz", "yz"]:
+                    head["triclinic"] = True
+                    words = words[3:]
+                head["flags"] = words
+                rows = [fh.readline().split() for _ in range(3)]
+                head["bounds"] = np.array([[float(v) for v in r[:2]] for r in rows])
+            elif text.startswith("ITEM: ATOMS") or text.startswith("ITEM: ENTRIES"):
+                head["columns"] = text.split()[2:]
+                break
+            elif not text:
+                raise ValueError(f"{path}: truncated frame at byte {offset}")
+        raw = b"".join(fh.readline() for _ in range(n))
+    ncol = len(head["columns"])
+    values = np.fromstring(raw.decode(), sep=" ") if n else np.zeros(0)
+    if values.size != n * ncol:
+        # non-numeric columns (e.g. element names): convert column by column when asked
+        table = np.array(raw.decode().split(), dtype=object).reshape(n, ncol)
+        head["data"] = _LazyTable(table, head["columns"])
+    else:
+        head["data"] = _Table(values.reshape(n, ncol), head["columns"])
+    head["n"] = n
+    return head
+
+
+class _Table:
+    def __init__(self, values, columns):
+        self.values = values
+        self.index = {c: k for k, c in enumerate(columns)}
+
+    def __contains__(self, name):
+        return name in self.index
+
+    def __getitem__(self, name):
+        return np.asarray(self.values[:, self.index[name]], dtype=float)
+
+
+class _LazyTable(_Table):
+    def __getitem__(self, name):
+        try:
+            return np.asarray(self.values[:, self.index[name]], dtype=float)
+        except ValueError:
+            raise ValueError(f"column {name!r} is not numeric") from None
+
+
+# ----------------------------------------------------------------------------------------------
+
+class LammpsFrame:
+    """One frame read from LAMMPS dumps.
+
+    Attributes: ``snapshot`` (cg.Snapshot), ``ids`` and ``types`` (N ints, sorted by ID),
+    ``timestep``, ``forces`` ((N, D) dumped per-particle forces or None), ``contact_ids``
+    ((M, 2) LAMMPS IDs of each contact, -1 for walls), ``overlap`` ((M,) overlaps, NaN for walls).
+    """
+
+    def __init__(self, snapshot, ids, types, timestep, forces, contact_ids, overlap):
+        self.snapshot = snapshot
+        self.ids = ids
+        self.types = types
+        self.timestep = timestep
+        self.forces = forces
+        self.contact_ids = contact_ids
+        self.overlap = overlap
+
+    def force_balance(self, fixed=False):
+        """Per-particle force-balance mismatch against the dumped forces.
+
+        Returns a dict: ``mismatch`` ((N,) |sum of contact forces + m g - dumped force|, NaN for
+        particles not checked), ``scale`` (the typical force: the RMS contact-force magnitude, or
+        the RMS dumped force when there are no contacts) and ``relative`` (max mismatch / scale).
+        Flowing particles are checked with the body force; fixed ones, when ``fixed=True``, with
+        contacts only (they are assumed to feel no body force and not to be zeroed by LAMMPS).
+        """
+        if self.forces is None:
+            raise ValueError("force_balance: the atoms dump has no fx fy fz columns")
+        snap = self.snapshot
+        total = np.zeros((snap.n_particles, snap.dim))
+        c = snap.contacts
+        if len(c):
+            np.add.at(total, c.i, c.force)
+            pair = c.j >= 0
+            np.add.at(total, c.j[pair], -c.force[pair])
+        if snap.body_force is not None:
+            total[snap.flowing] += snap.masses[snap.flowing, None] * snap.body_force[snap.flowing]
+        diff = np.linalg.norm(total - self.forces, axis=1)
+        checked = np.ones(snap.n_particles, bool) if fixed else snap.flowing.copy()
+        mismatch = np.where(checked, diff, np.nan)
+        if len(c):
+            scale = float(np.sqrt(np.mean(np.sum(c.force ** 2, axis=1))))
+        else:
+            scale = float(np.sqrt(np.mean(np.sum(self.forces ** 2, axis=1)))) if snap.n_particles else 0.0
+        worst = float(np.max(diff[checked])) if checked.any() else 0.0
+        relative = worst / scale if scale > 0 else worst
+        return {"mismatch": mismatch, "scale": scale, "relative": relative}
+
+
+class LammpsReader:
+    """Lazy sequence of :class:`cgbound.Snapshot` from LAMMPS dumps (see the module docstring).
+
+    Parameters
+    ----------
+    atoms : path
+        ``dump custom`` file. Needs ``id``, positions and ``mass`` (or ``masses=``); uses ``type``,
+        velocities, ``fx fy fz``, ``radius`` (or ``diameter``) and wall-fix columns when present.
+    pairs : path, optional
+        ``dump local`` of ``compute property/local patom1 patom2`` and ``compute pair/local``.
+    pair_style : "gran", "granular" or "total"
+        "gran" (pair gran/*) and "granular" (pair granular): force = fx fy fz + p1 p2 p3.
+        "total": fx fy fz is the whole force (non-granular pair styles).
+    pair_compute, pair_values, property_compute, property_values :
+        IDs and keywords of the two computes, used to name the columns (see :func:`pair_local_columns`).
+        ``pair_values`` defaults to ``dist fx fy fz p1 p2 p3 p4`` ("gran") or
+        ``dist fx fy fz p1 ... p12`` ("granular").
+    pair_columns : dict, optional
+        Explicit column names, overriding the above (keys as returned by pair_local_columns).
+    walls : sequence of str
+        IDs of ``fix wall/gran ... contacts`` whose ``f_ID[1..8]`` columns are in the atoms dump.
+    fixed_types : sequence of int
+        Atom types that are boundary (fixed) particles.
+    fixed_ids : sequence of int
+        Atom IDs that are boundary particles (e.g. a LAMMPS group).
+    body_force : (D,) array, optional
+        Body force per unit mass (e.g. gravity) acting on the flowing particles, in cgbound axes
+        (in 2D also accepted as the 3 LAMMPS components).
+    masses : dict type -> mass, optional
+        When the atoms dump has no ``mass`` column.
+    dimension : 2 or 3
+    dt : float, optional
+        Time step size: a snapshot's time is ``timestep * dt``. Default: the dump's ``ITEM: TIME``
+        when present, else the timestep number.
+    wrap : bool
+        Wrap positions and contact points into the box along periodic axes (default True).
+    drop_inactive : bool
+        Drop pair rows with no overlap and zero force (pairs within a force cutoff but not touching;
+        default True).
+    """
+
+    def __init__(self, atoms, pairs=None, *, pair_style="gran", pair_compute="pl", pair_values=None,
+                 property_compute="pp", property_values=("patom1", "patom2"), pair_columns=None,
+                 walls=(), fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=3,
+                 dt=None, wrap=True, drop_inactive=True):
+        if dimension not in (2, 3):
+            raise ValueError(f"dimension: expected 2 or 3, got {dimension!r}")
+        if pair_style not in PAIR_STYLES:
+            raise ValueError(f"pair_style: expected one of {PAIR_STYLES}, got {pair_style!r}")
+        self.atoms_path = os.path.abspath(os.fspath(atoms))
+        self.pairs_path = None if pairs is None else os.path.abspath(os.fspath(pairs))
+        self.dimension = dimension
+        self.pair_style = pair_style
+        if pair_columns is None and pairs is not None:
+            if pair_values is None:
+                pair_values = DEFAULT_GRANULAR_VALUES if pair_style == "granular" else DEFAULT_PAIR_VALUES
+            pair_columns = pair_local_columns(pair_compute, pair_values, property_compute, property_values,
+                                              pair_style)
+        self.pair_columns = None if pair_columns is None else dict(pair_columns)
+        if isinstance(walls, str):
+            walls = [walls]
+        self.walls = tuple(str(w) for w in walls)
+        self.fixed_types = tuple(int(t) for t in fixed_types)
+        self.fixed_ids = np.unique(np.asarray(list(fixed_ids), dtype=np.int64))
+        self.body_force = self._check_body_force(body_force)
+        self.masses_by_type = None if masses is None else {int(k): float(v) for k, v in dict(masses).items()}
+        if dt is not None and (isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not dt > 0):
+            raise ValueError(f"dt: expected a positive number, got {dt!r}")
+        self.dt = None if dt is None else float(dt)
+        self.wrap = bool(wrap)
+        self.drop_inactive = bool(drop_inactive)
+        atom_frames = _scan(self.atoms_path, "atoms")
+        self._frames = self._match(atom_frames)
+        self._cache = None
+
+    # ------------------------------------------------------------------------------------------
+    def _check_body_force(self, g):
+        if g is None:
+            return None
+        g = np.asarray(g, dtype=float)
+        dim = self.dimension
+        if dim == 2 and g.shape == (3,):
+            if g[2] != 0:
+                raise ValueError("body_force: a 2D LAMMPS run has no z component; got a non-zero z")
+            g = g[:2]
+        if g.shape != (dim,) or not np.all(np.isfinite(g)):
+            raise ValueError(f"body_force: expected {dim} finite values, got {g.tolist()}")
+        return g
+
+    def _match(self, atom_frames):
+        """Pair each atoms frame with the pairs frame of the same timestep (k-th with k-th)."""
+        if self.pairs_path is None:
+            return [(off, ts, None) for off, ts in atom_frames]
+        by_step = {}
+        for off, ts in _scan(self.pairs_path, "local"):
+            by_step.setdefault(ts, []).append(off)
+        used = {}
+        out = []
+        missing = []
+        for off, ts in atom_frames:
+            k = used.get(ts, 0)
+            offsets = by_step.get(ts, [])
+            if k < len(offsets):
+                out.append((off, ts, offsets[k]))
+                used[ts] = k + 1
+            else:
+                missing.append(ts)
+        if missing:
+            raise ValueError(f"pairs: no contact frame for timestep(s) {missing[:10]} of the atoms dump "
+                             f"{self.atoms_path}; dump both at the same steps (see the module docstring)")
+        return out
+
+    # ------------------------------------------------------------------------------------------
+    def __len__(self):
+        return len(self._frames)
+
+    @property
+    def timesteps(self):
+        return [ts for _, ts, _ in self._frames]
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            out = object.__new__(LammpsReader)
+            out.__dict__.update(self.__dict__)
+            out._frames = self._frames[index]
+            out._cache = None
+            return out
+        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (numbers.Integral, np.integer)):
+            raise TypeError(f"index: expected an integer or a slice, got {type(index).__name__}")
+        return self.frame(index).snapshot
+
+    def __iter__(self):
+        for k in range(len(self)):
+            yield self[k]
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["_cache"] = None
+        return state
+
+    def __repr__(self):
+        return (f"LammpsReader({os.path.basename(self.atoms_path)!r}, "
+                f"{None if self.pairs_path is None else os.path.basename(self.pairs_path)!r}, "
+                f"{len(self)} frames, {self.dimension}D)")
+
+    # ------------------------------------------------------------------------------------------
+    def frame(self, index):
+        """Frame ``index`` as a :class:`LammpsFrame` (snapshot plus IDs, types, dumped forces)."""
+        n = len(self._frames)
+        k = int(index)
+        if k < 0:
+            k += n
+        if not 0 <= k < n:
+            raise IndexError(f"index: frame {index} out of range for {n} frames")
+        if self._cache is not None and self._cache[0] == k:
+            return self._cache[1]
+        result = self._build(*self._frames[k])
+        self._cache = (k, result)
+        return result
+
+    def force_mismatch(self, index, fixed=False):
+        """Max |sum of contact forces + m g - dumped force| over particles, relative to the typical
+        (RMS) contact force: the force-balance mismatch of frame ``index`` (see LammpsFrame.force_balance)."""
+        return self.frame(index).force_balance(fixed=fixed)["relative"]
+
+    def dumped_forces(self, index):
+        """The per-particle forces of the atoms dump for frame ``index`` ((N, D), sorted by ID)."""
+        f = self.frame(index).forces
+        if f is None:
+            raise ValueError("dumped_forces: the atoms dump has no fx fy fz columns")
+        return f
+
+    # ------------------------------------------------------------------------------------------
+    def _axes(self):
+        return (0, 1) if self.dimension == 2 else (0, 1, 2)
+
+    def _build(self, atoms_offset, timestep, pairs_offset):
+        path = self.atoms_path
+        fr = _read_frame(path, atoms_offset)
+        if fr["triclinic"]:
+            raise NotImplementedError(f"{path}: triclinic boxes are not supported (timestep {timestep})")
+        if fr["bounds"] is None:
+            raise ValueError(f"{path}: no ITEM: BOX BOUNDS in the frame at timestep {timestep}")
+        tab = fr["data"]
+        axes = self._axes()
+        dim = self.dimension
+        lo_all, hi_all = fr["bounds"][:, 0], fr["bounds"][:, 1]
+        lower, upper = lo_all[list(axes)], hi_all[list(axes)]
+        periodic = tuple(fr["flags"][a] == "pp" for a in axes)
+        box = Box(lower, upper, periodic)
+        lengths = upper - lower
+
+        if "id" not in tab:
+            raise ValueError(f"{path}: the atoms dump needs an 'id' column (has {list(tab.index)})")
+        ids_raw = tab["id"].astype(np.int64)
+        order = np.argsort(ids_raw, kind="stable")
+        ids = ids_raw[order]
+        if np.any(np.diff(ids) == 0):
+            raise ValueError(f"{path}: duplicate atom IDs at timestep {timestep}")
+        n = ids.shape[0]
+
+        def cols(names, what):
+            missing = [c for c in names if c not in tab]
+            if missing:
+                raise ValueError(f"{path}: {what} needs columns {missing} (has {list(tab.index)})")
+            return np.stack([tab[names[a]][order] for a in axes], axis=1) if n else np.zeros((0, dim))
+
+        for xn, yn, zn, scaled, unwrapped in _POSITION_COLUMNS:
+            if xn in tab:
+                pos = cols((xn, yn, zn), "positions")
+                if scaled:
+                    pos = lower + pos * lengths
+                break
+        else:
+            raise ValueError(f"{path}: no position columns (x y z, xu yu zu, xs ys zs or xsu ysu zsu)")
+        if self.wrap:
+            pos = self._wrap(pos, box)
+
+        types = tab["type"][order].astype(np.int64) if "type" in tab else np.ones(n, np.int64)
+        vel = cols(("vx", "vy", "vz"), "velocities") if "vx" in tab else None
+        forces = cols(("fx", "fy", "fz"), "forces") if "fx" in tab else None
+        if "mass" in tab:
+            masses = tab["mass"][order]
+        elif self.masses_by_type is not None:
+            try:
+                masses = np.array([self.masses_by_type[int(t)] for t in types], float)
+            except KeyError as exc:
+                raise ValueError(f"masses: no mass given for atom type {exc.args[0]}") from None
+        else:
+            raise ValueError(f"{path}: no 'mass' column; dump it or pass masses={{type: mass}}")
+        if "radius" in tab:
+            radii = tab["radius"][order]
+        elif "diameter" in tab:
+            radii = 0.5 * tab["diameter"][order]
+        else:
+            radii = None
+
+        fixed = np.isin(types, self.fixed_types) | np.isin(ids, self.fixed_ids)
+
+        # contacts ---------------------------------------------------------------------------
+        ci, cj, cf, cp, cids, cov = [], [], [], [], [], []
+        if pairs_offset is not None:
+            part = self._pair_contacts(pairs_offset, timestep, ids, pos, radii, box)
+            for lst, val in zip((ci, cj, cf, cp, cids, cov), part):
+                lst.append(val)
+        for wall in self.walls:
+            names = [f"f_{wall}[{k}]" for k in range(1, 9)]
+            missing = [c for c in names[:7] if c not in tab]
+            if missing:
+                raise ValueError(f"{path}: wall {wall!r} needs columns {missing} (dump f_{wall}[*] from "
+                                 f"'fix {wall} ... wall/gran ... contacts')")
+            flag = tab[names[0]][order] != 0
+            k = np.flatnonzero(flag)
+            f3 = np.stack([tab[names[1 + a]][order][k] for a in axes], axis=1)
+            p3 = np.stack([tab[names[4 + a]][order][k] for a in axes], axis=1)
+            if self.wrap:
+                p3 = self._wrap(p3, box)
+            ci.append(k)
+            cj.append(np.full(k.shape, -1, np.int64))
+            cf.append(f3)
+            cp.append(p3)
+            cids.append(np.stack([ids[k], np.full(k.shape, -1, np.int64)], axis=1))
+            cov.append(np.full(k.shape, np.nan))
+        if ci:
+            contacts = Contacts(np.concatenate(ci), np.concatenate(cj), np.concatenate(cf).reshape(-1, dim),
+                                np.concatenate(cp).reshape(-1, dim))
+            contact_ids = np.concatenate(cids).reshape(-1, 2)
+            overlap = np.concatenate(cov)
+        else:
+            contacts = Contacts.empty(dim)
+            contact_ids = np.zeros((0, 2), np.int64)
+            overlap = np.zeros(0)
+
+        if self.dt is not None:
+            time = timestep * self.dt
+        elif fr["time"] is not None:
+            time = fr["time"]
+        else:
+            time = float(timestep)
+        safe_masses = np.where(fixed & ~(masses > 0), 1.0, masses)
+        snap = Snapshot(pos, velocities=vel, masses=safe_masses, box=box, contacts=contacts, fixed=fixed,
+                        species=types, body_force=self.body_force, radii=radii, time=time)
+        return LammpsFrame(snap, ids, types, timestep, forces, contact_ids, overlap)
+
+    def _wrap(self, x, box):
+        x = np.array(x, dtype=float)
+        for a, per in enumerate(box.periodic):
+            if per:
+                L = box.upper[a] - box.lower[a]
+                x[:, a] = box.lower[a] + np.mod(x[:, a] - box.lower[a], L)
+                # np.mod can return L itself for tiny negative inputs
+                x[:, a] = np.where(x[:, a] >= box.upper[a], box.lower[a], x[:, a])
+        return x
+
+    def _pair_contacts(self, offset, timestep, ids, pos, radii, box):
+        path = self.pairs_path
+        fr = _read_frame(path, offset)
+        tab = fr["data"]
+        names = self.pair_columns
+        dim = self.dimension
+        axes = self._axes()
+        needed = [names["id1"], names["id2"], *names["force"]]
+        for key in ("tangential", "branch"):
+            if names.get(key):
+                needed += list(names[key])
+        if fr["n"]:
+            missing = [c for c in needed if c not in tab]
+            if missing:
+                raise ValueError(f"{path}: expected columns {missing} in the dump local (has "
+                                 f"{list(tab.index)}); set pair_compute/pair_values/property_compute "
+                                 "or pair_columns to match your computes")
+        m = fr["n"]
+        if m == 0:
+            return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)),
+                    np.zeros((0, 2), np.int64), np.zeros(0))
+        id1 = tab[names["id1"]].astype(np.int64)
+        id2 = tab[names["id2"]].astype(np.int64)
+        i = np.searchsorted(ids, id1)
+        j = np.searchsorted(ids, id2)
+        bad = (i >= ids.size) | (j >= ids.size)
+        bad |= ids[np.minimum(i, ids.size - 1)] != id1
+        bad |= ids[np.minimum(j, ids.size - 1)] != id2
+        if np.any(bad):
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"{path}: contact between atom IDs {id1[k]} and {id2[k]} at timestep {timestep}: "
+                             "an ID is not in the atoms dump (dump all atoms, or both dumps for the same group)")
+        force = np.stack([tab[names["force"][a]] for a in axes], axis=1)
+        if names.get("tangential"):
+            force = force + np.stack([tab[names["tangential"][a]] for a in axes], axis=1)
+        if names.get("branch"):
+            branch = np.stack([tab[names["branch"][a]] for a in axes], axis=1)
+        else:
+            branch = pos[i] - pos[j]
+            for a, per in enumerate(box.periodic):
+                if per:
+                    L = box.upper[a] - box.lower[a]
+                    branch[:, a] -= L * np.round(branch[:, a] / L)
+        dist = np.linalg.norm(branch, axis=1)
+        if radii is None:
+            raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or 'diameter' column")
+        overlap = radii[i] + radii[j] - dist
+        keep = np.ones(m, bool)
+        if self.drop_inactive:
+            keep = (overlap > 0) | np.any(force != 0, axis=1)
+        i, j, force, branch, dist, overlap = i[keep], j[keep], force[keep], branch[keep], dist[keep], overlap[keep]
+        if np.any(dist == 0):
+            raise ValueError(f"{path}: two atoms at the same position at timestep {timestep}")
+        normal = branch / dist[:, None]
+        point = pos[i] - (radii[i] - 0.5 * overlap)[:, None] * normal
+        if self.wrap:
+            point = self._wrap(point, box)
+        contact_ids = np.stack([ids[i], ids[j]], axis=1)
+        return i, j, force, point, contact_ids, overlap
