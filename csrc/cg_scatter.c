@@ -342,6 +342,7 @@ static void store_status(int *status, int v)
 #pragma omp atomic write
 #endif
     *status = v;
+    (void)v; /* gcc 12 warns "set but not used" for a parameter only used under omp atomic */
 }
 
 static cg_status run(job *jb, double *out)
