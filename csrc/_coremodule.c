@@ -217,7 +217,7 @@ static int convert_target(PyObject *obj, converted_target *ct)
         }
         for (Py_ssize_t a = 0; a < nr; ++a) {
             PyObject *c = PySequence_GetItem(coords, a);
-            if (!c) return 0;
+            if (!c) { release_target(ct); return 0; } /* earlier axes are already converted */
             const npy_intp any = -1;
             ct->coords[a] = as_array(c, "grid coordinates", 1, &any);
             Py_DECREF(c);
