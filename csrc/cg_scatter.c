@@ -228,8 +228,11 @@ static cg_status scatter_object(const job *jb, double *out, cg_index obj)
         if (jb->is_segment) e[a] = jb->vecs[obj * D + t->axes[a]];
     }
     if (nr == 0) {
+        /* the kernel is constant: every node (one for a grid, all of a
+           point set) receives the same weight */
         const double dummy[3] = {0.0, 0.0, 0.0};
-        accumulate(jb, out, obj, 0, jb->kernel->prefactor, dummy);
+        const cg_index P = cg_target_size(t);
+        for (cg_index p = 0; p < P; ++p) accumulate(jb, out, obj, p, jb->kernel->prefactor, dummy);
         return CG_OK;
     }
     if (jb->is_segment && jb->ray) {

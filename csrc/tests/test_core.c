@@ -849,6 +849,18 @@ static void test_errors_and_empty(void)
         double seg_node = 0.0;
         CHECK_STATUS(cg_scatter_segments(&t0, &k0, 6, OBJ_POS, OBJ_VEC, 0, 1, masses, 0, &seg_node), CG_OK);
         CHECK_CLOSE(seg_node, 6.0 / 64.0, 1e-14);
+        /* a point set with no resolved axis: every point gets the same value */
+        cg_target p0;
+        memset(&p0, 0, sizeof p0);
+        p0.dim = 3;
+        p0.n_points = 4;
+        double four[4 * 2];
+        memset(four, 0, sizeof four);
+        CHECK_STATUS(cg_scatter_points(&p0, &k0, 6, OBJ_POS, 2, OBJ_VAL, 0, four), CG_OK);
+        for (int p = 0; p < 4; ++p) {
+            CHECK_CLOSE(four[2 * p], sum0 / 64.0, 1e-14);
+            CHECK_CLOSE(four[2 * p + 1], sum1 / 64.0, 1e-14);
+        }
     }
 
     /* bad arguments */
