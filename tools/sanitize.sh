@@ -50,17 +50,27 @@ fi
 # are not bugs; reference leaks are covered by tests/test_refcount_leak.py and
 # C-level leaks by `make -C csrc/tests valgrind`.
 # halt_on_error / -fno-sanitize-recover: the first report aborts the process.
+# log_path: reports go to files $work/sanitizer.<pid> as well as being
+# searched for in the log, because pytest captures a test's stderr and a report
+# printed just before the process aborts would otherwise be lost with it (the
+# run would then only show up as a pytest failure without a reason).
 set +e
 (
     cd "$work"
     LD_PRELOAD="$libasan" \
-    ASAN_OPTIONS="detect_leaks=0:halt_on_error=1" \
-    UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
+    ASAN_OPTIONS="detect_leaks=0:halt_on_error=1:log_path=$work/sanitizer" \
+    UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:log_path=$work/sanitizer" \
     pytest -q -p no:cacheprovider "$@"
 ) 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 set -e
 
+reports=$(find "$work" -maxdepth 1 -name 'sanitizer.*' -size +0 | sort)
+if [ -n "$reports" ]; then
+    for f in $reports; do echo "---- $f"; cat "$f"; done
+    echo "sanitize.sh: sanitizer report(s) found: $reports" >&2
+    exit 1
+fi
 if grep -qE "ERROR: AddressSanitizer|runtime error:|ERROR: LeakSanitizer" "$log"; then
     echo "sanitize.sh: sanitizer report(s) found, see $log" >&2
     exit 1
