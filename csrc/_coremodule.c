@@ -12,9 +12,94 @@
 #include <numpy/arrayobject.h>
 
 #include <math.h>
+#include <signal.h>
 #include <string.h>
 
 #include "cg.h"
+
+/* ------------------------------------------------------------------ */
+/* Ctrl-C while the GIL is released                                     */
+/*
+ * Python's own SIGINT handler only sets a flag that the interpreter checks
+ * between bytecodes, so a long C call would ignore Ctrl-C until it finishes.
+ * Around each GIL-released call made from the main thread we install a
+ * handler that also sets `interrupt_flag` (polled by the core, which then
+ * stops every thread within a few thousand kernel evaluations) and chains to
+ * the previous handler, so Python still sees the signal (wakeup fd, custom
+ * handlers). The previous handler is restored afterwards. The handler is only
+ * installed when the previous disposition is a handler (not SIG_IGN/SIG_DFL),
+ * i.e. when Ctrl-C would have raised or been handled in Python anyway.
+ */
+#if defined(SIGINT) && defined(SA_RESTART) && !defined(_WIN32)
+#define CG_HAVE_SIGACTION 1
+#else
+#define CG_HAVE_SIGACTION 0
+#endif
+
+static volatile sig_atomic_t interrupt_flag = 0;
+/* the core polls a `const volatile int *`: sig_atomic_t is int on every
+   platform with sigaction that we build on */
+_Static_assert(sizeof(sig_atomic_t) == sizeof(int), "sig_atomic_t must be an int");
+
+static unsigned long main_thread_ident = 0;
+
+typedef struct sigint_guard {
+    int installed;
+#if CG_HAVE_SIGACTION
+    struct sigaction previous;
+#endif
+} sigint_guard;
+
+#if CG_HAVE_SIGACTION
+static struct sigaction chained; /* the handler active before ours */
+
+static void on_sigint(int signum, siginfo_t *info, void *context)
+{
+    interrupt_flag = 1;
+    if (chained.sa_flags & SA_SIGINFO) {
+        if (chained.sa_sigaction) chained.sa_sigaction(signum, info, context);
+    } else if (chained.sa_handler != SIG_DFL && chained.sa_handler != SIG_IGN && chained.sa_handler) {
+        chained.sa_handler(signum);
+    }
+}
+#endif
+
+/* With the GIL held: install the temporary handler if we are on the main
+   thread and Python handles SIGINT. Returns the flag the core should poll
+   (NULL when no handler was installed). */
+static const volatile int *sigint_begin(sigint_guard *g)
+{
+    g->installed = 0;
+#if CG_HAVE_SIGACTION
+    if (main_thread_ident == 0 || PyThread_get_thread_ident() != main_thread_ident) return NULL;
+    struct sigaction current;
+    if (sigaction(SIGINT, NULL, &current) != 0) return NULL;
+    if (!(current.sa_flags & SA_SIGINFO) && (current.sa_handler == SIG_DFL || current.sa_handler == SIG_IGN))
+        return NULL;
+    chained = current;
+    struct sigaction ours;
+    memset(&ours, 0, sizeof ours);
+    ours.sa_sigaction = on_sigint;
+    ours.sa_flags = SA_SIGINFO | (current.sa_flags & SA_ONSTACK);
+    sigemptyset(&ours.sa_mask);
+    interrupt_flag = 0;
+    if (sigaction(SIGINT, &ours, &g->previous) != 0) return NULL;
+    g->installed = 1;
+    return (const volatile int *)&interrupt_flag;
+#else
+    return NULL;
+#endif
+}
+
+/* With the GIL held again: restore the previous handler and clear the flag. */
+static void sigint_end(sigint_guard *g)
+{
+#if CG_HAVE_SIGACTION
+    if (g->installed) sigaction(SIGINT, &g->previous, NULL);
+#endif
+    g->installed = 0;
+    interrupt_flag = 0;
+}
 
 /* ------------------------------------------------------------------ */
 /* argument conversion                                                  */
@@ -132,7 +217,7 @@ static int convert_target(PyObject *obj, converted_target *ct)
         }
         for (Py_ssize_t a = 0; a < nr; ++a) {
             PyObject *c = PySequence_GetItem(coords, a);
-            if (!c) return 0;
+            if (!c) { release_target(ct); return 0; } /* earlier axes are already converted */
             const npy_intp any = -1;
             ct->coords[a] = as_array(c, "grid coordinates", 1, &any);
             Py_DECREF(c);
@@ -182,7 +267,13 @@ static PyObject *raise_status(cg_status st)
 {
     switch (st) {
     case CG_ERR_NOMEM: return PyErr_NoMemory();
-    case CG_ERR_INTERRUPTED: PyErr_SetNone(PyExc_KeyboardInterrupt); return NULL;
+    case CG_ERR_INTERRUPTED:
+        /* run the Python-level handler the chained signal tripped (the
+           default one raises KeyboardInterrupt); if it did not raise, the
+           work is still incomplete, so raise KeyboardInterrupt ourselves */
+        if (PyErr_CheckSignals() < 0) return NULL;
+        PyErr_SetNone(PyExc_KeyboardInterrupt);
+        return NULL;
     case CG_ERR_UNSUPPORTED: PyErr_SetString(PyExc_NotImplementedError, cg_strerror(st)); return NULL;
     default: PyErr_SetString(PyExc_ValueError, cg_strerror(st)); return NULL;
     }
@@ -241,6 +332,8 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
     out = zeros(P, gradient ? 2 : 1, extra);
     if (!out) goto fail;
     cg_status st;
+    sigint_guard guard;
+    ct.target.interrupt = sigint_begin(&guard);
     Py_BEGIN_ALLOW_THREADS
     if (segments)
         st = cg_scatter_segments(&ct.target, &kernel, n, PyArray_DATA(pos), PyArray_DATA(vec), ray,
@@ -249,6 +342,7 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
         st = cg_scatter_points(&ct.target, &kernel, n, PyArray_DATA(pos), n_values, PyArray_DATA(val),
                                gradient, PyArray_DATA(out));
     Py_END_ALLOW_THREADS
+    sigint_end(&guard);
     if (st != CG_OK) {
         raise_status(st);
         goto fail;
@@ -310,10 +404,13 @@ static PyObject *py_scatter_fluctuation(PyObject *self, PyObject *args, PyObject
     out = zeros(P, 2, extra);
     if (!out) goto fail;
     cg_status st;
+    sigint_guard guard;
+    ct.target.interrupt = sigint_begin(&guard);
     Py_BEGIN_ALLOW_THREADS
     st = cg_scatter_fluctuation(&ct.target, &kernel, n, PyArray_DATA(pos), PyArray_DATA(mass),
                                 PyArray_DATA(vel), PyArray_DATA(nodev), PyArray_DATA(out));
     Py_END_ALLOW_THREADS
+    sigint_end(&guard);
     if (st != CG_OK) {
         raise_status(st);
         goto fail;
@@ -397,8 +494,26 @@ static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_core",
                                        "cgbound's C core: kernel scatters onto grids and points.", -1,
                                        methods, NULL, NULL, NULL, NULL};
 
+/* identity of the interpreter's main thread (where signal handlers run) */
+static int find_main_thread(void)
+{
+    PyObject *threading = PyImport_ImportModule("threading");
+    if (!threading) return -1;
+    PyObject *main = PyObject_CallMethod(threading, "main_thread", NULL);
+    Py_DECREF(threading);
+    if (!main) return -1;
+    PyObject *ident = PyObject_GetAttrString(main, "ident");
+    Py_DECREF(main);
+    if (!ident) return -1;
+    main_thread_ident = PyLong_AsUnsignedLong(ident);
+    Py_DECREF(ident);
+    if (PyErr_Occurred()) return -1;
+    return 0;
+}
+
 PyMODINIT_FUNC PyInit__core(void)
 {
     import_array();
+    if (find_main_thread() < 0) return NULL;
     return PyModule_Create(&moduledef);
 }

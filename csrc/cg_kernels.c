@@ -74,6 +74,10 @@ cg_status cg_kernel_init(cg_kernel *k)
         return CG_ERR_ARGUMENT;
     if (!(k->radius > 0.0) || !isfinite(k->radius) || !(k->avg_extent > 0.0) || !isfinite(k->avg_extent))
         return CG_ERR_ARGUMENT;
+    if (k->type != CG_KERNEL_GAUSSIAN && k->type != CG_KERNEL_LUCY && k->type != CG_KERNEL_HEAVISIDE)
+        return CG_ERR_ARGUMENT;
+    if (k->type == CG_KERNEL_GAUSSIAN && (!(k->width > 0.0) || !isfinite(k->width)))
+        return CG_ERR_ARGUMENT;
     const int n_avg = k->dim - k->n_resolved;
     const double R = k->radius;
     if (k->n_resolved == 0) {

@@ -40,6 +40,10 @@ void cg_minimum_image(cg_index n, int dim, double *vecs, const int *periodic, co
 
 /* ------------------------------------------------------------------ */
 
+/* how often (in visited nodes or images) the interrupt flag is polled
+   inside one object: a single object with a huge support can take seconds */
+#define POLL_EVERY 4096
+
 /* more images than this along one axis means a ray (nearly) parallel to a
    periodic axis: treated as divergent rather than looping for ever */
 #define MAX_IMAGES 1e6
@@ -96,6 +100,11 @@ static void accumulate(const job *jb, double *out, cg_index obj, cg_index node, 
     }
 }
 
+static int interrupted(const job *jb)
+{
+    return jb->target->interrupt != NULL && *jb->target->interrupt != 0;
+}
+
 /* weight of one object (already shifted to an image) at a node offset q;
    scale multiplies a segment's line integral (rays cut to finite length) */
 static double object_weight(const job *jb, const double *q, const double *e, double scale, double *grad)
@@ -114,8 +123,10 @@ static double object_weight(const job *jb, const double *q, const double *e, dou
 }
 
 /* Visit every node within the support of the object [x, x + e] (resolved
-   coordinates, one image). */
-static void visit_nodes(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale)
+   coordinates, one image). *count counts visited nodes for polling the
+   interrupt flag; returns CG_ERR_INTERRUPTED (out then partial) or CG_OK. */
+static cg_status visit_nodes(const job *jb, double *out, cg_index obj, const double *x, const double *e,
+                             double scale, cg_index *count)
 {
     const cg_target *t = jb->target;
     const int nr = t->n_resolved;
@@ -126,10 +137,11 @@ static void visit_nodes(const job *jb, double *out, cg_index obj, const double *
         const double end = x[a] + e[a];
         bmin[a] = fmin(x[a], end) - R;
         bmax[a] = fmax(x[a], end) + R;
-        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return;
+        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return CG_OK;
     }
     if (!t->is_grid) {
         for (cg_index p = 0; p < t->n_points; ++p) {
+            if (++*count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
             const double *pt = t->points + p * nr;
             int inside = 1;
             for (int a = 0; a < nr; ++a) {
@@ -140,7 +152,7 @@ static void visit_nodes(const job *jb, double *out, cg_index obj, const double *
             const double w = object_weight(jb, q, e, scale, grad);
             if (w != 0.0 || jb->mode == MODE_GRADIENT) accumulate(jb, out, obj, p, w, grad);
         }
-        return;
+        return CG_OK;
     }
     /* grid: index range of the stencil along each resolved axis */
     cg_index first[3] = {0, 0, 0}, last[3] = {0, 0, 0}, stride[3] = {1, 1, 1};
@@ -151,13 +163,14 @@ static void visit_nodes(const job *jb, double *out, cg_index obj, const double *
         double f = floor((bmin[a] - c0) / h), l = ceil((bmax[a] - c0) / h);
         if (f < 0.0) f = 0.0;
         if (l > (double)(n - 1)) l = (double)(n - 1);
-        if (f > l) return;
+        if (f > l) return CG_OK;
         first[a] = (cg_index)f;
         last[a] = (cg_index)l;
     }
     for (int a = nr - 2; a >= 0; --a) stride[a] = stride[a + 1] * t->shape[a + 1];
     cg_index idx[3] = {first[0], first[1], first[2]};
     for (;;) {
+        if (++*count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
         cg_index node = 0;
         for (int a = 0; a < nr; ++a) {
             q[a] = t->coords[a][idx[a]] - x[a];
@@ -179,6 +192,7 @@ static void visit_nodes(const job *jb, double *out, cg_index obj, const double *
         }
         if (a < 0) break;
     }
+    return CG_OK;
 }
 
 /* For a ray, the parameter beyond which it cannot reach any node: the first
@@ -214,8 +228,11 @@ static cg_status scatter_object(const job *jb, double *out, cg_index obj)
         if (jb->is_segment) e[a] = jb->vecs[obj * D + t->axes[a]];
     }
     if (nr == 0) {
+        /* the kernel is constant: every node (one for a grid, all of a
+           point set) receives the same weight */
         const double dummy[3] = {0.0, 0.0, 0.0};
-        accumulate(jb, out, obj, 0, jb->kernel->prefactor, dummy);
+        const cg_index P = cg_target_size(t);
+        for (cg_index p = 0; p < P; ++p) accumulate(jb, out, obj, p, jb->kernel->prefactor, dummy);
         return CG_OK;
     }
     if (jb->is_segment && jb->ray) {
@@ -242,10 +259,14 @@ static cg_status scatter_object(const job *jb, double *out, cg_index obj)
         if (kmin[a] > kmax[a]) return CG_OK;
     }
     cg_index k[3] = {kmin[0], kmin[1], kmin[2]};
+    cg_index count = 0;
     for (;;) {
         double xs[3];
         for (int a = 0; a < nr; ++a) xs[a] = t->periodic[a] ? x[a] + (double)k[a] * t->period[a] : x[a];
-        visit_nodes(jb, out, obj, xs, e, scale);
+        /* an image counts as a visit: up to MAX_IMAGES of them may miss the target */
+        if (++count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
+        const cg_status st = visit_nodes(jb, out, obj, xs, e, scale, &count);
+        if (st != CG_OK) return st;
         int a = nr - 1;
         while (a >= 0) {
             if (t->periodic[a] && ++k[a] <= kmax[a]) break;
@@ -306,6 +327,27 @@ static cg_status check_rays(const job *jb)
     return CG_OK;
 }
 
+/* the first error of any thread; read and written atomically so that every
+   thread sees it and stops at its next object */
+static int load_status(const int *status)
+{
+    int v;
+#ifdef _OPENMP
+#pragma omp atomic read
+#endif
+    v = *status;
+    return v;
+}
+
+static void store_status(int *status, int v)
+{
+#ifdef _OPENMP
+#pragma omp atomic write
+#endif
+    *status = v;
+    (void)v; /* gcc 12 warns "set but not used" for a parameter only used under omp atomic */
+}
+
 static cg_status run(job *jb, double *out)
 {
     cg_status st = prepare(jb);
@@ -327,7 +369,7 @@ static cg_status run(job *jb, double *out)
         buffers = calloc((size_t)(n_threads - 1) * (size_t)P * width, sizeof(double));
         if (!buffers) n_threads = 1; /* fall back to one thread rather than fail */
     }
-    volatile int failed = CG_OK;
+    int failed = CG_OK;
 #ifdef _OPENMP
 #pragma omp parallel num_threads(n_threads)
 #endif
@@ -339,10 +381,10 @@ static cg_status run(job *jb, double *out)
         double *mine = tid == 0 ? out : buffers + (size_t)(tid - 1) * (size_t)P * width;
         const cg_index begin = jb->n * tid / n_threads, end = jb->n * (tid + 1) / n_threads;
         for (cg_index o = begin; o < end; ++o) {
-            if (failed != CG_OK) break;
-            if (jb->target->interrupt && *jb->target->interrupt) { failed = CG_ERR_INTERRUPTED; break; }
+            if (load_status(&failed) != CG_OK) break;
+            if (interrupted(jb)) { store_status(&failed, CG_ERR_INTERRUPTED); break; }
             const cg_status s = scatter_object(jb, mine, o);
-            if (s != CG_OK) { failed = s; break; }
+            if (s != CG_OK) { store_status(&failed, s); break; }
         }
     }
     if (buffers) {
