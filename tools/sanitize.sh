@@ -33,7 +33,7 @@ python3 -m venv "$venv"
 # shellcheck disable=SC1091
 source "$venv/bin/activate"
 python -m pip install -q --upgrade pip "setuptools>=77" wheel
-python -m pip install -q numpy scipy pytest mpmath hypothesis
+python -m pip install -q numpy scipy pytest mpmath hypothesis h5py meshio xarray matplotlib
 
 # 3. sanitized build (non-editable install into the venv)
 export CGBOUND_SANITIZE=1
