@@ -398,10 +398,10 @@ static cg_status run(job *jb, double *out)
     return (cg_status)failed;
 }
 
-cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
-                            cg_index n, const double *positions,
-                            int n_values, const double *values,
-                            int gradient, double *out)
+/* points and segments share one job layout */
+static cg_status scatter_values(const cg_target *target, const cg_kernel *kernel, cg_index n,
+                                const double *positions, int is_segment, const double *vecs, int ray,
+                                int n_values, const double *values, int gradient, double *out)
 {
     if (n < 0 || n_values < 1) return CG_ERR_ARGUMENT;
     job jb;
@@ -409,12 +409,23 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
     jb.target = target;
     jb.kernel = kernel;
     jb.mode = gradient ? MODE_GRADIENT : MODE_VALUE;
+    jb.is_segment = is_segment;
+    jb.ray = ray;
     jb.n = n;
     jb.positions = positions;
+    jb.vecs = vecs;
     jb.n_values = n_values;
     jb.values = values;
     jb.out_width = gradient ? n_values * target->n_resolved : n_values;
     return run(&jb, out);
+}
+
+cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
+                            cg_index n, const double *positions,
+                            int n_values, const double *values,
+                            int gradient, double *out)
+{
+    return scatter_values(target, kernel, n, positions, 0, NULL, 0, n_values, values, gradient, out);
 }
 
 cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
@@ -422,21 +433,7 @@ cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
                               int ray, int n_values, const double *values,
                               int gradient, double *out)
 {
-    if (n < 0 || n_values < 1) return CG_ERR_ARGUMENT;
-    job jb;
-    memset(&jb, 0, sizeof jb);
-    jb.target = target;
-    jb.kernel = kernel;
-    jb.mode = gradient ? MODE_GRADIENT : MODE_VALUE;
-    jb.is_segment = 1;
-    jb.ray = ray;
-    jb.n = n;
-    jb.positions = starts;
-    jb.vecs = vecs;
-    jb.n_values = n_values;
-    jb.values = values;
-    jb.out_width = gradient ? n_values * target->n_resolved : n_values;
-    return run(&jb, out);
+    return scatter_values(target, kernel, n, starts, 1, vecs, ray, n_values, values, gradient, out);
 }
 
 cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kernel,
