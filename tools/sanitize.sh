@@ -40,6 +40,9 @@ export CGBOUND_SANITIZE=1
 (cd "$work" && python -m pip install -q --no-build-isolation --no-deps .)
 
 libasan="$(gcc -print-file-name=libasan.so)"
+# libstdc++ is preloaded too: C++ extensions among the test dependencies throw exceptions, and
+# ASan's __cxa_throw interceptor needs the real symbol to be there when it starts up
+libstdcxx="$(gcc -print-file-name=libstdc++.so)"
 if [ ! -e "$libasan" ]; then
     echo "sanitize.sh: gcc has no libasan.so ($libasan)" >&2
     exit 2
@@ -57,7 +60,7 @@ fi
 set +e
 (
     cd "$work"
-    LD_PRELOAD="$libasan" \
+    LD_PRELOAD="$libasan $libstdcxx" \
     ASAN_OPTIONS="detect_leaks=0:halt_on_error=1:log_path=$work/sanitizer" \
     UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:log_path=$work/sanitizer" \
     pytest -q -p no:cacheprovider "$@"
