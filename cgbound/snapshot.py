@@ -218,7 +218,8 @@ class Snapshot:
             pair = c.j >= 0
             np.add.at(f, c.j[pair], -c.force[pair])
         if self.body_force is not None:
-            f += self.masses[:, None] * self.body_force
+            flow = self.flowing
+            f[flow] += self.masses[flow, None] * self.body_force[flow]
         return f
 
     def __repr__(self):

@@ -264,14 +264,8 @@ class LammpsFrame:
         if self.forces is None:
             raise ValueError("force_balance: the atoms dump has no fx fy fz columns")
         snap = self.snapshot
-        total = np.zeros((snap.n_particles, snap.dim))
+        total = snap.particle_forces()
         c = snap.contacts
-        if len(c):
-            np.add.at(total, c.i, c.force)
-            pair = c.j >= 0
-            np.add.at(total, c.j[pair], -c.force[pair])
-        if snap.body_force is not None:
-            total[snap.flowing] += snap.masses[snap.flowing, None] * snap.body_force[snap.flowing]
         diff = np.linalg.norm(total - self.forces, axis=1)
         checked = np.ones(snap.n_particles, bool) if fixed else snap.flowing.copy()
         mismatch = np.where(checked, diff, np.nan)
