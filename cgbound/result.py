@@ -71,11 +71,25 @@ class Result:
         from .writers import to_xarray
         return to_xarray(self)
 
+    def _summary_rows(self):
+        for name, value in self._fields.items():
+            finite = value[np.isfinite(value)]
+            rng = f"[{finite.min():.4g}, {finite.max():.4g}]" if finite.size else "no finite values"
+            yield name, value.shape, rng
+
+    def _repr_html_(self):
+        """A table of the fields for Jupyter."""
+        import html
+        head = html.escape(f"{self.grid!r}, {self.kernel!r}, convention={self.convention!r}, "
+                           f"{self.times.size} snapshot time(s)")
+        rows = "".join(f"<tr><td><code>{html.escape(n)}</code></td><td>{html.escape(str(s))}</td>"
+                       f"<td>{html.escape(r)}</td></tr>" for n, s, r in self._summary_rows())
+        return (f"<div><b>cgbound.Result</b> {head}<table><thead><tr><th>field</th><th>shape</th>"
+                f"<th>range</th></tr></thead><tbody>{rows}</tbody></table></div>")
+
     def __repr__(self):
         lines = [f"<cgbound.Result {self.grid!r}, {self.kernel!r}, convention={self.convention!r}, "
                  f"{self.times.size} snapshot time(s)>"]
-        for name, value in self._fields.items():
-            finite = value[np.isfinite(value)]
-            rng = f"[{finite.min():.4g}, {finite.max():.4g}]" if finite.size else "[no finite values]"
-            lines.append(f"  {name:<26} {str(value.shape):<18} {rng}")
+        for name, shape, rng in self._summary_rows():
+            lines.append(f"  {name:<26} {str(shape):<18} {rng}")
         return "\n".join(lines)

@@ -260,3 +260,10 @@ def test_the_gil_is_released_during_core_work():
     assert single > 0.2, "workload too small to tell"
     gaps = np.diff(stamps)
     assert len(stamps) > 20 and gaps.max() < 0.25 * single
+
+
+def test_jupyter_repr_lists_every_field():
+    snap = random_snapshot(9, dim=2)
+    out = cg.coarse_grain(snap, cg.Grid(snap.box, (4, 5)), cg.Lucy(1.2), fields=("density", "stress"))
+    page = out._repr_html_()
+    assert "<table>" in page and "<code>density</code>" in page and "(4, 5, 2, 2)" in page
