@@ -250,6 +250,11 @@ def test_bad_arguments(universe):
         MDAnalysisReader(universe, select=None)
 
 
+def test_missing_file(tmp_path):
+    with pytest.raises(OSError, match="universe_or_args.*could not open"):
+        MDAnalysisReader((str(tmp_path / "no.gro"), str(tmp_path / "no.trr")))
+
+
 def test_missing_masses_message():
     from MDAnalysis.coordinates.memory import MemoryReader
     u = mda.Universe.empty(3)

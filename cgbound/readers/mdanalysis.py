@@ -148,7 +148,12 @@ class MDAnalysisReader:
             try:
                 self._universe = mda.Universe(*args, **kwargs)
             except Exception as exc:
-                raise type(exc)(f"universe_or_args: MDAnalysis could not open {args!r}: {exc}") from exc
+                msg = f"universe_or_args: MDAnalysis could not open {args!r}: {exc}"
+                try:
+                    wrapped = type(exc)(msg)
+                except Exception:  # an exception type with another constructor
+                    wrapped = ValueError(msg)
+                raise wrapped from exc
         return self._universe
 
     @property
