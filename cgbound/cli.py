@@ -146,7 +146,7 @@ def main(argv=None):
                "--fields density,stress,interaction_force_density -o profile.h5 --png profile.png",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     r.add_argument("input", help="dataset to read (format from the extension unless --format is given)")
-    r.add_argument("--format", choices=["hdf5", "lammps"], help="input format (.h5 files are hdf5)")
+    r.add_argument("--format", choices=["hdf5", "lammps", "mdanalysis"], help="input format (.h5 files are hdf5)")
     r.add_argument("--pairs", help="lammps: the contact dump local file (compute pair/local + property/local)")
     r.add_argument("--pair-style", choices=["gran", "granular"], default="gran",
                    help="lammps: pair style family that wrote the contact dump")
