@@ -1,0 +1,202 @@
+"""The LIGGGHTS reader on genuine LIGGGHTS output (tests/data/liggghts/in.settle).
+
+When ``liggghts`` is on PATH the input script is run afresh in a temporary directory (under a
+second); otherwise the dumps committed next to it (written by LIGGGHTS-PUBLIC 3.8.0, Debian) are used.
+"""
+import os
+import pickle
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import cgbound as cg
+from cgbound.readers.liggghts import LiggghtsReader, pair_gran_local_columns
+
+DATA = os.path.join(os.path.dirname(__file__), "data", "liggghts")
+LIGGGHTS = shutil.which("liggghts")
+VALUES = ("pos", "id", "force", "torque", "delta", "contactPoint")   # as in in.settle
+G = (0.0, 0.0, -9.81)
+TOL = 1e-9
+
+
+@pytest.fixture(scope="session")
+def liggghts_dir(tmp_path_factory):
+    if LIGGGHTS is None:
+        if os.path.exists(os.path.join(DATA, "atoms.dump")):
+            return DATA      # 'liggghts' not on PATH: not regenerated, the committed dumps are used
+        pytest.skip("LIGGGHTS ('liggghts') is not on PATH and no committed dumps were found")
+    work = tmp_path_factory.mktemp("liggghts")
+    proc = subprocess.run([LIGGGHTS, "-in", os.path.join(DATA, "in.settle"), "-log", "none", "-screen", "none"],
+                          cwd=work, capture_output=True, text=True, timeout=300)
+    if proc.returncode != 0 or not (work / "atoms.dump").exists():
+        pytest.fail(f"liggghts -in in.settle failed ({proc.returncode}): {proc.stdout[-2000:]} {proc.stderr[-2000:]}")
+    return str(work)
+
+
+def reader(d, consistent=True, **extra):
+    pre = "" if consistent else "run_"
+    opts = dict(pair_values=VALUES, fixed_types=[2], body_force=G)
+    opts.update(extra)
+    return LiggghtsReader(os.path.join(d, f"{pre}atoms.dump"), os.path.join(d, f"{pre}pairs.dump"), **opts)
+
+
+def test_column_layout_is_fixed_order():
+    a = pair_gran_local_columns("pgl", VALUES)
+    b = pair_gran_local_columns("pgl", VALUES[::-1])
+    assert a == b
+    assert a["id"] == ("c_pgl[7]", "c_pgl[8]", "c_pgl[9]")
+    assert a["force"] == ("c_pgl[10]", "c_pgl[11]", "c_pgl[12]")
+    assert a["delta"] == ("c_pgl[16]",) and a["contactPoint"][-1] == "c_pgl[19]"
+    full = pair_gran_local_columns("x", ("pos", "vel", "id", "force", "torque", "delta", "contactPoint"))
+    assert full["contactPoint"] == ("c_x[23]", "c_x[24]", "c_x[25]")
+    with pytest.raises(ValueError, match="unknown"):
+        pair_gran_local_columns("pgl", ("pos", "bogus"))
+    with pytest.raises(ValueError, match="history"):
+        pair_gran_local_columns("pgl", ("id", "force", "history"))
+
+
+def test_run0_dumps_balance(liggghts_dir):
+    r = reader(liggghts_dir)
+    assert len(r) == 3
+    for k in range(len(r)):
+        fr = r.frame(k)
+        snap = fr.snapshot
+        bulk, boundary = snap.split_contacts()
+        assert len(bulk["i"]) > 10 and len(boundary["i"]) > 10
+        # measured ~1e-13..1e-12: newton off evaluates a periodic contact once from each side
+        assert r.force_mismatch(k) < TOL
+        assert r.force_mismatch(k, fixed=True) < TOL
+
+
+def test_dumps_during_a_run_do_not_balance(liggghts_dir):
+    r = reader(liggghts_dir, consistent=False)
+    worst = max(r.force_mismatch(k) for k in range(len(r)) if len(r[k].contacts))
+    assert worst > 1e-3
+
+
+def test_sign_convention(liggghts_dir):
+    # force is on the FIRST id from the second: flipping it breaks the balance; it is repulsive
+    r = reader(liggghts_dir)
+    snap = r[2]
+    c = snap.contacts
+    flipped = cg.Contacts(c.i, c.j, -c.force, c.point)
+    fr = r.frame(2)
+    total = cg.Snapshot(snap.positions, velocities=snap.velocities, masses=snap.masses, box=snap.box,
+                        contacts=flipped, fixed=snap.fixed, body_force=snap.body_force).particle_forces()
+    scale = np.sqrt(np.mean(np.sum(c.force ** 2, axis=1)))
+    assert np.max(np.abs(total - fr.forces)[snap.flowing]) > 0.1 * scale
+    r_ij = snap.positions[c.i] - snap.positions[c.j]
+    r_ij -= snap.box.lengths * np.round(r_ij / snap.box.lengths) * np.array(snap.box.periodic)
+    significant = np.linalg.norm(c.force, axis=1) > 1e-12 * scale
+    assert np.mean(np.sum(c.force * r_ij, axis=1)[significant] > 0) > 0.7
+
+
+def test_fixed_type_contacts_become_boundary(liggghts_dir):
+    r = reader(liggghts_dir)
+    fr = r.frame(2)
+    snap = fr.snapshot
+    assert np.array_equal(snap.fixed, fr.types == 2)
+    c = snap.contacts
+    fi, fj = snap.fixed[c.i], snap.fixed[c.j]
+    bulk, boundary = snap.split_contacts()
+    assert len(boundary["i"]) == int(np.sum(fi ^ fj)) > 0
+    assert len(bulk["i"]) == int(np.sum(~fi & ~fj))
+    assert np.sum(fi & fj) > 0            # fixed-fixed (the floor touches itself): ignored
+    assert not np.any(snap.fixed[boundary["i"]])
+    total = np.zeros((snap.n_particles, 3))
+    np.add.at(total, bulk["i"], bulk["force"])
+    np.add.at(total, bulk["j"], -bulk["force"])
+    np.add.at(total, boundary["i"], boundary["force"])
+    total += snap.masses[:, None] * snap.body_force
+    scale = np.sqrt(np.mean(np.sum(c.force ** 2, axis=1)))
+    assert np.max(np.abs(total - fr.forces)[snap.flowing]) < TOL * scale
+    by_ids = reader(liggghts_dir, fixed_types=(), fixed_ids=fr.ids[fr.types == 2].tolist())
+    assert np.array_equal(by_ids[2].fixed, snap.fixed)
+
+
+def test_contact_points_wrapped_and_on_the_centre_line(liggghts_dir):
+    r = reader(liggghts_dir)
+    raw_outside = crossings = 0
+    for k in range(len(r)):
+        fr = r.frame(k)
+        snap = fr.snapshot
+        c, box = snap.contacts, snap.box
+        per = np.array(box.periodic)
+        assert np.all((c.point[:, per] >= box.lower[per]) & (c.point[:, per] < box.upper[per]))
+        raw = r.__class__(r.atoms_path, r.pairs_path, pair_values=VALUES, wrap=False)[k].contacts.point
+        raw_outside += int(np.sum(np.any((raw[:, per] < box.lower[per]) | (raw[:, per] >= box.upper[per]), axis=1)))
+        d = snap.positions[c.i] - snap.positions[c.j]
+        crossings += int(np.sum(np.any(np.abs(d[:, per]) > 0.5 * box.lengths[per], axis=1)))
+        r_ij = d - box.lengths * np.round(d / box.lengths) * per
+        dist = np.linalg.norm(r_ij, axis=1)
+        R = snap.radii
+        assert np.allclose(fr.overlap, R[c.i] + R[c.j] - dist, rtol=0, atol=1e-15)
+        # LIGGGHTS' contact point: c = x_i - R_i/(R_i+R_j) r_ij (minimum image relative to i)
+        a = snap.positions[c.i] - c.point
+        a -= box.lengths * np.round(a / box.lengths) * per
+        expect = (R[c.i] / (R[c.i] + R[c.j]))[:, None] * r_ij
+        assert np.allclose(a, expect, rtol=0, atol=1e-15)
+        # the rebuilt point (without the contactPoint columns) is the same
+        cols = pair_gran_local_columns("pgl", VALUES)
+        del cols["contactPoint"]
+        rebuilt = LiggghtsReader(r.atoms_path, r.pairs_path, pair_columns=cols)[k].contacts.point
+        assert np.allclose(rebuilt, c.point, rtol=0, atol=1e-15)
+        _, boundary = snap.split_contacts()
+        assert np.all(np.linalg.norm(boundary["branch"], axis=1) <= R[boundary["i"]] + 1e-15)
+    assert crossings > 0, "expected contacts across a periodic boundary"
+    assert raw_outside > 0, "expected LIGGGHTS contact points outside the box"
+
+
+def test_len_slicing_and_pickling(liggghts_dir):
+    r = reader(liggghts_dir)
+    steps = r.timesteps
+    assert len(r) == 3 and steps == sorted(steps) and len(set(steps)) == 3
+    sub = r[1:]
+    assert isinstance(sub, LiggghtsReader) and len(sub) == 2 and sub.timesteps == steps[1:]
+    assert np.array_equal(sub[0].contacts.point, r[1].contacts.point)
+    assert r[::-1].timesteps == steps[::-1]
+    with pytest.raises(IndexError):
+        r[3]
+    with pytest.raises(TypeError):
+        r[1.0]
+    r.frame(0)
+    blob = pickle.dumps(r)
+    assert len(blob) < 4000
+    back = pickle.loads(blob)
+    assert isinstance(back, LiggghtsReader) and len(back) == 3
+    for k in range(3):
+        assert np.array_equal(back[k].contacts.force, r[k].contacts.force)
+        assert np.array_equal(back[k].positions, r[k].positions)
+    assert len(pickle.dumps(sub)) < 4000
+    assert "LiggghtsReader" in repr(sub)
+    assert reader(liggghts_dir, dt=2e-6)[0].time == pytest.approx(steps[0] * 2e-6)
+
+
+def test_coarse_grain_runs_on_a_frame(liggghts_dir):
+    r = reader(liggghts_dir)
+    snap = r[2]
+    kernel = cg.Lucy(0.002)
+    res = cg.coarse_grain(snap, cg.Grid(snap.box, (3, 3, 6)), kernel)
+    assert np.all(np.isfinite(res["density"])) and np.max(res["density"]) > 0
+    assert np.all(np.isfinite(res["stress"]))
+    rng = np.random.default_rng(1)
+    lo, hi = snap.box.lower.copy(), snap.box.upper.copy()
+    hi[-1] = np.max(snap.positions[:, -1]) + 0.001
+    points = lo + rng.random((100, 3)) * (hi - lo)
+    mb = cg.momentum_balance_residual(snap, points, kernel, forces=r.dumped_forces(2))
+    assert mb.scale > 0 and np.max(mb.relative) < TOL
+
+
+def test_errors_name_the_problem(liggghts_dir):
+    a = os.path.join(liggghts_dir, "atoms.dump")
+    p = os.path.join(liggghts_dir, "pairs.dump")
+    with pytest.raises(ValueError, match="no contact frame for timestep"):
+        LiggghtsReader(a, os.path.join(liggghts_dir, "run_pairs.dump"), pair_values=VALUES)
+    with pytest.raises(ValueError, match="c_other"):
+        LiggghtsReader(a, p, pair_compute="other", pair_values=VALUES)[0]
+    with pytest.raises(ValueError, match="'id'"):
+        LiggghtsReader(a, p, pair_values=("pos", "force"))
+    with pytest.raises(ValueError, match="'force'"):
+        LiggghtsReader(a, p, pair_values=("pos", "id"))
