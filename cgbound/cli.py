@@ -72,7 +72,12 @@ def run(args):
     from .readers import open_dataset
 
     options = {}
-    if args.format == "lammps":
+    if args.format == "liggghts":
+        options = dict(pairs=args.pairs, dimension=args.dimension,
+                       fixed_types=_ints(args.fixed_types) if args.fixed_types else ())
+        if args.gravity:
+            options["body_force"] = [float(x) for x in args.gravity.split(",")]
+    elif args.format == "lammps":
         options = dict(pairs=args.pairs, pair_style=args.pair_style, dimension=args.dimension,
                        fixed_types=_ints(args.fixed_types) if args.fixed_types else (),
                        walls=tuple(w for w in (args.walls or "").split(",") if w))
@@ -146,7 +151,7 @@ def main(argv=None):
                "--fields density,stress,interaction_force_density -o profile.h5 --png profile.png",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     r.add_argument("input", help="dataset to read (format from the extension unless --format is given)")
-    r.add_argument("--format", choices=["hdf5", "lammps", "mdanalysis"], help="input format (.h5 files are hdf5)")
+    r.add_argument("--format", choices=["hdf5", "lammps", "liggghts", "mdanalysis"], help="input format (.h5 files are hdf5)")
     r.add_argument("--pairs", help="lammps: the contact dump local file (compute pair/local + property/local)")
     r.add_argument("--pair-style", choices=["gran", "granular"], default="gran",
                    help="lammps: pair style family that wrote the contact dump")

@@ -2,10 +2,11 @@
 (DESIGN.md section 1)."""
 from .hdf5 import HDF5Snapshots, write_snapshots
 from .lammps import LammpsFrame, LammpsReader, pair_local_columns
+from .liggghts import LiggghtsReader, pair_gran_local_columns
 from .mdanalysis import MDAnalysisReader
 
-__all__ = ["HDF5Snapshots", "LammpsFrame", "LammpsReader", "MDAnalysisReader", "open_dataset", "pair_local_columns",
-           "write_snapshots"]
+__all__ = ["HDF5Snapshots", "LammpsFrame", "LammpsReader", "LiggghtsReader", "MDAnalysisReader", "open_dataset",
+           "pair_gran_local_columns", "pair_local_columns", "write_snapshots"]
 
 
 def open_dataset(path, format=None, **options):
@@ -20,6 +21,8 @@ def open_dataset(path, format=None, **options):
         return HDF5Snapshots(path, **options)
     if fmt == "lammps":
         return LammpsReader(path, **options)
+    if fmt == "liggghts":
+        return LiggghtsReader(path, **options)
     if fmt == "mdanalysis":
         return MDAnalysisReader(path, **options)
-    raise ValueError(f"format: cannot tell the format of {str(path)!r}; expected one of: hdf5, lammps, mdanalysis")
+    raise ValueError(f"format: cannot tell the format of {str(path)!r}; expected one of: hdf5, lammps, liggghts, mdanalysis")
