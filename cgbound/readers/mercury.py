@@ -534,8 +534,8 @@ class MercuryReader:
             dc = np.linalg.norm(point[k1] - point[k2])
             if df > self.rtol * max(scale, 1e-300) or dc > self.rtol * lscale:
                 raise ValueError(f"{path}: lines {lnum[k1]} and {lnum[k2]} list the pair ({a}, {b}) inconsistently: "
-                                 f"forces {force[k1].tolist()} and {force[k2].tolist()} are not opposite or the contact "
-                                 f"points {point[k1].tolist()} and {point[k2].tolist()} differ (|f1 + f2| = {df:.3g}, "
+                                 f"forces {force[k1].tolist()} and {force[k2].tolist()} are not opposite or the "
+                                 f"contact points {point[k1].tolist()} and {point[k2].tolist()} differ (|f1 + f2| = {df:.3g}, "
                                  f"|c1 - c2| = {dc:.3g}, rtol = {self.rtol:g})")
             keep[k1 if i[k1] < i[k2] else k2] = True
         sel = np.flatnonzero(keep)
