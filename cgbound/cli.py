@@ -72,7 +72,11 @@ def run(args):
     from .readers import open_dataset
 
     options = {}
-    if args.format == "liggghts":
+    if args.format == "mercury" or (args.format is None and args.input.endswith(".data")):
+        options = dict(fstat_path=args.pairs, density=args.density)
+        if args.gravity:
+            options["body_force"] = [float(x) for x in args.gravity.split(",")]
+    elif args.format == "liggghts":
         options = dict(pairs=args.pairs, dimension=args.dimension,
                        fixed_types=_ints(args.fixed_types) if args.fixed_types else ())
         if args.gravity:
@@ -151,8 +155,9 @@ def main(argv=None):
                "--fields density,stress,interaction_force_density -o profile.h5 --png profile.png",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     r.add_argument("input", help="dataset to read (format from the extension unless --format is given)")
-    r.add_argument("--format", choices=["hdf5", "lammps", "liggghts", "mdanalysis"], help="input format (.h5 files are hdf5)")
-    r.add_argument("--pairs", help="lammps: the contact dump local file (compute pair/local + property/local)")
+    r.add_argument("--format", choices=["hdf5", "lammps", "liggghts", "mdanalysis", "mercury"], help="input format (.h5 files are hdf5)")
+    r.add_argument("--pairs", help="lammps/liggghts: the contact dump local file; mercury: the .fstat file")
+    r.add_argument("--density", type=float, default=None, help="mercury: particle density (masses from radii)")
     r.add_argument("--pair-style", choices=["gran", "granular"], default="gran",
                    help="lammps: pair style family that wrote the contact dump")
     r.add_argument("--fixed-types", default="", help="lammps: atom types of fixed boundary particles, e.g. 2")

@@ -34,3 +34,21 @@ def test_help_explains_every_option(capsys):
     text = capsys.readouterr().out
     for option in ("--kernel", "--width", "--cutoff", "--grid", "--average", "--fields", "--convention", "example:"):
         assert option in text
+
+
+def test_run_reads_lammps_dumps(tmp_path, capsys):
+    import os
+    data = os.path.join(os.path.dirname(__file__), "data", "lammps", "hooke3d")
+    out = tmp_path / "profile.npz"
+    assert main(["run", os.path.join(data, "atoms.dump"), "--format", "lammps", "--pairs",
+                 os.path.join(data, "pairs.dump"), "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1",
+                 "--grid", "1,1,40", "--average", "x,y", "--fields", "density,interaction_force_density",
+                 "-o", str(out), "-q"]) == 0
+    from cgbound.readers import LammpsReader
+    frames = LammpsReader(os.path.join(data, "atoms.dump"), os.path.join(data, "pairs.dump"), fixed_types=[2],
+                          walls=["w"], body_force=[0, 0, -1])
+    grid = cg.Grid(frames[0].box, (1, 1, 40), average=("x", "y"))
+    expected = cg.CoarseGrain(frames, grid, cg.Gaussian(0.25), fields=("interaction_force_density",)).run().results
+    with np.load(out) as result:
+        np.testing.assert_allclose(result["interaction_force_density"], expected.interaction_force_density,
+                                   rtol=1e-13, atol=1e-15)
