@@ -329,9 +329,11 @@ def test_coarse_grain_matches_hand_built_snapshot(universe, arrays):
     assert sub.results["density"].shape[0] == 2
 
 
-def test_no_import_at_cgbound_import():
+def test_no_import_at_cgbound_import(tmp_path):
     import subprocess
     import sys
     code = "import sys, cgbound, cgbound.readers, cgbound.readers.mdanalysis; print('MDAnalysis' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    # run outside the checkout: `python -c` puts the working directory first on sys.path, where the
+    # source tree (without the compiled core) would shadow the installed package
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
     assert out.stdout.strip() == "False"
