@@ -26,6 +26,7 @@ import numpy as np
 from .._atomic import atomic_write
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
+from ._sequence import FrameSequence
 
 FORMAT = "cgbound-snapshots"
 SCHEMA_VERSION = 1
@@ -100,7 +101,7 @@ def write_snapshots(path, snapshots, provenance=None):
     return count
 
 
-class HDF5Snapshots:
+class HDF5Snapshots(FrameSequence):
     """Lazy sequence of the Snapshots in a cgbound HDF5 file: ``len()``, indexing, slicing.
 
     Cheap to pickle (holds the path and frame indices, not arrays); each access opens the
@@ -119,28 +120,8 @@ class HDF5Snapshots:
             self.provenance = f.attrs.get("provenance", "")
         self._frames = list(range(n)) if frames is None else list(frames)
 
-    def __len__(self):
-        return len(self._frames)
-
-    def __getitem__(self, index):
-        if isinstance(index, slice):
-            return HDF5Snapshots._with_frames(self, self._frames[index])
-        try:
-            frame = self._frames[index]
-        except IndexError:
-            raise IndexError(f"index: frame {index} out of range for {len(self)} frames") from None
-        return self._read(frame)
-
-    def __iter__(self):
-        for k in range(len(self)):
-            yield self[k]
-
-    @classmethod
-    def _with_frames(cls, other, frames):
-        out = object.__new__(cls)
-        out.__dict__.update(other.__dict__)
-        out._frames = list(frames)
-        return out
+    def _snapshot(self, position):
+        return self._read(self._frames[position])
 
     def _read(self, frame):
         h5py = _h5py()

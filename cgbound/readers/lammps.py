@@ -89,6 +89,7 @@ import numpy as np
 
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
+from ._sequence import FrameSequence
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -278,7 +279,21 @@ class LammpsFrame:
         return {"mismatch": mismatch, "scale": scale, "relative": relative}
 
 
-class LammpsReader:
+def contact_indices(ids, id1, id2, path, timestep):
+    """Positions in the sorted atom ``ids`` of the contacts' atom IDs; every ID must be there."""
+    i = np.searchsorted(ids, id1)
+    j = np.searchsorted(ids, id2)
+    bad = (i >= ids.size) | (j >= ids.size)
+    bad |= ids[np.minimum(i, ids.size - 1)] != id1
+    bad |= ids[np.minimum(j, ids.size - 1)] != id2
+    if np.any(bad):
+        k = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"{path}: contact between atom IDs {id1[k]} and {id2[k]} at timestep {timestep}: "
+                         "an ID is not in the atoms dump (dump all atoms, or both dumps for the same group)")
+    return i, j
+
+
+class LammpsReader(FrameSequence):
     """Lazy sequence of :class:`cgbound.Snapshot` from LAMMPS dumps (see the module docstring).
 
     Parameters
@@ -398,25 +413,8 @@ class LammpsReader:
     def timesteps(self):
         return [ts for _, ts, _ in self._frames]
 
-    def __getitem__(self, index):
-        if isinstance(index, slice):
-            out = object.__new__(LammpsReader)
-            out.__dict__.update(self.__dict__)
-            out._frames = self._frames[index]
-            out._cache = None
-            return out
-        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (numbers.Integral, np.integer)):
-            raise TypeError(f"index: expected an integer or a slice, got {type(index).__name__}")
-        return self.frame(index).snapshot
-
-    def __iter__(self):
-        for k in range(len(self)):
-            yield self[k]
-
-    def __getstate__(self):
-        state = dict(self.__dict__)
-        state["_cache"] = None
-        return state
+    def _snapshot(self, position):
+        return self.frame(position).snapshot
 
     def __repr__(self):
         return (f"LammpsReader({os.path.basename(self.atoms_path)!r}, "
@@ -426,17 +424,7 @@ class LammpsReader:
     # ------------------------------------------------------------------------------------------
     def frame(self, index):
         """Frame ``index`` as a :class:`LammpsFrame` (snapshot plus IDs, types, dumped forces)."""
-        n = len(self._frames)
-        k = int(index)
-        if k < 0:
-            k += n
-        if not 0 <= k < n:
-            raise IndexError(f"index: frame {index} out of range for {n} frames")
-        if self._cache is not None and self._cache[0] == k:
-            return self._cache[1]
-        result = self._build(*self._frames[k])
-        self._cache = (k, result)
-        return result
+        return self._cached_frame(index)
 
     def force_mismatch(self, index, fixed=False):
         """Max |sum of contact forces + m g - dumped force| over particles, relative to the typical
@@ -595,15 +583,7 @@ class LammpsReader:
                     np.zeros((0, 2), np.int64), np.zeros(0))
         id1 = tab[names["id1"]].astype(np.int64)
         id2 = tab[names["id2"]].astype(np.int64)
-        i = np.searchsorted(ids, id1)
-        j = np.searchsorted(ids, id2)
-        bad = (i >= ids.size) | (j >= ids.size)
-        bad |= ids[np.minimum(i, ids.size - 1)] != id1
-        bad |= ids[np.minimum(j, ids.size - 1)] != id2
-        if np.any(bad):
-            k = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"{path}: contact between atom IDs {id1[k]} and {id2[k]} at timestep {timestep}: "
-                             "an ID is not in the atoms dump (dump all atoms, or both dumps for the same group)")
+        i, j = contact_indices(ids, id1, id2, path, timestep)
         force = np.stack([tab[names["force"][a]] for a in axes], axis=1)
         if names.get("tangential"):
             force = force + np.stack([tab[names["tangential"][a]] for a in axes], axis=1)

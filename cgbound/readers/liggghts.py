@@ -67,7 +67,7 @@ import os
 
 import numpy as np
 
-from .lammps import LammpsReader, _read_frame
+from .lammps import LammpsReader, _read_frame, contact_indices
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns"]
 
@@ -145,15 +145,6 @@ class LiggghtsReader(LammpsReader):
                          fixed_ids=fixed_ids, body_force=body_force, masses=masses, dimension=dimension,
                          dt=dt, wrap=wrap, drop_inactive=False)
 
-    def __getitem__(self, index):
-        if isinstance(index, slice):
-            out = object.__new__(type(self))
-            out.__dict__.update(self.__dict__)
-            out._frames = self._frames[index]
-            out._cache = None
-            return out
-        return super().__getitem__(index)
-
     def __repr__(self):
         return "Liggghts" + super().__repr__()[len("Lammps"):]
 
@@ -176,15 +167,7 @@ class LiggghtsReader(LammpsReader):
                              "pair_columns to match the dump")
         id1 = np.rint(tab[names["id"][0]]).astype(np.int64)
         id2 = np.rint(tab[names["id"][1]]).astype(np.int64)
-        i = np.searchsorted(ids, id1)
-        j = np.searchsorted(ids, id2)
-        bad = (i >= ids.size) | (j >= ids.size)
-        bad |= ids[np.minimum(i, ids.size - 1)] != id1
-        bad |= ids[np.minimum(j, ids.size - 1)] != id2
-        if np.any(bad):
-            k = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"{path}: contact between atom IDs {id1[k]} and {id2[k]} at timestep {timestep}: "
-                             "an ID is not in the atoms dump (dump all atoms, or both dumps for the same group)")
+        i, j = contact_indices(ids, id1, id2, path, timestep)
 
         def vec(key):
             return np.stack([tab[names[key][a]] for a in axes], axis=1)

@@ -35,6 +35,7 @@ import os
 import numpy as np
 
 from ..box import Box
+from ._sequence import FrameSequence
 from ..snapshot import Contacts, Snapshot
 
 __all__ = ["MDAnalysisReader"]
@@ -69,7 +70,7 @@ def _as_args(universe_or_args):
                     f"{type(universe_or_args).__name__}")
 
 
-class MDAnalysisReader:
+class MDAnalysisReader(FrameSequence):
     """Lazy sequence of :class:`cgbound.Snapshot` from an MDAnalysis Universe (see the module docstring).
 
     ``len()``, integer indexing (negative allowed) and slicing (giving another reader over the
@@ -214,28 +215,13 @@ class MDAnalysisReader:
         return radii
 
     # ------------------------------------------------------------------------------------------
-    def __len__(self):
-        return len(self._frames)
-
     @property
     def frames(self):
         """Trajectory frame numbers of this reader's frames."""
         return list(self._frames)
 
-    def __getitem__(self, index):
-        if isinstance(index, slice):
-            out = object.__new__(MDAnalysisReader)
-            out.__dict__.update(self.__dict__)
-            out._frames = self._frames[index]
-            return out
-        return self.snapshot(index)
-
-    def __iter__(self):
-        for k in range(len(self)):
-            yield self[k]
-
     def __getstate__(self):
-        state = dict(self.__dict__)
+        state = super().__getstate__()
         if self._args is not None:
             state["_universe"] = None  # rebuilt lazily from the arguments
         return state
@@ -247,15 +233,7 @@ class MDAnalysisReader:
 
     # ------------------------------------------------------------------------------------------
     def _frame_number(self, index):
-        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (numbers.Integral, np.integer)):
-            raise TypeError(f"index: expected an integer or a slice, got {type(index).__name__}")
-        n = len(self._frames)
-        k = int(index)
-        if k < 0:
-            k += n
-        if not 0 <= k < n:
-            raise IndexError(f"index: frame {index} out of range for {n} frames")
-        return self._frames[k]
+        return self._frames[self._position(index)]
 
     def _timestep(self, index):
         return self.universe.trajectory[self._frame_number(index)]
@@ -287,6 +265,9 @@ class MDAnalysisReader:
                     w = box.lower[a] + np.mod(x[outside, a] - box.lower[a], L)
                     x[outside, a] = np.where(w >= box.upper[a], box.lower[a], w)  # mod may round up to L
         return x
+
+    def _snapshot(self, position):
+        return self.snapshot(position)
 
     def snapshot(self, index):
         """Frame ``index`` of this reader as a Snapshot (same as ``reader[index]``)."""

@@ -96,6 +96,7 @@ import numpy as np
 
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
+from ._sequence import FrameSequence
 
 __all__ = ["MercuryReader", "MercuryFrame", "write_mercury"]
 
@@ -218,7 +219,7 @@ class MercuryFrame:
         self.fstat_line = fstat_line
 
 
-class MercuryReader:
+class MercuryReader(FrameSequence):
     """Lazy sequence of :class:`cgbound.Snapshot` from MercuryDPM output (see the module docstring).
 
     Parameters
@@ -326,28 +327,8 @@ class MercuryReader:
         return out
 
     # ------------------------------------------------------------------------------------------
-    def __len__(self):
-        return len(self._frames)
-
-    def __getitem__(self, index):
-        if isinstance(index, slice):
-            out = object.__new__(MercuryReader)
-            out.__dict__.update(self.__dict__)
-            out._frames = self._frames[index]
-            out._cache = None
-            return out
-        if isinstance(index, (bool, np.bool_)) or not isinstance(index, (numbers.Integral, np.integer)):
-            raise TypeError(f"index: expected an integer or a slice, got {type(index).__name__}")
-        return self.frame(index).snapshot
-
-    def __iter__(self):
-        for k in range(len(self)):
-            yield self[k]
-
-    def __getstate__(self):
-        state = dict(self.__dict__)
-        state["_cache"] = None
-        return state
+    def _snapshot(self, position):
+        return self.frame(position).snapshot
 
     def __repr__(self):
         return (f"MercuryReader({os.path.basename(self.data_path)!r}, "
@@ -356,17 +337,7 @@ class MercuryReader:
 
     def frame(self, index):
         """Frame ``index`` as a :class:`MercuryFrame`."""
-        n = len(self._frames)
-        k = int(index)
-        if k < 0:
-            k += n
-        if not 0 <= k < n:
-            raise IndexError(f"index: frame {index} out of range for {n} frames")
-        if self._cache is not None and self._cache[0] == k:
-            return self._cache[1]
-        result = self._build(*self._frames[k])
-        self._cache = (k, result)
-        return result
+        return self._cached_frame(index)
 
     # ------------------------------------------------------------------------------------------
     def _build(self, data_offset, data_line, n, fstat_offset, fstat_line, marker):
