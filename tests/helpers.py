@@ -91,3 +91,18 @@ def assert_fields_close(actual, expected, rtol, what=""):
     err = np.max(np.abs(a - e)) if e.size else 0.0
     assert err <= rtol * scale or err == 0.0, f"{what}: max error {err:.3e} > {rtol:g} x scale {scale:.3e}"
     return err / scale if scale else 0.0
+
+
+class ForbiddenCore:
+    """Stands in for the C core: any scatter means work started that should not have."""
+
+    def __init__(self, real, reason="before the bad input was rejected"):
+        self._real = real
+        self._reason = reason
+
+    def __getattr__(self, name):
+        if name.startswith("scatter"):
+            def forbidden(*args, **kwargs):
+                raise AssertionError(f"_core.{name} ran {self._reason}")
+            return forbidden
+        return getattr(self._real, name)

@@ -13,6 +13,7 @@ import pytest
 
 import cgbound
 import cgbound as cg
+from helpers import ForbiddenCore
 
 N, D = 5, 3
 RNG = np.random.default_rng(12)
@@ -50,20 +51,6 @@ def grid():
 
 SNAP = snapshot()
 PTS = np.array([[1.0, 1.0, 1.0], [0.5, 1.5, 0.7]])
-
-
-class ForbiddenCore:
-    """Stands in for the C core: any scatter means work started before the input was checked."""
-
-    def __init__(self, real):
-        self._real = real
-
-    def __getattr__(self, name):
-        if name.startswith("scatter"):
-            def forbidden(*args, **kwargs):
-                raise AssertionError(f"_core.{name} ran before the bad input was rejected")
-            return forbidden
-        return getattr(self._real, name)
 
 
 @pytest.fixture(autouse=True)

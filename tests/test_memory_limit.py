@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import cgbound
+from helpers import ForbiddenCore
 import cgbound as cg
 import cgbound._memory as memory
 from cgbound.fields import FIELDS
@@ -13,22 +14,10 @@ from cgbound.fields import FIELDS
 HUGE = (100000, 100000, 100)  # 1e12 nodes: terabytes for any field
 
 
-class ForbiddenCore:
-    def __init__(self, real):
-        self._real = real
-
-    def __getattr__(self, name):
-        if name.startswith("scatter"):
-            def forbidden(*args, **kwargs):
-                raise AssertionError(f"_core.{name} ran: memory was about to be allocated")
-            return forbidden
-        return getattr(self._real, name)
-
-
 @pytest.fixture
 def no_work(monkeypatch):
-    monkeypatch.setattr(cgbound.fields, "_core", ForbiddenCore(cgbound.fields._core))
-    monkeypatch.setattr(cgbound.residual, "_core", ForbiddenCore(cgbound.residual._core))
+    monkeypatch.setattr(cgbound.fields, "_core", ForbiddenCore(cgbound.fields._core, "although memory was about to run out"))
+    monkeypatch.setattr(cgbound.residual, "_core", ForbiddenCore(cgbound.residual._core, "although memory was about to run out"))
 
 
 def small_snapshot(n=10, seed=0):

@@ -561,15 +561,6 @@ def write_mercury(snapshots, data_path, fstat_path, *, precision=17, wall_index=
                         d[a] -= L[a] * np.round(d[a] / L[a])
                 return d
 
-            def line(i, j, point, nrm, f, delta):
-                fn = float(np.dot(f, nrm))
-                tv = f - fn * nrm
-                ftv = float(np.linalg.norm(tv))
-                tt = tv / ftv if ftv > 0 else np.zeros(dim)
-                pad = [0.0] * (3 - dim)
-                return (f"{fmt % snap.time} {i} {j} {vec(list(point) + pad)} {fmt % delta} 0 {fmt % fn} {fmt % ftv} "
-                        f"{vec(list(nrm) + pad)} {vec(list(tt) + pad)}\n")
-
             for k in range(len(c)):
                 i, j, f, p = int(c.i[k]), int(c.j[k]), c.force[k], c.point[k]
                 if j < 0:
@@ -578,26 +569,27 @@ def write_mercury(snapshots, data_path, fstat_path, *, precision=17, wall_index=
                     arm = mi(snap.positions[i] - p)
                     nrm = arm / np.linalg.norm(arm)       # from the wall to the particle
                     delta = 2.0 * (snap.radii[i] - np.linalg.norm(arm))
-                    ff.write(_wall_line(fmt, vec, snap.time, i, -1 - int(widx[k]), p, nrm, f, delta, dim))
+                    ff.write(_fstat_line(fmt, vec, snap.time, i, -1 - int(widx[k]), p, nrm, f, delta, dim, wall=True))
                     continue
                 r = mi(snap.positions[i] - snap.positions[j])
                 nrm = r / np.linalg.norm(r)               # from j to i
                 delta = snap.radii[i] + snap.radii[j] - np.linalg.norm(r)
                 if not snap.fixed[i]:
-                    ff.write(line(i, j, p, nrm, f, delta))
+                    ff.write(_fstat_line(fmt, vec, snap.time, i, j, p, nrm, f, delta, dim))
                 if not snap.fixed[j]:
-                    ff.write(line(j, i, p, -nrm, -f, delta))
+                    ff.write(_fstat_line(fmt, vec, snap.time, j, i, p, -nrm, -f, delta, dim))
             count += 1
     return count
 
 
-def _wall_line(fmt, vec, time, i, jw, point, nrm, f, delta, dim):
-    """A wall line as writeToFStat writes it: fn, ft of the force on the particle along the
-    interaction normal ``nrm`` (wall -> particle), then ``-nrm`` and ``-t``."""
+def _fstat_line(fmt, vec, time, i, j, point, nrm, f, delta, dim, wall=False):
+    """One .fstat line: fn, ft of the force on particle i along the normal ``nrm`` (j -> i).
+    Wall lines are written as writeToFStat does, with ``-nrm`` and ``-t``."""
     fn = float(np.dot(f, nrm))
     tv = f - fn * nrm
     ftv = float(np.linalg.norm(tv))
     tt = tv / ftv if ftv > 0 else np.zeros(dim)
+    sign = -1.0 if wall else 1.0
     pad = [0.0] * (3 - dim)
-    return (f"{fmt % time} {i} {jw} {vec(list(point) + pad)} {fmt % delta} 0 {fmt % fn} {fmt % ftv} "
-            f"{vec(list(-nrm) + pad)} {vec(list(-tt) + pad)}\n")
+    return (f"{fmt % time} {i} {j} {vec(list(point) + pad)} {fmt % delta} 0 {fmt % fn} {fmt % ftv} "
+            f"{vec(list(sign * nrm) + pad)} {vec(list(sign * tt) + pad)}\n")
