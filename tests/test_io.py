@@ -136,3 +136,14 @@ def test_a_failed_write_leaves_the_existing_file_untouched(tmp_path, monkeypatch
         out.to_npz(path)
     assert path.read_bytes() == b"precious"
     assert [p.name for p in tmp_path.iterdir()] == ["fields.npz"]      # no temporary left behind
+
+
+def test_atomic_write_gives_ordinary_file_permissions(tmp_path):
+    """The temporary file is private while written; the result gets the mode of a plain open()."""
+    import os
+    from cgbound._atomic import atomic_write
+    target = tmp_path / "out.txt"
+    atomic_write(target, lambda p: open(p, "w").write("x"))
+    plain = tmp_path / "plain.txt"
+    plain.write_text("x")
+    assert (os.stat(target).st_mode & 0o777) == (os.stat(plain).st_mode & 0o777)

@@ -1,0 +1,37 @@
+"""Datasets shipped with cgbound (made with LAMMPS by the scripts in ``scripts/``).
+
+* :func:`chute_steady`: the paper's steady chute flow (Figs. 2-3), frames in t = [2000, 2100].
+* :func:`chute_kinetic_energy`: the chute's kinetic energy from t = 0 (shows the window is steady).
+* :func:`boundary_2d`: the paper's Fig. 1 configuration, relaxed until static.
+"""
+import os
+
+import numpy as np
+
+DATA_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+
+
+def path(name):
+    """Absolute path of a shipped data file."""
+    full = os.path.join(DATA_DIR, name)
+    if not os.path.exists(full):
+        raise FileNotFoundError(f"name: no shipped dataset {name!r} in {DATA_DIR}")
+    return full
+
+
+def chute_steady():
+    """The steady chute frames as a lazy :class:`cgbound.readers.HDF5Snapshots`."""
+    from .readers.hdf5 import HDF5Snapshots
+    return HDF5Snapshots(path("chute_steady.h5"))
+
+
+def chute_kinetic_energy():
+    """(time, kinetic energy of the flowing particles) from the start of the chute run."""
+    data = np.loadtxt(path("chute_kinetic_energy.csv"), delimiter=",")
+    return data[:, 0], data[:, 1]
+
+
+def boundary_2d():
+    """The relaxed Fig. 1 scene (a :class:`cgbound.Snapshot`)."""
+    from .readers.hdf5 import HDF5Snapshots
+    return HDF5Snapshots(path("boundary_2d.h5"))[0]

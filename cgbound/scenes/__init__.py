@@ -1,0 +1,15 @@
+"""Scenes: declarative discrete-particle simulations run with a real DEM engine (LAMMPS).
+
+A :class:`Scene` lists particles, boundaries and the effects it needs; :func:`run_scene`
+writes LAMMPS input containing exactly those effects, runs ``lmp`` and reads back thermo
+output and snapshots with consistent per-contact forces (dumped inside ``run 0``).
+The paper's scenes are :func:`boundary_2d` (Fig. 1) and :func:`chute` (Figs. 2-3).
+"""
+from .lammps import Frames, Run, Settle, Trace, data_file, input_script
+from .paper import binary_collision, boundary_2d, chute, measure_collision
+from .runner import LammpsError, SceneRun, find_lammps, run_scene
+from .scene import PAPER_COLLISION_TIME, PAPER_CONTACT_MODEL, PAPER_TIMESTEP, ContactModel, Scene, Wall
+
+__all__ = ["ContactModel", "Frames", "LammpsError", "PAPER_COLLISION_TIME", "PAPER_CONTACT_MODEL", "PAPER_TIMESTEP",
+           "Run", "Scene", "SceneRun", "Settle", "Trace", "Wall", "binary_collision", "boundary_2d", "chute",
+           "data_file", "find_lammps", "input_script", "measure_collision", "run_scene"]
