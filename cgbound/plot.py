@@ -19,15 +19,16 @@ def _pyplot():
 
 
 def norm(result, name):
-    """Scalar view of a field: the value, |v| for vectors, max |eigenvalue| for (symmetric part of) tensors."""
+    """Scalar view of a field: the value, |v| for vectors, and for tensors the paper's
+    |sigma| = max_{|x|=1} |sigma x| (the largest singular value; the largest |eigenvalue| when
+    sigma is symmetric; frictional contacts make the contact stress asymmetric)."""
     value = result[name]
     rank = FIELDS[name][0]
     if rank == 0:
         return value
     if rank == 1:
         return np.linalg.norm(value, axis=-1)
-    sym = 0.5 * (value + np.swapaxes(value, -1, -2))
-    return np.abs(np.linalg.eigvalsh(sym)).max(axis=-1)
+    return np.linalg.svd(value, compute_uv=False)[..., 0]
 
 
 def _component(result, name, component):

@@ -9,10 +9,15 @@ from helpers import random_snapshot
 h5py = pytest.importorskip("h5py")
 
 
-def test_demo_runs_and_checks(tmp_path, capsys):
-    assert main(["demo", "--nodes", "60", "--output", str(tmp_path / "demo.npz")]) == 0
+def test_demo_runs_fig3_on_the_shipped_chute(tmp_path, capsys):
+    out = tmp_path / "demo.h5"
+    assert main(["demo", "--output", str(out), "-q"]) == 0
     text = capsys.readouterr().out
-    assert "integral of the IFD" in text and (tmp_path / "demo.npz").exists()
+    assert "lithostatic error" in text and "bed height" in text and "surface height" in text
+    with h5py.File(out, "r") as f:
+        assert f.attrs["lithostatic_error"] <= 0.01
+        assert f.attrs["bed"] < f.attrs["surface"]
+        assert f["z"].shape == f["extended_stress_zz"].shape
 
 
 def test_run_writes_the_same_fields_as_the_api(tmp_path, capsys):
