@@ -2,6 +2,7 @@
 
 * :func:`chute_steady`: the paper's steady chute flow (Figs. 2-3), frames in t = [2000, 2100].
 * :func:`chute_kinetic_energy`: the chute's kinetic energy from t = 0 (shows the window is steady).
+* :func:`chute_dense_profiles`: Fig. 3 profiles of the chute sampled as in the paper (every t_c / 2).
 * :func:`boundary_2d`: the paper's Fig. 1 configuration, relaxed until static.
 """
 import os
@@ -29,6 +30,13 @@ def chute_kinetic_energy():
     """(time, kinetic energy of the flowing particles) from the start of the chute run."""
     data = np.loadtxt(path("chute_kinetic_energy.csv"), delimiter=",")
     return data[:, 0], data[:, 1]
+
+
+def chute_dense_profiles():
+    """Fig. 3 profiles averaged over 4001 chute frames taken every t_c / 2 (a
+    :class:`cgbound.profiles.DepthProfiles`; made by scripts/check_chute_dense_sampling.py)."""
+    from .profiles import DepthProfiles
+    return DepthProfiles.from_hdf5(path("chute_dense_profiles.h5"))
 
 
 def boundary_2d():

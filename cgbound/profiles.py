@@ -53,17 +53,22 @@ class DepthProfiles:
         and falls to threshold of it (the paper: 2 %).
     rays : bool
         Also compute the extended stress directly from eq. (24) (ray integrals) as a check of eq. (27).
+    blocks : int
+        Estimate the sampling error of the lithostatic balance from this many contiguous blocks of
+        frames (0: no estimate). Instantaneous contact forces of a collisional flow scatter widely
+        from frame to frame; the paper samples every t_c / 2 for that reason.
 
     Results (after ``run``)
     -----------------------
     z, density, stress_zz (sigma_zz without the boundary correction), ifd_z (t_z),
     extended_stress_zz (sigma'_zz from eq. 27), weight (-int_z^inf rho g_z dz, the weight of the
     flow above z per unit area), bed, surface, lithostatic_error (max |sigma'_zz - weight| between bed
-    and surface, relative to the weight of the whole flow), ray_extended_stress_zz (if rays),
+    and surface, relative to the weight of the whole flow), lithostatic_standard_error (its sampling
+    error from block averages, same units), lithostatic_ok, ray_extended_stress_zz (if rays),
     result (the underlying cgbound Result).
     """
 
-    def __init__(self, width=0.25, kernel=None, spacing=None, z_range=None, threshold=0.02, rays=False):
+    def __init__(self, width=0.25, kernel=None, spacing=None, z_range=None, threshold=0.02, rays=False, blocks=5):
         self.width = positive_number(width, "width")
         self.kernel = Gaussian(self.width) if kernel is None else check_kernel(kernel)
         self.spacing = self.width / 8 if spacing is None else positive_number(spacing, "spacing")
@@ -77,6 +82,9 @@ class DepthProfiles:
         if self.threshold >= 0.5:
             raise ValueError(f"threshold: expected a fraction below 0.5, got {threshold!r}")
         self.rays = bool(rays)
+        if isinstance(blocks, bool) or not isinstance(blocks, int) or blocks < 0 or blocks == 1:
+            raise ValueError(f"blocks: expected 0 (no error estimate) or an integer >= 2, got {blocks!r}")
+        self.blocks = blocks
 
     def _grid(self, first):
         dim = first.dim
@@ -93,43 +101,88 @@ class DepthProfiles:
         shape = (1,) * (dim - 1) + (n,)
         return Grid(box, shape, average=tuple(range(dim - 1)))
 
-    def run(self, snapshots, start=None, stop=None, step=None, verbose=False):
-        """Average over ``snapshots[start:stop:step]``; returns self."""
-        first = snapshots[0 if start is None else start]
-        grid = self._grid(first)
-        fields = PROFILE_FIELDS + (("extended_stress",) if self.rays else ())
-        cg = CoarseGrain(snapshots, grid, self.kernel, fields=fields, convention="compression")
-        r = cg.run(start, stop, step, verbose=verbose).results
-        self.result = r
-        self.grid = grid
-        self.z = grid.axis_coordinates[-1]
-        zz = (-1, -1)
-        self.density = r.density.reshape(-1)
-        self.stress_zz = r.stress[..., zz[0], zz[1]].reshape(-1)
-        self.ifd_z = r.interaction_force_density[..., -1].reshape(-1)
-        body_z = r.body_force_density[..., -1].reshape(-1)
-        # eq. (27) in the compression convention: sigma'_zz = sigma_zz + int_z^inf t_z dz'
-        self.extended_stress_zz = self.stress_zz + integral_from_above(self.ifd_z, self.z)
-        self.weight = -integral_from_above(body_z, self.z)
-        if self.rays:
-            self.ray_extended_stress_zz = r.extended_stress[..., -1, -1].reshape(-1)
+    def _average(self, snapshots, grid, start, stop, step, verbose=False, rays=False):
+        """Averaged profiles over snapshots[start:stop:step]: the Result, sigma_zz, t_z, b_z."""
+        fields = PROFILE_FIELDS + (("extended_stress",) if rays else ())
+        r = CoarseGrain(snapshots, grid, self.kernel, fields=fields, convention="compression").run(
+            start, stop, step, verbose=verbose).results
+        return (r, r.stress[..., -1, -1].reshape(-1), r.interaction_force_density[..., -1].reshape(-1),
+                r.body_force_density[..., -1].reshape(-1))
+
+    @staticmethod
+    def _balance(z, stress_zz, ifd_z, body_z):
+        """sigma'_zz by eq. (27) (compression convention: sigma_zz + int_z^inf t_z dz') and the weight above z."""
+        return stress_zz + integral_from_above(ifd_z, z), -integral_from_above(body_z, z)
+
+    def _derive(self):
+        self.extended_stress_zz, self.weight = self._balance(self.z, self.stress_zz, self.ifd_z, self.body_z)
         s = self.extended_stress_zz
         self.bed = _level(self.z, s, 1.0 - self.threshold)
         self.surface = _level(self.z, s, self.threshold)
-        bulk = (self.z >= self.bed) & (self.z <= self.surface)
+        self._bulk = (self.z >= self.bed) & (self.z <= self.surface)
         self.total_weight = float(self.weight.max())
-        self.lithostatic_error = float(np.max(np.abs(s[bulk] - self.weight[bulk])) / self.total_weight)
+        self.lithostatic_error = float(np.max(np.abs(s[self._bulk] - self.weight[self._bulk])) / self.total_weight)
+
+    def run(self, snapshots, start=None, stop=None, step=None, verbose=False):
+        """Average over ``snapshots[start:stop:step]``; returns self."""
+        frames = range(len(snapshots))[slice(start, stop, step)]
+        if len(frames) == 0:
+            raise ValueError("snapshots: no frames in the range given by start, stop, step")
+        grid = self._grid(snapshots[frames[0]])
+        r, self.stress_zz, self.ifd_z, self.body_z = self._average(snapshots, grid, start, stop, step, verbose, self.rays)
+        self.result, self.grid, self.n_frames = r, grid, len(frames)
+        self.z = grid.axis_coordinates[-1]
+        self.density = r.density.reshape(-1)
+        if self.rays:
+            self.ray_extended_stress_zz = r.extended_stress[..., -1, -1].reshape(-1)
+        self._derive()
+        # sampling error of the mismatch from the scatter of block averages (contiguous blocks of frames)
+        self.lithostatic_standard_error = np.nan
+        if self.blocks and len(frames) >= 2 * self.blocks:
+            edges = np.linspace(0, len(frames), self.blocks + 1).astype(int)
+            mismatch = []
+            for b0, b1 in zip(edges[:-1], edges[1:]):
+                sub = list(frames[b0:b1])
+                _, stress_zz, ifd_z, body_z = self._average(snapshots, grid, sub[0], sub[-1] + 1, frames.step)
+                extended, weight = self._balance(self.z, stress_zz, ifd_z, body_z)
+                mismatch.append(extended - weight)
+            se = np.std(mismatch, axis=0, ddof=1) / np.sqrt(self.blocks)
+            self.lithostatic_standard_error = float(se[self._bulk].max() / self.total_weight)
         return self
+
+    @classmethod
+    def from_hdf5(cls, path):
+        """Profiles written by :meth:`to_hdf5`; eq. (27), the weight, bed, surface and error are recomputed."""
+        import h5py
+        with h5py.File(path, "r") as f:
+            if f.attrs.get("format") != "cgbound-depth-profiles":
+                raise ValueError(f"path: {path!r} is not a cgbound depth-profile file")
+            self = cls(width=float(f.attrs["width"]), spacing=float(f.attrs["spacing"]),
+                       threshold=float(f.attrs["threshold"]), blocks=0)
+            for name in cls.STORED:
+                setattr(self, name, f[name][()])
+            self.lithostatic_standard_error = float(f.attrs["lithostatic_standard_error"])
+            self.n_frames = int(f.attrs["n_frames"])
+            self.provenance = f.attrs.get("provenance", "")
+        self._derive()
+        return self
+
+    @property
+    def lithostatic_ok(self):
+        """The balance holds: within 1 %, or within 3 standard errors of the frames' sampling noise."""
+        return self.lithostatic_error <= 0.01 or self.lithostatic_error <= 3 * self.lithostatic_standard_error
 
     def summary(self):
         return (f"bed z = {self.bed:.3f}, surface z = {self.surface:.3f} (height {self.surface - self.bed:.3f}); "
-                f"lithostatic error {100 * self.lithostatic_error:.3f} % of the weight of the flow "
-                f"({self.total_weight:.4g} per unit area)")
+                f"lithostatic error {100 * self.lithostatic_error:.2f} % (sampling error "
+                f"{100 * self.lithostatic_standard_error:.2f} %) of the weight of the flow ({self.total_weight:.4g} per unit area)")
 
-    PROFILES = ("z", "density", "stress_zz", "ifd_z", "extended_stress_zz", "weight")
-    SCALARS = ("bed", "surface", "lithostatic_error", "total_weight", "width")
+    STORED = ("z", "density", "stress_zz", "ifd_z", "body_z")
+    PROFILES = STORED + ("extended_stress_zz", "weight")
+    SCALARS = ("bed", "surface", "lithostatic_error", "lithostatic_standard_error", "total_weight", "width",
+               "spacing", "threshold", "n_frames")
 
-    def to_hdf5(self, path):
+    def to_hdf5(self, path, provenance=""):
         """Write the profiles (datasets) and bed, surface, lithostatic error (attributes) atomically."""
         import h5py
 
@@ -141,6 +194,7 @@ class DepthProfiles:
                 for name in self.SCALARS:
                     f.attrs[name] = getattr(self, name)
                 f.attrs["kernel"] = repr(self.kernel)
+                f.attrs["provenance"] = provenance
                 for name in self.PROFILES:
                     f.create_dataset(name, data=getattr(self, name))
         return atomic_write(path, write)

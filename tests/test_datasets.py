@@ -36,9 +36,8 @@ def test_chute_frames_balance_to_round_off():
     assert res.relative.max() < 1e-10
 
 
-def test_fig3_lithostatic_balance_bed_and_surface():
-    profiles = DepthProfiles(width=0.25, rays=True).run(datasets.chute_steady())
-    assert profiles.lithostatic_error < 0.01
+def test_fig3_on_the_shipped_frames_bed_surface_and_eq27_against_rays():
+    profiles = DepthProfiles(width=0.25, rays=True, blocks=5).run(datasets.chute_steady())
     # the total weight per unit area is the flow's: 1000 m g cos 26 / (20 x 10)
     assert profiles.total_weight == pytest.approx(1000 * np.cos(np.radians(26)) / 200, rel=1e-3)
     # eq. (27) agrees with eq. (24) evaluated directly by ray integrals
@@ -49,6 +48,34 @@ def test_fig3_lithostatic_balance_bed_and_surface():
     assert np.interp(profiles.bed, profiles.z, s) == pytest.approx(0.98 * s.max(), rel=1e-3)
     assert np.interp(profiles.surface, profiles.z, s) == pytest.approx(0.02 * s.max(), rel=1e-2)
     assert 0 < profiles.bed < profiles.surface < 12
+    # sparse frames: the balance is off by the sampling of impacts (a few per cent), which the block estimate sees
+    assert profiles.lithostatic_error < 0.1 and 0 < profiles.lithostatic_standard_error < 0.1
+
+
+def test_fig3_with_the_papers_sampling_is_lithostatic_within_one_percent(tmp_path):
+    dense = datasets.chute_dense_profiles()
+    assert dense.n_frames >= 4000
+    assert dense.lithostatic_error < 0.01
+    assert dense.total_weight == pytest.approx(1000 * np.cos(np.radians(26)) / 200, rel=1e-3)
+    assert 0 < dense.bed < dense.surface < 12
+    # the file round-trips and the derived quantities are recomputed, not stored-and-trusted
+    dense.to_hdf5(tmp_path / "p.h5")
+    back = DepthProfiles.from_hdf5(tmp_path / "p.h5")
+    np.testing.assert_array_equal(back.extended_stress_zz, dense.extended_stress_zz)
+    assert back.bed == dense.bed and back.lithostatic_error == dense.lithostatic_error
+
+
+def test_depth_profiles_refuse_bad_arguments():
+    with pytest.raises(ValueError, match="width"):
+        DepthProfiles(width=0)
+    with pytest.raises(ValueError, match="blocks"):
+        DepthProfiles(blocks=1)
+    with pytest.raises(ValueError, match="threshold"):
+        DepthProfiles(threshold=0.7)
+    with pytest.raises(ValueError, match="z_range"):
+        DepthProfiles(z_range=(3, 1))
+    with pytest.raises(ValueError, match="no frames"):
+        DepthProfiles().run(datasets.chute_steady(), start=5, stop=5)
 
 
 def test_integral_from_above_matches_a_closed_form():
