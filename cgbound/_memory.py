@@ -8,7 +8,7 @@ to turn a hopeless request into a clear MemoryError instead of a crash or swappi
 """
 import os
 
-from . import _core
+from ._threads import get_num_threads
 
 #: doubles per node of each primary sum (also the width of the scatter that makes it), as powers of D
 PRIMARY_RANK = {"rho": 0, "p_w": 1, "k": 2, "sk": 2, "b": 1, "phi": 0, "sb": 2, "sw": 2, "sx": 2, "t": 1}
@@ -29,12 +29,7 @@ def physical_memory():
 
 def core_threads(n_objects=None):
     """Threads the C core will use for a scatter over n_objects (1 without OpenMP)."""
-    if not _core.have_openmp():
-        return 1
-    threads = os.cpu_count() or 1
-    env = os.environ.get("OMP_NUM_THREADS", "").split(",")[0].strip()
-    if env.isdigit() and int(env) > 0:
-        threads = int(env)
+    threads = get_num_threads()
     if n_objects is not None:
         threads = min(threads, max(int(n_objects), 1))
     return threads

@@ -9,6 +9,7 @@ digits in the kinetic stress.
 import numpy as np
 
 from . import _core
+from ._threads import get_num_threads
 
 #: field name -> (rank, primaries it needs)
 FIELDS = {
@@ -118,9 +119,10 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
     has_velocity = snapshot.velocities is not None
     v_w = snapshot.velocities[flow] - u_ref if has_velocity else None
     out = {}
+    nt = get_num_threads()
 
     def points(positions, values):
-        return _core.scatter_points(core_target, core_kernel, positions, values)
+        return _core.scatter_points(core_target, core_kernel, positions, values, n_threads=nt)
 
     if "rho" in needed:
         out["rho"] = points(pos, m[:, None])[:, 0]
@@ -137,7 +139,7 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
             rho = out["rho"]
             node_v = np.zeros((P, dim))
             np.divide(out["p_w"], rho[:, None], out=node_v, where=rho[:, None] > 0)
-            out["sk"] = _core.scatter_fluctuation(core_target, core_kernel, pos, m, v_w, node_v)
+            out["sk"] = _core.scatter_fluctuation(core_target, core_kernel, pos, m, v_w, node_v, n_threads=nt)
         else:
             out["sk"] = np.zeros((P, dim, dim))
     if "b" in needed:
@@ -159,7 +161,7 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
                 start = snapshot.positions[bulk["i"]]
                 values = -_outer(bulk["force"], bulk["branch"])
                 out["sb"] = _core.scatter_segments(core_target, core_kernel, start, -bulk["branch"],
-                                                   values).reshape(P, dim, dim)
+                                                   values, n_threads=nt).reshape(P, dim, dim)
             else:
                 out["sb"] = zero_tensor
         if needed & {"sw", "sx"} and boundary["i"].size:
@@ -168,13 +170,13 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
         if "sw" in needed:
             if boundary["i"].size:
                 out["sw"] = _core.scatter_segments(core_target, core_kernel, start, -boundary["branch"],
-                                                   values).reshape(P, dim, dim)
+                                                   values, n_threads=nt).reshape(P, dim, dim)
             else:
                 out["sw"] = zero_tensor.copy()
         if "sx" in needed:
             if boundary["i"].size:
                 out["sx"] = _core.scatter_segments(core_target, core_kernel, start, -boundary["branch"],
-                                                   values, ray=True).reshape(P, dim, dim)
+                                                   values, ray=True, n_threads=nt).reshape(P, dim, dim)
             else:
                 out["sx"] = zero_tensor.copy()
         if "t" in needed:

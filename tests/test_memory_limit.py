@@ -103,23 +103,32 @@ def test_physical_memory_is_from_sysconf():
 
 
 class FakeCore:
-    def __init__(self, openmp):
+    def __init__(self, openmp, threads=8):
         self.openmp = openmp
+        self.threads = threads
 
     def have_openmp(self):
         return self.openmp
 
+    def default_threads(self):
+        return self.threads if self.openmp else 1
+
 
 def test_thread_count(monkeypatch):
-    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
-    monkeypatch.setattr(memory.os, "cpu_count", lambda: 8)
-    monkeypatch.setattr(memory, "_core", FakeCore(True))
-    assert memory.core_threads() == 8
+    import cgbound._threads as threads
+
+    monkeypatch.setattr(threads, "_core", FakeCore(True, 8))
+    assert memory.core_threads() == 8                 # the OpenMP default
     assert memory.core_threads(n_objects=3) == 3    # the core never runs more threads than objects
     assert memory.core_threads(n_objects=0) == 1
-    monkeypatch.setenv("OMP_NUM_THREADS", "4")
-    assert memory.core_threads() == 4
-    monkeypatch.setattr(memory, "_core", FakeCore(False))
+    with cg.threads(4):
+        assert memory.core_threads() == 4
+    previous = cg.set_num_threads(3)
+    try:
+        assert memory.core_threads() == 3
+    finally:
+        cg.set_num_threads(previous)
+    monkeypatch.setattr(threads, "_core", FakeCore(False))
     assert memory.core_threads() == 1
     assert cg.have_openmp() in (True, False)
 
