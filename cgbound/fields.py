@@ -124,16 +124,35 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
     def points(positions, values):
         return _core.scatter_points(core_target, core_kernel, positions, values, n_threads=nt)
 
+    # the primaries summed over the flowing particles' positions: one scatter with all their columns
+    # (the stencil and weights are computed once; each column is summed exactly as on its own)
+    columns = []
     if "rho" in needed:
-        out["rho"] = points(pos, m[:, None])[:, 0]
-    if "p_w" in needed:
-        out["p_w"] = points(pos, m[:, None] * v_w) if has_velocity else np.zeros((P, dim))
-    if "k" in needed:
-        if has_velocity:
-            v = snapshot.velocities[flow]
-            out["k"] = points(pos, m[:, None] * _outer(v, v)).reshape(P, dim, dim)
-        else:
-            out["k"] = np.zeros((P, dim, dim))
+        columns.append(("rho", m[:, None], ()))
+    if "p_w" in needed and has_velocity:
+        columns.append(("p_w", m[:, None] * v_w, (dim,)))
+    if "k" in needed and has_velocity:
+        v = snapshot.velocities[flow]
+        columns.append(("k", m[:, None] * _outer(v, v), (dim, dim)))
+    if "b" in needed and snapshot.body_force is not None:
+        columns.append(("b", m[:, None] * snapshot.body_force[flow], (dim,)))
+    if "phi" in needed:
+        r = snapshot.radii[flow]
+        vol = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
+        columns.append(("phi", vol[:, None], ()))
+    if columns:
+        summed = points(pos, np.concatenate([c for _, c, _ in columns], axis=1))
+        start = 0
+        for name, c, shape in columns:
+            out[name] = np.ascontiguousarray(summed[:, start:start + c.shape[1]]).reshape((P,) + shape)
+            start += c.shape[1]
+        del summed
+    if "p_w" in needed and not has_velocity:
+        out["p_w"] = np.zeros((P, dim))
+    if "k" in needed and not has_velocity:
+        out["k"] = np.zeros((P, dim, dim))
+    if "b" in needed and snapshot.body_force is None:
+        out["b"] = np.zeros((P, dim))
     if "sk" in needed:
         if has_velocity and pos.shape[0]:
             rho = out["rho"]
@@ -142,15 +161,6 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
             out["sk"] = _core.scatter_fluctuation(core_target, core_kernel, pos, m, v_w, node_v, n_threads=nt)
         else:
             out["sk"] = np.zeros((P, dim, dim))
-    if "b" in needed:
-        if snapshot.body_force is not None:
-            out["b"] = points(pos, m[:, None] * snapshot.body_force[flow])
-        else:
-            out["b"] = np.zeros((P, dim))
-    if "phi" in needed:
-        r = snapshot.radii[flow]
-        vol = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
-        out["phi"] = points(pos, vol[:, None])[:, 0]
 
     contact_primaries = needed & {"sb", "sw", "t", "sx"}
     if contact_primaries:

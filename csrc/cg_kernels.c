@@ -317,15 +317,17 @@ void cg_gauss_legendre01(int n, double *x, double *w)
 }
 
 /* Error bound of the n-point rule for int_0^L exp(-t^2/2w^2) dt relative to
-   w-scaled peak: (L/w)^2n (n!)^3 / ((2n+1) ((2n)!)^2 2^n) (the Gauss-Legendre
-   remainder with |d^2n/dt^2n exp(-t^2/2)| <= (2n)! / (2^n n!)). The largest
-   L/w for which it is below 1e-16, for n = 8, 12, 16: */
-static const int ROUNDOFF_POINTS[3] = {8, 12, 16};
-static const double ROUNDOFF_MAX_RATIO[3] = {1.06, 2.75, 4.6};
+   its length L (the peak of the integrand is 1): (L/w)^2n (n!)^3 / ((2n+1)
+   ((2n)!)^2 2^n), the Gauss-Legendre remainder with |d^2n/dt^2n exp(-t^2/2)|
+   <= (2n)! / (2^n n!). The largest L/w for which it is below 1e-16, for
+   n = 4, 5, 6, 8, 10, 12, 16 (checked against erf differences): */
+#define N_ROUNDOFF_RULES 7
+static const int ROUNDOFF_POINTS[N_ROUNDOFF_RULES] = {4, 5, 6, 8, 10, 12, 16};
+static const double ROUNDOFF_MAX_RATIO[N_ROUNDOFF_RULES] = {0.08, 0.22, 0.438, 1.068, 1.867, 2.752, 4.601};
 
 int cg_gaussian_roundoff_points(double L, double w)
 {
-    for (int i = 0; i < 3; ++i)
+    for (int i = 0; i < N_ROUNDOFF_RULES; ++i)
         if (L <= ROUNDOFF_MAX_RATIO[i] * w) return ROUNDOFF_POINTS[i];
     return 0;
 }

@@ -59,7 +59,9 @@ static void row_add(double *restrict o, const double *restrict w, cg_index nk, c
     case 2: ROW_ADD_FIXED(2) return;
     case 3: ROW_ADD_FIXED(3) return;
     case 4: ROW_ADD_FIXED(4) return;
+    case 7: ROW_ADD_FIXED(7) return;   /* 2D density, momentum and momentum flux in one scatter */
     case 9: ROW_ADD_FIXED(9) return;
+    case 13: ROW_ADD_FIXED(13) return; /* the same in 3D */
     default:
         for (cg_index k = 0; k < nk; ++k)
             for (int c = 0; c < nv; ++c) o[k * nv + c] += w[k] * v[c];
@@ -88,12 +90,80 @@ static void gaussian_table(const double *d2, cg_index n, double q0, double h, do
     }
 }
 
+/* floor and ceil without a libm call (SSE2 has no rounding instruction) */
+static double floor_fast(double x)
+{
+    const double t = (double)(cg_index)x;
+    return t > x ? t - 1.0 : t;
+}
+
+static double ceil_fast(double x)
+{
+    const double t = (double)(cg_index)x;
+    return t < x ? t + 1.0 : t;
+}
+
+/* The nodes k of a row with s + d2[k] < R2, where d2[k] = (q0 + k h)^2: the
+   range [lo, hi) from the roots of the parabola, then moved node by node (at
+   most a step, from rounding) until the same test as the node-by-node path
+   holds exactly at both ends. h = 0: a single node. */
+static void inside_range(const double *d2, cg_index n, double q0, double inv_h, double s, double R2, cg_index *lo,
+                         cg_index *hi)
+{
+    cg_index a = 0, b = n;
+    if (inv_h > 0.0 && n > 2) {
+        const double r = sqrt(fmax(R2 - s, 0.0));
+        const double fa = floor_fast((-r - q0) * inv_h) + 1.0, fb = ceil_fast((r - q0) * inv_h);
+        a = fa < 0.0 ? 0 : (fa > (double)n ? n : (cg_index)fa);
+        b = fb < 0.0 ? 0 : (fb > (double)n ? n : (cg_index)fb);
+        if (b < a) b = a;
+        while (a > 0 && s + d2[a - 1] < R2) --a;
+        while (b < n && s + d2[b] < R2) ++b;
+    }
+    while (a < b && !(s + d2[a] < R2)) ++a;
+    while (b > a && !(s + d2[b - 1] < R2)) --b;
+    *lo = a;
+    *hi = b;
+}
+
+/* The exact line integral (to round-off) at a node whose ball the segment
+   leaves: q = node - start and e in slots, |e|^2 = L2. The integrand
+   exp(-|q - s e|^2 / 2w^2) = exp(-(a^2 + (s - u)^2 L2) / 2w^2) is smooth on
+   the part [s0, s1] of [0, 1] inside the ball, so a Gauss-Legendre rule that is
+   exact to round-off for that length (no longer than the segment) integrates it. */
+static double cut_segment_value(const double *q, const double *e, double L2, double inv_L2, double R2, double w,
+                                double inv2w2)
+{
+    const double u = (q[0] * e[0] + q[1] * e[1] + q[2] * e[2]) * inv_L2;
+    double a2 = 0.0;
+    for (int s = 0; s < 3; ++s) {
+        const double d = q[s] - u * e[s];
+        a2 += d * d;
+    }
+    const double b2 = R2 - a2;
+    if (!(b2 > 0.0)) return 0.0;
+    const double half = sqrt(b2 * inv_L2);
+    const double s0 = fmax(0.0, u - half), s1 = fmin(1.0, u + half);
+    if (!(s1 > s0)) return 0.0;
+    const double span = s1 - s0;
+    double xs[CG_MAX_LINE_POINTS], ws[CG_MAX_LINE_POINTS];
+    int m = cg_gaussian_roundoff_points(span * sqrt(L2), w);
+    if (m == 0) m = CG_MAX_LINE_POINTS; /* not reached: the segment itself passed this test */
+    cg_gauss_legendre01(m, xs, ws);
+    double sum = 0.0;
+    for (int g = 0; g < m; ++g) {
+        const double t = s0 + xs[g] * span - u;
+        sum += ws[g] * exp(-(a2 + t * t * L2) * inv2w2);
+    }
+    return sum * span;
+}
+
 /* squared distance from point p to the segment [0, e] (3 slots), q = p */
-static double segment_distance2(const double *q, const double *e, double L2)
+static double segment_distance2(const double *q, const double *e, double inv_L2)
 {
     double t = 0.0;
-    if (L2 > 0.0) {
-        t = (q[0] * e[0] + q[1] * e[1] + q[2] * e[2]) / L2;
+    if (inv_L2 > 0.0) {
+        t = (q[0] * e[0] + q[1] * e[1] + q[2] * e[2]) * inv_L2;
         t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
     }
     double d2 = 0.0;
@@ -205,15 +275,20 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
     const double *values = jb->mode == MODE_VALUE ? jb->values + obj * nv : NULL;
     const double e2d[3] = {es[0], es[1], 0.0};
     const double L2_2d = es[0] * es[0] + es[1] * es[1];
+    const double inv_L2_2d = L2_2d > 0.0 ? 1.0 / L2_2d : 0.0, inv_L2 = L2 > 0.0 ? 1.0 / L2 : 0.0;
+    /* offsets of the first node of the last slot from each rule point and the ends */
+    const double inv_h = (nr > 0 && jb->spacing[nr - 1] > 0.0) ? 1.0 / jb->spacing[nr - 1] : 0.0;
+    double q0[CG_MAX_LINE_POINTS], q0A = cslot[2][0], q0B = cslot[2][0] - es[2];
+    for (int g = 0; g < G; ++g) q0[g] = cslot[2][0] - gx[g] * es[2];
 
     for (cg_index i = 0; i < n0; ++i) {
         for (cg_index j = 0; j < n1; ++j) {
             if (hybrid) {
                 /* rows whose line misses the capsule carry nothing */
                 const double q2d[3] = {cslot[0][i], cslot[1][j], 0.0};
-                if (!(segment_distance2(q2d, e2d, L2_2d) < R2_margin)) continue;
+                if (!(segment_distance2(q2d, e2d, inv_L2_2d) < R2_margin)) continue;
             }
-            int any = 0;
+            cg_index k0 = n2, k1 = 0; /* the range of the row that receives anything */
             for (cg_index k = 0; k < n2; ++k) row[k] = 0.0;
             if (!hybrid) {
                 for (int g = 0; g < G; ++g) {
@@ -221,22 +296,28 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
                     if (!(s01 < R2)) continue;
                     /* the nodes of the row inside this point's ball: a contiguous range */
                     const double *dz = d2[g][2], *gz = ex[g][2];
-                    cg_index lo = 0, hi = n2;
-                    while (lo < hi && !(s01 + dz[lo] < R2)) ++lo;
-                    while (hi > lo && !(s01 + dz[hi - 1] < R2)) --hi;
+                    cg_index lo, hi;
+                    inside_range(dz, n2, q0[g], inv_h, s01, R2, &lo, &hi);
                     const double c = gw[g] * ex[g][0][i] * ex[g][1][j];
                     for (cg_index k = lo; k < hi; ++k) row[k] += c * gz[k];
-                    any |= lo < hi;
+                    if (lo < hi) {
+                        if (lo < k0) k0 = lo;
+                        if (hi > k1) k1 = hi;
+                    }
                 }
             } else {
                 /* the rule is exact where both ends, hence the whole segment, lie
                    inside the ball: a contiguous range of the row */
                 const double a01 = endA[0][i] + endA[1][j], b01 = endB[0][i] + endB[1][j];
-                cg_index lo = 0, hi = n2;
-                while (lo < hi && !(a01 + endA[2][lo] < R2 && b01 + endB[2][lo] < R2)) ++lo;
-                while (hi > lo && !(a01 + endA[2][hi - 1] < R2 && b01 + endB[2][hi - 1] < R2)) --hi;
+                cg_index lo, hi, loB, hiB;
+                inside_range(endA[2], n2, q0A, inv_h, a01, R2, &lo, &hi);
+                inside_range(endB[2], n2, q0B, inv_h, b01, R2, &loB, &hiB);
+                if (loB > lo) lo = loB;
+                if (hiB < hi) hi = hiB;
+                if (hi < lo) hi = lo;
                 if (lo < hi) {
-                    any = 1;
+                    k0 = lo;
+                    k1 = hi;
                     for (int g = 0; g < G; ++g) {
                         const double c = gw[g] * ex[g][0][i] * ex[g][1][j];
                         const double *gz = ex[g][2];
@@ -246,18 +327,14 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
                 for (cg_index k = 0; k < n2; ++k) {
                     if (k >= lo && k < hi) continue; /* the rule is exact here */
                     const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][k]};
-                    if (!(segment_distance2(q3, es, L2) < R2_margin)) { row[k] = 0.0; continue; }
-                    double q[3];
-                    for (int a = 0; a < nr; ++a) q[a] = q3[a + pad];
-                    row[k] = scale * cg_kernel_line_rule(kn, q, e, NULL, 0);
-                    any = 1;
+                    const double v = cut_segment_value(q3, es, L2, inv_L2, R2, w, inv2w2);
+                    row[k] = v * scale * kn->prefactor;
+                    if (v == 0.0) continue;
+                    if (k < k0) k0 = k;
+                    if (k + 1 > k1) k1 = k + 1;
                 }
             }
-            if (!any) continue;
-            cg_index k0 = 0, k1 = n2;
-            while (k0 < k1 && row[k0] == 0.0) ++k0;
-            while (k1 > k0 && row[k1 - 1] == 0.0) --k1;
-            if (k0 == k1) continue;
+            if (k0 >= k1) continue;
             const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + (first[2] + k0) * stride[2];
             if (jb->mode == MODE_VALUE) {
                 row_add(out + base * jb->out_width, row + k0, k1 - k0, values, nv);

@@ -139,12 +139,13 @@ def test_per_thread_buffers_are_counted():
     one = memory.per_node_doubles(needed, ("stress",), ranks, 3, threads=1)
     eight = memory.per_node_doubles(needed, ("stress",), ranks, 3, threads=8)
     assert eight - one == 7 * 9                        # 7 extra copies of the widest scatter (a 3x3 tensor)
-    # rho 1 + p_w 3 + sk 9 + sb 9 + sw 9 primaries, node velocities 3, output 9 and one temporary 9
-    assert one == 31 + 3 + 9 + 9
+    # rho 1 + p_w 3 + sk 9 + sb 9 + sw 9 primaries, node velocities 3, output 9, one temporary 9, and
+    # the one scatter of rho and p_w together (4) before it is split into its primaries
+    assert one == 31 + 3 + 9 + 9 + 4
     dens = memory.per_node_doubles({"rho"}, ("density",), ranks, 2, threads=2)
-    assert dens == 1 + 1 + 1 + 1                         # primary, one thread copy, output, temporary
+    assert dens == 1 + 1 + 1 + 1 + 1                     # primary, one thread copy, output, temporary, scatter
     frames = memory.per_node_doubles({"rho"}, ("density",), ranks, 2, threads=1, frames=10, time_average="none")
-    assert frames == 1 + 1 + 1 + 2 * 10
+    assert frames == 1 + 1 + 1 + 1 + 2 * 10
 
 
 def test_modest_request_still_runs():
