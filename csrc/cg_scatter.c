@@ -326,6 +326,56 @@ static double stencil_estimate(const job *jb)
 }
 #endif
 
+/* how many objects ahead the input of sorted objects is prefetched */
+#define PREFETCH_AHEAD 8
+
+/* objects fewer than this are visited in input order */
+#define MIN_OBJECTS_TO_SORT 4096
+
+/* An order of the objects by the grid node nearest to their start (row-major
+   node index, in at most n buckets; a stable counting sort, so the order
+   depends only on the input): consecutive objects then write to the same
+   rows of the output, which stays in cache. Input order in unsorted data can
+   make every object a cache miss (4x slower at 1e6 particles). Returns NULL
+   when not worth it or when memory is short (the input order is as right). */
+static cg_index *spatial_order(const job *jb)
+{
+    const cg_target *t = jb->target;
+    const cg_index n = jb->n;
+    if (!t->is_grid || t->n_resolved == 0 || n < MIN_OBJECTS_TO_SORT) return NULL;
+    const cg_index P = cg_target_size(t);
+    const cg_index buckets = P < n ? P : n;
+    cg_index *order = malloc((size_t)n * sizeof *order);
+    cg_index *bucket_of = malloc((size_t)n * sizeof *bucket_of);
+    cg_index *start = calloc((size_t)buckets + 1, sizeof *start);
+    if (!order || !bucket_of || !start) {
+        free(order);
+        free(bucket_of);
+        free(start);
+        return NULL;
+    }
+    const int D = t->dim;
+    for (cg_index o = 0; o < n; ++o) {
+        cg_index node = 0;
+        for (int a = 0; a < t->n_resolved; ++a) {
+            const double x = jb->positions[o * D + t->axes[a]];
+            const cg_index m = t->shape[a];
+            double k = jb->spacing[a] > 0.0 ? (x - jb->lo[a]) / jb->spacing[a] + 0.5 : 0.0;
+            k = k < 0.0 ? 0.0 : (k > (double)(m - 1) ? (double)(m - 1) : k); /* also maps NaN-free far images */
+            node = node * m + (cg_index)k;
+        }
+        cg_index b = (cg_index)((double)node * (double)buckets / (double)P);
+        if (b >= buckets) b = buckets - 1;
+        bucket_of[o] = b;
+        ++start[b + 1];
+    }
+    for (cg_index b = 0; b < buckets; ++b) start[b + 1] += start[b];
+    for (cg_index o = 0; o < n; ++o) order[start[bucket_of[o]]++] = o;
+    free(bucket_of);
+    free(start);
+    return order;
+}
+
 static cg_status run(job *jb, double *out)
 {
     cg_status st = prepare(jb);
@@ -347,6 +397,7 @@ static cg_status run(job *jb, double *out)
     const double work = (double)jb->n * stencil_estimate(jb);
     if (work < MIN_WORK_PER_THREAD || work < 2.0 * (double)P * (double)width) n_threads = 1;
 #endif
+    cg_index *order = spatial_order(jb);
     double *buffers = NULL;
     if (n_threads > 1) {
         buffers = calloc((size_t)(n_threads - 1) * (size_t)P * width, sizeof(double));
@@ -367,7 +418,19 @@ static cg_status run(job *jb, double *out)
         for (cg_index o = begin; o < end; ++o) {
             if (load_status(&failed) != CG_OK) break;
             if (interrupted(jb)) { store_status(&failed, CG_ERR_INTERRUPTED); break; }
-            const cg_status s = scatter_object(jb, mine, &sc, o);
+#if defined(__GNUC__)
+            if (order && o + PREFETCH_AHEAD < end) {
+                /* sorted objects are read out of input order: fetch ahead */
+                const cg_index next = order[o + PREFETCH_AHEAD];
+                __builtin_prefetch(jb->positions + next * jb->target->dim);
+                if (jb->values) {
+                    __builtin_prefetch(jb->values + next * jb->n_values);
+                    __builtin_prefetch(jb->values + next * jb->n_values + jb->n_values - 1); /* may span two lines */
+                }
+                if (jb->vecs) __builtin_prefetch(jb->vecs + next * jb->target->dim);
+            }
+#endif
+            const cg_status s = scatter_object(jb, mine, &sc, order ? order[o] : o);
             if (s != CG_OK) { store_status(&failed, s); break; }
         }
         free(sc.buf);
@@ -380,6 +443,7 @@ static cg_status run(job *jb, double *out)
         }
         free(buffers);
     }
+    free(order);
     return (cg_status)failed;
 }
 
