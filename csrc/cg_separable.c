@@ -174,6 +174,21 @@ static double segment_distance2(const double *q, const double *e, double inv_L2)
     return d2;
 }
 
+/* On x86-64 with GCC, also build an AVX2 version of the hot loops, chosen at
+   load time on CPUs that have it (4 doubles per instruction instead of 2).
+   Results are identical: ISO C mode (-std=c11) forbids contracting a*b+c
+   into an FMA, and no sum is reordered. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(CGBOUND_NO_CLONES) && \
+    defined(__has_attribute)
+#if __has_attribute(target_clones)
+#define HOT_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+#endif
+#ifndef HOT_CLONES
+#define HOT_CLONES
+#endif
+
+HOT_CLONES
 int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
                        double scale)
 {
