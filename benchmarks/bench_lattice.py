@@ -5,7 +5,7 @@
 
 Fields: density, momentum, momentum flux and contact stress. For every workload, kernel, line-integral
 method (Gaussian only) and thread count: the median (and minimum) of --repeat runs of one frame,
-and particles per second. --per-node also times the straightforward per-node evaluation (every node
+CPU time of the process (all threads) and particles per second. --per-node also times the straightforward per-node evaluation (every node
 of each stencil evaluated on its own, exact line integrals), the baseline of the "10x" target.
 Prints the CPU model, core count, thread count and load average with every table.
 """
@@ -48,7 +48,7 @@ def main():
         print(f"# {snap.n_particles} particles, {len(snap.contacts)} contacts; fields: {', '.join(FIELDS)}; "
               f"medians of {args.repeat} runs")
         print(f"{'workload':<9}{'kernel':<22}{'line':<7}{'path':<10}{'median s/frame':>15}{'min':>9}"
-              f"{'particles/s':>14}")
+              f"{'cpu s':>9}{'particles/s':>14}")
         for name in args.workloads.split(","):
             grid = grids[name]
             for key in args.kernels.split(","):
@@ -61,9 +61,10 @@ def main():
                         if path == "per-node":
                             kernel._per_node = True          # internal switch: the straightforward evaluation
                         with cg.threads(nt):
-                            med, best = timed(lambda: cg.coarse_grain(snap, grid, kernel, fields=FIELDS), args.repeat)
+                            med, best, cpu = timed(lambda: cg.coarse_grain(snap, grid, kernel, fields=FIELDS),
+                                                   args.repeat, cpu=True)
                         rows.append((name, label, str(lq), path, nt, med))
-                        print(f"{name:<9}{label:<22}{str(lq):<7}{path:<10}{med:>15.3f}{best:>9.3f}"
+                        print(f"{name:<9}{label:<22}{str(lq):<7}{path:<10}{med:>15.3f}{best:>9.3f}{cpu:>9.3f}"
                               f"{snap.n_particles / med:>14.3g}", flush=True)
     if args.plot:
         series = {}

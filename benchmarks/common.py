@@ -32,15 +32,22 @@ def header(threads=None, extra=""):
             f"load average: {load_average()}; cgbound {cg.__version__}" + (f"; {extra}" if extra else ""))
 
 
-def timed(fn, repeat, warmup=0):
-    """Median and minimum wall time of fn() over `repeat` runs (after `warmup` untimed runs)."""
+def timed(fn, repeat, warmup=0, cpu=False):
+    """Median and minimum wall time of fn() over `repeat` runs (after `warmup` untimed runs).
+
+    cpu=True also returns the median CPU time of the process (all threads): on a shared, busy machine
+    wall times of a multi-threaded run say more about the neighbours than about the code, while the
+    CPU time of a one-thread run stays close to its wall time on a quiet machine."""
     for _ in range(warmup):
         fn()
-    times = []
+    times, cpus = [], []
     for _ in range(repeat):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         fn()
         times.append(time.perf_counter() - start)
+        cpus.append(time.process_time() - start_cpu)
+    if cpu:
+        return statistics.median(times), min(times), statistics.median(cpus)
     return statistics.median(times), min(times)
 
 

@@ -28,6 +28,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* helpers of the hot loop are inlined into it, so that its AVX2 clone (below) covers them too */
+#if defined(__GNUC__)
+#define INLINE static inline __attribute__((always_inline))
+#else
+#define INLINE static inline
+#endif
+
 static double *scratch_get(scratch *sc, size_t need)
 {
     if (need > sc->cap) {
@@ -48,7 +55,7 @@ static double *scratch_get(scratch *sc, size_t need)
         for (int c = 0; c < (NV); ++c) ok[c] += wk * v[c];                 \
     }
 
-static void row_add(double *restrict o, const double *restrict w, cg_index nk, const double *restrict v, int nv)
+INLINE void row_add(double *restrict o, const double *restrict w, cg_index nk, const double *restrict v, int nv)
 {
     switch (nv) {
     case 1: {
@@ -74,7 +81,7 @@ static void row_add(double *restrict o, const double *restrict w, cg_index nk, c
    three exponentials per table instead of one per node; the products lose
    about one rounding per step, far below the tolerances (stencils are short).
    Direct where the first value could underflow. */
-static void gaussian_table(const double *d2, cg_index n, double q0, double h, double inv2w2, double *ex)
+INLINE void gaussian_table(const double *d2, cg_index n, double q0, double h, double inv2w2, double *ex)
 {
     if (n < 4 || !(h > 0.0) || d2[0] * inv2w2 > 600.0 || d2[n - 1] * inv2w2 > 600.0) {
         for (cg_index k = 0; k < n; ++k) ex[k] = exp(-d2[k] * inv2w2);
@@ -90,48 +97,12 @@ static void gaussian_table(const double *d2, cg_index n, double q0, double h, do
     }
 }
 
-/* floor and ceil without a libm call (SSE2 has no rounding instruction) */
-static double floor_fast(double x)
-{
-    const double t = (double)(cg_index)x;
-    return t > x ? t - 1.0 : t;
-}
-
-static double ceil_fast(double x)
-{
-    const double t = (double)(cg_index)x;
-    return t < x ? t + 1.0 : t;
-}
-
-/* The nodes k of a row with s + d2[k] < R2, where d2[k] = (q0 + k h)^2: the
-   range [lo, hi) from the roots of the parabola, then moved node by node (at
-   most a step, from rounding) until the same test as the node-by-node path
-   holds exactly at both ends. h = 0: a single node. */
-static void inside_range(const double *d2, cg_index n, double q0, double inv_h, double s, double R2, cg_index *lo,
-                         cg_index *hi)
-{
-    cg_index a = 0, b = n;
-    if (inv_h > 0.0 && n > 2) {
-        const double r = sqrt(fmax(R2 - s, 0.0));
-        const double fa = floor_fast((-r - q0) * inv_h) + 1.0, fb = ceil_fast((r - q0) * inv_h);
-        a = fa < 0.0 ? 0 : (fa > (double)n ? n : (cg_index)fa);
-        b = fb < 0.0 ? 0 : (fb > (double)n ? n : (cg_index)fb);
-        if (b < a) b = a;
-        while (a > 0 && s + d2[a - 1] < R2) --a;
-        while (b < n && s + d2[b] < R2) ++b;
-    }
-    while (a < b && !(s + d2[a] < R2)) ++a;
-    while (b > a && !(s + d2[b - 1] < R2)) --b;
-    *lo = a;
-    *hi = b;
-}
-
 /* The exact line integral (to round-off) at a node whose ball the segment
    leaves: q = node - start and e in slots, |e|^2 = L2. The integrand
    exp(-|q - s e|^2 / 2w^2) = exp(-(a^2 + (s - u)^2 L2) / 2w^2) is smooth on
    the part [s0, s1] of [0, 1] inside the ball, so a Gauss-Legendre rule that is
    exact to round-off for that length (no longer than the segment) integrates it. */
-static double cut_segment_value(const double *q, const double *e, double L2, double inv_L2, double R2, double w,
+INLINE double cut_segment_value(const double *q, const double *e, double L2, double inv_L2, double R2, double w,
                                 double inv2w2)
 {
     const double u = (q[0] * e[0] + q[1] * e[1] + q[2] * e[2]) * inv_L2;
@@ -143,7 +114,7 @@ static double cut_segment_value(const double *q, const double *e, double L2, dou
     const double b2 = R2 - a2;
     if (!(b2 > 0.0)) return 0.0;
     const double half = sqrt(b2 * inv_L2);
-    const double s0 = fmax(0.0, u - half), s1 = fmin(1.0, u + half);
+    const double s0 = u - half > 0.0 ? u - half : 0.0, s1 = u + half < 1.0 ? u + half : 1.0;
     if (!(s1 > s0)) return 0.0;
     const double span = s1 - s0;
     double xs[CG_MAX_LINE_POINTS], ws[CG_MAX_LINE_POINTS];
@@ -159,7 +130,7 @@ static double cut_segment_value(const double *q, const double *e, double L2, dou
 }
 
 /* squared distance from point p to the segment [0, e] (3 slots), q = p */
-static double segment_distance2(const double *q, const double *e, double inv_L2)
+INLINE double segment_distance2(const double *q, const double *e, double inv_L2)
 {
     double t = 0.0;
     if (inv_L2 > 0.0) {
@@ -241,11 +212,12 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
     /* tables d2, g per rule point; end-point tables (hybrid); node coordinates; a row */
-    const size_t need = (size_t)G * per_point + (hybrid ? per_point : 0) + (size_t)(n0 + n1 + n2) + (size_t)n2;
+    const size_t need = (size_t)G * per_point + (hybrid ? per_point : 0) + (size_t)(n0 + n1 + n2) + 2 * (size_t)n2;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *coord = buf + (size_t)G * per_point + (hybrid ? per_point : 0); /* node coordinate - x, per slot */
     double *row = coord + (n0 + n1 + n2);
+    double *inside = row + n2; /* hybrid: 1 where the rule is exact, else 0 */
     double *cslot[3] = {coord, coord + n0, coord + n0 + n1};
     for (int s = 0; s < 3; ++s) {
         const int a = s - pad;
@@ -291,11 +263,6 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
     const double e2d[3] = {es[0], es[1], 0.0};
     const double L2_2d = es[0] * es[0] + es[1] * es[1];
     const double inv_L2_2d = L2_2d > 0.0 ? 1.0 / L2_2d : 0.0, inv_L2 = L2 > 0.0 ? 1.0 / L2 : 0.0;
-    /* offsets of the first node of the last slot from each rule point and the ends */
-    const double inv_h = (nr > 0 && jb->spacing[nr - 1] > 0.0) ? 1.0 / jb->spacing[nr - 1] : 0.0;
-    double q0[CG_MAX_LINE_POINTS], q0A = cslot[2][0], q0B = cslot[2][0] - es[2];
-    for (int g = 0; g < G; ++g) q0[g] = cslot[2][0] - gx[g] * es[2];
-
     for (cg_index i = 0; i < n0; ++i) {
         for (cg_index j = 0; j < n1; ++j) {
             if (hybrid) {
@@ -309,46 +276,40 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
                 for (int g = 0; g < G; ++g) {
                     const double s01 = d2[g][0][i] + d2[g][1][j];
                     if (!(s01 < R2)) continue;
-                    /* the nodes of the row inside this point's ball: a contiguous range */
+                    /* the same cutoff test as the node-by-node path, as a mask the
+                       compiler vectorises (cheaper than finding the range) */
                     const double *dz = d2[g][2], *gz = ex[g][2];
-                    cg_index lo, hi;
-                    inside_range(dz, n2, q0[g], inv_h, s01, R2, &lo, &hi);
                     const double c = gw[g] * ex[g][0][i] * ex[g][1][j];
-                    for (cg_index k = lo; k < hi; ++k) row[k] += c * gz[k];
-                    if (lo < hi) {
-                        if (lo < k0) k0 = lo;
-                        if (hi > k1) k1 = hi;
-                    }
+                    for (cg_index k = 0; k < n2; ++k) row[k] += (s01 + dz[k] < R2) ? c * gz[k] : 0.0;
+                    k0 = 0;
+                    k1 = n2;
                 }
             } else {
                 /* the rule is exact where both ends, hence the whole segment, lie
-                   inside the ball: a contiguous range of the row */
+                   inside the ball; elsewhere the part inside the ball is integrated */
                 const double a01 = endA[0][i] + endA[1][j], b01 = endB[0][i] + endB[1][j];
-                cg_index lo, hi, loB, hiB;
-                inside_range(endA[2], n2, q0A, inv_h, a01, R2, &lo, &hi);
-                inside_range(endB[2], n2, q0B, inv_h, b01, R2, &loB, &hiB);
-                if (loB > lo) lo = loB;
-                if (hiB < hi) hi = hiB;
-                if (hi < lo) hi = lo;
-                if (lo < hi) {
-                    k0 = lo;
-                    k1 = hi;
+                int any_inside = 0;
+                for (cg_index k = 0; k < n2; ++k) {
+                    inside[k] = (a01 + endA[2][k] < R2 && b01 + endB[2][k] < R2) ? 1.0 : 0.0;
+                    any_inside |= inside[k] != 0.0;
+                }
+                if (any_inside) {
                     for (int g = 0; g < G; ++g) {
                         const double c = gw[g] * ex[g][0][i] * ex[g][1][j];
                         const double *gz = ex[g][2];
-                        for (cg_index k = lo; k < hi; ++k) row[k] += c * gz[k];
+                        for (cg_index k = 0; k < n2; ++k) row[k] += inside[k] * (c * gz[k]);
                     }
                 }
                 for (cg_index k = 0; k < n2; ++k) {
-                    if (k >= lo && k < hi) continue; /* the rule is exact here */
+                    if (inside[k] != 0.0) continue; /* the rule is exact here */
                     const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][k]};
-                    const double v = cut_segment_value(q3, es, L2, inv_L2, R2, w, inv2w2);
-                    row[k] = v * scale * kn->prefactor;
-                    if (v == 0.0) continue;
-                    if (k < k0) k0 = k;
-                    if (k + 1 > k1) k1 = k + 1;
+                    row[k] = scale * kn->prefactor * cut_segment_value(q3, es, L2, inv_L2, R2, w, inv2w2);
                 }
+                k0 = 0;
+                k1 = n2;
             }
+            while (k0 < k1 && row[k0] == 0.0) ++k0;
+            while (k1 > k0 && row[k1 - 1] == 0.0) --k1;
             if (k0 >= k1) continue;
             const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + (first[2] + k0) * stride[2];
             if (jb->mode == MODE_VALUE) {
