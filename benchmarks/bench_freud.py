@@ -45,8 +45,8 @@ def main():
         freud.parallel.set_num_threads(nt)
         print(header(nt, extra=f"freud {freud.__version__} with {freud.parallel.get_num_threads()} threads"))
         print(f"# W4: {len(pos)} particles, {n}^3 grid, density only, cutoff 3w; medians of {args.repeat} runs")
-        print(f"{'width':<7}{'cgbound s':>11}{'freud s':>10}{'freud/cgbound':>15}{'cgbound particles/s':>21}"
-              f"{'max |diff|/peak':>17}")
+        print(f"{'width':<7}{'cgbound s':>11}{'freud s':>10}{'freud/cgbound':>15}{'cgbound cpu s':>15}"
+              f"{'freud cpu s':>13}{'cgbound particles/s':>21}{'max |diff|/peak':>17}")
         for w in (float(x) for x in args.widths.split(",")):
             kernel = cg.Gaussian(w, cutoff=3 * w)
             gd = freud.density.GaussianDensity(n, 3 * w, w)
@@ -55,13 +55,13 @@ def main():
                 return cg.coarse_grain(particles, grid, kernel, fields=("density",)).density
 
             with cg.threads(nt):
-                t_cg, _ = timed(run_cgbound, args.repeat, warmup=1)
+                t_cg, _, c_cg = timed(run_cgbound, args.repeat, warmup=1, cpu=True)
                 ours = run_cgbound()
-            t_fr, _ = timed(lambda: gd.compute((fbox, fpos)), args.repeat, warmup=1)
+            t_fr, _, c_fr = timed(lambda: gd.compute((fbox, fpos)), args.repeat, warmup=1, cpu=True)
             theirs = np.asarray(gd.density, float)
             diff = np.abs(ours - theirs).max() / ours.max()
-            print(f"{w:<7g}{t_cg:>11.4f}{t_fr:>10.4f}{t_fr / t_cg:>15.2f}{len(pos) / t_cg:>21.3g}{diff:>17.1e}",
-                  flush=True)
+            print(f"{w:<7g}{t_cg:>11.4f}{t_fr:>10.4f}{t_fr / t_cg:>15.2f}{c_cg:>15.4f}{c_fr:>13.4f}"
+                  f"{len(pos) / t_cg:>21.3g}{diff:>17.1e}", flush=True)
             for name, t in (("cgbound", t_cg), ("freud", t_fr)):
                 xs, ys = series.setdefault(f"{name} w={w:g}", ([], []))
                 xs.append(nt)

@@ -50,9 +50,9 @@ def one(n, repeat, threads, line):
     grid = cg.Grid(snap.box, (shape, shape, shape))
     kernel = cg.Gaussian(1.0, cutoff=3.0, line_quadrature=line)
     with cg.threads(threads):
-        med, best = timed(lambda: cg.coarse_grain(snap, grid, kernel, fields=FIELDS), repeat)
+        med, best, cpu = timed(lambda: cg.coarse_grain(snap, grid, kernel, fields=FIELDS), repeat, cpu=True)
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    print(json.dumps({"n": n, "contacts": len(snap.contacts), "nodes": shape ** 3, "median": med, "min": best,
+    print(json.dumps({"n": n, "contacts": len(snap.contacts), "nodes": shape ** 3, "median": med, "min": best, "cpu": cpu,
                       "peak_mb": peak_mb}))
 
 
@@ -83,13 +83,14 @@ def main():
     print(f"# W3: random packings at number density 1, unit grid spacing, Gaussian w=1 c=3w; fields "
           f"{', '.join(FIELDS)}; medians of {args.repeat} runs; python+numpy+cgbound alone: "
           f"{float(probe.stdout.strip() or 'nan'):.0f} MB")
-    print(f"{'N':>10}{'contacts':>10}{'nodes':>10}{'median s':>11}{'us/particle':>13}{'particles/s':>13}"
+    print(f"{'N':>10}{'contacts':>10}{'nodes':>10}{'median s':>11}{'cpu s':>9}{'us/particle':>13}{'particles/s':>13}"
           f"{'peak MB':>10}")
     ns, times, mems = [], [], []
     n = 1000
     while n <= args.max_n:
         r = child(["--one", str(n), "--repeat", str(args.repeat), "--threads", str(args.threads), "--line", args.line])
-        print(f"{r['n']:>10}{r['contacts']:>10}{r['nodes']:>10}{r['median']:>11.4f}{1e6 * r['median'] / n:>13.3f}"
+        print(f"{r['n']:>10}{r['contacts']:>10}{r['nodes']:>10}{r['median']:>11.4f}{r['cpu']:>9.3f}"
+              f"{1e6 * r['median'] / n:>13.3f}"
               f"{n / r['median']:>13.3g}{r['peak_mb']:>10.0f}", flush=True)
         ns.append(n)
         times.append(r["median"])
