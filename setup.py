@@ -15,7 +15,7 @@ import numpy
 from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
-SOURCES = ["csrc/_coremodule.c", "csrc/cg_kernels.c", "csrc/cg_scatter.c", "csrc/cg_status.c"]
+SOURCES = ["csrc/_coremodule.c", "csrc/cg_kernels.c", "csrc/cg_scatter.c", "csrc/cg_separable.c", "csrc/cg_status.c"]
 
 
 def compiler_accepts(flags):
@@ -61,7 +61,7 @@ setup(
             "cgbound._core",
             sources=SOURCES,
             include_dirs=["csrc", numpy.get_include()],
-            depends=["csrc/cg.h"],
+            depends=["csrc/cg.h", "csrc/cg_internal.h"],
         )
     ],
     cmdclass={"build_ext": BuildExt},

@@ -13,6 +13,7 @@ from .kernels import Gaussian, Heaviside, Lucy
 from .residual import MomentumBalance, momentum_balance_residual
 from .result import Result
 from .snapshot import Contacts, Snapshot
+from ._threads import get_num_threads, set_num_threads, threads
 
 __version__ = "0.1.0"
 
@@ -20,7 +21,7 @@ FIELD_NAMES = tuple(FIELDS)
 
 __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", "Heaviside", "Lucy",
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
-           "have_openmp"]
+           "have_openmp", "get_num_threads", "set_num_threads", "threads"]
 
 
 def have_openmp():

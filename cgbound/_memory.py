@@ -8,10 +8,13 @@ to turn a hopeless request into a clear MemoryError instead of a crash or swappi
 """
 import os
 
-from . import _core
+from ._threads import get_num_threads
 
 #: doubles per node of each primary sum (also the width of the scatter that makes it), as powers of D
 PRIMARY_RANK = {"rho": 0, "p_w": 1, "k": 2, "sk": 2, "b": 1, "phi": 0, "sb": 2, "sw": 2, "sx": 2, "t": 1}
+
+#: primaries summed over the flowing particles' positions, in one scatter
+POSITION_PRIMARIES = ("rho", "p_w", "k", "b", "phi")
 
 GB = 1e9
 
@@ -29,12 +32,7 @@ def physical_memory():
 
 def core_threads(n_objects=None):
     """Threads the C core will use for a scatter over n_objects (1 without OpenMP)."""
-    if not _core.have_openmp():
-        return 1
-    threads = os.cpu_count() or 1
-    env = os.environ.get("OMP_NUM_THREADS", "").split(",")[0].strip()
-    if env.isdigit() and int(env) > 0:
-        threads = int(env)
+    threads = get_num_threads()
     if n_objects is not None:
         threads = min(threads, max(int(n_objects), 1))
     return threads
@@ -43,11 +41,13 @@ def core_threads(n_objects=None):
 def per_node_doubles(needed, fields, field_ranks, dim, threads, frames=1, time_average="mean", n_times=1):
     """Doubles per node held at the peak of a coarse-graining request."""
     prim = sum(dim ** PRIMARY_RANK[p] for p in needed)
-    widest = max((dim ** PRIMARY_RANK[p] for p in needed), default=0)
+    # the primaries of the particle positions are summed in one scatter (fields.compute_primaries)
+    batched = sum(dim ** PRIMARY_RANK[p] for p in needed if p in POSITION_PRIMARIES)
+    widest = max([dim ** PRIMARY_RANK[p] for p in needed if p not in POSITION_PRIMARIES] + [batched])
     scratch = dim if "sk" in needed else 0                  # node velocities for the fluctuation sum
     out = sum(dim ** field_ranks[f] for f in fields)
     widest_field = max((dim ** field_ranks[f] for f in fields), default=0)
-    one_frame = prim + scratch + (threads - 1) * widest + out + widest_field
+    one_frame = prim + scratch + (threads - 1) * widest + out + widest_field + batched
     if time_average == "mean" and frames > 1:
         # running sums, their mean and the velocity spread, beside one frame's primaries
         return one_frame + 2 * prim + (dim * dim if "sk" in needed else 0)

@@ -9,6 +9,7 @@ digits in the kinetic stress.
 import numpy as np
 
 from . import _core
+from ._threads import get_num_threads
 
 #: field name -> (rank, primaries it needs)
 FIELDS = {
@@ -118,37 +119,48 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
     has_velocity = snapshot.velocities is not None
     v_w = snapshot.velocities[flow] - u_ref if has_velocity else None
     out = {}
+    nt = get_num_threads()
 
     def points(positions, values):
-        return _core.scatter_points(core_target, core_kernel, positions, values)
+        return _core.scatter_points(core_target, core_kernel, positions, values, n_threads=nt)
 
+    # the primaries summed over the flowing particles' positions: one scatter with all their columns
+    # (the stencil and weights are computed once; each column is summed exactly as on its own)
+    columns = []
     if "rho" in needed:
-        out["rho"] = points(pos, m[:, None])[:, 0]
-    if "p_w" in needed:
-        out["p_w"] = points(pos, m[:, None] * v_w) if has_velocity else np.zeros((P, dim))
-    if "k" in needed:
-        if has_velocity:
-            v = snapshot.velocities[flow]
-            out["k"] = points(pos, m[:, None] * _outer(v, v)).reshape(P, dim, dim)
-        else:
-            out["k"] = np.zeros((P, dim, dim))
+        columns.append(("rho", m[:, None], ()))
+    if "p_w" in needed and has_velocity:
+        columns.append(("p_w", m[:, None] * v_w, (dim,)))
+    if "k" in needed and has_velocity:
+        v = snapshot.velocities[flow]
+        columns.append(("k", m[:, None] * _outer(v, v), (dim, dim)))
+    if "b" in needed and snapshot.body_force is not None:
+        columns.append(("b", m[:, None] * snapshot.body_force[flow], (dim,)))
+    if "phi" in needed:
+        r = snapshot.radii[flow]
+        vol = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
+        columns.append(("phi", vol[:, None], ()))
+    if columns:
+        summed = points(pos, np.concatenate([c for _, c, _ in columns], axis=1))
+        start = 0
+        for name, c, shape in columns:
+            out[name] = np.ascontiguousarray(summed[:, start:start + c.shape[1]]).reshape((P,) + shape)
+            start += c.shape[1]
+        del summed
+    if "p_w" in needed and not has_velocity:
+        out["p_w"] = np.zeros((P, dim))
+    if "k" in needed and not has_velocity:
+        out["k"] = np.zeros((P, dim, dim))
+    if "b" in needed and snapshot.body_force is None:
+        out["b"] = np.zeros((P, dim))
     if "sk" in needed:
         if has_velocity and pos.shape[0]:
             rho = out["rho"]
             node_v = np.zeros((P, dim))
             np.divide(out["p_w"], rho[:, None], out=node_v, where=rho[:, None] > 0)
-            out["sk"] = _core.scatter_fluctuation(core_target, core_kernel, pos, m, v_w, node_v)
+            out["sk"] = _core.scatter_fluctuation(core_target, core_kernel, pos, m, v_w, node_v, n_threads=nt)
         else:
             out["sk"] = np.zeros((P, dim, dim))
-    if "b" in needed:
-        if snapshot.body_force is not None:
-            out["b"] = points(pos, m[:, None] * snapshot.body_force[flow])
-        else:
-            out["b"] = np.zeros((P, dim))
-    if "phi" in needed:
-        r = snapshot.radii[flow]
-        vol = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
-        out["phi"] = points(pos, vol[:, None])[:, 0]
 
     contact_primaries = needed & {"sb", "sw", "t", "sx"}
     if contact_primaries:
@@ -159,7 +171,7 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
                 start = snapshot.positions[bulk["i"]]
                 values = -_outer(bulk["force"], bulk["branch"])
                 out["sb"] = _core.scatter_segments(core_target, core_kernel, start, -bulk["branch"],
-                                                   values).reshape(P, dim, dim)
+                                                   values, n_threads=nt).reshape(P, dim, dim)
             else:
                 out["sb"] = zero_tensor
         if needed & {"sw", "sx"} and boundary["i"].size:
@@ -168,13 +180,13 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
         if "sw" in needed:
             if boundary["i"].size:
                 out["sw"] = _core.scatter_segments(core_target, core_kernel, start, -boundary["branch"],
-                                                   values).reshape(P, dim, dim)
+                                                   values, n_threads=nt).reshape(P, dim, dim)
             else:
                 out["sw"] = zero_tensor.copy()
         if "sx" in needed:
             if boundary["i"].size:
                 out["sx"] = _core.scatter_segments(core_target, core_kernel, start, -boundary["branch"],
-                                                   values, ray=True).reshape(P, dim, dim)
+                                                   values, ray=True, n_threads=nt).reshape(P, dim, dim)
             else:
                 out["sx"] = zero_tensor.copy()
         if "t" in needed:

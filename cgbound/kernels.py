@@ -4,12 +4,37 @@ All kernels are radial with compact support of radius ``radius``. Over averaged
 grid axes the exact marginal over those axes is used (for the Gaussian: the
 marginal of the untruncated Gaussian, cut off in the resolved subspace).
 """
+import numbers
+
 from ._validate import positive_number
 
 GAUSSIAN, LUCY, HEAVISIDE = 0, 1, 2
 
 #: provisional default Gaussian cutoff in widths; to be set from the accuracy-vs-time study
 DEFAULT_GAUSSIAN_CUTOFF = 5.0
+
+#: default line-integral method of the Gaussian along contact branches: "exact" (to round-off) or an
+#: int n (n-point Gauss-Legendre rule); to be set from the accuracy-vs-time study
+DEFAULT_LINE_QUADRATURE = "exact"
+
+#: the largest n of an n-point Gauss-Legendre line rule (CG_MAX_LINE_POINTS in csrc/cg.h)
+MAX_LINE_POINTS = 16
+
+
+def check_line_quadrature(value, name="line_quadrature"):
+    """"exact", or an int n in 1..MAX_LINE_POINTS; returns the core's line_points (0 for exact)."""
+    if isinstance(value, str):
+        if value == "exact":
+            return 0
+        raise ValueError(f"{name}: expected 'exact' or a number of Gauss-Legendre points 1..{MAX_LINE_POINTS}, "
+                         f"got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name}: expected 'exact' or an int number of Gauss-Legendre points 1..{MAX_LINE_POINTS}, "
+                        f"got {value!r}")
+    if not 1 <= int(value) <= MAX_LINE_POINTS:
+        raise ValueError(f"{name}: expected 'exact' or a number of Gauss-Legendre points 1..{MAX_LINE_POINTS}, "
+                         f"got {value!r}")
+    return int(value)
 
 
 class Kernel:
@@ -19,10 +44,13 @@ class Kernel:
     width = None
     radius = None
     truncated = False
+    _line_points = 0      # Gauss-Legendre points along segments, 0 = exact (Gaussian only)
+    _per_node = False     # benchmarks only: evaluate node by node, without the separable fast path
 
     def _core_args(self, avg_extent):
         return (self._type, float(self.width if self.width is not None else self.radius),
-                float(self.radius), int(self.truncated), float(avg_extent))
+                float(self.radius), int(self.truncated), float(avg_extent), int(self._line_points),
+                int(self._per_node))
 
     @property
     def differentiable(self):
@@ -44,11 +72,17 @@ class Gaussian(Kernel):
         "full" keeps the prefactor of the untruncated Gaussian (smooth, the momentum
         balance holds up to the tail); "truncated" renormalises over the cut-off ball
         as MercuryCG does (mass exact, a jump at the cutoff).
+    line_quadrature : "exact" or int
+        How the kernel is integrated along contact branches (contact and boundary
+        stress): "exact" to round-off (the closed erf form, or a Gauss-Legendre rule
+        where that is exact to round-off), or n = 1..16 for the n-point Gauss-Legendre
+        rule along each branch (faster, with an error that falls quickly with n when
+        branches are shorter than a few widths). Rays (extended_stress) are always exact.
     """
 
     _type = GAUSSIAN
 
-    def __init__(self, width, cutoff=None, normalize="full"):
+    def __init__(self, width, cutoff=None, normalize="full", line_quadrature=DEFAULT_LINE_QUADRATURE):
         self.width = positive_number(width, "width")
         if cutoff is None:
             cutoff = DEFAULT_GAUSSIAN_CUTOFF * self.width
@@ -59,13 +93,16 @@ class Gaussian(Kernel):
             raise ValueError(f"normalize: expected 'full' or 'truncated', got {normalize!r}")
         self.normalize = normalize
         self.truncated = normalize == "truncated"
+        self._line_points = check_line_quadrature(line_quadrature)
+        self.line_quadrature = "exact" if self._line_points == 0 else self._line_points
 
     @property
     def cutoff(self):
         return self.radius
 
     def __repr__(self):
-        return f"Gaussian(width={self.width:g}, cutoff={self.radius:g}, normalize={self.normalize!r})"
+        return (f"Gaussian(width={self.width:g}, cutoff={self.radius:g}, normalize={self.normalize!r}, "
+                f"line_quadrature={self.line_quadrature!r})")
 
 
 class Lucy(Kernel):

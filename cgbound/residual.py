@@ -2,6 +2,7 @@
 import numpy as np
 
 from . import _core
+from ._threads import get_num_threads
 from ._memory import check_fits, core_threads
 from .fields import _outer as outer
 from .grid import Points, check_target
@@ -81,12 +82,14 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
     pos = snapshot.positions[flow]
     m = snapshot.masses[flow]
 
+    nt = get_num_threads()
+
     def points_value(x, values):
-        return _core.scatter_points(core_target, core_kernel, x, values)
+        return _core.scatter_points(core_target, core_kernel, x, values, n_threads=nt)
 
     def divergence(starts, vecs, tensors):
         # tensors (n, D*D) row-major over (alpha, beta); contract the gradient with beta
-        g = _core.scatter_segments(core_target, core_kernel, starts, vecs, tensors, gradient=True)
+        g = _core.scatter_segments(core_target, core_kernel, starts, vecs, tensors, gradient=True, n_threads=nt)
         return np.einsum("pabb->pa", g.reshape(P, dim, dim, dim))
 
     terms = {"forcing": points_value(pos, forces[flow])}

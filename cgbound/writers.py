@@ -22,6 +22,7 @@ def _metadata(result):
         "width": float(getattr(k, "width", None) or k.radius),
         "cutoff": float(k.radius),
         "normalize": getattr(k, "normalize", ""),
+        "line_quadrature": str(getattr(k, "line_quadrature", "")),
         "convention": result.convention,
         "times": [float(t) for t in np.atleast_1d(result.times)],
         "box_lower": result.box.lower.tolist(),

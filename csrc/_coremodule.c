@@ -244,13 +244,20 @@ static int convert_target(PyObject *obj, converted_target *ct)
     return 1;
 }
 
-/* kernel = (type, width, radius, truncated, avg_extent) */
+/* kernel = (type, width, radius, truncated, avg_extent[, line_points[, per_node]]) */
 static int convert_kernel(PyObject *obj, const cg_target *t, cg_kernel *k)
 {
     memset(k, 0, sizeof *k);
     if (!PyTuple_Check(obj) ||
-        !PyArg_ParseTuple(obj, "iddid", &k->type, &k->width, &k->radius, &k->truncated_norm, &k->avg_extent)) {
-        PyErr_SetString(PyExc_TypeError, "kernel: expected (type, width, radius, truncated, avg_extent)");
+        !PyArg_ParseTuple(obj, "iddid|ii", &k->type, &k->width, &k->radius, &k->truncated_norm, &k->avg_extent,
+                          &k->line_points, &k->per_node)) {
+        PyErr_SetString(PyExc_TypeError,
+                        "kernel: expected (type, width, radius, truncated, avg_extent[, line_points[, per_node]])");
+        return 0;
+    }
+    if (k->line_points < 0 || k->line_points > CG_MAX_LINE_POINTS) {
+        PyErr_Format(PyExc_ValueError, "kernel: line_points must be 0 (exact) or 1..%d, got %d",
+                     CG_MAX_LINE_POINTS, k->line_points);
         return 0;
     }
     k->dim = t->dim;
@@ -261,6 +268,23 @@ static int convert_kernel(PyObject *obj, const cg_target *t, cg_kernel *k)
         return 0;
     }
     return 1;
+}
+
+static int check_threads(int n_threads)
+{
+    if (n_threads < 0) {
+        PyErr_Format(PyExc_ValueError, "n_threads: expected 0 (the OpenMP default) or a positive count, got %d",
+                     n_threads);
+        return 0;
+    }
+    return 1;
+}
+
+static PyObject *default_threads(PyObject *self, PyObject *args)
+{
+    (void)self;
+    (void)args;
+    return PyLong_FromLong(cg_default_threads());
 }
 
 static PyObject *raise_status(cg_status st)
@@ -291,21 +315,24 @@ static PyArrayObject *zeros(npy_intp P, int n_extra, const npy_intp *extra)
 
 static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
 {
-    static char *kw_points[] = {"target", "kernel", "positions", "values", "gradient", NULL};
-    static char *kw_segments[] = {"target", "kernel", "starts", "vectors", "values", "ray", "gradient", NULL};
+    static char *kw_points[] = {"target", "kernel", "positions", "values", "gradient", "n_threads", NULL};
+    static char *kw_segments[] = {"target", "kernel", "starts", "vectors", "values", "ray", "gradient", "n_threads",
+                                  NULL};
     PyObject *target_obj, *kernel_obj, *pos_obj, *vec_obj = NULL, *val_obj;
-    int ray = 0, gradient = 0;
+    int ray = 0, gradient = 0, n_threads = 0;
     if (segments) {
-        if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOO|pp", kw_segments, &target_obj, &kernel_obj,
-                                         &pos_obj, &vec_obj, &val_obj, &ray, &gradient))
+        if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOO|ppi", kw_segments, &target_obj, &kernel_obj,
+                                         &pos_obj, &vec_obj, &val_obj, &ray, &gradient, &n_threads))
             return NULL;
     } else {
-        if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOO|p", kw_points, &target_obj, &kernel_obj,
-                                         &pos_obj, &val_obj, &gradient))
+        if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOO|pi", kw_points, &target_obj, &kernel_obj,
+                                         &pos_obj, &val_obj, &gradient, &n_threads))
             return NULL;
     }
+    if (!check_threads(n_threads)) return NULL;
     converted_target ct;
     if (!convert_target(target_obj, &ct)) return NULL;
+    ct.target.n_threads = n_threads;
     cg_kernel kernel;
     PyArrayObject *pos = NULL, *vec = NULL, *val = NULL, *out = NULL;
     if (!convert_kernel(kernel_obj, &ct.target, &kernel)) goto fail;
@@ -376,13 +403,16 @@ static PyObject *py_scatter_segments(PyObject *self, PyObject *args, PyObject *k
 static PyObject *py_scatter_fluctuation(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
-    static char *kw[] = {"target", "kernel", "positions", "masses", "velocities", "node_velocity", NULL};
+    static char *kw[] = {"target", "kernel", "positions", "masses", "velocities", "node_velocity", "n_threads", NULL};
     PyObject *target_obj, *kernel_obj, *pos_obj, *mass_obj, *vel_obj, *nodev_obj;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOO", kw, &target_obj, &kernel_obj, &pos_obj,
-                                     &mass_obj, &vel_obj, &nodev_obj))
+    int n_threads = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOO|i", kw, &target_obj, &kernel_obj, &pos_obj,
+                                     &mass_obj, &vel_obj, &nodev_obj, &n_threads))
         return NULL;
+    if (!check_threads(n_threads)) return NULL;
     converted_target ct;
     if (!convert_target(target_obj, &ct)) return NULL;
+    ct.target.n_threads = n_threads;
     cg_kernel kernel;
     PyArrayObject *pos = NULL, *mass = NULL, *vel = NULL, *nodev = NULL, *out = NULL;
     if (!convert_kernel(kernel_obj, &ct.target, &kernel)) goto fail;
@@ -477,17 +507,19 @@ static PyObject *py_have_openmp(PyObject *self, PyObject *args)
 
 static PyMethodDef methods[] = {
     {"scatter_points", (PyCFunction)(void (*)(void))py_scatter_points, METH_VARARGS | METH_KEYWORDS,
-     "scatter_points(target, kernel, positions, values, gradient=False) -> (P, K) or (P, K, D_res)\n\n"
+     "scatter_points(target, kernel, positions, values, gradient=False, n_threads=0) -> (P, K) or (P, K, D_res)\n\n"
      "Sum of values[o] * M(node - positions[o]) over objects o (or of its gradient)."},
     {"scatter_segments", (PyCFunction)(void (*)(void))py_scatter_segments, METH_VARARGS | METH_KEYWORDS,
-     "scatter_segments(target, kernel, starts, vectors, values, ray=False, gradient=False)\n\n"
+     "scatter_segments(target, kernel, starts, vectors, values, ray=False, gradient=False, n_threads=0)\n\n"
      "Sum of values[o] * int_0^S M(node - starts[o] - s vectors[o]) ds, S = 1 or infinity (ray)."},
     {"scatter_fluctuation", (PyCFunction)(void (*)(void))py_scatter_fluctuation, METH_VARARGS | METH_KEYWORDS,
-     "scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity) -> (P, D, D)\n\n"
+     "scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity, n_threads=0) -> (P, D, D)\n\n"
      "Kinetic stress -sum m (v - V(node)) (v - V(node)) M(node - x) in fluctuation form."},
     {"minimum_image", py_minimum_image, METH_VARARGS,
      "minimum_image(vectors, periodic, period) -> copy of vectors wrapped to the minimum image."},
     {"have_openmp", py_have_openmp, METH_NOARGS, "Whether the core was built with OpenMP."},
+    {"default_threads", default_threads, METH_NOARGS,
+     "Threads a call with n_threads=0 may use (omp_get_max_threads(); 1 without OpenMP)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_core",

@@ -23,7 +23,10 @@
  *              Over averaged axes the exact marginal of the untruncated
  *              Gaussian is used, truncated at R in the resolved subspace.
  *              truncated_norm != 0 renormalises over the truncated support
- *              (MercuryCG's convention). Line integrals: exact erf forms.
+ *              (MercuryCG's convention). Line integrals: exact (erf forms,
+ *              or Gauss-Legendre where it is exact to round-off), or an
+ *              n-point Gauss-Legendre rule (line_points = n). On grids the
+ *              kernel is evaluated as outer products of 1-D weights.
  *   Lucy       W = C (1 + 3x)(1 - x)^3, x = r/R < 1. Exact marginals over
  *              averaged axes; line integrals by graded Gauss-Legendre
  *              quadrature converged to round-off.
@@ -59,11 +62,17 @@ const char *cg_strerror(cg_status status);
 /* Whether the core was built with OpenMP, and how many threads it may use. */
 int cg_have_openmp(void);
 
+/* Threads a call with target.n_threads = 0 may use (1 without OpenMP). */
+int cg_default_threads(void);
+
 typedef enum cg_kernel_type {
     CG_KERNEL_GAUSSIAN = 0,
     CG_KERNEL_LUCY = 1,
     CG_KERNEL_HEAVISIDE = 2
 } cg_kernel_type;
+
+/* the largest n of an n-point Gauss-Legendre line rule */
+#define CG_MAX_LINE_POINTS 16
 
 typedef struct cg_kernel {
     /* set by the caller */
@@ -74,6 +83,12 @@ typedef struct cg_kernel {
     double radius;        /* support radius R (> 0): cutoff for the Gaussian */
     int truncated_norm;   /* Gaussian only: renormalise over the cut-off ball */
     double avg_extent;    /* product of the averaged extents (1 when none), > 0 */
+    int line_points;      /* Gaussian only: 0 = line integrals to round-off (erf form,
+                             or Gauss-Legendre where that is exact to round-off);
+                             n = 1..CG_MAX_LINE_POINTS: n-point Gauss-Legendre rule
+                             along each finite segment (rays stay exact) */
+    int per_node;         /* internal, for benchmarks: 1 = skip the separable fast
+                             path and evaluate the kernel node by node */
     /* filled by cg_kernel_init */
     double prefactor;
 } cg_kernel;
@@ -112,6 +127,9 @@ typedef struct cg_target {
     /* Optional: polled during the work; when it reads non-zero the call
        returns CG_ERR_INTERRUPTED (outputs are then partial). May be NULL. */
     const volatile int *interrupt;
+    /* Threads to use: 0 = the OpenMP default (omp_get_max_threads()); the
+       core uses fewer for small inputs. Ignored without OpenMP. */
+    int n_threads;
 } cg_target;
 
 /* Number of evaluation nodes of a target (product of the grid shape, 1 for a

@@ -29,3 +29,12 @@ int cg_have_openmp(void)
     return 0;
 #endif
 }
+
+int cg_default_threads(void)
+{
+#ifdef _OPENMP
+    return omp_get_max_threads();
+#else
+    return 1;
+#endif
+}

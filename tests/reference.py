@@ -48,8 +48,9 @@ def _graded_panels(lo, hi, scale):
 class RefKernel:
     """Kernel from its textbook definition in D dimensions."""
 
-    def __init__(self, kind, dim, width, radius, truncated=False):
+    def __init__(self, kind, dim, width, radius, truncated=False, line_points=0):
         self.kind, self.dim, self.w, self.R, self.truncated = kind, dim, width, radius, truncated
+        self.line_points = line_points if kind == "gaussian" else 0   # n-point Gauss-Legendre along segments
         self._norms = {}
 
     # full D-dimensional kernel (for Lucy/Heaviside), as a function of r
@@ -121,6 +122,14 @@ class RefKernel:
             if ray:
                 raise ValueError("ray with no resolved axis")
             return np.full(q.shape[0], 1.0 / avg_extent)
+        if self.line_points and not ray:
+            # the rule applied to the cut-off kernel: sum_g w_g M(|q - s_g e|^2), s_g, w_g on [0, 1]
+            x, w = np.polynomial.legendre.leggauss(self.line_points)
+            total = np.zeros(q.shape[0])
+            for s, wg in zip(0.5 * (x + 1.0), 0.5 * w):
+                d = q - s * np.asarray(e, float)
+                total += wg * self.marginal((d * d).sum(axis=1), n_res, avg_extent)
+            return total
         L = float(np.linalg.norm(e))
         if L == 0.0:
             return self.marginal((q * q).sum(axis=1), n_res, avg_extent)
@@ -343,8 +352,9 @@ def ref_fields(snap, where, kernel_obj, fields, convention="tension"):
     import cgbound as cg
 
     kind = {cg.Gaussian: "gaussian", cg.Lucy: "lucy", cg.Heaviside: "heaviside"}[type(kernel_obj)]
+    line = getattr(kernel_obj, "line_quadrature", "exact")
     kernel = RefKernel(kind, snap.dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
-                       truncated=getattr(kernel_obj, "truncated", False))
+                       truncated=getattr(kernel_obj, "truncated", False), line_points=0 if line == "exact" else line)
     box = snap.box
     tgt = target_nodes(where, box)
     D = snap.dim

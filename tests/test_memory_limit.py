@@ -103,23 +103,32 @@ def test_physical_memory_is_from_sysconf():
 
 
 class FakeCore:
-    def __init__(self, openmp):
+    def __init__(self, openmp, threads=8):
         self.openmp = openmp
+        self.threads = threads
 
     def have_openmp(self):
         return self.openmp
 
+    def default_threads(self):
+        return self.threads if self.openmp else 1
+
 
 def test_thread_count(monkeypatch):
-    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
-    monkeypatch.setattr(memory.os, "cpu_count", lambda: 8)
-    monkeypatch.setattr(memory, "_core", FakeCore(True))
-    assert memory.core_threads() == 8
+    import cgbound._threads as threads
+
+    monkeypatch.setattr(threads, "_core", FakeCore(True, 8))
+    assert memory.core_threads() == 8                 # the OpenMP default
     assert memory.core_threads(n_objects=3) == 3    # the core never runs more threads than objects
     assert memory.core_threads(n_objects=0) == 1
-    monkeypatch.setenv("OMP_NUM_THREADS", "4")
-    assert memory.core_threads() == 4
-    monkeypatch.setattr(memory, "_core", FakeCore(False))
+    with cg.threads(4):
+        assert memory.core_threads() == 4
+    previous = cg.set_num_threads(3)
+    try:
+        assert memory.core_threads() == 3
+    finally:
+        cg.set_num_threads(previous)
+    monkeypatch.setattr(threads, "_core", FakeCore(False))
     assert memory.core_threads() == 1
     assert cg.have_openmp() in (True, False)
 
@@ -130,12 +139,13 @@ def test_per_thread_buffers_are_counted():
     one = memory.per_node_doubles(needed, ("stress",), ranks, 3, threads=1)
     eight = memory.per_node_doubles(needed, ("stress",), ranks, 3, threads=8)
     assert eight - one == 7 * 9                        # 7 extra copies of the widest scatter (a 3x3 tensor)
-    # rho 1 + p_w 3 + sk 9 + sb 9 + sw 9 primaries, node velocities 3, output 9 and one temporary 9
-    assert one == 31 + 3 + 9 + 9
+    # rho 1 + p_w 3 + sk 9 + sb 9 + sw 9 primaries, node velocities 3, output 9, one temporary 9, and
+    # the one scatter of rho and p_w together (4) before it is split into its primaries
+    assert one == 31 + 3 + 9 + 9 + 4
     dens = memory.per_node_doubles({"rho"}, ("density",), ranks, 2, threads=2)
-    assert dens == 1 + 1 + 1 + 1                         # primary, one thread copy, output, temporary
+    assert dens == 1 + 1 + 1 + 1 + 1                     # primary, one thread copy, output, temporary, scatter
     frames = memory.per_node_doubles({"rho"}, ("density",), ranks, 2, threads=1, frames=10, time_average="none")
-    assert frames == 1 + 1 + 1 + 2 * 10
+    assert frames == 1 + 1 + 1 + 1 + 2 * 10
 
 
 def test_modest_request_still_runs():

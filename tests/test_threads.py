@@ -1,0 +1,80 @@
+"""Thread count control (set_num_threads, get_num_threads, threads()) and results independent of it."""
+import numpy as np
+import pytest
+
+import cgbound as cg
+from helpers import assert_fields_close
+
+
+def packing(n=3000, seed=3):
+    """Enough particles and contacts on a fine enough grid that the core really splits the work."""
+    rng = np.random.default_rng(seed)
+    box = cg.Box([0, 0, 0], [10, 10, 10], periodic=(True, False, False))
+    pos = rng.uniform(0, 10, (n, 3))
+    i = rng.integers(0, n, 4 * n)
+    j = (i + 1 + rng.integers(0, n - 1, i.size)) % n
+    near = np.linalg.norm(pos[i] - pos[j], axis=1) < 2.0
+    pairs = np.unique(np.sort(np.stack([i[near], j[near]], axis=1), axis=1), axis=0)
+    i, j = pairs[:, 0], pairs[:, 1]
+    force = rng.normal(size=(i.size, 3))
+    contacts = cg.Contacts(i, j, force, 0.5 * (pos[i] + pos[j]))
+    return cg.Snapshot(pos, rng.normal(size=(n, 3)), rng.uniform(0.5, 2, n), box=box, contacts=contacts)
+
+
+FIELDS = ("density", "momentum", "momentum_flux", "kinetic_stress", "contact_stress", "stress")
+
+
+@pytest.mark.skipif(not cg.have_openmp(), reason="serial build")
+@pytest.mark.parametrize("kernel", [cg.Gaussian(0.5, cutoff=1.5), cg.Gaussian(0.5, cutoff=1.5, line_quadrature=3),
+                                    cg.Lucy(1.2)], ids=repr)
+def test_results_do_not_depend_on_the_thread_count(kernel):
+    snap = packing()
+    grid = cg.Grid(snap.box, (20, 20, 20))
+    points = cg.Points(np.random.default_rng(1).uniform(0, 10, (500, 3)))
+    for where in (grid, points):
+        with cg.threads(1):
+            one = cg.coarse_grain(snap, where, kernel, fields=FIELDS)
+        for n in (2, 3):
+            with cg.threads(n):
+                many = cg.coarse_grain(snap, where, kernel, fields=FIELDS)
+            for name in FIELDS:
+                assert_fields_close(many[name], one[name], 1e-12, f"{name} with {n} threads")
+
+
+def test_set_get_and_context_manager():
+    previous = cg.set_num_threads(None)
+    try:
+        default = cg.get_num_threads()
+        assert default >= 1
+        if cg.have_openmp():
+            cg.set_num_threads(3)
+            assert cg.get_num_threads() == 3
+            with cg.threads(1):
+                assert cg.get_num_threads() == 1
+                with cg.threads(2):
+                    assert cg.get_num_threads() == 2
+                assert cg.get_num_threads() == 1
+            assert cg.get_num_threads() == 3
+            assert cg.set_num_threads(None) == 3
+            assert cg.get_num_threads() == default
+        else:
+            with cg.threads(4):
+                assert cg.get_num_threads() == 1
+    finally:
+        cg.set_num_threads(previous)
+
+
+@pytest.mark.parametrize("bad,error", [(0, ValueError), (-1, ValueError), (1.5, TypeError), ("2", TypeError),
+                                       (True, TypeError)])
+def test_bad_thread_counts_are_refused(bad, error):
+    with pytest.raises(error, match="n: expected"):
+        cg.set_num_threads(bad)
+    with pytest.raises(error, match="n: expected"):
+        with cg.threads(bad):
+            pass
+
+
+def test_core_refuses_negative_thread_count():
+    target = (2, (0, 1), None, np.zeros((1, 2)), [False, False], [1.0, 1.0])
+    with pytest.raises(ValueError, match="n_threads"):
+        cg._core.scatter_points(target, (0, 1.0, 3.0, 0, 1.0), np.zeros((1, 2)), np.ones((1, 1)), n_threads=-1)
