@@ -13,13 +13,14 @@ from .kernels import Gaussian, Heaviside, Lucy
 from .residual import MomentumBalance, momentum_balance_residual
 from .result import Result
 from .snapshot import Contacts, Snapshot
+from .tiled import coarse_grain_tiled
 
 __version__ = "0.1.0"
 
 FIELD_NAMES = tuple(FIELDS)
 
 __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", "Heaviside", "Lucy",
-           "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
+           "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "coarse_grain_tiled", "momentum_balance_residual",
            "have_openmp"]
 
 

@@ -169,3 +169,44 @@ def run_blocks(plan, snapshots, indices, client=None, n_workers=None, verbose=Fa
         finally:
             client.cancel(futures)
 
+
+
+def run_tiles(jobs, n_tiles, grid, kernel, needed, u_ref, stitched, client=None, n_workers=None, verbose=False):
+    """coarse_grain_tiled on Dask: ``jobs`` yields (ranges, tile data); results go to ``stitched.put``.
+
+    Only a few tiles per worker thread are in flight at once, so the workers never hold the whole
+    snapshot (nor the client every tile's copy of it).
+    """
+    from .tiled import TILES_IN_FLIGHT_PER_THREAD, _TileTarget, tile_primaries
+    dd = distributed()
+    with dask_client(client, n_workers) as client:
+        n_threads = max(1, sum(client.nthreads().values()))
+        jobs = iter(jobs)
+        ranges_of = {}
+        running = dd.as_completed()
+        bar = _progress(verbose, n_tiles, "tile")
+
+        def submit_next():
+            job = next(jobs, None)
+            if job is None:
+                return
+            ranges, data = job
+            data_future = client.scatter(data, hash=False)
+            future = client.submit(tile_primaries, data_future, _TileTarget(grid, ranges), kernel, needed, u_ref,
+                                   pure=False)
+            ranges_of[future.key] = (ranges, future)
+            running.add(future)
+
+        try:
+            for _ in range(TILES_IN_FLIGHT_PER_THREAD * n_threads):
+                submit_next()
+            for future in running:
+                stitched.put(ranges_of.pop(future.key)[0], future.result())
+                future.release()
+                bar.update()
+                submit_next()
+        except BaseException:
+            client.cancel([f for _, f in ranges_of.values()])
+            raise
+        finally:
+            bar.close()
