@@ -60,7 +60,7 @@ def dask_client(client, n_workers):
         yield client
         return
     cluster = dd.LocalCluster(n_workers=n_workers or 2, processes=True, threads_per_worker=1,
-                              dashboard_address=None)
+                              dashboard_address=":0")
     try:
         with dd.Client(cluster) as own:
             yield own
