@@ -3,6 +3,7 @@
 """
 import contextlib
 import numbers
+import os
 
 import numpy as np
 
@@ -50,6 +51,27 @@ def distributed():
     return dd
 
 
+def local_cluster(n_workers):
+    """A LocalCluster of ``n_workers`` single-threaded worker processes (dashboard on a free port).
+
+    Dask sets OMP_NUM_THREADS=1 (and similar) in *this* process's environment before spawning its
+    workers, and leaves it there; it is put back afterwards, so that a serial run later in the same
+    session still uses every core.
+    """
+    import dask
+    dd = distributed()
+    keys = list(dask.config.get("distributed.nanny.pre-spawn-environ", {}) or {})
+    saved = {key: os.environ.get(key) for key in keys}
+    try:
+        return dd.LocalCluster(n_workers=n_workers, processes=True, threads_per_worker=1, dashboard_address=":0")
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
 @contextlib.contextmanager
 def dask_client(client, n_workers):
     """The given client (left open), or a LocalCluster of n_workers processes (default 2) closed on exit."""
@@ -59,8 +81,7 @@ def dask_client(client, n_workers):
             raise TypeError(f"client: expected a dask.distributed.Client or None, got {type(client).__name__}")
         yield client
         return
-    cluster = dd.LocalCluster(n_workers=n_workers or 2, processes=True, threads_per_worker=1,
-                              dashboard_address=":0")
+    cluster = local_cluster(n_workers or 2)
     try:
         with dd.Client(cluster) as own:
             yield own
@@ -142,7 +163,10 @@ def run_blocks(plan, snapshots, indices, client=None, n_workers=None, verbose=Fa
     """CoarseGrain.run on Dask: the merged Partial of frames ``indices`` of ``snapshots``."""
     with dask_client(client, n_workers) as client:
         n_threads = max(1, sum(client.nthreads().values()))
-        blocks = split_blocks(indices, BLOCKS_PER_THREAD * n_threads)
+        # a smoothing block sends back sums at every output time: one block per thread keeps that traffic
+        # (and the client's additions) smallest
+        per_thread = 1 if plan.mode in ("smooth", "store") else BLOCKS_PER_THREAD
+        blocks = split_blocks(indices, per_thread * n_threads)
         # every frame is computed relative to the first frame's mean velocity, as in a serial run
         first = client.submit(first_frame_info, plan, block_frames(client, snapshots, indices[:1]), indices[0],
                               pure=False)

@@ -4,6 +4,7 @@ One LocalCluster (2 worker processes, 1 thread each) is shared by the module's t
 need dask.distributed are skipped without it; argument checks that reject before any cluster is
 made run anyway.
 """
+import os
 import pickle
 import subprocess
 import sys
@@ -32,7 +33,8 @@ FIELDS = ("density", "velocity", "momentum_flux", "kinetic_stress", "contact_str
 def client():
     if distributed is None:
         pytest.skip("dask.distributed is not installed")
-    cluster = distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=":0")
+    from cgbound._dask import local_cluster
+    cluster = local_cluster(2)  # LocalCluster(n_workers=2, processes=True, threads_per_worker=1), environment kept
     with distributed.Client(cluster) as c:
         yield c
     cluster.close()
@@ -292,6 +294,15 @@ def test_client_of_the_wrong_type():
         cg_run(backend="dask", client="tcp://1.2.3.4")
     with pytest.raises(TypeError, match=r"client: expected a dask.distributed.Client or None, got str"):
         tiled(backend="dask", client="tcp://1.2.3.4")
+
+
+@needs_dask
+def test_local_cluster_leaves_the_thread_environment_alone(client):
+    before = os.environ.get("OMP_NUM_THREADS")
+    cg_run(backend="dask", n_workers=1)
+    assert os.environ.get("OMP_NUM_THREADS") == before
+    assert client.run(lambda: os.environ.get("OMP_NUM_THREADS")) and all(
+        v == "1" for v in client.run(lambda: os.environ.get("OMP_NUM_THREADS")).values())
 
 
 def test_without_dask_the_error_says_how_to_install(monkeypatch):
