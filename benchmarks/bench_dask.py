@@ -1,12 +1,14 @@
 """Dask backends: many snapshots (serial vs 2 workers) and one big snapshot in tiles (time, peak memory).
 
-    python benchmarks/bench_dask.py [--frames 200] [--path chute.h5] [--repeat 3]
+    python benchmarks/bench_dask.py [--frames 200] [--path chute.h5] [--repeat 3] [--grids profile,xyz]
+                                    [--averages mean,smooth]
                                     [--particles 1e6] [--tiles 2,2,2] [--workers 2] [--skip frames|tiled]
 
 Table 1: CoarseGrain over --frames snapshots read from an HDF5 file (--path, a cgbound snapshot file
 such as the chute data set; without it, chute-like random snapshots of ~1000 particles and ~2000
 contacts, fixed seed, written to a temporary file), serial vs backend="dask" with --workers worker
-processes (on a running cluster, and with the cluster's start-up included). Medians of --repeat runs.
+processes (on a running cluster, and with the cluster's start-up included), for the time mean and for
+Gaussian time smoothing (width 1) at 10 output times. Medians of --repeat runs.
 
 Table 2: one random packing of --particles spheres (d = 1, volume fraction 0.5, contacts between
 touching pairs) on a 3D grid: coarse_grain in a fresh process vs coarse_grain_tiled on --workers
@@ -85,8 +87,10 @@ def bench_frames(args):
     n = min(args.frames, len(reader))
     first = reader[0]
     box = first.box
-    grids = {"Z profile, 100 nodes": cg.Grid(box, (1, 1, 100), average=("x", "y")),
-             "XYZ 40x20x24": cg.Grid(box, (40, 20, 24))}
+    grids = {"profile": ("Z profile, 100 nodes", cg.Grid(box, (1, 1, 100), average=("x", "y"))),
+             "xyz": ("XYZ 40x20x24", cg.Grid(box, (40, 20, 24)))}
+    grids = dict(grids[name] for name in args.grids.split(","))
+    times = [reader[0].time, reader[n - 1].time]
     kernel = cg.Gaussian(0.5, cutoff=1.5)
     header(f"{n} frames of {os.path.basename(path) if args.path else 'random chute-like snapshots'} "
            f"({first.n_particles} particles, {len(first.contacts)} contacts in frame 0); fields "
@@ -97,9 +101,13 @@ def bench_frames(args):
     client = Client(cluster)
     try:
         for label, grid in grids.items():
-            for average in ("mean", 1.0):
+            for average in args.averages.split(","):
+                # smoothing: width 1 time unit, at 10 output times spread over the frames
+                options = {"time_average": "mean"} if average == "mean" else \
+                    {"time_average": 1.0, "times": np.linspace(times[0], times[-1], 10)}
+
                 def run(**kw):
-                    return cg.CoarseGrain(reader, grid, kernel, fields=FRAME_FIELDS, time_average=average).run(
+                    return cg.CoarseGrain(reader, grid, kernel, fields=FRAME_FIELDS, **options).run(
                         0, n, 1, **kw).results
                 serial_t, dask_t, cold_t = [], [], []
                 for _ in range(args.repeat):
@@ -114,8 +122,7 @@ def bench_frames(args):
                 cold_t.append(time.perf_counter() - t)
                 diff = max(float(np.nanmax(np.abs(a[f] - b[f])) / np.nanmax(np.abs(a[f]))) for f in FRAME_FIELDS)
                 s, d = statistics.median(serial_t), statistics.median(dask_t)
-                name = "mean" if average == "mean" else "smooth"
-                print(f"{label:<22}{name:<9}{s:>10.2f}{d:>12.2f}{s / d:>10.2f}{cold_t[0]:>17.2f}{diff:>15.1e}",
+                print(f"{label:<22}{average:<9}{s:>10.2f}{d:>12.2f}{s / d:>10.2f}{cold_t[0]:>17.2f}{diff:>15.1e}",
                       flush=True)
     finally:
         client.close()
@@ -214,6 +221,8 @@ def main():
     parser.add_argument("--particles", default="1e6", help="particles of the tiled packing (1e7 needs ~10 GB)")
     parser.add_argument("--spacing", type=float, default=2.0, help="grid spacing of the tiled packing")
     parser.add_argument("--tiles", default="2,2,2")
+    parser.add_argument("--grids", default="profile,xyz", help="frames table: profile and/or xyz")
+    parser.add_argument("--averages", default="mean,smooth", help="frames table: mean and/or smooth")
     parser.add_argument("--skip", choices=("frames", "tiled"), default=None)
     parser.add_argument("--single", type=int, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
