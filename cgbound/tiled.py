@@ -56,6 +56,12 @@ def coarse_grain_tiled(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention
     -------
     Result
         The same as ``coarse_grain(snapshot, grid, kernel, fields, convention, species)`` to rounding.
+
+    Notes
+    -----
+    This process holds the snapshot and the whole grid's fields; it cuts the tiles one by one and keeps
+    at most two per worker thread on the cluster, so a worker holds about two tiles' particles and one
+    tile's sums at a time. Use more tiles to lower the memory per worker.
     """
     if not isinstance(grid, Grid):
         raise TypeError(f"grid: expected a cg.Grid for tiling (tiles split its nodes), got {type(grid).__name__}")
