@@ -194,7 +194,6 @@ def run_blocks(plan, snapshots, indices, client=None, n_workers=None, verbose=Fa
             client.cancel(futures)
 
 
-
 def run_tiles(jobs, n_tiles, grid, kernel, needed, u_ref, stitched, client=None, n_workers=None, verbose=False):
     """coarse_grain_tiled on Dask: ``jobs`` yields (ranges, tile data); results go to ``stitched.put``.
 
