@@ -14,6 +14,7 @@ from .residual import MomentumBalance, momentum_balance_residual
 from .result import Result
 from .snapshot import Contacts, Snapshot
 from ._threads import get_num_threads, set_num_threads, threads
+from .tiled import coarse_grain_tiled
 
 __version__ = "0.1.0"
 
@@ -21,7 +22,7 @@ FIELD_NAMES = tuple(FIELDS)
 
 __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", "Heaviside", "Lucy",
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
-           "have_openmp", "get_num_threads", "set_num_threads", "threads"]
+           "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled"]
 
 
 def have_openmp():

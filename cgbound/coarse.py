@@ -3,29 +3,18 @@ import sys
 
 import numpy as np
 
+from ._dask import check_backend
 from ._memory import check_fits, core_threads, per_node_doubles
+from ._partial import FramePlan, Partial, prepare as _prepare, read_frame
 from ._validate import flag, integer, positive_number, real_array
-from .fields import (PrimaryAverage, check_computable, check_convention, check_fields, compute_primaries, derive,
-                     needed_primaries, reference_velocity, FIELDS)
-from .grid import Grid, Points, check_target
+from .fields import (check_computable, check_convention, check_fields, compute_primaries, derive, needed_primaries,
+                     reference_velocity, FIELDS)
+from .grid import Grid, Points
 from .kernels import check_kernel
 from .result import Result
 from .snapshot import Snapshot
 
 DEFAULT_FIELDS = ("density", "velocity", "stress")
-
-
-def _prepare(snapshot, grid, kernel, fields, convention, species):
-    if not isinstance(snapshot, Snapshot):
-        raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
-    target = check_target(grid, snapshot.dim)
-    kernel = check_kernel(kernel)
-    fields = check_fields(fields)
-    convention = check_convention(convention)
-    species = integer(species, "species", allow_none=True)
-    if species is not None:
-        snapshot = snapshot.species_view(species)
-    return snapshot, target, kernel, fields, convention
 
 
 def _field_ranks():
@@ -97,6 +86,8 @@ class CoarseGrain:
         Output times for Gaussian time smoothing.
 
     Use ``run(start, stop, step, verbose)``, which returns self; the fields are in ``results``.
+    ``run(..., backend="dask", client=...)`` spreads blocks of frames over a dask.distributed
+    cluster with the same result (see the README, "Scaling out").
     """
 
     def __init__(self, snapshots, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None,
@@ -131,7 +122,7 @@ class CoarseGrain:
         snaps = self.snapshots
         if hasattr(snaps, "__len__") and hasattr(snaps, "__getitem__"):
             for index in range(*slice(start, stop, step).indices(len(snaps))):
-                yield index, snaps[index]
+                yield index, read_frame(snaps, index, index)
         else:
             if any(x is not None for x in (start, stop, step)) and not all(
                     (x is None or x >= 0) for x in (start, stop, step)):
@@ -144,101 +135,96 @@ class CoarseGrain:
     def _progress(self, iterable, total, verbose):
         if not verbose:
             return iterable
-        try:
-            from tqdm.auto import tqdm
-        except ImportError:
-            return _SimpleProgress(iterable, total)
-        return tqdm(iterable, total=total, desc="coarse graining", unit="frame")
+        return progress_bar(total, "frame", iterable)
 
-    def run(self, start=None, stop=None, step=None, verbose=False):
-        """Coarse-grain frames ``start:stop:step``; returns self, with the fields in ``results``."""
+    def _plan(self):
+        mode = self.time_average
+        if mode == "smooth" and self.times is None:
+            mode = "store"  # the output times are the frames' own: known once every frame is read
+        return FramePlan(self.grid, self.kernel, self.fields, self.convention, self.species, mode,
+                         self.time_width, self.times)
+
+    def run(self, start=None, stop=None, step=None, verbose=False, *, backend="serial", client=None, n_workers=None):
+        """Coarse-grain frames ``start:stop:step``; returns self, with the fields in ``results``.
+
+        backend : "serial" (this process) or "dask" (blocks of frames on a dask.distributed cluster;
+            the snapshots must be a list or a reader, which workers read themselves)
+        client : dask.distributed.Client, optional
+            The cluster to use (left open). None with backend="dask": a LocalCluster of ``n_workers``
+            processes (default 2), closed afterwards.
+        n_workers : int, optional
+            Workers of the LocalCluster made when no client is given.
+        """
         start = integer(start, "start", allow_none=True)
         stop = integer(stop, "stop", allow_none=True)
         step = integer(step, "step", allow_none=True)
         if step == 0:
             raise ValueError("step: expected a non-zero integer or None, got 0")
         verbose = flag(verbose, "verbose")
-        needed = needed_primaries(self.fields)
+        backend, n_workers = check_backend(backend, client, n_workers)
         total = None
         if hasattr(self.snapshots, "__len__"):
             total = len(range(*slice(start, stop, step).indices(len(self.snapshots))))
         n_times = len(self.times) if self.times is not None else (total or 1)
         _check_memory(self._target, self.fields, self._target.dim, core_threads(), frames=total or 1,
                       time_average=self.time_average, n_times=n_times)
-        frames = []
-        averages = None
-        u_ref = None
-        target = kernel = None
-        dim = box = None
-        times = []
-        smooth_buffer = []
-        for index, snap in self._progress(self._frames(start, stop, step), total, verbose):
-            try:
-                snap, target, kernel, _, _ = _prepare(snap, self.grid, self.kernel, self.fields, self.convention,
-                                                      self.species)
-            except (TypeError, ValueError) as exc:
-                raise type(exc)(f"frame {index}: {exc}") from exc
-            if u_ref is None:
-                u_ref = reference_velocity(snap)
-                dim, box = snap.dim, snap.box
-            elif snap.dim != dim:
-                raise ValueError(f"frame {index}: snapshot: expected a {dim}D snapshot like the first frame, got {snap.dim}D")
-            try:
-                split = check_computable(snap, needed)
-            except ValueError as exc:
-                raise ValueError(f"frame {index}: {exc}") from exc
-            prim = compute_primaries(snap, target, kernel, needed, u_ref, split)
-            times.append(snap.time)
-            if self.time_average == "mean":
-                if averages is None:
-                    averages = PrimaryAverage(needed)
-                averages.add(prim)
-            elif self.time_average == "none":
-                frames.append(derive(prim, self.fields, u_ref, dim, self.convention))
-            else:
-                smooth_buffer.append(prim)
-        if not times:
-            if total is not None and len(self.snapshots) == 0:
-                raise ValueError("snapshots: expected at least one snapshot, got an empty sequence")
-            raise ValueError(f"start, stop, step: expected a selection of at least one frame, got none "
-                             f"(start={start}, stop={stop}, step={step})")
-        if self.time_average == "mean":
-            flat = derive(averages.result(), self.fields, u_ref, dim, self.convention)
-            shaped = _shape_fields(flat, target, dim)
-            out_times = [float(np.mean(times))]
-        elif self.time_average == "none":
-            shaped = {name: np.stack([f[name] for f in frames]) for name in self.fields}
-            shaped = _shape_fields(shaped, target, dim, leading=(len(frames),))
-            out_times = times
+        plan = self._plan()
+        if backend == "dask":
+            if total is None or not hasattr(self.snapshots, "__getitem__"):
+                raise TypeError(f"snapshots: expected a list or a reader (len() and indexing) for backend='dask', "
+                                f"got {type(self.snapshots).__name__}")
+            indices = list(range(*slice(start, stop, step).indices(len(self.snapshots))))
+            if not indices:
+                self._no_frames(start, stop, step)
+            from ._dask import run_blocks
+            partial = run_blocks(plan, self.snapshots, indices, client, n_workers, verbose)
         else:
-            out_times = np.asarray(times if self.times is None else self.times, dtype=float)
-            per_time = []
-            for t_out in out_times:
-                acc = PrimaryAverage(needed)
-                for t_s, prim in zip(times, smooth_buffer):
-                    acc.add(prim, float(np.exp(-0.5 * ((t_s - t_out) / self.time_width) ** 2)))
-                if acc.weight == 0.0:
-                    raise ValueError(f"times: expected output times within reach of the frames (Gaussian weights "
-                                     f"underflow beyond ~38 widths), got {t_out} with no frame in reach")
-                per_time.append(derive(acc.result(), self.fields, u_ref, dim, self.convention))
-            shaped = {name: np.stack([f[name] for f in per_time]) for name in self.fields}
-            shaped = _shape_fields(shaped, target, dim, leading=(len(per_time),))
-        self.results = Result(shaped, target, kernel, self.convention, out_times, box)
-        self.n_frames = len(times)
-        self.frame_times = np.asarray(times)
+            partial = Partial(plan)
+            for index, snap in self._progress(self._frames(start, stop, step), total, verbose):
+                partial.add(index, snap)
+            if not partial.times:
+                self._no_frames(start, stop, step)
+            if plan.mode == "store":
+                partial = partial.smoothed(partial.times)
+        flat, out_times = partial.finish()
+        leading = () if self.time_average == "mean" else (len(out_times),)
+        shaped = _shape_fields(flat, partial.target, partial.dim, leading)
+        self.results = Result(shaped, partial.target, partial.kernel, self.convention, out_times, partial.box)
+        self.n_frames = len(partial.times)
+        self.frame_times = np.asarray(partial.times)
         return self
+
+    def _no_frames(self, start, stop, step):
+        if hasattr(self.snapshots, "__len__") and len(self.snapshots) == 0:
+            raise ValueError("snapshots: expected at least one snapshot, got an empty sequence")
+        raise ValueError(f"start, stop, step: expected a selection of at least one frame, got none "
+                         f"(start={start}, stop={stop}, step={step})")
+
+
+def progress_bar(total, unit, iterable=None):
+    """tqdm when installed, else a plain count on stderr; ``update(n)`` and iteration both work."""
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        return _SimpleProgress(iterable, total, unit)
+    return tqdm(iterable, total=total, desc="coarse graining", unit=unit)
 
 
 class _SimpleProgress:
     """Fallback progress report on stderr when tqdm is not installed."""
 
-    def __init__(self, iterable, total):
-        self.iterable, self.total = iterable, total
+    def __init__(self, iterable, total, unit="frame"):
+        self.iterable, self.total, self.unit, self.count = iterable, total, unit, 0
+
+    def update(self, n=1):
+        self.count += n
+        print(f"\rcoarse graining: {self.count}/{self.total or '?'} {self.unit}s", end="", file=sys.stderr)
+
+    def close(self):
+        print(file=sys.stderr)
 
     def __iter__(self):
-        count = 0
         for item in self.iterable:
             yield item
-            count += 1
-            print(f"\rcoarse graining: {count}/{self.total or '?'} frames", end="", file=sys.stderr)
-        print(file=sys.stderr)
+            self.update()
+        self.close()

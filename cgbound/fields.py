@@ -228,6 +228,16 @@ class PrimaryAverage:
         self.weight += weight
         self.count += 1
 
+    def merge(self, other):
+        """Add another average's running sums (frames of a later block): the exact combination."""
+        for name, value in other.sums.items():
+            self.sums[name] = self.sums[name] + value if name in self.sums else value.copy()
+        if other.spread is not None:
+            self.spread = other.spread.copy() if self.spread is None else self.spread + other.spread
+        self.weight += other.weight
+        self.count += other.count
+        return self
+
     def result(self):
         if self.count == 0:
             raise ValueError("no snapshots were averaged")

@@ -1,0 +1,253 @@
+"""One snapshot too big for one process: coarse graining in tiles of the grid, stitched exactly.
+
+The grid's nodes are split into ``tiles`` (a block of consecutive nodes along each resolved
+axis). A tile needs only the flowing particles within the kernel's support (``kernel.radius``) of
+its nodes and the contacts whose line from the particle to the contact (at most the longest branch
+vector long) can reach them, so each worker gets those (a halo of ``radius`` around the tile for
+particles, ``radius`` plus the longest branch for contacts, measured with periodic images along
+periodic axes, not at all along averaged axes, which every node integrates over). The extended
+stress is the exception: its rays run from a boundary contact out of the region, so with
+``extended_stress`` every tile gets every boundary contact (usually few). Each node's sums
+then hold exactly the same non-zero terms as in one process, so the stitched fields agree with
+:func:`cgbound.coarse_grain` to rounding.
+"""
+import numbers
+
+import numpy as np
+
+from ._dask import check_backend
+from ._memory import core_threads
+from ._partial import prepare
+from .coarse import DEFAULT_FIELDS, _check_memory, _shape_fields
+from .fields import check_computable, compute_primaries, derive, needed_primaries, reference_velocity
+from .grid import Grid
+from .result import Result
+from .snapshot import Snapshot
+
+#: tiles in flight per worker thread: keeps workers busy without sending every tile's particles at once
+TILES_IN_FLIGHT_PER_THREAD = 2
+
+#: the halo is widened by this fraction so that a particle exactly at the support radius is never lost
+#: to rounding (an extra particle outside the support adds only zeros)
+HALO_SLACK = 1e-9
+
+
+def coarse_grain_tiled(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None, *,
+                       tiles, backend="dask", client=None, n_workers=None, verbose=False):
+    """Coarse-grained fields of one (large) snapshot, computed tile by tile (on Dask workers by default).
+
+    Parameters
+    ----------
+    snapshot, grid, kernel, fields, convention, species : as for :func:`cgbound.coarse_grain`;
+        ``grid`` must be a :class:`cgbound.Grid`.
+    tiles : sequence of D positive ints
+        Tiles along each axis (1 along averaged axes; at most the grid's nodes along each axis).
+    backend : "dask" or "serial"
+        "dask": tiles run on a dask.distributed cluster; "serial": one after another in this
+        process (each tile's scratch memory instead of the whole grid's, no cluster).
+    client : dask.distributed.Client, optional
+        The cluster to use (left open). None: a LocalCluster of ``n_workers`` processes (default 2),
+        closed afterwards.
+    n_workers : int, optional
+    verbose : bool
+        Progress bar over tiles.
+
+    Returns
+    -------
+    Result
+        The same as ``coarse_grain(snapshot, grid, kernel, fields, convention, species)`` to rounding.
+
+    Notes
+    -----
+    This process holds the snapshot and the whole grid's fields; it cuts the tiles one by one and keeps
+    at most two per worker thread on the cluster, so a worker holds about two tiles' particles and one
+    tile's sums at a time. Use more tiles to lower the memory per worker.
+    """
+    if not isinstance(grid, Grid):
+        raise TypeError(f"grid: expected a cg.Grid for tiling (tiles split its nodes), got {type(grid).__name__}")
+    if not isinstance(snapshot, Snapshot):
+        raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
+    backend, n_workers = check_backend(backend, client, n_workers)
+    if not isinstance(verbose, (bool, np.bool_)):
+        raise TypeError(f"verbose: expected True or False, got {verbose!r}")
+    snapshot, target, kernel, fields, convention = prepare(snapshot, grid, kernel, fields, convention, species)
+    tiles = check_tiles(tiles, grid)
+    needed = needed_primaries(fields)
+    split = check_computable(snapshot, needed)
+    _check_memory(target, fields, snapshot.dim, core_threads(max(snapshot.n_particles, len(snapshot.contacts))))
+    u_ref = reference_velocity(snapshot)
+    cutter = _Cutter(snapshot, grid, kernel, split, needed)
+    boxes = tile_ranges(grid, tiles)
+    stitched = _Stitched(grid, snapshot.dim)
+    jobs = ((ranges, cutter.tile(ranges)) for ranges in boxes)
+    if backend == "serial":
+        from ._dask import _progress
+        bar = _progress(verbose, len(boxes), "tile")
+        try:
+            for ranges, data in jobs:
+                stitched.put(ranges, tile_primaries(data, _TileTarget(grid, ranges), kernel, needed, u_ref))
+                bar.update()
+        finally:
+            bar.close()
+    else:
+        from ._dask import run_tiles
+        run_tiles(jobs, len(boxes), grid, kernel, needed, u_ref, stitched, client, n_workers, verbose)
+    flat = derive(stitched.primaries, fields, u_ref, snapshot.dim, convention)
+    return Result(_shape_fields(flat, target, snapshot.dim), target, kernel, convention, [snapshot.time],
+                  snapshot.box)
+
+
+def check_tiles(tiles, grid):
+    """Tiles per axis as a tuple of D ints, checked against the grid."""
+    dim = grid.dim
+    names = grid.box.axis_names
+    if isinstance(tiles, (str, bytes)) or not hasattr(tiles, "__len__"):
+        raise TypeError(f"tiles: expected {dim} positive integers (tiles along each axis), got {tiles!r}")
+    if len(tiles) != dim:
+        raise ValueError(f"tiles: expected {dim} positive integers (one per axis), got {tiles!r}")
+    if not all(isinstance(t, (numbers.Integral, np.integer)) and not isinstance(t, (bool, np.bool_)) for t in tiles):
+        raise TypeError(f"tiles: expected {dim} positive integers, got {tiles!r}")
+    tiles = tuple(int(t) for t in tiles)
+    for d, t in enumerate(tiles):
+        if t < 1:
+            raise ValueError(f"tiles: expected positive tile counts, got {tiles!r}")
+        if d in grid.averaged and t != 1:
+            raise ValueError(f"tiles: expected 1 tile along the averaged axis {names[d]}, got {t}")
+        if t > grid.shape[d]:
+            raise ValueError(f"tiles: expected at most {grid.shape[d]} tiles along {names[d]} (the grid's nodes), "
+                             f"got {t}")
+    return tiles
+
+
+def tile_ranges(grid, tiles):
+    """Each tile as a tuple of D (first, stop) node ranges, in C order of the tiles."""
+    per_axis = []
+    for d in range(grid.dim):
+        edges = np.linspace(0, grid.shape[d], tiles[d] + 1).round().astype(int)
+        per_axis.append([(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])])
+    return [tuple(per_axis[d][k] for d, k in enumerate(combo)) for combo in np.ndindex(*tiles)]
+
+
+class _TileTarget:
+    """The nodes of one tile, with the grid's own coordinates (bitwise) and averaging extent."""
+
+    def __init__(self, grid, ranges):
+        self.dim, self.resolved, self.avg_extent = grid.dim, grid.resolved, grid.avg_extent
+        self.coordinates = [np.ascontiguousarray(grid.axis_coordinates[d][a:b]) for d, (a, b) in enumerate(ranges)]
+        self.size = int(np.prod([b - a for a, b in ranges]))
+
+    def _core_target(self, box):
+        return (self.dim, self.resolved, [self.coordinates[d] for d in self.resolved], None,
+                [box.periodic[d] for d in self.resolved], [float(box.lengths[d]) for d in self.resolved])
+
+
+class _TileData:
+    """The particles and contacts one tile needs (one object, so Dask scatters it as a whole).
+
+    ``points``: flowing particles near the tile; ``owners``: the positions of the flowing particle
+    of each selected contact (contact primaries start their line there); bulk/boundary: the
+    selected contacts of ``Snapshot.split_contacts``, with ``i`` indexing ``owners``.
+    """
+
+    def __init__(self, box, points, owners, bulk, boundary):
+        self.box, self.points, self.owners, self.bulk, self.boundary = box, points, owners, bulk, boundary
+
+
+def tile_primaries(data, target, kernel, needed, u_ref):
+    """Task: primary sums (flat over the tile's nodes) of one tile."""
+    pts = data.points
+    n, m = pts["positions"].shape[0], data.owners.shape[0]
+
+    def rows(value, fill):
+        return None if value is None else np.concatenate([value, np.full((m,) + value.shape[1:], fill)])
+
+    snap = Snapshot(np.concatenate([pts["positions"], data.owners]), rows(pts["velocities"], 0.0),
+                    rows(pts["masses"], 1.0), box=data.box, fixed=np.arange(n + m) >= n,
+                    body_force=rows(pts["body_force"], 0.0), radii=rows(pts["radii"], 0.0))
+    # the contact owners follow the particles, as fixed rows: they only anchor the contact lines
+    bulk = dict(data.bulk, i=data.bulk["i"] + n)
+    boundary = dict(data.boundary, i=data.boundary["i"] + n)
+    return compute_primaries(snap, target, kernel, needed, u_ref, (bulk, boundary))
+
+
+class _Cutter:
+    """Selects, for a tile, the particles and contacts that reach its nodes."""
+
+    def __init__(self, snapshot, grid, kernel, split, needed):
+        self.snapshot, self.grid = snapshot, grid
+        flow = snapshot.flowing
+        self.flow_idx = np.flatnonzero(flow)
+        self.flow_pos = snapshot.positions[flow]
+        empty = (np.zeros(0, np.int64), np.zeros((0, snapshot.dim)))
+        if split is None:
+            split = ({"i": empty[0], "j": empty[0], "force": empty[1], "branch": empty[1]},
+                     {"i": empty[0], "force": empty[1], "branch": empty[1], "point": empty[1]})
+        self.bulk, self.boundary = split
+        branches = np.concatenate([self.bulk["branch"], self.boundary["branch"]])
+        longest = float(np.sqrt((branches**2).sum(axis=1)).max()) if branches.shape[0] else 0.0
+        self.point_halo = kernel.radius * (1 + HALO_SLACK)
+        self.contact_halo = (kernel.radius + longest) * (1 + HALO_SLACK)
+        self.bulk_owner = snapshot.positions[self.bulk["i"]]
+        self.boundary_owner = snapshot.positions[self.boundary["i"]]
+        self.with_contacts = bool(needed & {"sb", "sw", "sx", "t"})
+        # the extended stress integrates along rays from the particle through the contact point and
+        # beyond, out of the region: no halo bounds them, so every tile gets every boundary contact
+        self.all_boundary = "sx" in needed
+
+    def _near(self, positions, ranges, halo):
+        """Rows of ``positions`` within ``halo`` of the tile's node span on every resolved axis."""
+        keep = np.ones(positions.shape[0], bool)
+        box = self.snapshot.box
+        for d in self.grid.resolved:
+            a, b = ranges[d]
+            lo, hi = self.grid.axis_coordinates[d][a], self.grid.axis_coordinates[d][b - 1]
+            x = positions[:, d]
+            if box.periodic[d]:
+                length = float(box.lengths[d])
+                if (hi - lo) + 2 * halo >= length:
+                    continue
+                u = np.mod(x - lo, length)  # position past the tile's first node, on the circle
+                keep &= (u <= (hi - lo) + halo) | (u >= length - halo)
+            else:
+                keep &= (x >= lo - halo) & (x <= hi + halo)
+        return keep
+
+    def tile(self, ranges):
+        snap = self.snapshot
+        near = self._near(self.flow_pos, ranges, self.point_halo)
+        rows = self.flow_idx[near]
+        points = {"positions": snap.positions[rows], "masses": snap.masses[rows],
+                  "velocities": None if snap.velocities is None else snap.velocities[rows],
+                  "body_force": None if snap.body_force is None else np.ascontiguousarray(snap.body_force[rows]),
+                  "radii": None if snap.radii is None else snap.radii[rows]}
+        if self.with_contacts:
+            b_keep = np.flatnonzero(self._near(self.bulk_owner, ranges, self.contact_halo))
+            if self.all_boundary:
+                w_keep = np.arange(self.boundary_owner.shape[0])
+            else:
+                w_keep = np.flatnonzero(self._near(self.boundary_owner, ranges, self.contact_halo))
+        else:
+            b_keep = w_keep = np.zeros(0, np.int64)
+        owners = np.concatenate([self.bulk_owner[b_keep], self.boundary_owner[w_keep]])
+        bulk = {"i": np.arange(b_keep.size), "force": self.bulk["force"][b_keep], "branch": self.bulk["branch"][b_keep]}
+        boundary = {"i": b_keep.size + np.arange(w_keep.size), "force": self.boundary["force"][w_keep],
+                    "branch": self.boundary["branch"][w_keep], "point": self.boundary["point"][w_keep]}
+        return _TileData(snap.box, points, owners, bulk, boundary)
+
+
+class _Stitched:
+    """The whole grid's primary sums, filled tile by tile."""
+
+    def __init__(self, grid, dim):
+        self.grid, self.dim = grid, dim
+        self.primaries = {}
+
+    def put(self, ranges, tile):
+        shape = self.grid.shape
+        where = tuple(slice(a, b) for a, b in ranges)
+        for name, value in tile.items():
+            extra = value.shape[1:]
+            if name not in self.primaries:
+                self.primaries[name] = np.zeros((self.grid.size,) + extra)
+            full = self.primaries[name].reshape(shape + extra)
+            full[where] = value.reshape(tuple(b - a for a, b in ranges) + extra)
