@@ -11,9 +11,7 @@ import argparse
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-
-import accuracy_study as study  # noqa: E402
+HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def main(argv=None):
@@ -26,7 +24,16 @@ def main(argv=None):
     parser.add_argument("--frame", type=int, default=-1, help="frame of --data (default: the last)")
     parser.add_argument("--size", type=float, help="side of the generated packing in diameters")
     parser.add_argument("--sweeps", default="cutoff,line,kernel,spacing")
+    parser.add_argument("--threads", type=int, help="threads of the C core (OMP_NUM_THREADS, or "
+                        "cgbound.set_num_threads where it exists); 1 is steadier on a shared machine")
     args = parser.parse_args(argv)
+    if args.threads:
+        # before cgbound (and its OpenMP runtime) is loaded: libgomp reads the variable at start-up
+        os.environ["OMP_NUM_THREADS"] = str(args.threads)
+    sys.path.insert(0, HERE)
+    import accuracy_study as study
+    if args.threads and hasattr(study.cg, "set_num_threads"):
+        study.cg.set_num_threads(args.threads)
     config = study.QUICK if args.quick else study.FULL
     size = args.size or config["size"]
     snap, d = study.load_snapshot(args.data, args.frame, size=size)
