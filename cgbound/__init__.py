@@ -13,6 +13,7 @@ from .kernels import Gaussian, Heaviside, Lucy
 from .residual import MomentumBalance, momentum_balance_residual
 from .result import Result
 from .snapshot import Contacts, Snapshot
+from .truncation import gaussian_cutoff_for, gaussian_tail_fraction
 
 __version__ = "0.1.0"
 
@@ -20,7 +21,7 @@ FIELD_NAMES = tuple(FIELDS)
 
 __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", "Heaviside", "Lucy",
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
-           "have_openmp"]
+           "gaussian_cutoff_for", "gaussian_tail_fraction", "have_openmp"]
 
 
 def have_openmp():
