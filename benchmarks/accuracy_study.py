@@ -11,7 +11,8 @@ Measures (all relative):
               Kernel sweep: Lucy and Heaviside against the Gaussian of matched second moment, i.e. how
               far a different kernel of the same resolution is, not a discretisation error.
   line_err    line sweep only: against exact erf line integrals at the same cutoff (the quadrature
-              error alone).
+              error alone). Without the line_quadrature option the Gauss-Legendre rows are emulated from
+              point scatters at the nodes (same numbers as the option gives; no time, no residual).
   mass_err    |sum(rho) dV - total flowing mass| / total mass (DESIGN.md 3.1).
   virial_err  |integral of (sigma_b + sigma_w) dV + sum f_ij r_ij + sum f_ik a_ik|_F / |sum f r|_F (3.2).
   mb_resid    largest relative momentum-balance residual at random points (3.3,
