@@ -364,12 +364,18 @@ def plot(rows, path=None, config=FULL, title=""):
     floor = 1e-17
     fig, ax = plt.subplots(figsize=(7.5, 5))
     styles = {"cutoff": "o", "line": "s", "kernel": "^", "spacing": "D"}
+    base_w = config["base_w_over_d"]
     for sweep, marker in styles.items():
-        sel = [r for r in rows if r["sweep"] == sweep]
-        if not sel:
-            continue
-        ax.scatter([max(r["stress_err"], floor) for r in sel], [1e3 * r["time_s"] for r in sel], marker=marker,
-                   label=sweep, alpha=0.7)
+        # the reference row of a sweep (error exactly 0) has no place on a log axis
+        sel = [r for r in rows if r["sweep"] == sweep and r["stress_err"] > 0]
+        groups = [(sel, sweep, 0.75)]
+        if sweep == "line":   # other widths have other grids: shown, but faint and off the front
+            groups = [([r for r in sel if math.isclose(r["w_over_d"], base_w)], f"line (w = {base_w:g} d)", 0.75),
+                      ([r for r in sel if not math.isclose(r["w_over_d"], base_w)], "line (other w/d)", 0.2)]
+        for group, label, alpha in groups:
+            if group:
+                ax.scatter([max(r["stress_err"], floor) for r in group], [1e3 * r["time_s"] for r in group],
+                           marker=marker, label=label, alpha=alpha)
     cands = base_rows(rows, config["base_w_over_d"], config["base_h_over_w"])
     front = pareto_front(cands)
     if front:
