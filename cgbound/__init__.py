@@ -15,6 +15,7 @@ from .result import Result
 from .snapshot import Contacts, Snapshot
 from ._threads import get_num_threads, set_num_threads, threads
 from .tiled import coarse_grain_tiled
+from .truncation import gaussian_cutoff_for, gaussian_tail_fraction
 
 __version__ = "0.1.0"
 
@@ -22,7 +23,8 @@ FIELD_NAMES = tuple(FIELDS)
 
 __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", "Heaviside", "Lucy",
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
-           "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled"]
+           "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
+           "gaussian_cutoff_for", "gaussian_tail_fraction"]
 
 
 def have_openmp():

@@ -141,3 +141,7 @@ def check_kernel(kernel, name="kernel"):
     if not isinstance(kernel, Kernel):
         raise TypeError(f"{name}: expected cg.Gaussian, cg.Lucy or cg.Heaviside, got {type(kernel).__name__}")
     return kernel
+
+
+# the cutoff for a requested accuracy (kept in its own module; also cgbound.gaussian_cutoff_for)
+from .truncation import gaussian_cutoff_for, gaussian_tail_fraction  # noqa: E402,F401
