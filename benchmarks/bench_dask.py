@@ -32,7 +32,7 @@ import numpy as np
 import cgbound as cg
 from cgbound._dask import local_cluster
 from cgbound._memory import core_threads
-from bench_lattice import cpu_model
+from common import cpu_model
 
 FRAME_FIELDS = ("density", "velocity", "stress", "kinetic_stress")
 TILE_FIELDS = ("density", "velocity", "stress")
