@@ -5,10 +5,22 @@ import sys
 import numpy as np
 
 
+def _check_output_paths(args, names):
+    """Refuse, before any work, output paths whose directory does not exist."""
+    import os
+    for name in names:
+        path = getattr(args, name, None)
+        if path:
+            directory = os.path.dirname(os.path.abspath(path))
+            if not os.path.isdir(directory):
+                raise SystemExit(f"--{name}: directory {directory!r} does not exist")
+
+
 def demo(args):
     """Fig. 3 on the shipped chute dataset: depth profiles, eq. (27), lithostatic balance, bed and surface."""
     import time
 
+    _check_output_paths(args, ("output", "png"))
     from .datasets import chute_steady
     from .kernels import Gaussian
     from .profiles import DepthProfiles
@@ -81,6 +93,7 @@ def run(args):
     from . import CoarseGrain, Gaussian, Grid, Heaviside, Lucy
     from .readers import open_dataset
 
+    _check_output_paths(args, ("output", "png"))
     options = {}
     if args.format == "mercury" or (args.format is None and args.input.endswith(".data")):
         options = dict(fstat_path=args.pairs, density=args.density)

@@ -59,3 +59,11 @@ def test_run_reads_lammps_dumps(tmp_path, capsys):
     with np.load(out) as result:
         np.testing.assert_allclose(result["interaction_force_density"], expected.interaction_force_density,
                                    rtol=1e-13, atol=1e-15)
+
+
+@pytest.mark.parametrize("option", ["--output", "--png"])
+def test_demo_refuses_an_output_in_a_missing_directory_before_work(tmp_path, option):
+    target = str(tmp_path / "missing" / "x.out")
+    args = ["demo", "-q", option, target] + (["--output", str(tmp_path / "d.h5")] if option == "--png" else [])
+    with pytest.raises(SystemExit, match=option):
+        main(args)
