@@ -28,7 +28,6 @@ import csv
 import inspect
 import math
 import os
-import platform
 import statistics
 import time
 
@@ -36,6 +35,7 @@ import numpy as np
 
 import cgbound as cg
 from cgbound.kernels import DEFAULT_GAUSSIAN_CUTOFF
+from common import cpu_model  # benchmarks/ is on sys.path for the scripts and notebook 04
 
 REFERENCE_CUTOFF = 10.0
 FIELDS = ("density", "contact_stress", "boundary_stress")
@@ -47,17 +47,6 @@ FULL = dict(cutoffs=(2, 3, 4, 5, 6, 8), line_nodes=(1, 2, 3, 4, 8), w_over_d=(1 
 QUICK = dict(FULL, w_over_d=(1 / 8, 1 / 2, 2), h_over_w=(0.5, 1, 2), size=5.0, mb_points=60)
 COLUMNS = ("sweep", "setting", "w_over_d", "h_over_w", "cutoff_over_w", "time_s", "time_min_s", "stress_err", "line_err",
            "mass_err", "virial_err", "mb_resid")
-
-
-def cpu_model():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def machine_line():
