@@ -23,7 +23,6 @@ import sys
 import tempfile
 import time
 
-import numpy as np
 
 from cgbound.datasets import chute_steady
 from cgbound.profiles import DepthProfiles

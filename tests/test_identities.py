@@ -304,7 +304,6 @@ def test_lucy_profile_equals_exact_plane_average():
     with the x,y average computed by dense Gauss-Legendre quadrature of the 3D field."""
     snap = random_snapshot(19, dim=3, n_bulk=3, n_fixed_contacts=2, n_wall=1)
     kernel = cg.Lucy(1.1)
-    z = np.array([1.0, 1.7, 2.3, 3.1])
     box = snap.box
     grid = cg.Grid(box, (1, 1, 40), average=("x", "y"))
     profile = cg.coarse_grain(snap, grid, kernel, fields=("density", "contact_stress"))

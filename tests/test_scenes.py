@@ -5,7 +5,7 @@ import pytest
 import cgbound as cg
 from cgbound import scenes
 from cgbound.scenes import (PAPER_COLLISION_TIME, PAPER_CONTACT_MODEL, ContactModel, Frames, Run, Scene, Settle,
-                            Trace, Wall)
+                            Wall)
 
 LAMMPS = scenes.find_lammps()
 needs_lammps = pytest.mark.skipif(LAMMPS is None, reason="LAMMPS (lmp) not installed")

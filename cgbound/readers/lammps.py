@@ -81,7 +81,6 @@ Particles are sorted by LAMMPS atom ID in every frame, so index k is the same at
 (as long as no atoms are created or lost). :meth:`LammpsReader.frame` also returns the IDs, types,
 timestep and the dumped per-particle forces.
 """
-import io
 import numbers
 import os
 

@@ -63,7 +63,6 @@ contacts are not read by this reader yet. Use fixed particles for boundaries, or
 contacts yourself.
 """
 import numbers
-import os
 
 import numpy as np
 

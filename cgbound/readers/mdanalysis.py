@@ -29,7 +29,6 @@ the particle fields (density, momentum, velocity, kinetic stress, ...) can be co
 
 MDAnalysis is imported only when a reader is created.
 """
-import numbers
 import os
 
 import numpy as np

@@ -199,7 +199,7 @@ def _stage(scene, n, stage):
                 f"print           \"CGBOUND-ERROR: not settled after {_f(stage.max_time)} time units\"",
                 "quit            3",
                 f"label           settled{n}",
-                f"print           \"CGBOUND-SETTLED $(time)\""]
+                "print           \"CGBOUND-SETTLED $(time)\""]
     if isinstance(stage, Frames):
         if not (isinstance(stage.count, (int, np.integer)) and stage.count >= 1):
             raise ValueError(f"count: expected a positive integer, got {stage.count!r}")

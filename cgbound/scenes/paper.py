@@ -5,8 +5,8 @@ Units: flowing particle diameter d = 1, mass m = 1, gravity g = 1.
 import numpy as np
 
 from ..box import Box
-from .lammps import Run, Trace
-from .scene import PAPER_CONTACT_MODEL, PAPER_TIMESTEP, ContactModel, Scene
+from .lammps import Trace
+from .scene import PAPER_CONTACT_MODEL, PAPER_TIMESTEP, Scene
 
 
 def _periodic_delta(d, lengths, periodic):
@@ -141,4 +141,4 @@ def chute(n_flowing=1000, length=20.0, width=10.0, angle=26.0, base_diameter=2.0
                  gravity=gravity, rotation=True, timestep=timestep)
 
 
-__all__ = ["binary_collision", "measure_collision", "boundary_2d", "chute", "Run"]
+__all__ = ["binary_collision", "measure_collision", "boundary_2d", "chute"]
