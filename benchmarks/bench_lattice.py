@@ -26,7 +26,7 @@ KERNELS = {"g0.5": ("Gaussian w=0.5 c=3w", lambda lq: cg.Gaussian(0.5, cutoff=1.
 
 
 def parse_line(text):
-    return [x if x == "exact" else int(x) for x in text.split(",") if x]
+    return [x if x in ("exact", "auto") else int(x) for x in text.split(",") if x]
 
 
 def main():
@@ -35,7 +35,7 @@ def main():
     parser.add_argument("--workloads", default="W1,W2")
     parser.add_argument("--threads", default="2", help="comma-separated thread counts (default 2)")
     parser.add_argument("--kernels", default="g0.5,g1.0,lucy", help=f"some of {','.join(KERNELS)}")
-    parser.add_argument("--line", default="exact", help="line-integral methods of the Gaussian: exact and/or n")
+    parser.add_argument("--line", default="exact", help="line-integral methods of the Gaussian: exact, auto and/or n")
     parser.add_argument("--per-node", action="store_true", help="also time the straightforward per-node path")
     parser.add_argument("--plot", help="write a bar chart of the medians to this PNG")
     args = parser.parse_args()

@@ -103,6 +103,12 @@ def check_computable(snapshot, needed, split=None):
     return split
 
 
+def longest_branch(bulk, boundary):
+    """The longest contact branch vector (bulk and boundary), 0 without contacts."""
+    return max((float(np.sqrt(np.einsum("ij,ij->i", part["branch"], part["branch"]).max()))
+                for part in (bulk, boundary) if part["branch"].shape[0]), default=0.0)
+
+
 def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
     """Primary sums of one snapshot at the target's nodes, flat over nodes: shape (P, ...).
 
@@ -165,6 +171,7 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
     contact_primaries = needed & {"sb", "sw", "t", "sx"}
     if contact_primaries:
         bulk, boundary = split
+        core_kernel = kernel._core_args(target.avg_extent, longest_branch(bulk, boundary))
         zero_tensor = np.zeros((P, dim, dim))
         if "sb" in needed:
             if bulk["i"].size:

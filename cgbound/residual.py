@@ -5,6 +5,7 @@ from . import _core
 from ._threads import get_num_threads
 from ._memory import check_fits, core_threads
 from .fields import _outer as outer
+from .fields import longest_branch
 from .grid import Points, check_target
 from .kernels import check_kernel
 from .snapshot import Snapshot
@@ -89,11 +90,13 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
 
     def divergence(starts, vecs, tensors):
         # tensors (n, D*D) row-major over (alpha, beta); contract the gradient with beta
-        g = _core.scatter_segments(core_target, core_kernel, starts, vecs, tensors, gradient=True, n_threads=nt)
+        g = _core.scatter_segments(core_target, segment_kernel, starts, vecs, tensors, gradient=True, n_threads=nt)
         return np.einsum("pabb->pa", g.reshape(P, dim, dim, dim))
 
     terms = {"forcing": points_value(pos, forces[flow])}
     bulk, boundary = snapshot.split_contacts()
+    # the contact stress's divergence with the line rule coarse_grain would use for these contacts
+    segment_kernel = kernel._core_args(1.0, longest_branch(bulk, boundary))
     zero = np.zeros((P, dim))
     terms["div_contact_stress"] = (divergence(snapshot.positions[bulk["i"]], -bulk["branch"],
                                               -outer(bulk["force"], bulk["branch"]))

@@ -74,6 +74,7 @@ def coarse_grain_tiled(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention
     tiles = check_tiles(tiles, grid)
     needed = needed_primaries(fields)
     split = check_computable(snapshot, needed)
+    kernel = resolve_auto_line_quadrature(kernel, split)
     _check_memory(target, fields, snapshot.dim, core_threads(max(snapshot.n_particles, len(snapshot.contacts))))
     u_ref = reference_velocity(snapshot)
     cutter = _Cutter(snapshot, grid, kernel, split, needed)
@@ -151,6 +152,22 @@ class _TileData:
 
     def __init__(self, box, points, owners, bulk, boundary):
         self.box, self.points, self.owners, self.bulk, self.boundary = box, points, owners, bulk, boundary
+
+
+def resolve_auto_line_quadrature(kernel, split):
+    """line_quadrature="auto" picks n from the longest branch; fix it from the whole snapshot so that
+    every tile uses the rule the single-process run would."""
+    if getattr(kernel, "line_quadrature", None) != "auto":
+        return kernel
+    import copy
+
+    from .fields import longest_branch
+    from .kernels import auto_line_points, check_line_quadrature
+    n = auto_line_points(longest_branch(*split), kernel.width)
+    fixed = copy.copy(kernel)
+    fixed._line_points = check_line_quadrature(n if n else "exact")
+    fixed.line_quadrature = n if n else "exact"
+    return fixed
 
 
 def tile_primaries(data, target, kernel, needed, u_ref):

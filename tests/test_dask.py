@@ -311,3 +311,23 @@ def test_without_dask_the_error_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "distributed", None)
     with pytest.raises(ImportError, match=r"pip install 'cgbound\[dask\]'"):
         cg_run(backend="dask")
+
+
+def test_tiled_with_auto_line_quadrature_uses_the_whole_snapshots_rule():
+    """"auto" picks n from the longest branch: tiles must not pick their own (each sees fewer branches)."""
+    snap = big_snapshot((True, True, False))
+    grid = cg.Grid(snap.box, (9, 8, 10))
+    bulk, boundary = snap.split_contacts()
+    lengths = np.concatenate([np.linalg.norm(p["branch"], axis=1) for p in (bulk, boundary)])
+    # a width where the longest branch and a typical one ask for different n
+    width = next(w for w in (0.9, 1.2, 1.6, 2.0, 3.0)
+                 if cg.kernels.auto_line_points(lengths.max(), w) != cg.kernels.auto_line_points(np.median(lengths), w))
+    kernel = cg.Gaussian(width, line_quadrature="auto")
+    fields = ("contact_stress", "boundary_stress")
+    tiled = cg.coarse_grain_tiled(snap, grid, kernel, fields=fields, tiles=(3, 2, 4), backend="serial")
+    assert_same(cg.coarse_grain(snap, grid, kernel, fields=fields), tiled, fields, "auto")
+    # the tiles get the whole snapshot's n (here every tile's halo happens to hold the longest branch too)
+    from cgbound.tiled import resolve_auto_line_quadrature
+    fixed = resolve_auto_line_quadrature(kernel, (bulk, boundary))
+    n = cg.kernels.auto_line_points(lengths.max(), width)
+    assert fixed.line_quadrature == (n if n else "exact") and kernel.line_quadrature == "auto"

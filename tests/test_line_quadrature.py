@@ -96,3 +96,41 @@ def test_line_quadrature_attribute_and_repr():
     k = cg.Gaussian(1.0, line_quadrature=np.int64(3))
     assert k.line_quadrature == 3 and type(k.line_quadrature) is int
     assert "line_quadrature=3" in repr(k)
+
+
+def test_auto_rule_follows_the_study():
+    """n = ceil(2 L / w + 2) Gauss-Legendre points, the exact form beyond 8."""
+    rule = cg.kernels.auto_line_points
+    assert [rule(1.0, w) for w in (4.0, 2.0, 1.0, 0.5, 0.25)] == [3, 3, 4, 6, 0]
+    assert rule(0.0, 1.0) == 1 and rule(3.0, 1.0) == 8 and rule(3.01, 1.0) == 0
+
+
+def _longest(snap):
+    bulk, boundary = snap.split_contacts()
+    return max(np.linalg.norm(part["branch"], axis=1).max() for part in (bulk, boundary) if len(part["branch"]))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("width", [0.5, 0.9, 2.0])
+def test_auto_is_the_rules_gauss_legendre_rule(dim, width):
+    snap = random_snapshot(61 + dim, dim=dim)
+    grid = cg.Grid(snap.box, (9, 7, 8)[:dim])
+    n = cg.kernels.auto_line_points(_longest(snap), width)
+    fields = ("contact_stress", "boundary_stress")
+    auto = cg.coarse_grain(snap, grid, cg.Gaussian(width, line_quadrature="auto"), fields=fields)
+    same = cg.coarse_grain(snap, grid, cg.Gaussian(width, line_quadrature=n if n else "exact"), fields=fields)
+    exact = cg.coarse_grain(snap, grid, cg.Gaussian(width), fields=fields)
+    for name in fields:
+        np.testing.assert_array_equal(auto[name], same[name])
+        # at the default 5w cutoff's accuracy (the tail leaves ~1.5e-5)
+        err = np.linalg.norm(auto[name] - exact[name]) / np.linalg.norm(exact[name])
+        assert err < 1e-4, (name, n, err)
+    pts = cg.Points(snap.box.lower + np.random.default_rng(dim).uniform(0, 1, (20, dim)) * snap.box.lengths)
+    res_auto = cg.momentum_balance_residual(snap, pts, cg.Gaussian(width, line_quadrature="auto"))
+    res_same = cg.momentum_balance_residual(snap, pts, cg.Gaussian(width, line_quadrature=n if n else "exact"))
+    np.testing.assert_array_equal(res_auto.relative, res_same.relative)
+
+
+def test_auto_attribute_and_repr():
+    k = cg.Gaussian(1.0, line_quadrature="auto")
+    assert k.line_quadrature == "auto" and "line_quadrature='auto'" in repr(k)
