@@ -160,3 +160,15 @@ def test_short_chute_frames_balance_and_round_trip(tmp_path):
     pts = snap.box.lower + np.random.default_rng(0).random((50, 3)) * snap.box.lengths
     res = cg.momentum_balance_residual(snap, pts, cg.Lucy(1.0))
     assert res.relative.max() < 1e-10
+
+
+def test_thermo_block_ends_at_a_line_that_is_not_three_numbers():
+    from cgbound.scenes.runner import _thermo
+    log = "Step Time c_ke\n0 0 0\n10 0.5 2.5\n\nLoop time of 1\nStep Time c_ke\n10 0.5 2.5\n20 1.0 3.0\nWARNING: x\n"
+    thermo = _thermo(log)
+    assert list(thermo["step"]) == [0, 10, 20] and list(thermo["kinetic_energy"]) == [0.0, 2.5, 3.0]
+
+
+def test_wall_position_is_written_as_a_plain_number():
+    scene = minimal_scene(walls=[Wall("z", np.float64(0.25))])
+    assert "zplane 0.25 NULL contacts" in scenes.input_script(scene, [])

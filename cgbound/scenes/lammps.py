@@ -105,26 +105,20 @@ def data_file(scene):
     return "\n".join(lines) + "\n"
 
 
-def _pair_style(c):
+def _contact_model(c):
+    """LAMMPS's hooke model words and coefficients, shared by the pair style and the walls."""
     if c.tangential:
         # dampflag 1: tangential damping on (gamma_t > 0) or off
-        return (f"pair_style      gran/hooke/history {_f(c.kn)} {_f(c.kt)} {_f(c.gamma_n)} {_f(c.gamma_t)} "
-                f"{_f(c.friction)} {1 if c.gamma_t > 0 else 0}")
-    # gran/hooke without tangential damping or friction: normal force only
-    return f"pair_style      gran/hooke {_f(c.kn)} NULL {_f(c.gamma_n)} 0.0 0.0 0"
+        return (f"hooke/history {_f(c.kn)} {_f(c.kt)} {_f(c.gamma_n)} {_f(c.gamma_t)} {_f(c.friction)} "
+                f"{1 if c.gamma_t > 0 else 0}")
+    # without tangential damping or friction: normal force only
+    return f"hooke {_f(c.kn)} NULL {_f(c.gamma_n)} 0.0 0.0 0"
 
 
 def _wall_fix(scene, k, wall):
-    c = scene.contacts
-    axis = {"x": "x", "y": "y", "z": "z"}[wall.axis]
-    if scene.dim == 2 and wall.axis == "z":
-        axis = "y"
-    lo, hi = (repr(wall.position), "NULL") if wall.side == "above" else ("NULL", repr(wall.position))
-    if c.tangential:
-        model = f"hooke/history {_f(c.kn)} {_f(c.kt)} {_f(c.gamma_n)} {_f(c.gamma_t)} {_f(c.friction)} {1 if c.gamma_t > 0 else 0}"
-    else:
-        model = f"hooke {_f(c.kn)} NULL {_f(c.gamma_n)} 0.0 0.0 0"
-    return f"fix             wall{k} flow wall/gran {model} {axis}plane {lo} {hi} contacts"
+    axis = "y" if scene.dim == 2 and wall.axis == "z" else wall.axis  # 2D: cgbound's z is LAMMPS's y
+    lo, hi = (_f(wall.position), "NULL") if wall.side == "above" else ("NULL", _f(wall.position))
+    return f"fix             wall{k} flow wall/gran {_contact_model(scene.contacts)} {axis}plane {lo} {hi} contacts"
 
 
 def input_script(scene, stages):
@@ -146,7 +140,7 @@ def input_script(scene, stages):
            "group           flow type 1"]
     if fixed:
         out.append("group           fixed type 2")
-    out += [_pair_style(c), "pair_coeff      * *",
+    out += [f"pair_style      gran/{_contact_model(c)}", "pair_coeff      * *",
             f"neighbor        {_f(neighbour_skin)} bin",
             "neigh_modify    delay 0" + (" exclude type 2 2" if fixed else ""),
             f"timestep        {_f(scene.timestep)}",

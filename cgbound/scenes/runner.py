@@ -77,11 +77,12 @@ def _thermo(log_text):
             block = True
             continue
         if block:
+            # the block ends at the first line that is not three numbers (Loop time, a warning, a blank line)
             try:
+                if len(words) < 3:
+                    raise ValueError
                 rows.append([float(w) for w in words[:3]])
-            except (ValueError, IndexError):
-                block = False
-            if len(words) < 3:
+            except ValueError:
                 block = False
     rows = np.array(rows, float).reshape(-1, 3)
     if rows.size:
