@@ -71,11 +71,25 @@ class Kernel:
     _line_points = 0      # Gauss-Legendre points along segments, 0 = exact (Gaussian only)
     _per_node = False     # benchmarks only: evaluate node by node, without the separable fast path
 
+    def _resolved_line_points(self, longest_branch):
+        """The core's line_points; line_quadrature="auto" is resolved from the longest branch (exact without it)."""
+        if self._line_points != AUTO_LINE_POINTS:
+            return self._line_points
+        return 0 if longest_branch is None else auto_line_points(longest_branch, self.width)
+
+    def with_resolved_line_quadrature(self, longest_branch):
+        """This kernel with "auto" replaced by the rule it resolves to for ``longest_branch`` (else self)."""
+        if self._line_points != AUTO_LINE_POINTS:
+            return self
+        import copy
+        fixed = copy.copy(self)
+        fixed._line_points = self._resolved_line_points(longest_branch)
+        fixed.line_quadrature = fixed._line_points or "exact"
+        return fixed
+
     def _core_args(self, avg_extent, longest_branch=None):
         """The core's kernel tuple; ``longest_branch`` resolves line_quadrature="auto" (exact without it)."""
-        points = self._line_points
-        if points == AUTO_LINE_POINTS:
-            points = 0 if longest_branch is None else auto_line_points(longest_branch, self.width)
+        points = self._resolved_line_points(longest_branch)
         return (self._type, float(self.width if self.width is not None else self.radius),
                 float(self.radius), int(self.truncated), float(avg_extent), int(points), int(self._per_node))
 

@@ -157,17 +157,8 @@ class _TileData:
 def resolve_auto_line_quadrature(kernel, split):
     """line_quadrature="auto" picks n from the longest branch; fix it from the whole snapshot so that
     every tile uses the rule the single-process run would."""
-    if getattr(kernel, "line_quadrature", None) != "auto":
-        return kernel
-    import copy
-
     from .fields import longest_branch
-    from .kernels import auto_line_points, check_line_quadrature
-    n = auto_line_points(longest_branch(*split), kernel.width)
-    fixed = copy.copy(kernel)
-    fixed._line_points = check_line_quadrature(n if n else "exact")
-    fixed.line_quadrature = n if n else "exact"
-    return fixed
+    return kernel.with_resolved_line_quadrature(longest_branch(*split))
 
 
 def tile_primaries(data, target, kernel, needed, u_ref):
