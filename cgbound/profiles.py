@@ -125,6 +125,9 @@ class DepthProfiles:
 
     def run(self, snapshots, start=None, stop=None, step=None, verbose=False):
         """Average over ``snapshots[start:stop:step]``; returns self."""
+        if not (hasattr(snapshots, "__len__") and hasattr(snapshots, "__getitem__")):
+            raise TypeError(f"snapshots: expected a sequence of cg.Snapshot with len() and indexing (a list or a "
+                            f"reader), got {type(snapshots).__name__}")
         frames = range(len(snapshots))[slice(start, stop, step)]
         if len(frames) == 0:
             raise ValueError("snapshots: no frames in the range given by start, stop, step")

@@ -76,6 +76,8 @@ def test_depth_profiles_refuse_bad_arguments():
         DepthProfiles(z_range=(3, 1))
     with pytest.raises(ValueError, match="no frames"):
         DepthProfiles().run(datasets.chute_steady(), start=5, stop=5)
+    with pytest.raises(TypeError, match="snapshots"):
+        DepthProfiles().run(iter(datasets.chute_steady()))
 
 
 def test_integral_from_above_matches_a_closed_form():
