@@ -37,7 +37,7 @@ def compiler_accepts(flags):
 
 class BuildExt(build_ext):
     def build_extensions(self):
-        compile_args = ["-std=c11", "-O3", "-fno-math-errno"]
+        compile_args = ["-std=c11", "-O3", "-fno-math-errno", "-fno-trapping-math"]
         link_args = []
         if os.environ.get("CGBOUND_SANITIZE"):
             san = ["-fsanitize=address,undefined", "-fno-omit-frame-pointer", "-fno-sanitize-recover=undefined"]

@@ -25,6 +25,7 @@
 #include "cg_internal.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -46,87 +47,181 @@ static double *scratch_get(scratch *sc, size_t need)
     return sc->buf;
 }
 
-/* out row (nk nodes, nv values each, contiguous) += w[k] * v; fixed widths
-   let the compiler unroll and vectorise */
-#define ROW_ADD_FIXED(NV)                                                  \
-    for (cg_index k = 0; k < nk; ++k) {                                    \
-        const double wk = w[k];                                            \
-        double *ok = o + k * (NV);                                         \
-        for (int c = 0; c < (NV); ++c) ok[c] += wk * v[c];                 \
-    }
+/* Four doubles as one value (GCC and clang): a row of nv values per node is
+   added 4 at a time. Loads and stores go through memcpy (any alignment); the
+   products are rounded as in scalar code (no FMA contraction in ISO C mode),
+   so the results do not depend on the instruction set. */
+#if defined(__GNUC__)
+typedef double v4d __attribute__((vector_size(32)));
+#define HAVE_V4D 1
+#endif
 
-INLINE void row_add(double *restrict o, const double *restrict w, cg_index nk, const double *restrict v, int nv)
+/* o[k * nv + c] += (scale * w[k]) * v[c] for k < nk, c < nv (scale = 1:
+   w[k] itself): a rank-one update of nk contiguous nodes of nv values each */
+INLINE void block_add_n(double *restrict o, double scale, const double *restrict w, cg_index nk,
+                        const double *restrict v, const int nv)
 {
+    for (cg_index k = 0; k < nk; ++k) {
+        const double wk = scale == 1.0 ? w[k] : scale * w[k];
+        double *ok = o + k * nv;
+        int c = 0;
+#ifdef HAVE_V4D
+        const v4d w4 = {wk, wk, wk, wk};
+        for (; c + 4 <= nv; c += 4) {
+            v4d acc, val;
+            memcpy(&acc, ok + c, sizeof acc);
+            memcpy(&val, v + c, sizeof val);
+            acc += w4 * val;
+            memcpy(ok + c, &acc, sizeof acc);
+        }
+#endif
+        for (; c < nv; ++c) ok[c] += wk * v[c];
+    }
+}
+
+INLINE void block_add(double *restrict o, double scale, const double *restrict w, cg_index nk,
+                      const double *restrict v, int nv)
+{
+    /* fixed widths let the compiler unroll the inner loop */
     switch (nv) {
     case 1: {
         const double v0 = v[0];
-        for (cg_index k = 0; k < nk; ++k) o[k] += w[k] * v0;
+        if (scale == 1.0)
+            for (cg_index k = 0; k < nk; ++k) o[k] += w[k] * v0;
+        else
+            for (cg_index k = 0; k < nk; ++k) o[k] += (scale * w[k]) * v0;
         return;
     }
-    case 2: ROW_ADD_FIXED(2) return;
-    case 3: ROW_ADD_FIXED(3) return;
-    case 4: ROW_ADD_FIXED(4) return;
-    case 7: ROW_ADD_FIXED(7) return;   /* 2D density, momentum and momentum flux in one scatter */
-    case 9: ROW_ADD_FIXED(9) return;
-    case 13: ROW_ADD_FIXED(13) return; /* the same in 3D */
-    default:
-        for (cg_index k = 0; k < nk; ++k)
-            for (int c = 0; c < nv; ++c) o[k * nv + c] += w[k] * v[c];
+    case 2: block_add_n(o, scale, w, nk, v, 2); return;
+    case 3: block_add_n(o, scale, w, nk, v, 3); return;
+    case 4: block_add_n(o, scale, w, nk, v, 4); return;
+    case 7: block_add_n(o, scale, w, nk, v, 7); return;   /* 2D density, momentum and momentum flux in one scatter */
+    case 9: block_add_n(o, scale, w, nk, v, 9); return;   /* 3D stress tensors */
+    case 13: block_add_n(o, scale, w, nk, v, 13); return; /* 3D density, momentum and momentum flux */
+    default: block_add_n(o, scale, w, nk, v, nv); return;
     }
 }
 
-/* ex[k] = exp(-d2[k] / 2w^2) for the squared distances d2[k] = (q0 + k h)^2
-   of equally spaced nodes. exp(-(q0 + (k+1) h)^2 c) = exp(-(q0 + k h)^2 c) r_k
-   with r_k = exp(-(2 (q0 + k h) h + h^2) c) and r_{k+1} = r_k exp(-2 h^2 c):
-   three exponentials per table instead of one per node; the products lose
-   about one rounding per step, far below the tolerances (stencils are short).
-   Direct where the first value could underflow. */
-INLINE void gaussian_table(const double *d2, cg_index n, double q0, double h, double inv2w2, double *ex)
+/* x[i] = exp(x[i]) for x[i] <= 0, in a loop the compiler vectorises (libm's
+   exp is one call per value). exp(x) = 2^k exp(r), k = round(x / ln 2), with
+   r = x - k ln 2 (two-part ln 2, exact products) in [-0.347, 0.347] and
+   exp(r) by its Taylor polynomial of degree 13 (remainder < 5e-18); 2^k is
+   built in the exponent bits from the rounding shifter's mantissa. Within 2
+   ulp of the exact value; 0 below -708 (where exp is subnormal). */
+INLINE void exp_in_place(double *restrict x, cg_index n)
 {
-    if (n < 4 || !(h > 0.0) || d2[0] * inv2w2 > 600.0 || d2[n - 1] * inv2w2 > 600.0) {
-        for (cg_index k = 0; k < n; ++k) ex[k] = exp(-d2[k] * inv2w2);
-        return;
-    }
-    double value = exp(-d2[0] * inv2w2), ratio = exp(-(2.0 * q0 * h + h * h) * inv2w2);
-    const double step = exp(-2.0 * h * h * inv2w2);
-    ex[0] = value;
-    for (cg_index k = 1; k < n; ++k) {
-        value *= ratio;
-        ratio *= step;
-        ex[k] = value;
+    const double log2e = 1.4426950408889634, shifter = 0x1.8p52;
+    const double ln2_hi = 6.93147180369123816490e-01, ln2_lo = 1.90821492927058770002e-10;
+    const uint64_t shifter_bits = UINT64_C(0x4338000000000000);
+    for (cg_index i = 0; i < n; ++i) {
+        const double x0 = x[i];
+        const double v = x0 < -708.0 ? -708.0 : (x0 > 0.0 ? 0.0 : x0);
+        const double shifted = v * log2e + shifter; /* k in the low bits of the mantissa */
+        const double kd = shifted - shifter;
+        const double r = (v - kd * ln2_hi) - kd * ln2_lo;
+        double p = 1.0 / 6227020800.0;
+        p = p * r + 1.0 / 479001600.0;
+        p = p * r + 1.0 / 39916800.0;
+        p = p * r + 1.0 / 3628800.0;
+        p = p * r + 1.0 / 362880.0;
+        p = p * r + 1.0 / 40320.0;
+        p = p * r + 1.0 / 5040.0;
+        p = p * r + 1.0 / 720.0;
+        p = p * r + 1.0 / 120.0;
+        p = p * r + 1.0 / 24.0;
+        p = p * r + 1.0 / 6.0;
+        p = p * r + 0.5;
+        p = p * r + 1.0;
+        p = p * r + 1.0;
+        uint64_t bits;
+        memcpy(&bits, &shifted, sizeof bits);
+        bits = (bits - shifter_bits + 1023) << 52; /* 2^k */
+        double two_k;
+        memcpy(&two_k, &bits, sizeof two_k);
+        x[i] = x0 < -708.0 ? 0.0 : p * two_k;
     }
 }
 
-/* The exact line integral (to round-off) at a node whose ball the segment
-   leaves: q = node - start and e in slots, |e|^2 = L2. The integrand
-   exp(-|q - s e|^2 / 2w^2) = exp(-(a^2 + (s - u)^2 L2) / 2w^2) is smooth on
-   the part [s0, s1] of [0, 1] inside the ball, so a Gauss-Legendre rule that is
-   exact to round-off for that length (no longer than the segment) integrates it. */
-INLINE double cut_segment_value(const double *q, const double *e, double L2, double inv_L2, double R2, double w,
-                                double inv2w2)
+/* Nodes whose ball the segment leaves ("cut" nodes), gathered and evaluated
+   in batches: q = node - start in slots, and the output node. */
+#define CUT_BATCH 128
+
+typedef struct cut_batch {
+    int n;
+    double *q[3];     /* CUT_BATCH each */
+    cg_index *node;   /* CUT_BATCH */
+    double *a2, *t0, *span, *value; /* CUT_BATCH each */
+    double *arg;      /* CG_MAX_LINE_POINTS * CUT_BATCH */
+} cut_batch;
+
+/* doubles of scratch a cut_batch takes */
+#define CUT_BATCH_DOUBLES ((size_t)CUT_BATCH * (8 + CG_MAX_LINE_POINTS))
+
+static void cut_batch_init(cut_batch *b, double *mem)
 {
-    const double u = (q[0] * e[0] + q[1] * e[1] + q[2] * e[2]) * inv_L2;
-    double a2 = 0.0;
-    for (int s = 0; s < 3; ++s) {
-        const double d = q[s] - u * e[s];
-        a2 += d * d;
+    b->n = 0;
+    for (int s = 0; s < 3; ++s) b->q[s] = mem + (size_t)s * CUT_BATCH;
+    b->node = (cg_index *)(void *)(mem + 3 * CUT_BATCH); /* cg_index and double are both 8 bytes */
+    b->a2 = mem + 4 * CUT_BATCH;
+    b->t0 = mem + 5 * CUT_BATCH;
+    b->span = mem + 6 * CUT_BATCH;
+    b->value = mem + 7 * CUT_BATCH;
+    b->arg = mem + 8 * CUT_BATCH;
+}
+
+/* The exact line integral (to round-off) at the gathered nodes, added to out.
+   The integrand exp(-(a^2 + (s - u)^2 L2) / 2w^2) is smooth on the part
+   [s0, s1] of [0, 1] inside the node's ball, so the segment's own rule
+   (G points, exact to round-off for the whole segment, hence for any part)
+   integrates it: G exponentials per node, all in one vectorised loop. */
+INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index obj, const double *e, double L2,
+                            double R2, double inv2w2, int G, const double *gx, const double *gw)
+{
+    const int n = b->n;
+    if (n == 0) return;
+    const double inv_L2 = 1.0 / L2;
+    const double *q0 = b->q[0], *q1 = b->q[1], *q2 = b->q[2];
+    double *restrict a2s = b->a2, *restrict t0s = b->t0, *restrict spans = b->span, *restrict arg = b->arg;
+    for (int i = 0; i < n; ++i) {
+        const double u = (q0[i] * e[0] + q1[i] * e[1] + q2[i] * e[2]) * inv_L2;
+        const double d0 = q0[i] - u * e[0], d1 = q1[i] - u * e[1], d2 = q2[i] - u * e[2];
+        const double a2 = d0 * d0 + d1 * d1 + d2 * d2;
+        double b2 = R2 - a2;
+        b2 = b2 > 0.0 ? b2 : 0.0;
+        const double half = sqrt(b2 * inv_L2);
+        double s0 = u - half, s1 = u + half;
+        s0 = s0 > 0.0 ? s0 : 0.0;
+        s1 = s1 < 1.0 ? s1 : 1.0;
+        const double span = s1 - s0;
+        a2s[i] = a2;
+        t0s[i] = s0 - u;
+        spans[i] = span > 0.0 ? span : 0.0;
     }
-    const double b2 = R2 - a2;
-    if (!(b2 > 0.0)) return 0.0;
-    const double half = sqrt(b2 * inv_L2);
-    const double s0 = u - half > 0.0 ? u - half : 0.0, s1 = u + half < 1.0 ? u + half : 1.0;
-    if (!(s1 > s0)) return 0.0;
-    const double span = s1 - s0;
-    double xs[CG_MAX_LINE_POINTS], ws[CG_MAX_LINE_POINTS];
-    int m = cg_gaussian_roundoff_points(span * sqrt(L2), w);
-    if (m == 0) m = CG_MAX_LINE_POINTS; /* not reached: the segment itself passed this test */
-    cg_gauss_legendre01(m, xs, ws);
-    double sum = 0.0;
-    for (int g = 0; g < m; ++g) {
-        const double t = s0 + xs[g] * span - u;
-        sum += ws[g] * exp(-(a2 + t * t * L2) * inv2w2);
+    for (int g = 0; g < G; ++g) {
+        double *restrict ag = arg + (size_t)g * n;
+        const double xg = gx[g];
+        for (int i = 0; i < n; ++i) {
+            const double t = t0s[i] + xg * spans[i];
+            ag[i] = -(a2s[i] + t * t * L2) * inv2w2;
+        }
     }
-    return sum * span;
+    exp_in_place(arg, (cg_index)G * n);
+    double *restrict value = b->value;
+    for (int i = 0; i < n; ++i) value[i] = 0.0;
+    for (int g = 0; g < G; ++g) {
+        const double *ag = arg + (size_t)g * n;
+        const double wg = gw[g];
+        for (int i = 0; i < n; ++i) value[i] += wg * ag[i];
+    }
+    for (int i = 0; i < n; ++i) {
+        const double v = value[i] * spans[i];
+        if (v == 0.0) continue; /* the segment misses this node's ball */
+        if (jb->mode == MODE_VALUE)
+            block_add(out + b->node[i] * jb->out_width, 1.0, &v, 1, jb->values + obj * jb->n_values, jb->n_values);
+        else
+            cg_accumulate(jb, out, obj, b->node[i], v, NULL);
+    }
+    b->n = 0;
 }
 
 /* squared distance from point p to the segment [0, e] (3 slots), q = p */
@@ -143,6 +238,41 @@ INLINE double segment_distance2(const double *q, const double *e, double inv_L2)
         d2 += d * d;
     }
     return d2;
+}
+
+/* The rows of one point's stencil (MODE_VALUE): node (i, j, k) is inside the
+   cutoff ball where dx[i] + dy[j] + dz[k] < R2 (the node-by-node path's test)
+   and receives (c gx[i] gy[j]) gz[k] times the values. Along each axis the
+   squared distance falls and then rises, so the nodes inside the ball are an
+   interval of every row (and the rows, an interval of every plane), around the
+   node of least squared distance; their ends are counted without branches. */
+INLINE void rows_of_one_point(double *restrict out, cg_index stride_i, cg_index stride_j, cg_index n0, cg_index n1,
+                              cg_index n2, const double *restrict dx, const double *restrict dy,
+                              const double *restrict dz, const double *restrict gx, const double *restrict gy,
+                              const double *restrict gz, double c, double R2, const double *restrict v, int nv)
+{
+    cg_index jm = 0, km = 0; /* the nodes of least squared distance along y and z */
+    for (cg_index j = 1; j < n1; ++j) jm = dy[j] < dy[jm] ? j : jm;
+    for (cg_index k = 1; k < n2; ++k) km = dz[k] < dz[km] ? k : km;
+    const double dy_min = dy[jm], dz_min = dz[km];
+    for (cg_index i = 0; i < n0; ++i) {
+        const double si = dx[i];
+        if (!(si + dy_min + dz_min < R2)) continue;
+        const double ci = c * gx[i];
+        /* rows j0..j1 of this plane: the nodes of least z distance inside */
+        cg_index j0 = jm, j1 = jm + 1;
+        while (j0 > 0 && si + dy[j0 - 1] + dz_min < R2) --j0;
+        while (j1 < n1 && si + dy[j1] + dz_min < R2) ++j1;
+        for (cg_index j = j0; j < j1; ++j) {
+            const double s01 = si + dy[j];
+            cg_index out_left = 0, out_right = 0;
+            for (cg_index k = 0; k < km; ++k) out_left += !(s01 + dz[k] < R2);
+            for (cg_index k = km + 1; k < n2; ++k) out_right += !(s01 + dz[k] < R2);
+            const cg_index a = out_left, b = n2 - out_right;
+            const double cij = ci * gy[j];
+            block_add(out + i * stride_i + j * stride_j + a * nv, cij, gz + a, b - a, v, nv);
+        }
+    }
 }
 
 /* On x86-64 with GCC, also build an AVX2 version of the hot loops, chosen at
@@ -212,40 +342,59 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
     /* tables d2, g per rule point; end-point tables (hybrid); node coordinates; a row */
-    const size_t need = (size_t)G * per_point + (hybrid ? per_point : 0) + (size_t)(n0 + n1 + n2) + 2 * (size_t)n2;
+    const size_t need = (size_t)G * per_point + (hybrid ? per_point + CUT_BATCH_DOUBLES : 0) +
+                        (size_t)(n0 + n1 + n2) + (size_t)n2;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *coord = buf + (size_t)G * per_point + (hybrid ? per_point : 0); /* node coordinate - x, per slot */
     double *row = coord + (n0 + n1 + n2);
-    double *inside = row + n2; /* hybrid: 1 where the rule is exact, else 0 */
+    cut_batch cuts = {0, {NULL, NULL, NULL}, NULL, NULL, NULL, NULL, NULL, NULL};
+    if (hybrid) cut_batch_init(&cuts, row + n2);
     double *cslot[3] = {coord, coord + n0, coord + n0 + n1};
     for (int s = 0; s < 3; ++s) {
         const int a = s - pad;
         for (cg_index k = 0; k < count[s]; ++k) cslot[s][k] = a >= 0 ? t->coords[a][first[s] + k] - xs[s] : 0.0;
     }
-    /* per rule point g and slot s: d2[g][s][k] = (node - point)^2, ex = exp(-d2 / 2w^2) */
+    /* per rule point g and slot s: d2[g][s][k] = (node - point)^2 and
+       ex[g][s][k] = exp(-d2 / 2w^2); all exponentials in one vectorised call */
     double *d2[CG_MAX_LINE_POINTS][3], *ex[CG_MAX_LINE_POINTS][3];
+    const size_t per_table = (size_t)(n0 + n1 + n2);
+    double *d2_all = buf, *ex_all = buf + (size_t)G * per_table;
     for (int g = 0; g < G; ++g) {
-        double *p = buf + (size_t)g * per_point;
+        double *p = d2_all + (size_t)g * per_table;
         for (int s = 0; s < 3; ++s) {
             d2[g][s] = p;
-            ex[g][s] = p + count[s];
-            p += 2 * count[s];
-            const int a = s - pad;
-            double q0 = 0.0;
-            for (cg_index k = 0; k < count[s]; ++k) {
-                double q = 0.0;
-                if (a >= 0) q = jb->is_segment ? t->coords[a][first[s] + k] - (xs[s] + gx[g] * es[s]) : cslot[s][k];
-                d2[g][s][k] = q * q;
-                if (k == 0) q0 = q;
+            ex[g][s] = ex_all + (p - d2_all);
+            p += count[s];
+            double *restrict dst = d2[g][s];
+            const double *restrict node = cslot[s];
+            const double shift = jb->is_segment ? gx[g] * es[s] : 0.0; /* the rule point - x */
+            const cg_index n = count[s];
+            if (s - pad < 0) {
+                dst[0] = 0.0;
+                continue;
             }
-            gaussian_table(d2[g][s], count[s], q0, a >= 0 ? jb->spacing[a] : 0.0, inv2w2, ex[g][s]);
+            if (jb->is_segment) {
+                const double *restrict c = t->coords[s - pad] + first[s];
+                const double xg = xs[s] + shift;
+                for (cg_index k = 0; k < n; ++k) {
+                    const double q = c[k] - xg;
+                    dst[k] = q * q;
+                }
+            } else {
+                for (cg_index k = 0; k < n; ++k) dst[k] = node[k] * node[k];
+            }
         }
+    }
+    {
+        const size_t n_all = (size_t)G * per_table;
+        for (size_t m = 0; m < n_all; ++m) ex_all[m] = -d2_all[m] * inv2w2;
+        exp_in_place(ex_all, (cg_index)n_all);
     }
     /* hybrid: squared distances of the nodes to the two ends, per slot */
     double *endA[3] = {NULL, NULL, NULL}, *endB[3] = {NULL, NULL, NULL};
     if (hybrid) {
-        double *p = buf + (size_t)G * per_point;
+        double *p = buf + 2 * (size_t)G * per_table;
         for (int s = 0; s < 3; ++s) {
             endA[s] = p;
             endB[s] = p + count[s];
@@ -257,68 +406,94 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
             }
         }
     }
-    const double R2_margin = R2 * (1.0 + 1e-12); /* the erf form decides near the sphere itself */
+    const double R2_margin = R2 * (1.0 + 1e-12); /* the exact form decides near the sphere itself */
     const int nv = jb->n_values;
     const double *values = jb->mode == MODE_VALUE ? jb->values + obj * nv : NULL;
     const double e2d[3] = {es[0], es[1], 0.0};
     const double L2_2d = es[0] * es[0] + es[1] * es[1];
     const double inv_L2_2d = L2_2d > 0.0 ? 1.0 / L2_2d : 0.0, inv_L2 = L2 > 0.0 ? 1.0 / L2 : 0.0;
-    for (cg_index i = 0; i < n0; ++i) {
+    const int one_point = G == 1 && jb->mode == MODE_VALUE;
+    if (one_point) {
+        const cg_index o_first = (first[0] * stride[0] + first[1] * stride[1] + first[2] * stride[2]) * jb->out_width;
+        rows_of_one_point(out + o_first, stride[0] * jb->out_width, stride[1] * jb->out_width, n0, n1, n2,
+                          d2[0][0], d2[0][1], d2[0][2], ex[0][0], ex[0][1], ex[0][2], gw[0], R2, values, nv);
+    }
+    for (cg_index i = 0; i < (one_point ? 0 : n0); ++i) {
         for (cg_index j = 0; j < n1; ++j) {
-            if (hybrid) {
-                /* rows whose line misses the capsule carry nothing */
-                const double q2d[3] = {cslot[0][i], cslot[1][j], 0.0};
-                if (!(segment_distance2(q2d, e2d, inv_L2_2d) < R2_margin)) continue;
-            }
-            cg_index k0 = n2, k1 = 0; /* the range of the row that receives anything */
-            for (cg_index k = 0; k < n2; ++k) row[k] = 0.0;
-            if (!hybrid) {
+            /* the nodes of the row that receive anything: row[k0..k1) */
+            cg_index k0 = n2, k1 = 0;
+            const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + first[2] * stride[2];
+            if (one_point) {
+                continue; /* done above */
+            } else if (!hybrid) {
                 for (int g = 0; g < G; ++g) {
                     const double s01 = d2[g][0][i] + d2[g][1][j];
                     if (!(s01 < R2)) continue;
-                    /* the same cutoff test as the node-by-node path, as a mask the
-                       compiler vectorises (cheaper than finding the range) */
+                    /* the nodes inside rule point g's ball, by the node-by-node path's
+                       test; an interval, as the squared distance is convex along the row */
                     const double *dz = d2[g][2], *gz = ex[g][2];
+                    cg_index a = 0, b = n2;
+                    while (a < b && !(s01 + dz[a] < R2)) ++a;
+                    while (b > a && !(s01 + dz[b - 1] < R2)) --b;
+                    if (a >= b) continue;
+                    if (k0 >= k1) {
+                        k0 = a;
+                        k1 = b;
+                        for (cg_index k = a; k < b; ++k) row[k] = 0.0;
+                    } else {
+                        for (cg_index k = a; k < k0; ++k) row[k] = 0.0;
+                        for (cg_index k = k1; k < b; ++k) row[k] = 0.0;
+                        if (a < k0) k0 = a;
+                        if (b > k1) k1 = b;
+                    }
                     const double c = gw[g] * ex[g][0][i] * ex[g][1][j];
-                    for (cg_index k = 0; k < n2; ++k) row[k] += (s01 + dz[k] < R2) ? c * gz[k] : 0.0;
-                    k0 = 0;
-                    k1 = n2;
+                    for (cg_index k = a; k < b; ++k) row[k] += c * gz[k];
                 }
             } else {
-                /* the rule is exact where both ends, hence the whole segment, lie
-                   inside the ball; elsewhere the part inside the ball is integrated */
+                /* rows whose line misses the capsule carry nothing */
+                const double q2d[3] = {cslot[0][i], cslot[1][j], 0.0};
+                if (!(segment_distance2(q2d, e2d, inv_L2_2d) < R2_margin)) continue;
+                /* the rule is exact where both ends, hence the whole segment, lie inside
+                   the ball (an interval: two balls meet the row in intervals) */
                 const double a01 = endA[0][i] + endA[1][j], b01 = endB[0][i] + endB[1][j];
-                int any_inside = 0;
-                for (cg_index k = 0; k < n2; ++k) {
-                    inside[k] = (a01 + endA[2][k] < R2 && b01 + endB[2][k] < R2) ? 1.0 : 0.0;
-                    any_inside |= inside[k] != 0.0;
-                }
-                if (any_inside) {
+                const double *za = endA[2], *zb = endB[2];
+                cg_index a = 0, b = n2;
+                while (a < b && !(a01 + za[a] < R2 && b01 + zb[a] < R2)) ++a;
+                while (b > a && !(a01 + za[b - 1] < R2 && b01 + zb[b - 1] < R2)) --b;
+                if (a < b) {
+                    k0 = a;
+                    k1 = b;
+                    for (cg_index k = a; k < b; ++k) row[k] = 0.0;
                     for (int g = 0; g < G; ++g) {
                         const double c = gw[g] * ex[g][0][i] * ex[g][1][j];
                         const double *gz = ex[g][2];
-                        for (cg_index k = 0; k < n2; ++k) row[k] += inside[k] * (c * gz[k]);
+                        for (cg_index k = a; k < b; ++k) row[k] += c * gz[k];
                     }
                 }
+                /* elsewhere, the part inside the ball of the nodes near enough to the
+                   segment (an interval around the inside one: the capsule is convex) */
                 for (cg_index k = 0; k < n2; ++k) {
-                    if (inside[k] != 0.0) continue; /* the rule is exact here */
+                    if (k == a && a < b) {
+                        k = b - 1; /* skip the inside interval */
+                        continue;
+                    }
                     const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][k]};
-                    row[k] = scale * kn->prefactor * cut_segment_value(q3, es, L2, inv_L2, R2, w, inv2w2);
+                    if (!(segment_distance2(q3, es, inv_L2) < R2_margin)) continue;
+                    if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, inv2w2, G, gx, gw);
+                    const int m = cuts.n++;
+                    for (int s = 0; s < 3; ++s) cuts.q[s][m] = q3[s];
+                    cuts.node[m] = base + k * stride[2];
                 }
-                k0 = 0;
-                k1 = n2;
             }
-            while (k0 < k1 && row[k0] == 0.0) ++k0;
-            while (k1 > k0 && row[k1 - 1] == 0.0) --k1;
             if (k0 >= k1) continue;
-            const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + (first[2] + k0) * stride[2];
             if (jb->mode == MODE_VALUE) {
-                row_add(out + base * jb->out_width, row + k0, k1 - k0, values, nv);
+                block_add(out + (base + k0 * stride[2]) * jb->out_width, 1.0, row + k0, k1 - k0, values, nv);
             } else {
                 for (cg_index k = k0; k < k1; ++k)
-                    if (row[k] != 0.0) cg_accumulate(jb, out, obj, base + (k - k0), row[k], NULL);
+                    if (row[k] != 0.0) cg_accumulate(jb, out, obj, base + k * stride[2], row[k], NULL);
             }
         }
     }
+    if (hybrid) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, inv2w2, G, gx, gw);
     return 1;
 }
