@@ -52,30 +52,53 @@ static double *scratch_get(scratch *sc, size_t need)
    products are rounded as in scalar code (no FMA contraction in ISO C mode),
    so the results do not depend on the instruction set. */
 #if defined(__GNUC__)
+typedef double v8d __attribute__((vector_size(64)));
 typedef double v4d __attribute__((vector_size(32)));
+typedef double v2d __attribute__((vector_size(16)));
 #define HAVE_V4D 1
 #endif
 
-/* o[k * nv + c] += (scale * w[k]) * v[c] for k < nk, c < nv (scale = 1:
-   w[k] itself): a rank-one update of nk contiguous nodes of nv values each */
+/* o[k * nv + c] += (scale * w[k]) * v[c] for k < nk, c < nv (1.0 * w[k] is
+   w[k]): a rank-one update of nk contiguous nodes of nv values each */
 INLINE void block_add_n(double *restrict o, double scale, const double *restrict w, cg_index nk,
                         const double *restrict v, const int nv)
 {
     for (cg_index k = 0; k < nk; ++k) {
-        const double wk = scale == 1.0 ? w[k] : scale * w[k];
+        const double wk = scale * w[k];
         double *ok = o + k * nv;
         int c = 0;
 #ifdef HAVE_V4D
-        const v4d w4 = {wk, wk, wk, wk};
-        for (; c + 4 <= nv; c += 4) {
+        /* widest first: 8 (one AVX-512 instruction, two AVX2 ones), then 4, 2, 1 */
+        const v8d w8 = {wk, wk, wk, wk, wk, wk, wk, wk};
+        for (; c + 8 <= nv; c += 8) {
+            v8d acc, val;
+            memcpy(&acc, ok + c, sizeof acc);
+            memcpy(&val, v + c, sizeof val);
+            acc += w8 * val;
+            memcpy(ok + c, &acc, sizeof acc);
+        }
+        if (nv - c >= 4) {
+            const v4d w4 = {wk, wk, wk, wk};
             v4d acc, val;
             memcpy(&acc, ok + c, sizeof acc);
             memcpy(&val, v + c, sizeof val);
             acc += w4 * val;
             memcpy(ok + c, &acc, sizeof acc);
+            c += 4;
         }
-#endif
+        if (nv - c >= 2) {
+            const v2d w2 = {wk, wk};
+            v2d acc, val;
+            memcpy(&acc, ok + c, sizeof acc);
+            memcpy(&val, v + c, sizeof val);
+            acc += w2 * val;
+            memcpy(ok + c, &acc, sizeof acc);
+            c += 2;
+        }
+        if (nv - c == 1) ok[c] += wk * v[c];
+#else
         for (; c < nv; ++c) ok[c] += wk * v[c];
+#endif
     }
 }
 
@@ -86,10 +109,7 @@ INLINE void block_add(double *restrict o, double scale, const double *restrict w
     switch (nv) {
     case 1: {
         const double v0 = v[0];
-        if (scale == 1.0)
-            for (cg_index k = 0; k < nk; ++k) o[k] += w[k] * v0;
-        else
-            for (cg_index k = 0; k < nk; ++k) o[k] += (scale * w[k]) * v0;
+        for (cg_index k = 0; k < nk; ++k) o[k] += (scale * w[k]) * v0;
         return;
     }
     case 2: block_add_n(o, scale, w, nk, v, 2); return;
@@ -263,12 +283,15 @@ INLINE void rows_of_one_point(double *restrict out, cg_index stride_i, cg_index 
         cg_index j0 = jm, j1 = jm + 1;
         while (j0 > 0 && si + dy[j0 - 1] + dz_min < R2) --j0;
         while (j1 < n1 && si + dy[j1] + dz_min < R2) ++j1;
+        /* the row's nodes inside, [a, b), from the previous row's: the ends move
+           little from row to row (node km is inside in every row of [j0, j1)) */
+        cg_index a = km, b = km + 1;
         for (cg_index j = j0; j < j1; ++j) {
             const double s01 = si + dy[j];
-            cg_index out_left = 0, out_right = 0;
-            for (cg_index k = 0; k < km; ++k) out_left += !(s01 + dz[k] < R2);
-            for (cg_index k = km + 1; k < n2; ++k) out_right += !(s01 + dz[k] < R2);
-            const cg_index a = out_left, b = n2 - out_right;
+            while (a > 0 && s01 + dz[a - 1] < R2) --a;
+            while (!(s01 + dz[a] < R2)) ++a;
+            while (b < n2 && s01 + dz[b] < R2) ++b;
+            while (!(s01 + dz[b - 1] < R2)) --b;
             const double cij = ci * gy[j];
             block_add(out + i * stride_i + j * stride_j + a * nv, cij, gz + a, b - a, v, nv);
         }
@@ -282,7 +305,7 @@ INLINE void rows_of_one_point(double *restrict out, cg_index stride_i, cg_index 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(CGBOUND_NO_CLONES) && \
     defined(__has_attribute)
 #if __has_attribute(target_clones)
-#define HOT_CLONES __attribute__((target_clones("avx2", "default")))
+#define HOT_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
 #endif
 #ifndef HOT_CLONES
@@ -412,20 +435,22 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
     const double e2d[3] = {es[0], es[1], 0.0};
     const double L2_2d = es[0] * es[0] + es[1] * es[1];
     const double inv_L2_2d = L2_2d > 0.0 ? 1.0 / L2_2d : 0.0, inv_L2 = L2 > 0.0 ? 1.0 / L2 : 0.0;
-    const int one_point = G == 1 && jb->mode == MODE_VALUE;
-    if (one_point) {
+    const int by_points = !hybrid && jb->mode == MODE_VALUE;
+    if (by_points) {
         const cg_index o_first = (first[0] * stride[0] + first[1] * stride[1] + first[2] * stride[2]) * jb->out_width;
-        rows_of_one_point(out + o_first, stride[0] * jb->out_width, stride[1] * jb->out_width, n0, n1, n2,
-                          d2[0][0], d2[0][1], d2[0][2], ex[0][0], ex[0][1], ex[0][2], gw[0], R2, values, nv);
+        /* one pass per rule point: cheaper than summing the points' weights row by
+           row first (measured on W1: 1.7x for 2 points, 1.3x for 4) */
+        for (int g = 0; g < G; ++g)
+            rows_of_one_point(out + o_first, stride[0] * jb->out_width, stride[1] * jb->out_width, n0, n1, n2,
+                              d2[g][0], d2[g][1], d2[g][2], ex[g][0], ex[g][1], ex[g][2], gw[g], R2, values, nv);
+        return 1;
     }
-    for (cg_index i = 0; i < (one_point ? 0 : n0); ++i) {
+    for (cg_index i = 0; i < n0; ++i) {
         for (cg_index j = 0; j < n1; ++j) {
             /* the nodes of the row that receive anything: row[k0..k1) */
             cg_index k0 = n2, k1 = 0;
             const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + first[2] * stride[2];
-            if (one_point) {
-                continue; /* done above */
-            } else if (!hybrid) {
+            if (!hybrid) {
                 for (int g = 0; g < G; ++g) {
                     const double s01 = d2[g][0][i] + d2[g][1][j];
                     if (!(s01 < R2)) continue;
@@ -467,18 +492,37 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
                     for (int g = 0; g < G; ++g) {
                         const double c = gw[g] * ex[g][0][i] * ex[g][1][j];
                         const double *gz = ex[g][2];
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC ivdep /* row and the tables are distinct parts of the scratch memory */
+#endif
                         for (cg_index k = a; k < b; ++k) row[k] += c * gz[k];
                     }
                 }
-                /* elsewhere, the part inside the ball of the nodes near enough to the
-                   segment (an interval around the inside one: the capsule is convex) */
-                for (cg_index k = 0; k < n2; ++k) {
+                /* elsewhere, the part inside the ball, at the nodes near enough to the
+                   segment: an interval around the inside one (the capsule is convex),
+                   found by walking outwards from it (the whole row if it is empty) */
+                cg_index lo = 0, hi = n2;
+                if (a < b) {
+                    lo = a;
+                    hi = b;
+                    while (lo > 0) {
+                        const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][lo - 1]};
+                        if (!(segment_distance2(q3, es, inv_L2) < R2_margin)) break;
+                        --lo;
+                    }
+                    while (hi < n2) {
+                        const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][hi]};
+                        if (!(segment_distance2(q3, es, inv_L2) < R2_margin)) break;
+                        ++hi;
+                    }
+                }
+                for (cg_index k = lo; k < hi; ++k) {
                     if (k == a && a < b) {
                         k = b - 1; /* skip the inside interval */
                         continue;
                     }
                     const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][k]};
-                    if (!(segment_distance2(q3, es, inv_L2) < R2_margin)) continue;
+                    if (a >= b && !(segment_distance2(q3, es, inv_L2) < R2_margin)) continue;
                     if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, inv2w2, G, gx, gw);
                     const int m = cuts.n++;
                     for (int s = 0; s < 3; ++s) cuts.q[s][m] = q3[s];
