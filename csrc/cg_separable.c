@@ -298,6 +298,39 @@ INLINE void rows_of_one_point(double *restrict out, cg_index stride_i, cg_index 
     }
 }
 
+/* doubles after a row that may be written (and after a table, read) when
+   rows are summed 8 at a time */
+#define ROW_PAD 8
+
+/* row[k] = sum_g (ci[g] gy_g[j]) gz_g[k] for k in [a, b), summed in rule order
+   as a scalar loop would, 8 nodes at a time: writes up to 7 doubles past b
+   (ROW_PAD) and reads as far past the tables (in scratch memory, followed by
+   more tables or the row; the values there are not used) */
+INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, const double *ci,
+                       double *const (*ex)[3], cg_index j)
+{
+    for (cg_index k = a; k < b; k += 8) {
+#ifdef HAVE_V4D
+        v8d acc = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+        for (int g = 0; g < G; ++g) {
+            const double c = ci[g] * ex[g][1][j];
+            const v8d c8 = {c, c, c, c, c, c, c, c};
+            v8d gz;
+            memcpy(&gz, ex[g][2] + k, sizeof gz);
+            acc += c8 * gz;
+        }
+        memcpy(row + k, &acc, sizeof acc);
+#else
+        const cg_index end = k + 8 < b ? k + 8 : b;
+        for (cg_index m = k; m < end; ++m) row[m] = 0.0;
+        for (int g = 0; g < G; ++g) {
+            const double c = ci[g] * ex[g][1][j];
+            for (cg_index m = k; m < end; ++m) row[m] += c * ex[g][2][m];
+        }
+#endif
+    }
+}
+
 /* On x86-64 with GCC, also build an AVX2 version of the hot loops, chosen at
    load time on CPUs that have it (4 doubles per instruction instead of 2).
    Results are identical: ISO C mode (-std=c11) forbids contracting a*b+c
@@ -365,14 +398,16 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
     /* tables d2, g per rule point; end-point tables (hybrid); node coordinates; a row */
+    /* the row has ROW_PAD more doubles: the exact form's rows are summed 8 at a time */
     const size_t need = (size_t)G * per_point + (hybrid ? per_point + CUT_BATCH_DOUBLES : 0) +
-                        (size_t)(n0 + n1 + n2) + (size_t)n2;
+                        (size_t)(n0 + n1 + n2) + (size_t)n2 + ROW_PAD;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *coord = buf + (size_t)G * per_point + (hybrid ? per_point : 0); /* node coordinate - x, per slot */
     double *row = coord + (n0 + n1 + n2);
     cut_batch cuts = {0, {NULL, NULL, NULL}, NULL, NULL, NULL, NULL, NULL, NULL};
-    if (hybrid) cut_batch_init(&cuts, row + n2);
+    for (cg_index k = n2; k < n2 + ROW_PAD; ++k) row[k] = 0.0;
+    if (hybrid) cut_batch_init(&cuts, row + n2 + ROW_PAD);
     double *cslot[3] = {coord, coord + n0, coord + n0 + n1};
     for (int s = 0; s < 3; ++s) {
         const int a = s - pad;
@@ -446,6 +481,8 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
         return 1;
     }
     for (cg_index i = 0; i < n0; ++i) {
+        double ci[CG_MAX_LINE_POINTS]; /* the rule's weights times the plane's */
+        for (int g = 0; g < G; ++g) ci[g] = gw[g] * ex[g][0][i];
         for (cg_index j = 0; j < n1; ++j) {
             /* the nodes of the row that receive anything: row[k0..k1) */
             cg_index k0 = n2, k1 = 0;
@@ -488,15 +525,7 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
                 if (a < b) {
                     k0 = a;
                     k1 = b;
-                    for (cg_index k = a; k < b; ++k) row[k] = 0.0;
-                    for (int g = 0; g < G; ++g) {
-                        const double c = gw[g] * ex[g][0][i] * ex[g][1][j];
-                        const double *gz = ex[g][2];
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC ivdep /* row and the tables are distinct parts of the scratch memory */
-#endif
-                        for (cg_index k = a; k < b; ++k) row[k] += c * gz[k];
-                    }
+                    inside_row(row, a, b, G, ci, (double *const(*)[3])ex, j);
                 }
                 /* elsewhere, the part inside the ball, at the nodes near enough to the
                    segment: an interval around the inside one (the capsule is convex),
