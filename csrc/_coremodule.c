@@ -106,6 +106,21 @@ static void sigint_end(sigint_guard *g)
 
 /* A C-contiguous, aligned float64 copy/view of obj with ndim dimensions;
    shape entries >= 0 are required, -1 is free. Checks finiteness. */
+/* Whether all n values are finite: x * 0 is 0 for finite x and NaN for an
+   infinity or NaN, so sums in 8 independent lanes (vectorised, no reordering
+   of any one sum) tell, at a fraction of the cost of isfinite per value. */
+static int all_finite(const double *data, npy_intp n)
+{
+    double lane[8] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    npy_intp i = 0;
+    for (; i + 8 <= n; i += 8)
+        for (int l = 0; l < 8; ++l) lane[l] += data[i + l] * 0.0;
+    for (; i < n; ++i) lane[0] += data[i] * 0.0;
+    double total = 0.0;
+    for (int l = 0; l < 8; ++l) total += lane[l];
+    return total == 0.0;
+}
+
 static PyArrayObject *as_array(PyObject *obj, const char *name, int ndim, const npy_intp *shape)
 {
     PyArrayObject *arr = (PyArrayObject *)PyArray_FROM_OTF(obj, NPY_DOUBLE, NPY_ARRAY_IN_ARRAY);
@@ -129,7 +144,7 @@ static PyArrayObject *as_array(PyObject *obj, const char *name, int ndim, const 
     }
     const double *data = (const double *)PyArray_DATA(arr);
     const npy_intp size = PyArray_SIZE(arr);
-    for (npy_intp i = 0; i < size; ++i) {
+    for (npy_intp i = all_finite(data, size) ? size : 0; i < size; ++i) {
         if (!isfinite(data[i])) {
             char *text = PyOS_double_to_string(data[i], 'r', 0, 0, NULL);
             PyErr_Format(PyExc_ValueError, "%s: expected finite values, found %s at flat index %zd",

@@ -122,6 +122,9 @@ INLINE void block_add(double *restrict o, double scale, const double *restrict w
     }
 }
 
+/* exp_in_place is called on whole vectors of this many values where it can */
+#define EXP_PAD 8
+
 /* x[i] = exp(x[i]) for x[i] <= 0, in a loop the compiler vectorises (libm's
    exp is one call per value). exp(x) = 2^k exp(r), k = round(x / ln 2), with
    r = x - k ln 2 (two-part ln 2, exact products) in [-0.347, 0.347] and
@@ -225,7 +228,9 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
             ag[i] = -(a2s[i] + t * t * L2) * inv2w2;
         }
     }
-    exp_in_place(arg, (cg_index)G * n);
+    const cg_index n_args = (cg_index)G * n, n_padded = (n_args + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
+    for (cg_index m = n_args; m < n_padded; ++m) arg[m] = 0.0; /* CUT_BATCH is a multiple of EXP_PAD */
+    exp_in_place(arg, n_padded);
     double *restrict value = b->value;
     for (int i = 0; i < n; ++i) value[i] = 0.0;
     for (int g = 0; g < G; ++g) {
@@ -399,11 +404,11 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
     /* tables d2, g per rule point; end-point tables (hybrid); node coordinates; a row */
     /* the row has ROW_PAD more doubles: the exact form's rows are summed 8 at a time */
-    const size_t need = (size_t)G * per_point + (hybrid ? per_point + CUT_BATCH_DOUBLES : 0) +
+    const size_t need = (size_t)G * per_point + EXP_PAD + (hybrid ? per_point + CUT_BATCH_DOUBLES : 0) +
                         (size_t)(n0 + n1 + n2) + (size_t)n2 + ROW_PAD;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
-    double *coord = buf + (size_t)G * per_point + (hybrid ? per_point : 0); /* node coordinate - x, per slot */
+    double *coord = buf + (size_t)G * per_point + EXP_PAD + (hybrid ? per_point : 0); /* node - x, per slot */
     double *row = coord + (n0 + n1 + n2);
     cut_batch cuts = {0, {NULL, NULL, NULL}, NULL, NULL, NULL, NULL, NULL, NULL};
     for (cg_index k = n2; k < n2 + ROW_PAD; ++k) row[k] = 0.0;
@@ -445,14 +450,16 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
         }
     }
     {
-        const size_t n_all = (size_t)G * per_table;
+        /* whole vectors only (EXP_PAD): a scalar remainder would cost more than the rest */
+        const size_t n_all = (size_t)G * per_table, n_padded = (n_all + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
         for (size_t m = 0; m < n_all; ++m) ex_all[m] = -d2_all[m] * inv2w2;
-        exp_in_place(ex_all, (cg_index)n_all);
+        for (size_t m = n_all; m < n_padded; ++m) ex_all[m] = 0.0;
+        exp_in_place(ex_all, (cg_index)n_padded);
     }
     /* hybrid: squared distances of the nodes to the two ends, per slot */
     double *endA[3] = {NULL, NULL, NULL}, *endB[3] = {NULL, NULL, NULL};
     if (hybrid) {
-        double *p = buf + 2 * (size_t)G * per_table;
+        double *p = buf + 2 * (size_t)G * per_table + EXP_PAD;
         for (int s = 0; s < 3; ++s) {
             endA[s] = p;
             endB[s] = p + count[s];
