@@ -146,19 +146,25 @@ def _particle_columns(snapshot, needed, u_ref, has_velocity):
     m = flowing_rows(snapshot, snapshot.masses)
     n = m.shape[0]
     block = np.empty((n, width))
+    # column by column: NumPy's loops over a short last axis cost more than the arithmetic
     for name, start, size, shape in layout:
         cols = block[:, start:start + size]
         if name == "rho":
             cols[:, 0] = m
         elif name == "p_w":
-            np.subtract(flowing_rows(snapshot, snapshot.velocities), u_ref, out=cols)
-            np.multiply(m[:, None], cols, out=cols)
+            v = flowing_rows(snapshot, snapshot.velocities)
+            for r in range(dim):
+                np.subtract(v[:, r], u_ref[r], out=cols[:, r])
+                np.multiply(m, cols[:, r], out=cols[:, r])
         elif name == "k":
             v = flowing_rows(snapshot, snapshot.velocities)
             _outer_into(v, v, cols)
-            np.multiply(m[:, None], cols, out=cols)
+            for r in range(size):
+                np.multiply(m, cols[:, r], out=cols[:, r])
         elif name == "b":
-            np.multiply(m[:, None], flowing_rows(snapshot, snapshot.body_force), out=cols)
+            g = flowing_rows(snapshot, snapshot.body_force)
+            for r in range(dim):
+                np.multiply(m, g[:, r], out=cols[:, r])
         elif name == "phi":
             r = flowing_rows(snapshot, snapshot.radii)
             cols[:, 0] = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
@@ -338,7 +344,10 @@ def derive(primaries, fields, u_ref, dim, convention):
         if name == "density":
             value = own(rho)
         elif name == "momentum":
-            value = pr["p_w"] + rho[:, None] * u_ref
+            value = np.empty(pr["p_w"].shape)
+            for r in range(dim):                       # p_w + rho u_ref, column by column
+                np.multiply(rho, u_ref[r], out=value[:, r])
+                np.add(pr["p_w"][:, r], value[:, r], out=value[:, r])
         elif name == "velocity":
             value = velocity_w() + u_ref
         elif name == "momentum_flux":
