@@ -70,11 +70,20 @@ def needed_primaries(fields):
 
 def reference_velocity(snapshot):
     """Mass-weighted mean velocity of the flowing particles (any constant would do)."""
-    flow = snapshot.flowing
-    if snapshot.velocities is None or not flow.any():
+    if snapshot.velocities is None or snapshot.fixed.all():
         return np.zeros(snapshot.dim)
-    m = snapshot.masses[flow]
-    return (m[:, None] * snapshot.velocities[flow]).sum(axis=0) / m.sum()
+    m = flowing_rows(snapshot, snapshot.masses)
+    return (m[:, None] * flowing_rows(snapshot, snapshot.velocities)).sum(axis=0) / m.sum()
+
+
+def flowing_rows(snapshot, array):
+    """The rows of ``array`` (N rows, one per particle) of the flowing particles, in order.
+
+    With no fixed particle this is ``array`` itself, not a copy: the callers only read it.
+    """
+    if not snapshot.fixed.any():
+        return array
+    return array[snapshot.flowing]
 
 
 def _outer(a, b):
@@ -109,21 +118,87 @@ def longest_branch(bulk, boundary):
                 for part in (bulk, boundary) if part["branch"].shape[0]), default=0.0)
 
 
+def _particle_columns(snapshot, needed, u_ref, has_velocity):
+    """The values summed over the flowing particles' positions, side by side in one (n, K) block.
+
+    Returns the block and [(primary, first column, number of columns, shape per node)]. Each
+    column is formed in place with the same floating-point operations as on its own.
+    """
+    dim = snapshot.dim
+    wanted = []
+    if "rho" in needed:
+        wanted.append(("rho", ()))
+    if "p_w" in needed and has_velocity:
+        wanted.append(("p_w", (dim,)))
+    if "k" in needed and has_velocity:
+        wanted.append(("k", (dim, dim)))
+    if "b" in needed and snapshot.body_force is not None:
+        wanted.append(("b", (dim,)))
+    if "phi" in needed:
+        wanted.append(("phi", ()))
+    layout, width = [], 0
+    for name, shape in wanted:
+        size = int(np.prod(shape, dtype=int))
+        layout.append((name, width, size, shape))
+        width += size
+    if not layout:
+        return None, layout
+    m = flowing_rows(snapshot, snapshot.masses)
+    n = m.shape[0]
+    block = np.empty((n, width))
+    # column by column: NumPy's loops over a short last axis cost more than the arithmetic
+    for name, start, size, shape in layout:
+        cols = block[:, start:start + size]
+        if name == "rho":
+            cols[:, 0] = m
+        elif name == "p_w":
+            v = flowing_rows(snapshot, snapshot.velocities)
+            for r in range(dim):
+                np.subtract(v[:, r], u_ref[r], out=cols[:, r])
+                np.multiply(m, cols[:, r], out=cols[:, r])
+        elif name == "k":
+            v = flowing_rows(snapshot, snapshot.velocities)
+            _outer_into(v, v, cols)
+            for r in range(size):
+                np.multiply(m, cols[:, r], out=cols[:, r])
+        elif name == "b":
+            g = flowing_rows(snapshot, snapshot.body_force)
+            for r in range(dim):
+                np.multiply(m, g[:, r], out=cols[:, r])
+        elif name == "phi":
+            r = flowing_rows(snapshot, snapshot.radii)
+            cols[:, 0] = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
+    return block, layout
+
+
+def _outer_into(a, b, out):
+    """out[:, D*r + c] = a[:, r] * b[:, c]: one multiplication per column (faster than broadcasting
+    over the short last axes, and no temporary)."""
+    dim = b.shape[1]
+    for r in range(a.shape[1]):
+        for c in range(dim):
+            np.multiply(a[:, r], b[:, c], out=out[:, dim * r + c])
+    return out
+
+
+def _negated_outer(force, branch):
+    """-(force outer branch), flat (n, D*D): (-f) b is -(f b) exactly (rounding is symmetric in sign)."""
+    n, dim = force.shape
+    return _outer_into(np.negative(force), branch, np.empty((n, dim * dim)))
+
+
 def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
     """Primary sums of one snapshot at the target's nodes, flat over nodes: shape (P, ...).
 
     ``split``: the result of ``check_computable`` if already called (checks are repeated otherwise).
+    The primaries summed over particle positions may be views of one (P, K) block of sums.
     """
     split = check_computable(snapshot, needed, split)
     dim = snapshot.dim
     P = target.size
     core_target = target._core_target(snapshot.box)
     core_kernel = kernel._core_args(target.avg_extent)
-    flow = snapshot.flowing
-    pos = snapshot.positions[flow]
-    m = snapshot.masses[flow]
     has_velocity = snapshot.velocities is not None
-    v_w = snapshot.velocities[flow] - u_ref if has_velocity else None
     out = {}
     nt = get_num_threads()
 
@@ -132,27 +207,13 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
 
     # the primaries summed over the flowing particles' positions: one scatter with all their columns
     # (the stencil and weights are computed once; each column is summed exactly as on its own)
-    columns = []
-    if "rho" in needed:
-        columns.append(("rho", m[:, None], ()))
-    if "p_w" in needed and has_velocity:
-        columns.append(("p_w", m[:, None] * v_w, (dim,)))
-    if "k" in needed and has_velocity:
-        v = snapshot.velocities[flow]
-        columns.append(("k", m[:, None] * _outer(v, v), (dim, dim)))
-    if "b" in needed and snapshot.body_force is not None:
-        columns.append(("b", m[:, None] * snapshot.body_force[flow], (dim,)))
-    if "phi" in needed:
-        r = snapshot.radii[flow]
-        vol = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
-        columns.append(("phi", vol[:, None], ()))
-    if columns:
-        summed = points(pos, np.concatenate([c for _, c, _ in columns], axis=1))
-        start = 0
-        for name, c, shape in columns:
-            out[name] = np.ascontiguousarray(summed[:, start:start + c.shape[1]]).reshape((P,) + shape)
-            start += c.shape[1]
-        del summed
+    pos = flowing_rows(snapshot, snapshot.positions)
+    block, layout = _particle_columns(snapshot, needed, u_ref, has_velocity)
+    if layout:
+        summed = points(pos, block)
+        del block
+        for name, start, size, shape in layout:
+            out[name] = summed[:, start:start + size].reshape((P,) + shape)
     if "p_w" in needed and not has_velocity:
         out["p_w"] = np.zeros((P, dim))
     if "k" in needed and not has_velocity:
@@ -162,6 +223,8 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
     if "sk" in needed:
         if has_velocity and pos.shape[0]:
             rho = out["rho"]
+            m = flowing_rows(snapshot, snapshot.masses)
+            v_w = flowing_rows(snapshot, snapshot.velocities) - u_ref
             node_v = np.zeros((P, dim))
             np.divide(out["p_w"], rho[:, None], out=node_v, where=rho[:, None] > 0)
             out["sk"] = _core.scatter_fluctuation(core_target, core_kernel, pos, m, v_w, node_v, n_threads=nt)
@@ -171,31 +234,33 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
     contact_primaries = needed & {"sb", "sw", "t", "sx"}
     if contact_primaries:
         bulk, boundary = split
-        core_kernel = kernel._core_args(target.avg_extent, longest_branch(bulk, boundary))
-        zero_tensor = np.zeros((P, dim, dim))
+        longest = longest_branch(bulk, boundary) if kernel.resolves_from_branch else None
+        core_kernel = kernel._core_args(target.avg_extent, longest)
         if "sb" in needed:
             if bulk["i"].size:
-                start = snapshot.positions[bulk["i"]]
-                values = -_outer(bulk["force"], bulk["branch"])
-                out["sb"] = _core.scatter_segments(core_target, core_kernel, start, -bulk["branch"],
+                start = np.take(snapshot.positions, bulk["i"], axis=0)
+                values = _negated_outer(bulk["force"], bulk["branch"])
+                out["sb"] = _core.scatter_segments(core_target, core_kernel, start, np.negative(bulk["branch"]),
                                                    values, n_threads=nt).reshape(P, dim, dim)
+                del start, values
             else:
-                out["sb"] = zero_tensor
+                out["sb"] = np.zeros((P, dim, dim))
         if needed & {"sw", "sx"} and boundary["i"].size:
-            start = snapshot.positions[boundary["i"]]
-            values = -_outer(boundary["force"], boundary["branch"])
+            start = np.take(snapshot.positions, boundary["i"], axis=0)
+            values = _negated_outer(boundary["force"], boundary["branch"])
+            vectors = np.negative(boundary["branch"])
         if "sw" in needed:
             if boundary["i"].size:
-                out["sw"] = _core.scatter_segments(core_target, core_kernel, start, -boundary["branch"],
+                out["sw"] = _core.scatter_segments(core_target, core_kernel, start, vectors,
                                                    values, n_threads=nt).reshape(P, dim, dim)
             else:
-                out["sw"] = zero_tensor.copy()
+                out["sw"] = np.zeros((P, dim, dim))
         if "sx" in needed:
             if boundary["i"].size:
-                out["sx"] = _core.scatter_segments(core_target, core_kernel, start, -boundary["branch"],
+                out["sx"] = _core.scatter_segments(core_target, core_kernel, start, vectors,
                                                    values, ray=True, n_threads=nt).reshape(P, dim, dim)
             else:
-                out["sx"] = zero_tensor.copy()
+                out["sx"] = np.zeros((P, dim, dim))
         if "t" in needed:
             if boundary["i"].size:
                 out["t"] = points(boundary["point"], boundary["force"])
@@ -259,8 +324,13 @@ class PrimaryAverage:
 
 
 def derive(primaries, fields, u_ref, dim, convention):
-    """Requested fields (flat over nodes) from averaged primaries."""
+    """Requested fields (flat over nodes, C-contiguous) from averaged primaries.
+
+    A field equal to a C-contiguous primary is that array itself, not a copy: callers pass
+    primaries they no longer need (and no two fields share one).
+    """
     pr = primaries
+    own = np.ascontiguousarray
     out = {}
     rho = pr.get("rho")
     sign = -1.0 if convention == "compression" else 1.0
@@ -272,29 +342,32 @@ def derive(primaries, fields, u_ref, dim, convention):
 
     for name in fields:
         if name == "density":
-            value = rho.copy()
+            value = own(rho)
         elif name == "momentum":
-            value = pr["p_w"] + rho[:, None] * u_ref
+            value = np.empty(pr["p_w"].shape)
+            for r in range(dim):                       # p_w + rho u_ref, column by column
+                np.multiply(rho, u_ref[r], out=value[:, r])
+                np.add(pr["p_w"][:, r], value[:, r], out=value[:, r])
         elif name == "velocity":
             value = velocity_w() + u_ref
         elif name == "momentum_flux":
-            value = pr["k"].copy()
+            value = own(pr["k"])
         elif name == "kinetic_stress":
-            value = sign * pr["sk"]
+            value = own(pr["sk"]) if sign == 1.0 else sign * pr["sk"]
         elif name == "contact_stress":
-            value = sign * pr["sb"]
+            value = own(pr["sb"]) if sign == 1.0 else sign * pr["sb"]
         elif name == "boundary_stress":
-            value = sign * pr["sw"]
+            value = own(pr["sw"]) if sign == 1.0 else sign * pr["sw"]
         elif name == "interaction_force_density":
-            value = pr["t"].copy()
+            value = own(pr["t"])
         elif name == "body_force_density":
-            value = pr["b"].copy()
+            value = own(pr["b"])
         elif name == "stress":
             value = sign * (pr["sk"] + pr["sb"] + pr["sw"])
         elif name == "extended_stress":
             value = sign * (pr["sk"] + pr["sb"] + pr["sx"])
         elif name == "volume_fraction":
-            value = pr["phi"].copy()
+            value = own(pr["phi"])
         elif name == "pressure":
             value = -np.trace(pr["sk"] + pr["sb"] + pr["sw"], axis1=1, axis2=2) / dim
         elif name == "temperature":

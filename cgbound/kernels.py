@@ -77,6 +77,11 @@ class Kernel:
             return self._line_points
         return 0 if longest_branch is None else auto_line_points(longest_branch, self.width)
 
+    @property
+    def resolves_from_branch(self):
+        """Whether the core's arguments depend on the longest contact branch (line_quadrature="auto")."""
+        return self._line_points == AUTO_LINE_POINTS
+
     def with_resolved_line_quadrature(self, longest_branch):
         """This kernel with "auto" replaced by the rule it resolves to for ``longest_branch`` (else self)."""
         if self._line_points != AUTO_LINE_POINTS:

@@ -7,6 +7,13 @@ from ._validate import bool_array, finite_number, index_array, real_array
 from .box import Box
 
 
+def _read_only(array):
+    """A view of ``array`` that cannot be written through (it shares memory with a snapshot's data)."""
+    view = array.view()
+    view.flags.writeable = False
+    return view
+
+
 class Contacts:
     """Contact list: ``force[c]`` acts ON particle ``i[c]`` FROM ``j[c]`` at ``point[c]``.
 
@@ -180,6 +187,7 @@ class Snapshot:
         Returns ``(bulk, boundary)`` dicts of arrays: bulk has i, j, force, branch
         (r_i - r_j, minimum image); boundary has i (the flowing particle), force
         (on it), branch a = r_i - c (minimum image) and point c = r_i - a.
+        Arrays taken unchanged from the contacts are read-only views of them.
         """
         c = self.contacts
         box = self.box
@@ -190,22 +198,32 @@ class Snapshot:
             return ({"i": idx, "j": idx, "force": empty, "branch": empty},
                     {"i": idx, "force": empty, "branch": empty, "point": empty})
         i, j, f, pt = c.i, c.j, c.force, c.point
-        fixed_i = self.fixed[i]
+        periodic, lengths = list(box.periodic), [float(x) for x in box.lengths]
+
+        def minimum_image(vectors):
+            return _core.minimum_image(vectors, periodic, lengths) if any(periodic) else vectors
+
         wall = j < 0
+        if not self.fixed.any() and not wall.any():
+            # every contact is bulk: read-only views of the contact arrays instead of selected copies
+            r_ij = minimum_image(np.take(self.positions, i, axis=0) - np.take(self.positions, j, axis=0))
+            empty = np.zeros((0, dim))
+            return ({"i": _read_only(i), "j": _read_only(j), "force": _read_only(f), "branch": r_ij},
+                    {"i": np.zeros(0, np.int64), "force": empty, "branch": empty, "point": empty})
+        fixed_i = self.fixed[i]
         fixed_j = np.where(wall, True, self.fixed[np.where(wall, 0, j)])
         bulk = ~fixed_i & ~fixed_j
         boundary_i = ~fixed_i & fixed_j           # already oriented on the flowing particle
         boundary_j = fixed_i & ~fixed_j & ~wall   # flip: the flowing particle is j
-        periodic, lengths = list(box.periodic), [float(x) for x in box.lengths]
 
         bi, bj = i[bulk], j[bulk]
-        r_ij = _core.minimum_image(self.positions[bi] - self.positions[bj], periodic, lengths)
+        r_ij = minimum_image(self.positions[bi] - self.positions[bj])
         bulk_out = {"i": bi, "j": bj, "force": f[bulk], "branch": r_ij}
 
         k = np.concatenate([i[boundary_i], j[boundary_j]])
         fk = np.concatenate([f[boundary_i], -f[boundary_j]])
         ck = np.concatenate([pt[boundary_i], pt[boundary_j]])
-        a = _core.minimum_image(self.positions[k] - ck, periodic, lengths)
+        a = minimum_image(self.positions[k] - ck)
         boundary_out = {"i": k, "force": fk, "branch": a, "point": self.positions[k] - a}
         return bulk_out, boundary_out
 
