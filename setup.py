@@ -4,6 +4,7 @@ OpenMP is detected by compiling a tiny test program; without it the core is
 built serial. Set CGBOUND_NO_OPENMP=1 to force a serial build, and
 CGBOUND_SANITIZE=1 for an AddressSanitizer + UndefinedBehaviorSanitizer build.
 """
+import glob
 import os
 import shutil
 import subprocess
@@ -15,7 +16,9 @@ import numpy
 from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
-SOURCES = ["csrc/_coremodule.c", "csrc/cg_kernels.c", "csrc/cg_scatter.c", "csrc/cg_separable.c", "csrc/cg_status.c"]
+# the binding and the core (every csrc/cg_*.c)
+HERE = os.path.dirname(os.path.abspath(__file__))
+SOURCES = ["csrc/_coremodule.c"] + sorted(os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "csrc", "cg_*.c")))
 
 
 def compiler_accepts(flags):

@@ -520,6 +520,21 @@ static PyObject *py_have_openmp(PyObject *self, PyObject *args)
     return PyBool_FromLong(cg_have_openmp());
 }
 
+static PyObject *py_set_wide_vectors(PyObject *self, PyObject *arg)
+{
+    (void)self;
+    const int allow = PyObject_IsTrue(arg);
+    if (allow < 0) return NULL;
+    return PyBool_FromLong(cg_set_wide_vectors(allow));
+}
+
+static PyObject *py_wide_vectors(PyObject *self, PyObject *args)
+{
+    (void)self;
+    (void)args;
+    return PyBool_FromLong(cg_wide_vectors());
+}
+
 static PyMethodDef methods[] = {
     {"scatter_points", (PyCFunction)(void (*)(void))py_scatter_points, METH_VARARGS | METH_KEYWORDS,
      "scatter_points(target, kernel, positions, values, gradient=False, n_threads=0) -> (P, K) or (P, K, D_res)\n\n"
@@ -533,6 +548,10 @@ static PyMethodDef methods[] = {
     {"minimum_image", py_minimum_image, METH_VARARGS,
      "minimum_image(vectors, periodic, period) -> copy of vectors wrapped to the minimum image."},
     {"have_openmp", py_have_openmp, METH_NOARGS, "Whether the core was built with OpenMP."},
+    {"set_wide_vectors", py_set_wide_vectors, METH_O,
+     "Internal: False makes the Gaussian on grids use its AVX2/baseline build instead of AVX-512 (identical "
+     "results; for tests and benchmarks), True restores the default. Returns the previous setting."},
+    {"wide_vectors", py_wide_vectors, METH_NOARGS, "Internal: whether the Gaussian on grids runs its AVX-512 build."},
     {"default_threads", default_threads, METH_NOARGS,
      "Threads a call with n_threads=0 may use (omp_get_max_threads(); 1 without OpenMP)."},
     {NULL, NULL, 0, NULL}};

@@ -65,6 +65,14 @@ int cg_have_openmp(void);
 /* Threads a call with target.n_threads = 0 may use (1 without OpenMP). */
 int cg_default_threads(void);
 
+/* Whether the Gaussian on grids runs its AVX-512 build (x86-64 CPUs that have
+   it, GCC builds). allow = 0 makes later calls use the AVX2/baseline build
+   instead (results are identical; for tests and benchmarks), allow = 1
+   restores the default. Returns the previous setting. Set it between calls,
+   not during one. */
+int cg_set_wide_vectors(int allow);
+int cg_wide_vectors(void);
+
 typedef enum cg_kernel_type {
     CG_KERNEL_GAUSSIAN = 0,
     CG_KERNEL_LUCY = 1,

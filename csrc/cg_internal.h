@@ -43,6 +43,7 @@ typedef struct job {
     double lo[3], hi[3];       /* extent of the nodes along each resolved axis */
     double spacing[3];
     int separable;             /* use cg_visit_separable (Gaussian on a grid) */
+    int wide;                  /* ... its AVX-512 build */
     int line_points;           /* the kernel's rule for finite segments (0: round-off) */
 } job;
 
@@ -93,5 +94,15 @@ static inline void cg_accumulate(const job *jb, double *out, cg_index obj, cg_in
    exact) and returns 1, or -1 if scratch memory could not be had. */
 int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
                        double scale);
+
+/* An AVX-512 build of the separable path (cg_separable_wide.c) exists on
+   x86-64 with GCC; cg_separable_wide_available() says whether this CPU runs it
+   (job.wide then selects it). */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(CGBOUND_NO_CLONES)
+#define CG_HAVE_WIDE_SEPARABLE 1
+int cg_visit_separable_wide(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
+                            double scale);
+#endif
+int cg_separable_wide_available(void);
 
 #endif /* CGBOUND_CG_INTERNAL_H */

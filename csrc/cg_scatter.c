@@ -265,6 +265,7 @@ static cg_status prepare(job *jb)
     jb->line_points = k->type == CG_KERNEL_GAUSSIAN ? k->line_points : 0;
     jb->separable = k->type == CG_KERNEL_GAUSSIAN && !k->per_node && t->is_grid && t->n_resolved > 0 &&
                     jb->mode != MODE_GRADIENT;
+    jb->wide = jb->separable && cg_separable_wide_available();
     return CG_OK;
 }
 

@@ -56,6 +56,19 @@ typedef double v8d __attribute__((vector_size(64)));
 typedef double v4d __attribute__((vector_size(32)));
 typedef double v2d __attribute__((vector_size(16)));
 #define HAVE_V4D 1
+#ifdef CG_SEPARABLE_WIDE
+typedef v8d vwd;
+#else
+typedef v4d vwd;
+#endif
+#endif
+/* the lanes of one machine vector: this file is compiled twice (see the end),
+   8 wide for AVX-512 (cg_separable_wide.c) and 4 wide otherwise; wider types
+   than the machine's are emulated through memory, which costs more than it saves */
+#ifdef CG_SEPARABLE_WIDE
+#define VW 8
+#else
+#define VW 4
 #endif
 
 /* o[k * nv + c] += (scale * w[k]) * v[c] for k < nk, c < nv (1.0 * w[k] is
@@ -68,7 +81,8 @@ INLINE void block_add_n(double *restrict o, double scale, const double *restrict
         double *ok = o + k * nv;
         int c = 0;
 #ifdef HAVE_V4D
-        /* widest first: 8 (one AVX-512 instruction, two AVX2 ones), then 4, 2, 1 */
+        /* widest first: 8 (AVX-512), then 4, 2, 1 */
+#if VW >= 8
         const v8d w8 = {wk, wk, wk, wk, wk, wk, wk, wk};
         for (; c + 8 <= nv; c += 8) {
             v8d acc, val;
@@ -77,14 +91,14 @@ INLINE void block_add_n(double *restrict o, double scale, const double *restrict
             acc += w8 * val;
             memcpy(ok + c, &acc, sizeof acc);
         }
-        if (nv - c >= 4) {
+#endif
+        for (; nv - c >= 4; c += 4) {
             const v4d w4 = {wk, wk, wk, wk};
             v4d acc, val;
             memcpy(&acc, ok + c, sizeof acc);
             memcpy(&val, v + c, sizeof val);
             acc += w4 * val;
             memcpy(ok + c, &acc, sizeof acc);
-            c += 4;
         }
         if (nv - c >= 2) {
             const v2d w2 = {wk, wk};
@@ -308,25 +322,24 @@ INLINE void rows_of_one_point(double *restrict out, cg_index stride_i, cg_index 
 #define ROW_PAD 8
 
 /* row[k] = sum_g (ci[g] gy_g[j]) gz_g[k] for k in [a, b), summed in rule order
-   as a scalar loop would, 8 nodes at a time: writes up to 7 doubles past b
+   as a scalar loop would, VW nodes at a time: writes up to 7 doubles past b
    (ROW_PAD) and reads as far past the tables (in scratch memory, followed by
    more tables or the row; the values there are not used) */
 INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, const double *ci,
                        double *const (*ex)[3], cg_index j)
 {
-    for (cg_index k = a; k < b; k += 8) {
+    for (cg_index k = a; k < b; k += VW) {
 #ifdef HAVE_V4D
-        v8d acc = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+        vwd acc = {0.0};
         for (int g = 0; g < G; ++g) {
-            const double c = ci[g] * ex[g][1][j];
-            const v8d c8 = {c, c, c, c, c, c, c, c};
-            v8d gz;
+            const vwd c = (vwd){0.0} + ci[g] * ex[g][1][j]; /* broadcast (0 + c is c) */
+            vwd gz;
             memcpy(&gz, ex[g][2] + k, sizeof gz);
-            acc += c8 * gz;
+            acc += c * gz;
         }
         memcpy(row + k, &acc, sizeof acc);
 #else
-        const cg_index end = k + 8 < b ? k + 8 : b;
+        const cg_index end = k + VW < b ? k + VW : b;
         for (cg_index m = k; m < end; ++m) row[m] = 0.0;
         for (int g = 0; g < G; ++g) {
             const double c = ci[g] * ex[g][1][j];
@@ -337,29 +350,42 @@ INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, cons
 }
 
 /* The rows of a G-point rule along a segment (MODE_VALUE, n2 <= 64): each
-   point's ball by the node-by-node path's test, as a mask on 8 nodes at a
+   point's ball by the node-by-node path's test, as a mask on VW nodes at a
    time (its weight where inside, 0 elsewhere: the sum over the points in rule
    order is as a scalar loop would form it); the nodes any ball reaches, from
    the masks' bits; then one update of the output per row. Reads up to 7
    doubles past the z tables and writes as far past the row (ROW_PAD; the
    values there are not used). */
 #ifdef HAVE_V4D
-typedef int64_t v8l __attribute__((vector_size(64)));
+typedef int64_t vwl __attribute__((vector_size(8 * VW)));
 
-/* lane l of the mask (all ones or zero) as bit l: a horizontal OR in three
-   halving steps (lane extracts one by one cost more than the rest of a row) */
-#if defined(__clang__)
-#define SHUFFLE8(b, i0, i1, i2, i3, i4, i5, i6, i7) __builtin_shufflevector(b, b, i0, i1, i2, i3, i4, i5, i6, i7)
-#else
-#define SHUFFLE8(b, i0, i1, i2, i3, i4, i5, i6, i7) __builtin_shuffle(b, (v8l){i0, i1, i2, i3, i4, i5, i6, i7})
-#endif
-INLINE uint64_t mask_bits(v8l m)
+/* lane l of a mask (all ones or zero) as bit l: a horizontal OR in halving
+   steps (lane extracts one by one cost more than the rest of a row) */
+INLINE uint64_t mask_bits(vwl m)
 {
-    const v8l bit = {1, 2, 4, 8, 16, 32, 64, 128};
-    v8l b = m & bit;
-    b |= SHUFFLE8(b, 4, 5, 6, 7, 0, 1, 2, 3);
-    b |= SHUFFLE8(b, 2, 3, 0, 1, 6, 7, 4, 5);
-    b |= SHUFFLE8(b, 1, 0, 3, 2, 5, 4, 7, 6);
+#if VW == 8
+    const vwl bit = {1, 2, 4, 8, 16, 32, 64, 128};
+    vwl b = m & bit;
+#if defined(__clang__)
+    b |= __builtin_shufflevector(b, b, 4, 5, 6, 7, 0, 1, 2, 3);
+    b |= __builtin_shufflevector(b, b, 2, 3, 0, 1, 6, 7, 4, 5);
+    b |= __builtin_shufflevector(b, b, 1, 0, 3, 2, 5, 4, 7, 6);
+#else
+    b |= __builtin_shuffle(b, (vwl){4, 5, 6, 7, 0, 1, 2, 3});
+    b |= __builtin_shuffle(b, (vwl){2, 3, 0, 1, 6, 7, 4, 5});
+    b |= __builtin_shuffle(b, (vwl){1, 0, 3, 2, 5, 4, 7, 6});
+#endif
+#else
+    const vwl bit = {1, 2, 4, 8};
+    vwl b = m & bit;
+#if defined(__clang__)
+    b |= __builtin_shufflevector(b, b, 2, 3, 0, 1);
+    b |= __builtin_shufflevector(b, b, 1, 0, 3, 2);
+#else
+    b |= __builtin_shuffle(b, (vwl){2, 3, 0, 1});
+    b |= __builtin_shuffle(b, (vwl){1, 0, 3, 2});
+#endif
+#endif
     return (uint64_t)b[0];
 }
 
@@ -379,7 +405,7 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
         dz_min[g] = dz[kk];
     }
     const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
-    const v8d R2_8 = {R2, R2, R2, R2, R2, R2, R2, R2};
+    const vwd R2w = (vwd){0.0} + R2;
     for (cg_index i = 0; i < n0; ++i) {
         /* per point: its rows [j0, j1) in this plane (as in rows_of_one_point) */
         cg_index j0[CG_MAX_LINE_POINTS], j1[CG_MAX_LINE_POINTS];
@@ -406,18 +432,18 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
         for (cg_index j = J0; j < J1; ++j) {
             double *row = rows[j & 1];
             uint64_t bits = 0;
-            for (cg_index kw = 0; kw < n2; kw += 8) {
-                v8d acc = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-                v8l any = {0, 0, 0, 0, 0, 0, 0, 0};
+            for (cg_index kw = 0; kw < n2; kw += VW) {
+                vwd acc = {0.0};
+                vwl any = {0};
                 for (int g = 0; g < G; ++g) {
                     if (j < j0[g] || j >= j1[g]) continue;
                     const double s01 = si[g] + d2[g][1][j], c = ci[g] * ex[g][1][j];
-                    const v8d s8 = {s01, s01, s01, s01, s01, s01, s01, s01}, c8 = {c, c, c, c, c, c, c, c};
-                    v8d dz, gz;
+                    const vwd sw = (vwd){0.0} + s01, cw = (vwd){0.0} + c; /* broadcasts (0 + x is x) */
+                    vwd dz, gz;
                     memcpy(&dz, d2[g][2] + kw, sizeof dz);
                     memcpy(&gz, ex[g][2] + kw, sizeof gz);
-                    const v8l inside = s8 + dz < R2_8;
-                    acc += (v8d)((v8l)(c8 * gz) & inside);
+                    const vwl inside = sw + dz < R2w;
+                    acc += (vwd)((vwl)(cw * gz) & inside);
                     any |= inside;
                 }
                 memcpy(row + kw, &acc, sizeof acc);
@@ -441,23 +467,34 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
 }
 #endif
 
-/* On x86-64 with GCC, also build an AVX2 version of the hot loops, chosen at
-   load time on CPUs that have it (4 doubles per instruction instead of 2).
-   Results are identical: ISO C mode (-std=c11) forbids contracting a*b+c
-   into an FMA, and no sum is reordered. */
+/* Two builds of the visit below: cg_separable_wide.c compiles this file again
+   for AVX-512 (VW = 8, CG_SEPARABLE_WIDE); here, on x86-64 with GCC, an AVX2
+   and a baseline version are cloned and chosen at load time (VW = 4). The
+   dispatcher at the end picks the wide build where the CPU has AVX-512.
+   Results are identical in all: ISO C mode (-std=c11) forbids contracting
+   a*b+c into an FMA, and no sum is reordered. */
+#ifdef CG_SEPARABLE_WIDE
+#define VISIT_SEPARABLE cg_visit_separable_wide
+#define HOT_CLONES
+#else
+#define VISIT_SEPARABLE visit_separable_narrow
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(CGBOUND_NO_CLONES) && \
     defined(__has_attribute)
 #if __has_attribute(target_clones)
-#define HOT_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#define HOT_CLONES __attribute__((target_clones("avx2", "default")))
 #endif
 #endif
 #ifndef HOT_CLONES
 #define HOT_CLONES
 #endif
+#endif
 
+#ifndef CG_SEPARABLE_WIDE
+static
+#endif
 HOT_CLONES
-int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
-                       double scale)
+int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
+                    double scale)
 {
     const cg_target *t = jb->target;
     const cg_kernel *kn = jb->kernel;
@@ -702,3 +739,34 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
     if (hybrid) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, inv2w2, G, gx, gw);
     return 1;
 }
+
+#ifndef CG_SEPARABLE_WIDE
+int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
+                       double scale)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (jb->wide) return cg_visit_separable_wide(jb, out, sc, obj, x, e, scale);
+#endif
+    return visit_separable_narrow(jb, out, sc, obj, x, e, scale);
+}
+
+static int allow_wide = 1;
+
+int cg_set_wide_vectors(int allow)
+{
+    const int previous = allow_wide;
+    allow_wide = allow != 0;
+    return previous;
+}
+
+int cg_separable_wide_available(void)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    return allow_wide && __builtin_cpu_supports("avx512f") != 0;
+#else
+    return 0;
+#endif
+}
+
+int cg_wide_vectors(void) { return cg_separable_wide_available(); }
+#endif

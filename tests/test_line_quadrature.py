@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 import cgbound as cg
+from cgbound import _core
 from helpers import assert_fields_close, random_snapshot
 from reference import ref_fields
 from test_oracle import averagings, grid_for
@@ -66,10 +67,20 @@ def test_rays_stay_exact():
                         1e-12, "rays")
 
 
+@pytest.mark.parametrize("wide", [True, False])
 @pytest.mark.parametrize("line_quadrature", ["exact", 1, 2, 3, 5])
 @pytest.mark.parametrize("dim", [2, 3])
-def test_separable_path_agrees_with_node_by_node(dim, line_quadrature):
-    """The outer-product fast path and the straightforward per-node loop (kept for benchmarks) agree."""
+def test_separable_path_agrees_with_node_by_node(dim, line_quadrature, wide):
+    """The outer-product fast path (either vector build) and the straightforward per-node loop (kept for
+    benchmarks) agree."""
+    previous = _core.set_wide_vectors(wide)
+    try:
+        _separable_path_agrees_with_node_by_node(dim, line_quadrature)
+    finally:
+        _core.set_wide_vectors(previous)
+
+
+def _separable_path_agrees_with_node_by_node(dim, line_quadrature):
     snap = random_snapshot(51 + dim, dim=dim, n=40, n_bulk=30)
     fields = tuple(f for f in cg.FIELD_NAMES if f != "extended_stress")
     for average in averagings(dim):
