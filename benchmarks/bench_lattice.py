@@ -1,12 +1,14 @@
 """W1 (46^3 XYZ grid) and W2 (Z profile of 100 nodes) on the 46^3 lattice: wall time per frame.
 
     python benchmarks/bench_lattice.py [--repeat 3] [--workloads W1,W2] [--threads 1,2]
-                                       [--kernels g0.5,g1.0,lucy] [--line exact,2,3] [--per-node] [--plot out.png]
+                                       [--kernels g0.5,g1.0,lucy] [--line exact,2,3] [--per-node]
+                                       [--vectors wide,narrow] [--plot out.png]
 
 Fields: density, momentum, momentum flux and contact stress. For every workload, kernel, line-integral
 method (Gaussian only) and thread count: the median (and minimum) of --repeat runs of one frame,
 CPU time of the process (all threads) and particles per second. --per-node also times the straightforward per-node evaluation (every node
-of each stencil evaluated on its own, exact line integrals), the baseline of the "10x" target.
+of each stencil evaluated on its own, exact line integrals), the baseline of the "10x" target. --vectors narrow
+times the AVX2/baseline build of the separable path on a CPU that has AVX-512 (wide: the default build).
 Prints the CPU model, core count, thread count and load average with every table.
 """
 import argparse
@@ -16,6 +18,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import cgbound as cg  # noqa: E402
+from cgbound import _core  # noqa: E402
 from common import header, save_plot, thread_list, timed  # noqa: E402
 from workloads import lattice  # noqa: E402
 
@@ -37,13 +40,25 @@ def main():
     parser.add_argument("--kernels", default="g0.5,g1.0,lucy", help=f"some of {','.join(KERNELS)}")
     parser.add_argument("--line", default="exact", help="line-integral methods of the Gaussian: exact, auto and/or n")
     parser.add_argument("--per-node", action="store_true", help="also time the straightforward per-node path")
+    parser.add_argument("--vectors", default="wide", help="wide (the default build) and/or narrow (AVX2/baseline)")
     parser.add_argument("--plot", help="write a bar chart of the medians to this PNG")
     args = parser.parse_args()
     snap = lattice()
     box = snap.box
     grids = {"W1": cg.Grid(box, (46, 46, 46)), "W2": cg.Grid(box, (1, 1, 100), average=("x", "y"))}
     rows = []
-    for nt in thread_list(args.threads):
+    for vectors in args.vectors.split(","):
+        previous = _core.set_wide_vectors(vectors == "wide")
+        try:
+            run_tables(args, snap, grids, thread_list(args.threads), rows, vectors)
+        finally:
+            _core.set_wide_vectors(previous)
+    if args.plot:
+        plot(args.plot, rows)
+
+
+def run_tables(args, snap, grids, nt_list, rows, vectors):
+    for nt in nt_list:
         print(header(nt))
         print(f"# {snap.n_particles} particles, {len(snap.contacts)} contacts; fields: {', '.join(FIELDS)}; "
               f"medians of {args.repeat} runs")
@@ -63,17 +78,20 @@ def main():
                         with cg.threads(nt):
                             med, best, cpu = timed(lambda: cg.coarse_grain(snap, grid, kernel, fields=FIELDS),
                                                    args.repeat, cpu=True)
-                        rows.append((name, label, str(lq), path, nt, med))
+                        rows.append((name, label, str(lq), f"{path} {vectors}", nt, med))
                         print(f"{name:<9}{label:<22}{str(lq):<7}{path:<10}{med:>15.3f}{best:>9.3f}{cpu:>9.3f}"
                               f"{snap.n_particles / med:>14.3g}", flush=True)
-    if args.plot:
+
+
+def plot(path_png, rows):
+    if rows:
         series = {}
         for name, label, lq, path, nt, med in rows:
             key = f"{name} {label} {lq} {path}"
             xs, ys = series.setdefault(key, ([], []))
             xs.append(nt)
             ys.append(med)
-        save_plot(args.plot, "W1/W2 lattice, s per frame", "threads", "median s/frame", series, logy=True)
+        save_plot(path_png, "W1/W2 lattice, s per frame", "threads", "median s/frame", series, logy=True)
 
 
 if __name__ == "__main__":

@@ -25,11 +25,18 @@ def load_average():
         return "unknown"
 
 
+def vector_build():
+    """Which build of the separable Gaussian runs: 8-wide (AVX-512) or 4-wide (AVX2/baseline)."""
+    from cgbound import _core
+    return "AVX-512 (8 doubles)" if _core.wide_vectors() else "AVX2/baseline (4 doubles)"
+
+
 def header(threads=None, extra=""):
     """The machine line printed above every table."""
     t = threads if threads is not None else cg.get_num_threads()
     return (f"# CPU: {cpu_model()}; cores: {os.cpu_count()}; threads: {t}; OpenMP build: {cg.have_openmp()}; "
-            f"load average: {load_average()}; cgbound {cg.__version__}" + (f"; {extra}" if extra else ""))
+            f"vectors: {vector_build()}; load average: {load_average()}; cgbound {cg.__version__}"
+            + (f"; {extra}" if extra else ""))
 
 
 def timed(fn, repeat, warmup=0, cpu=False):
