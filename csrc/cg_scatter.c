@@ -377,6 +377,101 @@ static cg_index *spatial_order(const job *jb)
     return order;
 }
 
+/* Objects order[begin..end) (or begin..end) into out, one thread; stops at the
+   first error of any thread (recorded in *failed). */
+static void visit_range(const job *jb, double *out, scratch *sc, const cg_index *order, cg_index begin,
+                        cg_index end, int *failed)
+{
+    for (cg_index o = begin; o < end; ++o) {
+        if (load_status(failed) != CG_OK) return;
+        if (interrupted(jb)) { store_status(failed, CG_ERR_INTERRUPTED); return; }
+#if defined(__GNUC__)
+        if (order && o + PREFETCH_AHEAD < end) {
+            /* sorted objects are read out of input order: fetch ahead */
+            const cg_index next = order[o + PREFETCH_AHEAD];
+            __builtin_prefetch(jb->positions + next * jb->target->dim);
+            if (jb->values) {
+                __builtin_prefetch(jb->values + next * jb->n_values);
+                __builtin_prefetch(jb->values + next * jb->n_values + jb->n_values - 1); /* may span two lines */
+            }
+            if (jb->vecs) __builtin_prefetch(jb->vecs + next * jb->target->dim);
+        }
+#endif
+        const cg_status s = scatter_object(jb, out, sc, order ? order[o] : o);
+        if (s != CG_OK) { store_status(failed, s); return; }
+    }
+}
+
+/* Slabs: the objects cut along the first resolved axis into slabs of W
+   nodes, W at least the reach of an object's writes (cutoff plus the longest
+   projected segment, plus two nodes for the stencil's rounding). Slabs s and
+   s + 3 then write to disjoint nodes, so the slabs of one colour (s mod 3)
+   run in parallel straight into the output, colour after colour: no
+   per-thread copies of the output, and every node sums its terms in the same
+   order whatever the number of threads. Not for periodic first axes, rays
+   (unbounded reach) or fewer than SLAB_MIN slabs. */
+#define SLAB_COLOURS 3
+#define SLAB_MIN 6
+
+typedef struct slab_plan {
+    cg_index n_slabs;
+    cg_index *start;   /* n_slabs + 1: slab s holds objects[start[s]..start[s + 1]) */
+    cg_index *objects; /* n: in spatial order within each slab */
+} slab_plan;
+
+static void free_slabs(slab_plan *plan)
+{
+    free(plan->start);
+    free(plan->objects);
+    plan->start = plan->objects = NULL;
+    plan->n_slabs = 0;
+}
+
+/* 1 with a plan, 0 when slabs do not apply (or memory is short: the
+   per-thread copies are as right) */
+static int plan_slabs(const job *jb, const cg_index *order, slab_plan *plan)
+{
+    const cg_target *t = jb->target;
+    plan->n_slabs = 0;
+    plan->start = plan->objects = NULL;
+    if (!t->is_grid || t->n_resolved == 0 || t->periodic[0] || (jb->is_segment && jb->ray)) return 0;
+    const cg_index n0 = t->shape[0], n = jb->n;
+    const double h = jb->spacing[0], c0 = t->coords[0][0];
+    const int D = t->dim, a0 = t->axes[0];
+    if (!(h > 0.0)) return 0;
+    double reach = jb->kernel->radius;
+    if (jb->is_segment) {
+        double longest = 0.0;
+        for (cg_index o = 0; o < n; ++o) longest = fmax(longest, fabs(jb->vecs[o * D + a0]));
+        reach += longest;
+    }
+    const double width = ceil(reach / h) + 2.0;
+    if (!(width * SLAB_MIN <= (double)n0)) return 0;
+    const cg_index W = (cg_index)width, n_slabs = (n0 + W - 1) / W;
+    plan->start = calloc((size_t)n_slabs + 1, sizeof *plan->start);
+    plan->objects = malloc((size_t)n * sizeof *plan->objects);
+    cg_index *slab_of = malloc((size_t)n * sizeof *slab_of);
+    if (!plan->start || !plan->objects || !slab_of) {
+        free(slab_of);
+        free_slabs(plan);
+        return 0;
+    }
+    for (cg_index k = 0; k < n; ++k) {
+        const cg_index o = order ? order[k] : k;
+        double ix = floor((jb->positions[o * D + a0] - c0) / h + 0.5); /* the nearest node */
+        ix = ix < 0.0 ? 0.0 : (ix > (double)(n0 - 1) ? (double)(n0 - 1) : ix);
+        slab_of[k] = (cg_index)ix / W;
+        ++plan->start[slab_of[k] + 1];
+    }
+    for (cg_index s = 0; s < n_slabs; ++s) plan->start[s + 1] += plan->start[s];
+    for (cg_index k = 0; k < n; ++k) plan->objects[plan->start[slab_of[k]]++] = order ? order[k] : k;
+    for (cg_index s = n_slabs; s > 0; --s) plan->start[s] = plan->start[s - 1]; /* back to the starts */
+    plan->start[0] = 0;
+    free(slab_of);
+    plan->n_slabs = n_slabs;
+    return 1;
+}
+
 static cg_status run(job *jb, double *out)
 {
     cg_status st = prepare(jb);
@@ -399,12 +494,35 @@ static cg_status run(job *jb, double *out)
     if (work < MIN_WORK_PER_THREAD || work < 2.0 * (double)P * (double)width) n_threads = 1;
 #endif
     cg_index *order = spatial_order(jb);
+    int failed = CG_OK;
+    slab_plan plan;
+    if (plan_slabs(jb, order, &plan)) {
+        free(order);
+#ifdef _OPENMP
+#pragma omp parallel num_threads(n_threads) if (n_threads > 1)
+#endif
+        {
+            scratch sc = {NULL, 0};
+            for (int colour = 0; colour < SLAB_COLOURS; ++colour) {
+                const cg_index count = (plan.n_slabs - colour + SLAB_COLOURS - 1) / SLAB_COLOURS;
+#ifdef _OPENMP
+#pragma omp for schedule(dynamic, 1)
+#endif
+                for (cg_index q = 0; q < count; ++q) {
+                    const cg_index s = colour + SLAB_COLOURS * q;
+                    visit_range(jb, out, &sc, plan.objects, plan.start[s], plan.start[s + 1], &failed);
+                }
+            }
+            free(sc.buf);
+        }
+        free_slabs(&plan);
+        return (cg_status)failed;
+    }
     double *buffers = NULL;
     if (n_threads > 1) {
         buffers = calloc((size_t)(n_threads - 1) * (size_t)P * width, sizeof(double));
         if (!buffers) n_threads = 1; /* fall back to one thread rather than fail */
     }
-    int failed = CG_OK;
 #ifdef _OPENMP
 #pragma omp parallel num_threads(n_threads) if (n_threads > 1)
 #endif
@@ -416,24 +534,7 @@ static cg_status run(job *jb, double *out)
         double *mine = tid == 0 ? out : buffers + (size_t)(tid - 1) * (size_t)P * width;
         const cg_index begin = jb->n * tid / n_threads, end = jb->n * (tid + 1) / n_threads;
         scratch sc = {NULL, 0};
-        for (cg_index o = begin; o < end; ++o) {
-            if (load_status(&failed) != CG_OK) break;
-            if (interrupted(jb)) { store_status(&failed, CG_ERR_INTERRUPTED); break; }
-#if defined(__GNUC__)
-            if (order && o + PREFETCH_AHEAD < end) {
-                /* sorted objects are read out of input order: fetch ahead */
-                const cg_index next = order[o + PREFETCH_AHEAD];
-                __builtin_prefetch(jb->positions + next * jb->target->dim);
-                if (jb->values) {
-                    __builtin_prefetch(jb->values + next * jb->n_values);
-                    __builtin_prefetch(jb->values + next * jb->n_values + jb->n_values - 1); /* may span two lines */
-                }
-                if (jb->vecs) __builtin_prefetch(jb->vecs + next * jb->target->dim);
-            }
-#endif
-            const cg_status s = scatter_object(jb, mine, &sc, order ? order[o] : o);
-            if (s != CG_OK) { store_status(&failed, s); break; }
-        }
+        visit_range(jb, mine, &sc, order, begin, end, &failed);
         free(sc.buf);
     }
     if (buffers) {
