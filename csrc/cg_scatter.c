@@ -4,9 +4,14 @@
  * object, each periodic image that reaches the target, each node of its
  * stencil, a weight (or gradient) is computed and handed to accumulate().
  *
- * Threads: objects are split into contiguous blocks, one per thread; each
- * thread accumulates into its own buffer and the buffers are added in thread
- * order, so a run is deterministic for a given thread count.
+ * Threads: on grids long enough along the first resolved axis (and not
+ * periodic along it), the objects are cut into slabs whose writes do not
+ * overlap those of the slabs three further on; the slabs of one colour
+ * (s mod 3) run in parallel straight into the output, so the result is the
+ * same bit for bit for any thread count. Otherwise objects are split into
+ * contiguous blocks, one per thread; each thread accumulates into its own
+ * buffer and the buffers are added in thread order, so a run is
+ * deterministic for a given thread count.
  */
 #include "cg.h"
 #include "cg_internal.h"
