@@ -4,23 +4,31 @@
  *
  * exp(-|r - x|^2 / 2w^2) = prod_a exp(-(r_a - x_a)^2 / 2w^2), so for one
  * object the weights of its whole stencil need only one table of exponentials
- * per axis; a row of nodes along the last resolved axis (contiguous in the
- * output) then costs one multiply-add per node and value. The cutoff ball is
- * applied node by node with the same squared distance, summed in the same
- * order, as the node-by-node path (cg_scatter.c), so both agree to rounding.
+ * per axis (all tables of an object in one vectorised exp); a row of nodes
+ * along the last resolved axis (contiguous in the output) then costs one
+ * multiply-add per node and value. The cutoff ball is applied node by node
+ * with the same squared distance as the node-by-node path (cg_scatter.c): the
+ * nodes inside are an interval of each row (the squared distance is convex
+ * along it), found by walking from the previous row's ends.
  *
  * Segments with an n-point Gauss-Legendre rule are n points with weights
- * w_g: the same outer products, one table set per point. Segments asked for
- * to round-off ("exact") use a Gauss-Legendre rule that is exact to round-off
+ * w_g: the same outer products, one table set per point (one pass per point
+ * for n <= 2; for more, each row's weights are summed over the points first,
+ * with the cutoff as a vector mask). Segments asked for to round-off
+ * ("exact") use a Gauss-Legendre rule that is exact to round-off
  * (cg_gaussian_roundoff_points) at the nodes whose whole segment lies inside
  * the cutoff ball (both ends inside: the integrand is a smooth Gaussian on
- * [0, 1]), and the exact erf form (cg_kernel_line_rule) at the nodes the
- * cutoff sphere cuts the segment for; segments too long for such a rule go
- * to the node-by-node path.
+ * [0, 1]), and the same rule on the part of the segment inside the ball at the
+ * nodes the cutoff sphere cuts it for (gathered and evaluated in batches);
+ * segments too long for such a rule go to the node-by-node path.
  *
  * Resolved axes are placed in three "slots", right-aligned: the last
  * resolved axis (stride 1 in the output) is always slot 2; missing slots
  * have one node, coordinate 0 and weight 1.
+ *
+ * This file is compiled twice: as itself (4-wide vectors; AVX2 and baseline
+ * clones) and through cg_separable_wide.c (8-wide, AVX-512). Both give the
+ * same results bit for bit.
  */
 #include "cg_internal.h"
 
@@ -29,7 +37,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* helpers of the hot loop are inlined into it, so that its AVX2 clone (below) covers them too */
+/* helpers of the hot loop are inlined into it, so that its clones (below) cover them too */
 #if defined(__GNUC__)
 #define INLINE static inline __attribute__((always_inline))
 #else
