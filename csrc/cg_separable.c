@@ -287,29 +287,47 @@ INLINE double segment_distance2(const double *q, const double *e, double inv_L2)
     return d2;
 }
 
+/* the index of the least of n >= 1 values (the first of equal ones) */
+INLINE cg_index argmin(const double *d, cg_index n)
+{
+    cg_index m = 0;
+    for (cg_index k = 1; k < n; ++k) m = d[k] < d[m] ? k : m;
+    return m;
+}
+
+/* The rows [j0, j1) of plane i (squared distance si along its axis) with a
+   node inside the ball: those whose node of least z distance is inside, an
+   interval around the row jm of least y distance. Returns 0 if none. */
+INLINE int plane_rows(double si, const double *dy, cg_index n1, cg_index jm, double dz_min, double R2, cg_index *j0,
+                      cg_index *j1)
+{
+    if (!(si + dy[jm] + dz_min < R2)) return 0;
+    cg_index lo = jm, hi = jm + 1;
+    while (lo > 0 && si + dy[lo - 1] + dz_min < R2) --lo;
+    while (hi < n1 && si + dy[hi] + dz_min < R2) ++hi;
+    *j0 = lo;
+    *j1 = hi;
+    return 1;
+}
+
 /* The rows of one point's stencil (MODE_VALUE): node (i, j, k) is inside the
    cutoff ball where dx[i] + dy[j] + dz[k] < R2 (the node-by-node path's test)
    and receives (c gx[i] gy[j]) gz[k] times the values. Along each axis the
    squared distance falls and then rises, so the nodes inside the ball are an
    interval of every row (and the rows, an interval of every plane), around the
-   node of least squared distance; their ends are counted without branches. */
+   node of least squared distance. */
 INLINE void rows_of_one_point(double *restrict out, cg_index stride_i, cg_index stride_j, cg_index n0, cg_index n1,
                               cg_index n2, const double *restrict dx, const double *restrict dy,
                               const double *restrict dz, const double *restrict gx, const double *restrict gy,
                               const double *restrict gz, double c, double R2, const double *restrict v, int nv)
 {
-    cg_index jm = 0, km = 0; /* the nodes of least squared distance along y and z */
-    for (cg_index j = 1; j < n1; ++j) jm = dy[j] < dy[jm] ? j : jm;
-    for (cg_index k = 1; k < n2; ++k) km = dz[k] < dz[km] ? k : km;
-    const double dy_min = dy[jm], dz_min = dz[km];
+    const cg_index jm = argmin(dy, n1), km = argmin(dz, n2); /* the nodes of least squared distance */
+    const double dz_min = dz[km];
     for (cg_index i = 0; i < n0; ++i) {
         const double si = dx[i];
-        if (!(si + dy_min + dz_min < R2)) continue;
+        cg_index j0, j1;
+        if (!plane_rows(si, dy, n1, jm, dz_min, R2, &j0, &j1)) continue;
         const double ci = c * gx[i];
-        /* rows j0..j1 of this plane: the nodes of least z distance inside */
-        cg_index j0 = jm, j1 = jm + 1;
-        while (j0 > 0 && si + dy[j0 - 1] + dz_min < R2) --j0;
-        while (j1 < n1 && si + dy[j1] + dz_min < R2) ++j1;
         /* the row's nodes inside, [a, b), from the previous row's: the ends move
            little from row to row (node km is inside in every row of [j0, j1)) */
         cg_index a = km, b = km + 1;
@@ -402,15 +420,10 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
                          double R2, double *const rows[2], const double *restrict v, int nv)
 {
     cg_index jm[CG_MAX_LINE_POINTS];
-    double dy_min[CG_MAX_LINE_POINTS], dz_min[CG_MAX_LINE_POINTS];
+    double dz_min[CG_MAX_LINE_POINTS];
     for (int g = 0; g < G; ++g) {
-        const double *dy = d2[g][1], *dz = d2[g][2];
-        cg_index jj = 0, kk = 0;
-        for (cg_index j = 1; j < n1; ++j) jj = dy[j] < dy[jj] ? j : jj;
-        for (cg_index k = 1; k < n2; ++k) kk = dz[k] < dz[kk] ? k : kk;
-        jm[g] = jj;
-        dy_min[g] = dy[jj];
-        dz_min[g] = dz[kk];
+        jm[g] = argmin(d2[g][1], n1);
+        dz_min[g] = d2[g][2][argmin(d2[g][2], n2)];
     }
     const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
     const vwd R2w = (vwd){0.0} + R2;
@@ -420,18 +433,12 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
         double si[CG_MAX_LINE_POINTS], ci[CG_MAX_LINE_POINTS];
         cg_index J0 = n1, J1 = 0;
         for (int g = 0; g < G; ++g) {
-            const double *dy = d2[g][1];
             si[g] = d2[g][0][i];
             ci[g] = gw[g] * ex[g][0][i];
             j0[g] = j1[g] = 0;
-            if (!(si[g] + dy_min[g] + dz_min[g] < R2)) continue;
-            cg_index lo = jm[g], hi = jm[g] + 1;
-            while (lo > 0 && si[g] + dy[lo - 1] + dz_min[g] < R2) --lo;
-            while (hi < n1 && si[g] + dy[hi] + dz_min[g] < R2) ++hi;
-            j0[g] = lo;
-            j1[g] = hi;
-            if (lo < J0) J0 = lo;
-            if (hi > J1) J1 = hi;
+            if (!plane_rows(si[g], d2[g][1], n1, jm[g], dz_min[g], R2, &j0[g], &j1[g])) continue;
+            if (j0[g] < J0) J0 = j0[g];
+            if (j1[g] > J1) J1 = j1[g];
         }
         /* a row's update of the output waits for the next row's weights: read
            right after its vector store, the row would stall store forwarding */
