@@ -2,9 +2,11 @@
 
 The estimate counts doubles per evaluation node: the primary sums kept at once,
 the C core's per-thread copies of the output of one scatter (the core gives each
-of its ``n_threads - 1`` extra threads a private copy of the output array), the
-derived fields and one temporary. It is a lower bound on the peak, good enough
-to turn a hopeless request into a clear MemoryError instead of a crash or swapping.
+of its ``n_threads - 1`` extra threads a private copy of the output array, except
+on grids it cuts into slabs, where the threads write to the output itself), the
+derived fields and one temporary. Good enough to turn a hopeless request into a
+clear MemoryError instead of a crash or swapping; with slabs it counts copies
+that are not made.
 """
 import os
 

@@ -3,8 +3,9 @@
 The count is passed to the core with every call (no global OpenMP state is
 changed). ``None`` means the OpenMP default (OMP_NUM_THREADS, else all cores).
 The core itself uses fewer threads for inputs too small to gain from them.
-Results agree across thread counts to rounding (per-thread sums are added in
-a fixed order).
+On grids long enough along their first (non-periodic) axis the core cuts the
+work into slabs and results are the same bit for bit for any thread count;
+otherwise they agree to rounding (per-thread sums are added in a fixed order).
 """
 import contextlib
 import contextvars
