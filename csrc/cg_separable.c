@@ -223,7 +223,10 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
                             double R2, double inv2w2, int G, const double *gx, const double *gw)
 {
     const int n = b->n;
-    if (n == 0) return;
+    b->n = 0;
+    /* a segment of zero length is a point: the nodes gathered for it are those
+       just outside its ball (within the candidates' margin), whose value is 0 */
+    if (n == 0 || !(L2 > 0.0)) return;
     const double inv_L2 = 1.0 / L2;
     const double *q0 = b->q[0], *q1 = b->q[1], *q2 = b->q[2];
     double *restrict a2s = b->a2, *restrict t0s = b->t0, *restrict spans = b->span, *restrict arg = b->arg;
@@ -268,7 +271,6 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
         else
             cg_accumulate(jb, out, obj, b->node[i], v, NULL);
     }
-    b->n = 0;
 }
 
 /* squared distance from point p to the segment [0, e] (3 slots), q = p */

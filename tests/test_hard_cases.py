@@ -398,3 +398,21 @@ def test_all_particles_fixed():
     out = cg.coarse_grain(frozen, cg.Grid(snap.box, (3, 3, 4)), cg.Gaussian(0.5), fields=ALL)
     assert_empty_fields(out)
     record("all particles fixed", 0.0)
+
+
+@pytest.mark.parametrize("line_quadrature", ["exact", 3])
+def test_zero_length_branch_with_a_node_on_the_cutoff_sphere(line_quadrature):
+    """Two particles at one place in contact (a branch of length 0) and grid nodes exactly at the cutoff
+    distance: finite, and the same as node by node (the branch is a point there)."""
+    box = cg.Box([-3.5, -3.5, -3.5], [3.5, 3.5, 3.5])                  # nodes at the integers -3..3
+    pos = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    contacts = cg.Contacts([0, 0], [1, 2], [[1.0, 0.5, 0.2], [0.3, 0.1, 0.2]],
+                           [[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]])
+    snap = cg.Snapshot(pos, np.zeros((3, 3)), np.ones(3), box=box, contacts=contacts)
+    grid = cg.Grid(box, (7, 7, 7))
+    kernel = cg.Gaussian(2.0 / 3.0, cutoff=2.0, line_quadrature=line_quadrature)   # node (2, 0, 0) on the sphere
+    fast = cg.coarse_grain(snap, grid, kernel, fields=("contact_stress",)).contact_stress
+    kernel._per_node = True
+    slow = cg.coarse_grain(snap, grid, kernel, fields=("contact_stress",)).contact_stress
+    assert np.isfinite(fast).all()
+    np.testing.assert_allclose(fast, slow, rtol=1e-12, atol=1e-12 * np.abs(slow).max())
