@@ -312,17 +312,20 @@ INLINE int plane_rows(double si, const double *dy, cg_index n1, cg_index jm, dou
     return 1;
 }
 
-/* The rows of one point's stencil (MODE_VALUE): node (i, j, k) is inside the
+/* The rows of one point's stencil: node (i, j, k) is inside the
    cutoff ball where dx[i] + dy[j] + dz[k] < R2 (the node-by-node path's test)
-   and receives (c gx[i] gy[j]) gz[k] times the values. Along each axis the
+   and receives (c gx[i] gy[j]) gz[k] times the values (node indices: node0 +
+   i stride_i + j stride_j + k; out has nv doubles per node in MODE_VALUE). Along each axis the
    squared distance falls and then rises, so the nodes inside the ball are an
    interval of every row (and the rows, an interval of every plane), around the
    node of least squared distance. */
-INLINE void rows_of_one_point(double *restrict out, cg_index stride_i, cg_index stride_j, cg_index n0, cg_index n1,
-                              cg_index n2, const double *restrict dx, const double *restrict dy,
-                              const double *restrict dz, const double *restrict gx, const double *restrict gy,
-                              const double *restrict gz, double c, double R2, const double *restrict v, int nv)
+INLINE void rows_of_one_point(const job *jb, double *out, cg_index obj, cg_index node0, cg_index stride_i,
+                              cg_index stride_j, cg_index n0, cg_index n1, cg_index n2, const double *restrict dx,
+                              const double *restrict dy, const double *restrict dz, const double *restrict gx,
+                              const double *restrict gy, const double *restrict gz, double c, double R2,
+                              const double *restrict v, int nv)
 {
+    const int add_values = jb->mode == MODE_VALUE; /* else each node's weight goes to cg_accumulate */
     const cg_index jm = argmin(dy, n1), km = argmin(dz, n2); /* the nodes of least squared distance */
     const double dz_min = dz[km];
     for (cg_index i = 0; i < n0; ++i) {
@@ -340,7 +343,11 @@ INLINE void rows_of_one_point(double *restrict out, cg_index stride_i, cg_index 
             while (b < n2 && s01 + dz[b] < R2) ++b;
             while (!(s01 + dz[b - 1] < R2)) --b;
             const double cij = ci * gy[j];
-            block_add(out + i * stride_i + j * stride_j + a * nv, cij, gz + a, b - a, v, nv);
+            const cg_index row0 = node0 + i * stride_i + j * stride_j; /* node k = 0 of the row */
+            if (add_values)
+                block_add(out + (row0 + a) * nv, cij, gz + a, b - a, v, nv);
+            else
+                for (cg_index k = a; k < b; ++k) cg_accumulate(jb, out, obj, row0 + k, cij * gz[k], NULL);
         }
     }
 }
@@ -647,25 +654,25 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     const double e2d[3] = {es[0], es[1], 0.0};
     const double L2_2d = es[0] * es[0] + es[1] * es[1];
     const double inv_L2_2d = L2_2d > 0.0 ? 1.0 / L2_2d : 0.0, inv_L2 = L2 > 0.0 ? 1.0 / L2 : 0.0;
-    const int by_points = !hybrid && jb->mode == MODE_VALUE;
-    if (by_points) {
-        const cg_index o_first = (first[0] * stride[0] + first[1] * stride[1] + first[2] * stride[2]) * jb->out_width;
+    if (!hybrid) {
+        const cg_index node0 = first[0] * stride[0] + first[1] * stride[1] + first[2] * stride[2];
 #ifdef HAVE_V4D
         /* 3 or more points: rows summed over the points first; 2 points: a pass
            each (measured on W1: 2 points 145 ms by passes, 175 by rows; 4 points
            280 ms by passes, 245 by rows) */
-        if (G > 2 && n2 <= 64) {
+        if (G > 2 && n2 <= 64 && jb->mode == MODE_VALUE) {
             double *const rows[2] = {row, row + n2 + ROW_PAD};
-            rows_of_rule(out + o_first, stride[0] * jb->out_width, stride[1] * jb->out_width, n0, n1, n2, G,
-                         (double *const(*)[3])d2, (double *const(*)[3])ex, gw, R2, rows, values, nv);
+            rows_of_rule(out + node0 * jb->out_width, stride[0] * jb->out_width, stride[1] * jb->out_width, n0, n1,
+                         n2, G, (double *const(*)[3])d2, (double *const(*)[3])ex, gw, R2, rows, values, nv);
             return 1;
         }
 #endif
         for (int g = 0; g < G; ++g)
-            rows_of_one_point(out + o_first, stride[0] * jb->out_width, stride[1] * jb->out_width, n0, n1, n2,
-                              d2[g][0], d2[g][1], d2[g][2], ex[g][0], ex[g][1], ex[g][2], gw[g], R2, values, nv);
+            rows_of_one_point(jb, out, obj, node0, stride[0], stride[1], n0, n1, n2, d2[g][0], d2[g][1], d2[g][2],
+                              ex[g][0], ex[g][1], ex[g][2], gw[g], R2, values, nv);
         return 1;
     }
+    /* the exact form (hybrid) */
     for (cg_index i = 0; i < n0; ++i) {
         double ci[CG_MAX_LINE_POINTS]; /* the rule's weights times the plane's */
         for (int g = 0; g < G; ++g) ci[g] = gw[g] * ex[g][0][i];
@@ -673,31 +680,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
             /* the nodes of the row that receive anything: row[k0..k1) */
             cg_index k0 = n2, k1 = 0;
             const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + first[2] * stride[2];
-            if (!hybrid) {
-                for (int g = 0; g < G; ++g) {
-                    const double s01 = d2[g][0][i] + d2[g][1][j];
-                    if (!(s01 < R2)) continue;
-                    /* the nodes inside rule point g's ball, by the node-by-node path's
-                       test; an interval, as the squared distance is convex along the row */
-                    const double *dz = d2[g][2], *gz = ex[g][2];
-                    cg_index a = 0, b = n2;
-                    while (a < b && !(s01 + dz[a] < R2)) ++a;
-                    while (b > a && !(s01 + dz[b - 1] < R2)) --b;
-                    if (a >= b) continue;
-                    if (k0 >= k1) {
-                        k0 = a;
-                        k1 = b;
-                        for (cg_index k = a; k < b; ++k) row[k] = 0.0;
-                    } else {
-                        for (cg_index k = a; k < k0; ++k) row[k] = 0.0;
-                        for (cg_index k = k1; k < b; ++k) row[k] = 0.0;
-                        if (a < k0) k0 = a;
-                        if (b > k1) k1 = b;
-                    }
-                    const double c = gw[g] * ex[g][0][i] * ex[g][1][j];
-                    for (cg_index k = a; k < b; ++k) row[k] += c * gz[k];
-                }
-            } else {
+            {
                 /* rows whose line misses the capsule carry nothing */
                 const double q2d[3] = {cslot[0][i], cslot[1][j], 0.0};
                 if (!(segment_distance2(q2d, e2d, inv_L2_2d) < R2_margin)) continue;
