@@ -87,7 +87,8 @@ def flowing_rows(snapshot, array):
 
 
 def _outer(a, b):
-    return (a[:, :, None] * b[:, None, :]).reshape(a.shape[0], a.shape[1] * b.shape[1])
+    """a outer b per row, flat (n, Da*Db)."""
+    return _outer_into(a, b, np.empty((a.shape[0], a.shape[1] * b.shape[1])))
 
 
 def check_computable(snapshot, needed, split=None):
