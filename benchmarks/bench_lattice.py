@@ -43,11 +43,14 @@ def main():
     parser.add_argument("--vectors", default="wide", help="wide (the default build) and/or narrow (AVX2/baseline)")
     parser.add_argument("--plot", help="write a bar chart of the medians to this PNG")
     args = parser.parse_args()
+    builds = args.vectors.split(",")
+    if not builds or any(b not in ("wide", "narrow") for b in builds):
+        parser.error(f"--vectors: expected wide and/or narrow, got {args.vectors!r}")
     snap = lattice()
     box = snap.box
     grids = {"W1": cg.Grid(box, (46, 46, 46)), "W2": cg.Grid(box, (1, 1, 100), average=("x", "y"))}
     rows = []
-    for vectors in args.vectors.split(","):
+    for vectors in builds:
         previous = _core.set_wide_vectors(vectors == "wide")
         try:
             run_tables(args, snap, grids, thread_list(args.threads), rows, vectors)
