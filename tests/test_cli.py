@@ -1,4 +1,9 @@
-"""The cgbound command line: demo and run."""
+"""The cgbound command line: demo and run; every error one line naming the flag, before any work."""
+import os
+import shutil
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -7,6 +12,10 @@ from cgbound.cli import main
 from helpers import random_snapshot
 
 h5py = pytest.importorskip("h5py")
+
+HOOKE3D = os.path.join(os.path.dirname(__file__), "data", "lammps", "hooke3d")
+ATOMS, PAIRS = os.path.join(HOOKE3D, "atoms.dump"), os.path.join(HOOKE3D, "pairs.dump")
+LAMMPS_ARGS = ["--pairs", PAIRS, "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1"]
 
 
 def test_demo_runs_fig3_on_the_shipped_chute(tmp_path, capsys):
@@ -35,35 +44,262 @@ def test_run_writes_the_same_fields_as_the_api(tmp_path, capsys):
         np.testing.assert_allclose(data["stress"], expected.stress, rtol=1e-13)
 
 
-def test_help_explains_every_option(capsys):
+def test_help_explains_every_option_with_an_example_per_format(capsys):
     with pytest.raises(SystemExit):
         main(["run", "--help"])
     text = capsys.readouterr().out
-    for option in ("--kernel", "--width", "--cutoff", "--grid", "--average", "--fields", "--convention", "example:"):
+    for option in ("--kernel", "--width", "--cutoff", "--grid", "--average", "--fields", "--convention",
+                   "--pair-values", "--pair-compute", "--fixed-types", "--fixed-ids", "--restart", "--masses",
+                   "--dt", "--walls", "--lower", "--upper", "--figure", "--debug", "examples"):
         assert option in text
+    for fmt in ("HDF5", "LAMMPS", "LIGGGHTS", "MercuryDPM", "MDAnalysis"):
+        assert fmt in text
 
 
-def test_run_reads_lammps_dumps(tmp_path, capsys):
-    import os
-    data = os.path.join(os.path.dirname(__file__), "data", "lammps", "hooke3d")
-    out = tmp_path / "profile.npz"
-    assert main(["run", os.path.join(data, "atoms.dump"), "--format", "lammps", "--pairs",
-                 os.path.join(data, "pairs.dump"), "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1",
-                 "--grid", "1,1,40", "--average", "x,y", "--fields", "density,interaction_force_density",
-                 "-o", str(out), "-q"]) == 0
+def lammps_expected(fields=("interaction_force_density",), grid_shape=(1, 1, 40), average=("x", "y"), box=None):
     from cgbound.readers import LammpsReader
-    frames = LammpsReader(os.path.join(data, "atoms.dump"), os.path.join(data, "pairs.dump"), fixed_types=[2],
-                          walls=["w"], body_force=[0, 0, -1])
-    grid = cg.Grid(frames[0].box, (1, 1, 40), average=("x", "y"))
-    expected = cg.CoarseGrain(frames, grid, cg.Gaussian(0.25), fields=("interaction_force_density",)).run().results
+    frames = LammpsReader(ATOMS, PAIRS, fixed_types=[2], walls=["w"], body_force=[0, 0, -1])
+    grid = cg.Grid(box or frames[0].box, grid_shape, average=average)
+    return cg.CoarseGrain(frames, grid, cg.Gaussian(0.25), fields=fields).run().results
+
+
+def test_run_reads_lammps_dumps_told_from_their_first_line(tmp_path):
+    out = tmp_path / "profile.npz"
+    assert main(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,40", "--average", "x,y", "--fields",
+                 "density,interaction_force_density", "-o", str(out), "-q"]) == 0
+    expected = lammps_expected()
     with np.load(out) as result:
         np.testing.assert_allclose(result["interaction_force_density"], expected.interaction_force_density,
                                    rtol=1e-13, atol=1e-15)
 
 
-@pytest.mark.parametrize("option", ["--output", "--png"])
-def test_demo_refuses_an_output_in_a_missing_directory_before_work(tmp_path, option):
-    target = str(tmp_path / "missing" / "x.out")
-    args = ["demo", "-q", option, target] + (["--output", str(tmp_path / "d.h5")] if option == "--png" else [])
-    with pytest.raises(SystemExit, match=option):
-        main(args)
+def split_frames(path, directory, stem, names):
+    """Write each frame of a LAMMPS dump to its own file (as ``dump ... stem.*`` does)."""
+    with open(path) as f:
+        text = f.read()
+    frames = ["ITEM: TIMESTEP" + part for part in text.split("ITEM: TIMESTEP")[1:]]
+    out = []
+    for frame, name in zip(frames, names):
+        target = directory / f"{stem}.{name}.dump"
+        target.write_text(frame)
+        out.append(target)
+    return out
+
+
+def test_run_reads_per_frame_files_by_pattern_in_numeric_order(tmp_path):
+    # numbers whose string order differs from their numeric order: 900 < 1000 < 20000
+    names = ["900", "1000", "20000"]
+    split_frames(ATOMS, tmp_path, "atoms", names)
+    split_frames(PAIRS, tmp_path, "pairs", names)
+    out = tmp_path / "p.npz"
+    assert main(["run", str(tmp_path / "atoms.*.dump"), "--pairs", str(tmp_path / "pairs.*.dump"), "--fixed-types",
+                 "2", "--walls", "w", "--gravity", "0,0,-1", "--grid", "1,1,40", "--average", "x,y", "--fields",
+                 "interaction_force_density", "--time-average", "none", "-o", str(out), "-q"]) == 0
+    from cgbound.readers import LammpsReader
+    frames = LammpsReader(ATOMS, PAIRS, fixed_types=[2], walls=["w"], body_force=[0, 0, -1])
+    grid = cg.Grid(frames[0].box, (1, 1, 40), average=("x", "y"))
+    expected = cg.CoarseGrain(frames, grid, cg.Gaussian(0.25), fields=("interaction_force_density",),
+                              time_average="none").run().results
+    with np.load(out) as result:
+        np.testing.assert_array_equal(result["interaction_force_density"], expected.interaction_force_density)
+
+
+def test_run_refuses_files_whose_numbers_contradict_their_timesteps(tmp_path, capsys):
+    # the first frame (timestep 4500) named 2, the second named 1: numeric order is not time order
+    split_frames(ATOMS, tmp_path, "atoms", ["2", "1"])
+    assert main(["run", str(tmp_path / "atoms.*.dump"), "--grid", "1,1,5", "--average", "x,y", "--fields",
+                 "density", "-o", str(tmp_path / "x.npz"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "do not come after" in err and "timestep" in err
+
+
+@pytest.mark.parametrize("ext, magic", [(".png", b"\x89PNG"), (".pdf", b"%PDF"), (".svg", b"<?xml")])
+def test_figure_format_follows_the_extension(tmp_path, ext, magic):
+    pytest.importorskip("matplotlib")
+    fig = tmp_path / f"f{ext}"
+    assert main(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,40", "--average", "x,y", "--fields",
+                 "density,stress", "-o", str(tmp_path / "p.npz"), "--figure", str(fig), "-q"]) == 0
+    assert fig.read_bytes().startswith(magic)
+
+
+def test_run_grid_extent_from_lower_and_upper(tmp_path):
+    out = tmp_path / "p.npz"
+    assert main(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,20", "--average", "x,y", "--lower", ",,1",
+                 "--upper", ",,5", "--fields", "density", "-o", str(out), "-q"]) == 0
+    from cgbound.readers import LammpsReader
+    box = LammpsReader(ATOMS)[0].box
+    expected = lammps_expected(("density",), (1, 1, 20), ("x", "y"), cg.Box([0, 0, 1], [6, 6, 5]))
+    with np.load(out) as result:
+        np.testing.assert_array_equal(result["density"], expected.density)
+        np.testing.assert_allclose(result["coordinates"][0, 0, [0, -1], 2], [1.1, 4.9])
+    assert box.upper[2] == 10
+
+
+def test_pair_values_name_a_reordered_pair_dump(tmp_path):
+    # the same contacts written as compute pair/local fx fy fz p1 p2 p3 p4 dist (its header says only c_pl[k])
+    lines = open(PAIRS).read().splitlines()
+    out_lines, in_entries = [], False
+    for line in lines:
+        if line.startswith("ITEM:"):
+            in_entries = line.startswith("ITEM: ENTRIES")
+            out_lines.append(line)
+        elif in_entries:
+            w = line.split()
+            out_lines.append(" ".join(w[:3] + w[4:11] + [w[3]]))
+        else:
+            out_lines.append(line)
+    reordered = tmp_path / "pairs_reordered.dump"
+    reordered.write_text("\n".join(out_lines) + "\n")
+    out = tmp_path / "p.npz"
+    args = ["run", ATOMS, "--pairs", str(reordered), "--pair-values", "fx,fy,fz,p1,p2,p3,p4,dist", "--fixed-types",
+            "2", "--walls", "w", "--gravity", "0,0,-1", "--grid", "1,1,40", "--average", "x,y", "--fields",
+            "interaction_force_density,contact_stress", "-o", str(out), "-q"]
+    assert main(args) == 0
+    expected = lammps_expected(("interaction_force_density", "contact_stress"))
+    with np.load(out) as result:
+        np.testing.assert_array_equal(result["contact_stress"], expected.contact_stress)
+
+
+def run_error(args, capsys):
+    status = main(args)
+    err = capsys.readouterr().err
+    return status, err
+
+
+BAD = [
+    (["--gravity", "0,-1"], "--gravity", "expected 3 comma-separated numbers for 3-D data, got '0,-1'"),
+    (["--gravity", "0,0,abc"], "--gravity", "'abc' is not a number"),
+    (["--grid", "1,1"], "--grid", "expected 3"),
+    (["--grid", "1,0,4"], "--grid", "positive"),
+    (["--average", "q"], "--average", "axis names"),
+    (["--width", "-1"], "--width", "positive"),
+    (["--width", "abc"], "--width", "not a number"),
+    (["--cutoff", "nan"], "--cutoff", "finite"),
+    (["--fields", "density,nonsense"], "--fields", "unknown field 'nonsense'"),
+    (["--time-average", "soon"], "--time-average", "expected mean, none"),
+    (["--step", "0"], "--step", "non-zero"),
+    (["--fixed-types", "3"], "--fixed-types", "select no particle"),
+    (["--fixed-ids", "100000"], "--fixed-ids", "not in the first frame"),
+    (["--restart", "/nonexistent/x.restart"], "--restart", "no such file"),
+    (["--density", "2"], "--density", "applies to mercury"),
+    (["--lower", "0,0"], "--lower", "expected 3"),
+    (["--lower", "1,,"], "--lower", "averaged"),
+    (["--upper", ",,-5"], "--upper", "lower < upper"),
+    (["--masses", "1:2"], "--masses", "TYPE=MASS"),
+    (["--dt", "0"], "--dt", "positive"),
+    (["--figure", "x.jpg"], "--figure", ".png, .pdf, .svg"),
+    (["--figure-fields", "density"], "--figure-fields", "without --figure"),
+    (["--pairs", "/nonexistent/p.dump"], "--pairs", "no such file"),
+]
+
+
+@pytest.mark.parametrize("extra, flag, text", BAD, ids=[b[1] + ":" + " ".join(b[0]) for b in BAD])
+def test_every_error_is_one_line_naming_the_flag_with_status_2(tmp_path, capsys, extra, flag, text):
+    out = tmp_path / "never.npz"
+    base = {"--fixed-types": "2", "--walls": "w", "--gravity": "0,0,-1", "--grid": "1,1,10", "--average": "x,y",
+            "--fields": "density"}
+    merged = dict(base)
+    for k in range(0, len(extra), 2):
+        merged[extra[k]] = extra[k + 1]
+    args = ["run", ATOMS, "--pairs", merged.pop("--pairs", PAIRS), "-o", str(out), "-q"]
+    for key, value in merged.items():
+        args += [key, value]
+    status, err = run_error(args, capsys)
+    assert status == 2
+    assert err.startswith(f"cgbound: error: {flag}: ") and text in err, err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_figure_on_a_grid_with_three_resolved_axes_is_refused_before_work(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    out = tmp_path / "never.npz"
+    status, err = run_error(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "4,4,4", "--fields", "density",
+                                                            "--figure", str(tmp_path / "f.png"), "-o", str(out)],
+                            capsys)
+    assert status == 2 and err.startswith("cgbound: error: --figure: ") and not out.exists()
+
+
+def test_a_flag_of_another_format_is_an_error_not_ignored(tmp_path, capsys):
+    snaps = [random_snapshot(1, dim=3)]
+    cg.readers.write_snapshots(tmp_path / "in.h5", snaps)
+    status, err = run_error(["run", str(tmp_path / "in.h5"), "--fixed-types", "2", "-o", str(tmp_path / "o.npz")],
+                            capsys)
+    assert status == 2 and "--fixed-types: applies to lammps, liggghts input, not to hdf5 input" in err
+
+
+def test_unknown_format_and_gzip_are_named(tmp_path, capsys):
+    junk = tmp_path / "junk.txt"
+    junk.write_text("hello\n")
+    status, err = run_error(["run", str(junk), "-o", str(tmp_path / "o.npz")], capsys)
+    assert status == 2 and err.startswith("cgbound: error: --format: ") and "junk.txt" in err
+    import gzip
+    gz = tmp_path / "atoms.dump.gz"
+    gz.write_bytes(gzip.compress(open(ATOMS, "rb").read()))
+    status, err = run_error(["run", str(gz), "-o", str(tmp_path / "o.npz")], capsys)
+    assert status == 2 and "gzip" in err
+
+
+def test_missing_input_and_empty_pattern_are_named(tmp_path, capsys):
+    status, err = run_error(["run", str(tmp_path / "none.dump"), "-o", str(tmp_path / "o.npz")], capsys)
+    assert status == 2 and "no such file" in err
+    status, err = run_error(["run", str(tmp_path / "none.*.dump"), "-o", str(tmp_path / "o.npz")], capsys)
+    assert status == 2 and "matches no file" in err
+
+
+def test_argparse_errors_are_one_line_with_status_2(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["run", ATOMS, "--kernel", "cubic"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("cgbound: error: argument --kernel: invalid choice") and err.count("\n") == 1
+
+
+def test_data_errors_exit_1_without_traceback_and_debug_shows_it(tmp_path, capsys):
+    bad = tmp_path / "atoms.dump"
+    text = open(ATOMS).read().replace("ITEM: ATOMS id type", "ITEM: ATOMS idx type", 1)
+    bad.write_text(text)
+    args = ["run", str(bad), "--grid", "1,1,5", "--average", "x,y", "--fields", "density", "-o",
+            str(tmp_path / "o.npz"), "-q"]
+    status, err = run_error(args, capsys)
+    assert status in (1, 2) and err.startswith("cgbound: error: ") and "Traceback" not in err and "id" in err
+    with pytest.raises(Exception):
+        main(args + ["--debug"])
+
+
+def test_the_installed_command_prints_no_traceback(tmp_path):
+    exe = shutil.which("cgbound")
+    cmd = [exe] if exe else [sys.executable, "-m", "cgbound"]
+    proc = subprocess.run(cmd + ["run", ATOMS, "--gravity", "0,-1", "-o", str(tmp_path / "o.npz")],
+                          capture_output=True, text=True, cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == ("cgbound: error: --gravity: expected 3 comma-separated numbers for 3-D data, "
+                                   "got '0,-1'")
+
+
+def test_contact_fields_without_a_contact_file_warn(tmp_path, capsys):
+    assert main(["run", ATOMS, "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1", "--grid", "1,1,10",
+                 "--average", "x,y", "--fields", "stress", "-o", str(tmp_path / "o.npz"), "-q"]) == 0
+    assert "warning: no contact file (--pairs)" in capsys.readouterr().err
+
+
+def test_mercury_companion_files_are_used_and_announced(tmp_path, capsys):
+    snaps = [random_snapshot(k, dim=3, n_wall=0) for k in range(2)]
+    from cgbound.readers import write_mercury
+    write_mercury(snaps, tmp_path / "m.data", tmp_path / "m.fstat")
+    out = tmp_path / "o.npz"
+    status = main(["run", str(tmp_path / "m.data"), "--density", "1.0", "--fixed-ids",
+                   ",".join(str(k) for k in np.flatnonzero(snaps[0].fixed)), "--grid", "1,1,10", "--average", "x,y",
+                   "--fields", "density,contact_stress", "-o", str(out), "-q"])
+    err = capsys.readouterr().err
+    assert status == 0, err
+    assert "contacts from m.fstat" in err
+
+
+@pytest.mark.parametrize("option", ["--output", "--figure"])
+def test_demo_refuses_an_output_in_a_missing_directory_before_work(tmp_path, capsys, option):
+    target = str(tmp_path / "missing" / ("x.png" if option == "--figure" else "x.h5"))
+    args = ["demo", "-q", option, target] + (["--output", str(tmp_path / "d.h5")] if option == "--figure" else [])
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"cgbound: error: {option}: directory") and not (tmp_path / "d.h5").exists()

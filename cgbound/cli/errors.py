@@ -1,0 +1,47 @@
+"""Errors of the command line: one line naming the flag, never a traceback (unless --debug)."""
+import contextlib
+import re
+
+
+class UsageError(Exception):
+    """A command-line argument that cannot be used; ``flag`` names it as the user typed it."""
+
+    def __init__(self, flag, message):
+        super().__init__(f"{flag}: {message}" if flag else message)
+        self.flag = flag
+
+
+#: the API's argument names and the flags that set them, so that an API error names what the user typed
+API_FLAGS = {
+    "body_force": "--gravity", "shape": "--grid", "average": "--average", "width": "--width",
+    "cutoff": "--cutoff", "radius": "--cutoff", "normalize": "--normalize", "fields": "--fields",
+    "convention": "--convention", "time_average": "--time-average", "start": "--start", "stop": "--stop",
+    "step": "--step", "pairs": "--pairs", "fstat_path": "--pairs", "restart_path": "--restart",
+    "fixed_types": "--fixed-types", "fixed_ids": "--fixed-ids", "fixed": "--fixed-ids", "walls": "--walls",
+    "masses": "--masses", "dt": "--dt", "dimension": "--dimension", "dim": "--dimension",
+    "density": "--density", "pair_values": "--pair-values", "pair_compute": "--pair-compute",
+    "pair_style": "--pair-style", "species": "--species", "lower": "--lower", "upper": "--upper",
+}
+
+_LEADING_NAME = re.compile(r"^([A-Za-z_][A-Za-z0-9_.]*): ")
+
+
+def flag_of(message):
+    """The flag an API message is about (its leading ``name:``), or None."""
+    match = _LEADING_NAME.match(message)
+    return API_FLAGS.get(match.group(1)) if match else None
+
+
+@contextlib.contextmanager
+def as_usage(default_flag=None):
+    """Turn the API's ValueError/TypeError into a UsageError naming the flag behind its argument
+    (the message's leading ``name:``), else ``default_flag``."""
+    try:
+        yield
+    except (ValueError, TypeError, OverflowError) as exc:
+        message = str(exc)
+        match = _LEADING_NAME.match(message)
+        flag = API_FLAGS.get(match.group(1)) if match else None
+        if flag is not None:
+            raise UsageError(flag, message[match.end():]) from exc
+        raise UsageError(default_flag, message) from exc

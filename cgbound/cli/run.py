@@ -1,0 +1,423 @@
+"""``cgbound run``: read a dataset, coarse-grain it, write the fields (and a figure).
+
+Every argument is checked before any work: first what the text alone decides (numbers, names, file
+names and extensions), then, once the first frame's header is read, what depends on the data
+(dimension, axes, the types and IDs that fixed particles are selected by).
+"""
+import os
+import sys
+import time
+
+import numpy as np
+
+from .errors import UsageError, as_usage
+from .figures import check_matplotlib, figure_format, save_figure
+from .values import existing_file, integers, numbers, output_directory_exists, positive_number, split_list, type_masses
+
+KERNELS = ("gaussian", "lucy", "heaviside")
+OUTPUTS = (".h5", ".hdf5", ".npz", ".vtk")
+FORMATS = ("hdf5", "lammps", "liggghts", "mdanalysis", "mercury")
+
+#: reader flags and the formats they apply to (a flag given for another format is an error, not ignored)
+FLAG_FORMATS = {
+    "pairs": ("lammps", "liggghts", "mercury"), "pair_style": ("lammps",),
+    "pair_compute": ("lammps", "liggghts"), "pair_values": ("lammps", "liggghts"),
+    "fixed_types": ("lammps", "liggghts"), "fixed_ids": ("lammps", "liggghts", "mercury"),
+    "walls": ("lammps",), "masses": ("lammps", "liggghts"), "dt": ("lammps", "liggghts"),
+    "dimension": ("lammps", "liggghts"), "restart": ("mercury",), "density": ("mercury",),
+    "gravity": ("lammps", "liggghts", "mercury"),
+}
+
+EXAMPLES = """\
+examples, one per format:
+  cgbound HDF5 (cgbound.readers.write_snapshots), a depth profile:
+    cgbound run chute.h5 --grid 1,1,400 --average x,y --width 0.25 \\
+        --fields density,stress,interaction_force_density -o profile.h5 --figure profile.pdf
+  LAMMPS (dump custom + dump local of compute property/local patom1 patom2 and pair/local), per-frame files:
+    cgbound run 'atoms.*.dump' --pairs 'pairs.*.dump' --pair-values dist,fx,fy,fz,p1,p2,p3,p4 \\
+        --fixed-types 2 --walls floor --gravity 0,0,-1 --grid 1,1,200 --average x,y -o profile.h5
+  LIGGGHTS (compute pair/gran/local with ID pgl2):
+    cgbound run atoms.dump --format liggghts --pairs pairs.dump --pair-compute pgl2 --fixed-types 2 \\
+        --gravity 0,0,-9.81 --grid 20,20,40 -o fields.h5
+  MercuryDPM (name.fstat and name.restart next to name.data are used when present):
+    cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1.5 --grid 1,1,100 --average x,y \\
+        -o chute.h5
+  MDAnalysis (topology and trajectory):
+    cgbound run topol.tpr traj.xtc --format mdanalysis --grid 40,40,40 --fields density -o density.npz
+
+Exit status: 0 on success, 2 for an argument that cannot be used (the message names the flag),
+1 for data that cannot be read or coarse-grained. --debug shows the traceback.
+"""
+
+
+def add_parser(sub):
+    import argparse
+
+    r = sub.add_parser("run", help="coarse-grain a dataset and write the fields",
+                       description="Read snapshots (cgbound HDF5, LAMMPS or LIGGGHTS dumps, MercuryDPM output, "
+                                   "MDAnalysis trajectories), coarse-grain them and write HDF5, .npz or VTK.",
+                       epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    r.add_argument("paths", nargs="+", metavar="PATH",
+                   help="the dataset: a file, several files or a quoted glob pattern ('dump.*'), ordered by the "
+                        "numbers in their names")
+    r.add_argument("--format", choices=FORMATS, help="input format (default: told from the first file)")
+    g = r.add_argument_group("LAMMPS, LIGGGHTS and MercuryDPM input")
+    g.add_argument("--pairs", metavar="PATH", help="the contact dump local (LAMMPS, LIGGGHTS) or the .fstat file "
+                                                   "(MercuryDPM); a pattern for per-frame files")
+    g.add_argument("--pair-style", choices=["gran", "granular", "total"],
+                   help="lammps: pair style family that wrote the contact dump (default gran)")
+    g.add_argument("--pair-compute", metavar="ID", help="lammps/liggghts: the ID of compute pair/local "
+                                                        "(default pl) or pair/gran/local (default pgl)")
+    g.add_argument("--pair-values", metavar="LIST",
+                   help="lammps/liggghts: the keywords of the pair compute in order, e.g. fx,fy,fz,p1,p2,p3,p4,dist")
+    g.add_argument("--fixed-types", metavar="LIST", help="lammps/liggghts: atom types of fixed particles, e.g. 2")
+    g.add_argument("--fixed-ids", metavar="LIST",
+                   help="atom IDs (lammps/liggghts) or particle indices (mercury) of fixed particles")
+    g.add_argument("--walls", metavar="LIST", help="lammps: IDs of fix wall/gran ... contacts, e.g. floor")
+    g.add_argument("--gravity", metavar="VECTOR", help="body force per unit mass on flowing particles, e.g. 0,0,-1")
+    g.add_argument("--masses", metavar="TYPE=MASS,...",
+                   help="lammps/liggghts: masses per atom type when the dump has no mass column")
+    g.add_argument("--dt", metavar="DT", help="lammps/liggghts: time step size (time = timestep x dt)")
+    g.add_argument("--dimension", type=int, choices=[2, 3], help="lammps/liggghts: dimension of the run "
+                                                                  "(default 3)")
+    g.add_argument("--restart", metavar="PATH", help="mercury: the .restart file (fixed particles, densities, "
+                                                     "periodic axes)")
+    g.add_argument("--density", metavar="RHO", help="mercury: particle material density (masses from radii)")
+    k = r.add_argument_group("kernel and grid")
+    k.add_argument("--kernel", choices=KERNELS, default="gaussian", help="coarse-graining kernel (default gaussian)")
+    k.add_argument("--width", default="0.25", help="Gaussian width w, also the default scale of the others (default 0.25)")
+    k.add_argument("--cutoff", default=None, help="support radius (Gaussian default 5 w; Lucy 3 w; Heaviside w)")
+    k.add_argument("--normalize", choices=["full", "truncated"], default="full", help="Gaussian normalisation (default full)")
+    k.add_argument("--grid", default="20,20,20", help="nodes per axis, e.g. 1,1,400 (averaged axes take 1; default 20,20,20)")
+    k.add_argument("--average", default="", help="averaged axes, e.g. x,y")
+    k.add_argument("--lower", default=None, metavar="VECTOR",
+                   help="the grid's lower corner (default the data's box; empty entries keep the box: ,,0)")
+    k.add_argument("--upper", default=None, metavar="VECTOR", help="the grid's upper corner (as --lower)")
+    f = r.add_argument_group("fields and time")
+    f.add_argument("--fields", default="density,velocity,stress", help="comma-separated field names (default density,velocity,stress)")
+    f.add_argument("--convention", choices=["tension", "compression"], default="tension", help="stress sign: tension-positive (the paper) or compression-positive (MercuryCG); default tension")
+    f.add_argument("--species", type=int, default=None, help="partial fields of this species")
+    f.add_argument("--time-average", default="mean", help="mean (default), none (every frame), or a Gaussian time width")
+    f.add_argument("--start", type=int, default=None, help="first frame")
+    f.add_argument("--stop", type=int, default=None, help="stop before this frame")
+    f.add_argument("--step", type=int, default=None, help="frame step")
+    o = r.add_argument_group("output")
+    o.add_argument("-o", "--output", default="cgbound_fields.h5", help="output file: .h5, .npz or .vtk (default cgbound_fields.h5)")
+    o.add_argument("--figure", "--png", dest="figure", default=None, metavar="FILE",
+                   help="also plot the fields (profiles or maps) to FILE: .png, .pdf or .svg")
+    o.add_argument("--figure-fields", default=None, metavar="LIST",
+                   help="the fields to plot (default: every field of --fields)")
+    o.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    r.set_defaults(func=run, check=check)
+    return r
+
+
+# --- checks that need only the text ------------------------------------------------------------------
+
+def check(args):
+    """Every argument that the text alone decides, before anything is read."""
+    from ..fields import FIELDS
+    ext = os.path.splitext(args.output)[1].lower()
+    if ext not in OUTPUTS:
+        raise UsageError("--output", f"expected a file name ending in {', '.join(OUTPUTS)}, got {args.output!r}")
+    output_directory_exists(args.output, "--output")
+    args.fields = split_list(args.fields)
+    if not args.fields:
+        raise UsageError("--fields", "expected at least one field name")
+    for name in args.fields:
+        if name not in FIELDS:
+            raise UsageError("--fields", f"unknown field {name!r}; expected some of {', '.join(FIELDS)}")
+    args.width = positive_number(args.width, "--width")
+    args.cutoff = None if args.cutoff is None else positive_number(args.cutoff, "--cutoff")
+    args.grid = integers(args.grid, "--grid", positive=True, allow_x=True)
+    args.average = tuple(split_list(args.average))
+    if args.time_average not in ("mean", "none"):
+        try:
+            width = float(args.time_average)
+        except ValueError:
+            raise UsageError("--time-average", f"expected mean, none or a positive time width, "
+                                               f"got {args.time_average!r}") from None
+        if not (np.isfinite(width) and width > 0):
+            raise UsageError("--time-average", f"expected mean, none or a positive time width, got {args.time_average!r}")
+        args.time_average = width
+    if args.step == 0:
+        raise UsageError("--step", "expected a non-zero integer")
+    args.lower = None if args.lower is None else numbers(args.lower, "--lower", allow_empty=True)
+    args.upper = None if args.upper is None else numbers(args.upper, "--upper", allow_empty=True)
+    if args.figure:
+        args.figure_format = figure_format(args.figure, "--figure")
+        check_matplotlib("--figure")
+        args.figure_fields = split_list(args.figure_fields) if args.figure_fields else list(args.fields)
+        for name in args.figure_fields:
+            if name not in args.fields:
+                raise UsageError("--figure-fields", f"{name!r} is not among --fields ({', '.join(args.fields)})")
+        if args.time_average != "mean":
+            raise UsageError("--figure", "a figure shows one result: use --time-average mean (the default)")
+    elif args.figure_fields:
+        raise UsageError("--figure-fields", "given without --figure")
+    args.gravity = None if args.gravity is None else numbers(args.gravity, "--gravity")
+    args.fixed_types = None if args.fixed_types is None else integers(args.fixed_types, "--fixed-types")
+    args.fixed_ids = None if args.fixed_ids is None else integers(args.fixed_ids, "--fixed-ids")
+    args.walls = None if args.walls is None else split_list(args.walls)
+    args.pair_values = None if args.pair_values is None else split_list(args.pair_values)
+    args.masses = None if args.masses is None else type_masses(args.masses)
+    args.dt = None if args.dt is None else positive_number(args.dt, "--dt")
+    args.density = None if args.density is None else positive_number(args.density, "--density")
+    for name in ("restart",):
+        if getattr(args, name):
+            existing_file(getattr(args, name), "--" + name.replace("_", "-"))
+
+
+# --- opening the dataset -----------------------------------------------------------------------------
+
+def input_files(args):
+    from ..readers.files import expand_paths
+    try:
+        if args.format == "mdanalysis":
+            return [existing_file(p, "PATH") for p in args.paths]
+        return expand_paths(args.paths, "PATH")
+    except (OSError, ValueError) as exc:
+        raise UsageError(None, str(exc)) from None
+
+
+def data_format(args, paths):
+    from ..readers.sniff import sniff_format
+    if args.format:
+        return args.format
+    try:
+        return sniff_format(paths[0])
+    except ValueError as exc:
+        raise UsageError("--format", str(exc)) from None
+
+
+def check_flags_apply(args, fmt):
+    for name, formats in FLAG_FORMATS.items():
+        if getattr(args, name) is not None and fmt not in formats:
+            flag = "--" + name.replace("_", "-")
+            raise UsageError(flag, f"applies to {', '.join(formats)} input, not to {fmt} input")
+
+
+def companion(path, old, new):
+    """``name.fstat`` for ``name.data`` (``name.fstat.3`` for ``name.data.3``), if it exists."""
+    base = os.path.basename(path)
+    head, sep, tail = base.rpartition(old)
+    if not sep:
+        return None
+    candidate = os.path.join(os.path.dirname(path), head + new + tail)
+    return candidate if os.path.isfile(candidate) else None
+
+
+def pair_files(args, paths, fmt):
+    """One contact file per particle file (or None each)."""
+    if args.pairs is None:
+        if fmt == "mercury":
+            found = [companion(p, ".data", ".fstat") for p in paths]
+            if all(found):
+                print(f"cgbound: contacts from {', '.join(os.path.basename(f) for f in found[:3])}"
+                      f"{' ...' if len(found) > 3 else ''}", file=sys.stderr)
+                return found
+        return [None] * len(paths)
+    from ..readers.files import expand_paths
+    try:
+        pairs = expand_paths([args.pairs], "--pairs")
+    except (OSError, ValueError) as exc:
+        raise UsageError(None, str(exc)) from None
+    if len(pairs) != len(paths):
+        raise UsageError("--pairs", f"expected one contact file per particle file ({len(paths)}), got {len(pairs)}: "
+                                    f"{', '.join(map(os.path.basename, pairs[:4]))}")
+    return pairs
+
+
+def mercury_dimension(path):
+    with open(path, "rb") as f:
+        words = f.readline().split()
+    return 2 if len(words) == 6 else 3
+
+
+def check_gravity(args, fmt, paths):
+    if args.gravity is None:
+        return None
+    dim = (args.dimension or 3) if fmt in ("lammps", "liggghts") else mercury_dimension(paths[0])
+    allowed = (2, 3) if dim == 2 else (3,)
+    if len(args.gravity) not in allowed:
+        text = ",".join(f"{g:g}" for g in args.gravity)
+        raise UsageError("--gravity", f"expected {dim} comma-separated numbers for {dim}-D data, got {text!r}")
+    return args.gravity
+
+
+def reader_options(args, fmt, paths):
+    """The reader keywords of the flags given."""
+    options = {}
+    gravity = check_gravity(args, fmt, paths)
+    if gravity is not None:
+        options["body_force"] = gravity
+    if fmt in ("lammps", "liggghts"):
+        for name in ("pair_compute", "pair_values", "fixed_types", "fixed_ids", "masses", "dt", "dimension"):
+            if getattr(args, name) is not None:
+                options[name] = getattr(args, name)
+        if fmt == "lammps":
+            if args.pair_style is not None:
+                options["pair_style"] = args.pair_style
+            if args.walls is not None:
+                options["walls"] = args.walls
+    elif fmt == "mercury":
+        if args.fixed_ids is not None:
+            options["fixed"] = args.fixed_ids
+        if args.density is not None:
+            options["density"] = args.density
+    return options
+
+
+def open_data(args):
+    """The dataset as one frame sequence, with every reader flag checked against the format."""
+    from ..readers import HDF5Snapshots, LammpsReader, LiggghtsReader, MDAnalysisReader, MercuryReader
+    from ..readers.files import ConcatenatedFrames
+    paths = input_files(args)
+    fmt = data_format(args, paths)
+    check_flags_apply(args, fmt)
+    if fmt == "mdanalysis":
+        with as_usage("PATH"):
+            return MDAnalysisReader(tuple(paths) if len(paths) > 1 else paths[0]), fmt, paths
+    options = reader_options(args, fmt, paths)
+    pairs = pair_files(args, paths, fmt) if fmt != "hdf5" else [None] * len(paths)
+    readers = []
+    for path, pair in zip(paths, pairs):
+        with as_usage("PATH"):
+            if fmt == "hdf5":
+                readers.append(HDF5Snapshots(path))
+            elif fmt == "lammps":
+                readers.append(LammpsReader(path, pair, **options))
+            elif fmt == "liggghts":
+                readers.append(LiggghtsReader(path, pair, **options))
+            else:
+                restart = args.restart or companion(path, ".data", ".restart")
+                readers.append(MercuryReader(path, pair, restart_path=restart, **options))
+    if fmt == "mercury" and args.restart is None and companion(paths[0], ".data", ".restart"):
+        print(f"cgbound: fixed particles, densities and periodic axes from "
+              f"{os.path.basename(companion(paths[0], '.data', '.restart'))}", file=sys.stderr)
+    try:
+        data = readers[0] if len(readers) == 1 else ConcatenatedFrames(readers, "PATH")
+    except ValueError as exc:
+        raise UsageError(None, str(exc)) from None
+    if len(data) == 0:
+        raise UsageError("PATH", f"{', '.join(paths[:3])}: no frames")
+    return data, fmt, paths
+
+
+# --- checks that need the first frame ----------------------------------------------------------------
+
+def check_selection(args, data, fmt):
+    """Fixed types and IDs must select particles in the first frame (a selection of nothing is an error)."""
+    if fmt not in ("lammps", "liggghts") or not (args.fixed_types or args.fixed_ids):
+        return
+    reader = data.readers[0] if hasattr(data, "readers") else data
+    frame = reader.frame(0)
+    if args.fixed_types:
+        present = sorted(set(np.asarray(frame.types).tolist()))
+        missing = [t for t in args.fixed_types if t not in present]
+        if missing:
+            raise UsageError("--fixed-types", f"type(s) {missing} select no particle in the first frame "
+                                              f"(types present: {present})")
+    if args.fixed_ids:
+        ids = set(np.asarray(frame.ids).tolist())
+        missing = [i for i in args.fixed_ids if i not in ids]
+        if missing:
+            raise UsageError("--fixed-ids", f"ID(s) {missing[:10]} are not in the first frame "
+                                            f"(IDs {min(ids)} ... {max(ids)})")
+
+
+def make_grid(args, first):
+    from ..box import Box
+    from ..grid import Grid
+    dim, box = first.dim, first.box
+    with as_usage("--average"):
+        names = box.axis_names
+        for a in args.average:
+            if a not in names:
+                raise UsageError("--average", f"expected axis names of {dim}-D data ({', '.join(names)}), got {a!r}")
+    if len(args.grid) not in (1, dim):
+        raise UsageError("--grid", f"expected {dim} comma-separated node counts for {dim}-D data (or one for every "
+                                   f"resolved axis), got {','.join(map(str, args.grid))!r}")
+    shape = args.grid[0] if len(args.grid) == 1 else tuple(args.grid)
+    lower, upper = box.lower.copy(), box.upper.copy()
+    for flag, given, corner in (("--lower", args.lower, lower), ("--upper", args.upper, upper)):
+        if given is None:
+            continue
+        if len(given) != dim:
+            raise UsageError(flag, f"expected {dim} comma-separated numbers for {dim}-D data "
+                                   f"(empty entries keep the box), got {len(given)}")
+        for d, value in enumerate(given):
+            if value is None:
+                continue
+            if names[d] in args.average and value != corner[d]:
+                raise UsageError(flag, f"axis {names[d]} is averaged over the data's box "
+                                       f"[{box.lower[d]:g}, {box.upper[d]:g}]; leave its entry empty")
+            corner[d] = value
+    if np.any(upper <= lower):
+        raise UsageError("--lower" if args.lower is not None else "--upper",
+                         f"expected lower < upper on every axis, got lower {lower.tolist()} and upper {upper.tolist()}")
+    with as_usage("--grid"):
+        grid_box = box if args.lower is None and args.upper is None else Box(lower, upper)
+        return Grid(grid_box, shape, average=args.average)
+
+
+def make_kernel(args):
+    from ..kernels import Gaussian, Heaviside, Lucy
+    flag = "--cutoff" if args.cutoff is not None else "--width"
+    with as_usage(flag):
+        if args.kernel == "gaussian":
+            return Gaussian(args.width, cutoff=args.cutoff, normalize=args.normalize)
+        if args.kernel == "lucy":
+            return Lucy(args.cutoff if args.cutoff is not None else 3 * args.width)
+        return Heaviside(args.cutoff if args.cutoff is not None else args.width)
+
+
+def check_figure(args, grid):
+    if args.figure and len(grid.resolved) not in (1, 2):
+        raise UsageError("--figure", f"a figure shows profiles (one resolved axis) or maps (two); the grid "
+                                     f"{grid!r} resolves {len(grid.resolved)}: average over more axes (--average)")
+
+
+def warn_missing_contacts(args, data, fmt):
+    from ..fields import FIELDS
+    contact_fields = [f for f in args.fields if set(FIELDS[f][1]) & {"sb", "sw", "t", "sx"}]
+    if contact_fields and fmt in ("lammps", "liggghts", "mercury") and args.pairs is None \
+            and getattr(data, "pairs_path", 1) is None:
+        print(f"cgbound: warning: no contact file (--pairs): {', '.join(contact_fields)} will hold no bulk "
+              f"contact stress", file=sys.stderr)
+
+
+# --- the command ----------------------------------------------------------------------------------------
+
+def run(args):
+    from ..coarse import CoarseGrain
+    data, fmt, paths = open_data(args)
+    first = data[0]
+    check_selection(args, data, fmt)
+    grid = make_grid(args, first)
+    kernel = make_kernel(args)
+    check_figure(args, grid)
+    warn_missing_contacts(args, data, fmt)
+    with as_usage("--fields"):
+        analysis = CoarseGrain(data, grid, kernel, fields=args.fields, convention=args.convention,
+                               species=args.species, time_average=args.time_average)
+    start = time.perf_counter()
+    analysis.run(args.start, args.stop, args.step, verbose=not args.quiet)
+    elapsed = time.perf_counter() - start
+    out = analysis.results
+    ext = os.path.splitext(args.output)[1].lower()
+    if ext in (".h5", ".hdf5"):
+        out.to_hdf5(args.output, provenance={"input": ", ".join(os.path.abspath(p) for p in paths),
+                                             "command": "cgbound run"})
+    elif ext == ".npz":
+        out.to_npz(args.output)
+    else:
+        out.to_vtk(args.output, frame=None if args.time_average == "mean" else 0)
+    print(f"cgbound: {analysis.n_frames} frames of {first.n_particles} particles -> {', '.join(args.fields)} on "
+          f"{grid!r} with {kernel!r} in {elapsed:.2f} s; wrote {args.output}")
+    if args.figure:
+        from .figures import fields_figure
+        fig = fields_figure(out, args.figure_fields)
+        save_figure(fig, args.figure, args.figure_format)
+        print(f"cgbound: wrote {args.figure}")
+    return 0

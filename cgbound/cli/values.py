@@ -1,0 +1,95 @@
+"""Parsing the text of command-line values, each error naming its flag."""
+import math
+import os
+
+from .errors import UsageError
+
+
+def split_list(text):
+    return [part.strip() for part in text.split(",")] if text.strip() else []
+
+
+def numbers(text, flag, count=None, positive=False, allow_empty=False):
+    """Comma-separated finite numbers (``count`` of them if given; empty entries as None if allowed)."""
+    parts = split_list(text)
+    values = []
+    for part in parts:
+        if part == "" and allow_empty:
+            values.append(None)
+            continue
+        try:
+            value = float(part)
+        except ValueError:
+            raise UsageError(flag, f"expected comma-separated numbers, got {text!r} ({part!r} is not a number)") \
+                from None
+        if not math.isfinite(value):
+            raise UsageError(flag, f"expected finite numbers, got {text!r}")
+        if positive and not value > 0:
+            raise UsageError(flag, f"expected positive numbers, got {text!r}")
+        values.append(value)
+    if count is not None and len(values) != count:
+        raise UsageError(flag, f"expected {count} comma-separated numbers for {count}-D data, got {text!r}")
+    if not values:
+        raise UsageError(flag, f"expected comma-separated numbers, got {text!r}")
+    return values
+
+
+def positive_number(text, flag):
+    values = numbers(text, flag, positive=True)
+    if len(values) != 1:
+        raise UsageError(flag, f"expected one positive number, got {text!r}")
+    return values[0]
+
+
+def integers(text, flag, positive=False, allow_x=False):
+    """Comma-separated integers (with ``allow_x`` also ``x`` as separator, for shapes such as ``1x1x400``)."""
+    parts = split_list(text.replace("x", ",") if allow_x else text)
+    out = []
+    for part in parts:
+        try:
+            value = int(part)
+        except ValueError:
+            raise UsageError(flag, f"expected comma-separated integers, got {text!r} ({part!r} is not an integer)") \
+                from None
+        if positive and value < 1:
+            raise UsageError(flag, f"expected positive integers, got {text!r}")
+        out.append(value)
+    if not out:
+        raise UsageError(flag, f"expected comma-separated integers, got {text!r}")
+    return out
+
+
+def type_masses(text, flag="--masses"):
+    """``TYPE=MASS,...`` (LAMMPS atom types) as a dict."""
+    out = {}
+    for part in split_list(text):
+        key, sep, value = part.partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            key, mass = int(key), float(value)
+        except ValueError:
+            raise UsageError(flag, f"expected TYPE=MASS pairs such as 1=0.52,2=1.0, got {text!r}") from None
+        if not (math.isfinite(mass) and mass > 0):
+            raise UsageError(flag, f"expected positive finite masses, got {part!r}")
+        if key in out:
+            raise UsageError(flag, f"type {key} is given twice in {text!r}")
+        out[key] = mass
+    if not out:
+        raise UsageError(flag, f"expected TYPE=MASS pairs such as 1=0.52,2=1.0, got {text!r}")
+    return out
+
+
+def existing_file(path, flag):
+    if not os.path.exists(path):
+        raise UsageError(flag, f"no such file: {path!r}")
+    if os.path.isdir(path):
+        raise UsageError(flag, f"{path!r} is a directory; expected a file")
+    return path
+
+
+def output_directory_exists(path, flag):
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise UsageError(flag, f"directory {directory!r} does not exist")
+    return path

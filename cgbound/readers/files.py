@@ -1,0 +1,87 @@
+"""Several files as one dataset: glob patterns, natural (numeric) order, and their frames concatenated.
+
+LAMMPS writes one file per frame (``dump ... dump.*`` puts the timestep in the name) and MercuryDPM
+with ``-fileType multiple`` writes ``name.data.0``, ``name.data.1``, ...: the files are ordered by the
+numbers in their names (``dump.900`` before ``dump.1000``), not by string, and the frames' times are
+checked to increase from one file to the next.
+"""
+import glob
+import os
+import re
+
+from ._sequence import FrameSequence
+
+_NUMBER = re.compile(r"(\d+)")
+
+
+def natural_key(path):
+    """Sort key that orders the digit runs of a name by value: ``a.9`` < ``a.10``."""
+    return [int(part) if part.isdigit() else part for part in _NUMBER.split(os.path.basename(str(path)))]
+
+
+def has_pattern(path):
+    return any(c in str(path) for c in "*?[")
+
+
+def expand_paths(paths, name="paths"):
+    """The files named by ``paths`` (a path, a glob pattern, or a sequence of them), in natural order.
+
+    A pattern that matches nothing and a path that does not exist are errors naming them.
+    """
+    if isinstance(paths, (str, os.PathLike)):
+        paths = [paths]
+    out = []
+    for item in paths:
+        item = os.fspath(item)
+        if os.path.exists(item):
+            if os.path.isdir(item):
+                raise IsADirectoryError(f"{name}: {item!r} is a directory; expected a file or a glob pattern")
+            out.append(item)
+        elif has_pattern(item):
+            matched = sorted((p for p in glob.glob(item) if os.path.isfile(p)), key=natural_key)
+            if not matched:
+                raise FileNotFoundError(f"{name}: the pattern {item!r} matches no file")
+            out.extend(matched)
+        else:
+            raise FileNotFoundError(f"{name}: no such file: {item!r}")
+    if not out:
+        raise ValueError(f"{name}: expected at least one file, got none")
+    if len(set(map(os.path.abspath, out))) != len(out):
+        raise ValueError(f"{name}: a file is named twice ({', '.join(out)})")
+    return sorted(out, key=natural_key) if len(out) > 1 else out
+
+
+class ConcatenatedFrames(FrameSequence):
+    """The frames of several readers one after another (one reader per file)."""
+
+    def __init__(self, readers, name="paths"):
+        self.readers = list(readers)
+        self._frames = [(r, k) for r, reader in enumerate(self.readers) for k in range(len(reader))]
+        self._check_order(name)
+
+    def _check_order(self, name):
+        """Each file's frames must come after the previous file's (times from the readers' own locators)."""
+        last = None
+        for reader in self.readers:
+            steps = getattr(reader, "timesteps", None)
+            if not steps:
+                continue
+            if last is not None and steps[0] <= last[0]:
+                raise ValueError(f"{name}: the frames of {describe(reader)} (first timestep {steps[0]}) do not come "
+                                 f"after those of {describe(last[1])} (last timestep {last[0]}); name the files so "
+                                 f"that their numbers give the time order, or pass them in order")
+            last = (steps[-1], reader)
+
+    def _snapshot(self, position):
+        r, k = self._frames[position]
+        return self.readers[r][k]
+
+    def __repr__(self):
+        return f"ConcatenatedFrames({len(self.readers)} files, {len(self)} frames)"
+
+
+def describe(reader):
+    for attr in ("atoms_path", "data_path", "path"):
+        if getattr(reader, attr, None):
+            return os.path.basename(getattr(reader, attr))
+    return repr(reader)

@@ -1,0 +1,40 @@
+"""Telling a dataset's format from its first bytes (and, for MercuryDPM, its name)."""
+import os
+
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+GZIP_SIGNATURE = b"\x1f\x8b"
+
+FORMATS = ("hdf5", "lammps", "liggghts", "mdanalysis", "mercury")
+
+
+def sniff_format(path):
+    """``"hdf5"``, ``"lammps"`` (LAMMPS and LIGGGHTS dumps look alike: LIGGGHTS needs ``format="liggghts"``)
+    or ``"mercury"``; a ValueError naming the file when the format cannot be told."""
+    path = os.fspath(path)
+    with open(path, "rb") as f:
+        head = f.read(4096)
+    if head.startswith(HDF5_SIGNATURE):
+        return "hdf5"
+    if head.startswith(GZIP_SIGNATURE):
+        raise ValueError(f"{path}: a gzip-compressed file; compressed input is not read yet: decompress it first "
+                         f"(gunzip -k {os.path.basename(path)})")
+    if not head.strip():
+        raise ValueError(f"{path}: the file is empty; expected a dataset")
+    if head.lstrip().startswith(b"ITEM: TIMESTEP"):
+        return "lammps"
+    name = os.path.basename(path)
+    if name.endswith(".data") or ".data." in name:
+        return "mercury"
+    first = head.split(b"\n", 1)[0].split()
+    if len(first) in (6, 8) and _all_numbers(first):
+        return "mercury"  # an XBalls header: N t xmin (ymin) zmin xmax (ymax) zmax
+    raise ValueError(f"{path}: cannot tell the format (not HDF5, not a LAMMPS dump starting with 'ITEM: TIMESTEP', "
+                     f"not a MercuryDPM .data file); name it with format= (the command line: --format)")
+
+
+def _all_numbers(words):
+    try:
+        [float(w) for w in words]
+    except ValueError:
+        return False
+    return True
