@@ -72,8 +72,12 @@ The ``.data`` file has no masses. ``mass = density x volume``: 4/3 pi R^3 for sp
 from ``density=`` (a number, or {species: density}) or else from the ``.restart`` species lines
 (``... id K density rho``). Fixed particles: ``fixed=`` (indices, an N-bool mask, or a callable
 ``fixed(radius, species) -> bool mask``), else from the ``.restart`` particle lines
-(``invMass 0``) when the restart holds exactly as many particles as the frame (same order
-assumed); otherwise none. Periodic axes: ``periodic=`` (per cgbound axis), else from
+(``invMass 0``) in the order of its lines: a frame's row k is the restart's k-th particle (MercuryDPM appends inserted
+particles, so a frame may hold fewer particles than the restart, never more; ids are not
+row numbers, since insertion attempts use ids too), and every fixed
+particle must sit in the frame where the restart has it (fixed particles do not move), else the
+frame is refused. Template particles inside boundary lines (``ChuteInsertionBoundary``) are not
+particles; a ``Particles N`` section with fewer lines is a truncated file and an error. Periodic axes: ``periodic=`` (per cgbound axis), else from
 ``PeriodicBoundary ... normal nx ny nz`` lines of the ``.restart``.
 
 Unverified / not supported
@@ -178,10 +182,19 @@ def _scan_fstat(path):
 
 
 def _read_restart(path):
-    """Key-based parse of a .restart: species densities, particle invMass list, periodic normals."""
-    density, inv_mass, normals, particle_dim = {}, [], [], None
+    """Key-based parse of a .restart: species densities, the particles' invMass and positions (by id),
+    periodic normals.
+
+    Particles are the lines of the ``Particles N`` section whose first word names a particle class
+    (``BaseParticle``, ``SphericalParticle``, ...); other lines with particle keys, such as the
+    template particle embedded in an insertion boundary's line, are not particles. A section with
+    fewer than N particle lines (a truncated file) is an error.
+    """
+    density, normals, particle_dim = {}, [], None
+    inv_mass, positions = [], []
+    declared, declared_line = None, None
     with open(path) as fh:
-        for line in fh:
+        for lineno, line in enumerate(fh, 1):
             words = line.split()
             if not words:
                 continue
@@ -191,18 +204,29 @@ def _read_restart(path):
                 k = keys[key]
                 return [float(x) for x in words[k + 1:k + 1 + n]]
 
+            if words[0] == "Particles" and len(words) == 2 and words[1].isdigit():
+                declared, declared_line = int(words[1]), lineno
+                continue
             try:
                 if "particleDimensions" in keys:
                     particle_dim = int(val("particleDimensions")[0])
                 if "density" in keys and "id" in keys and words[0].endswith("Species"):
                     density[int(val("id")[0])] = val("density")[0]
-                elif "invMass" in keys and "radius" in keys and "position" in keys:
+                elif words[0].endswith("Particle") and "invMass" in keys and "position" in keys:
                     inv_mass.append(val("invMass")[0])
+                    positions.append(val("position", 3))
                 elif words[0] == "PeriodicBoundary" and "normal" in keys:
                     normals.append(val("normal", 3))
             except (ValueError, IndexError):
-                continue
-    return {"density": density, "inv_mass": np.array(inv_mass), "normals": normals, "particle_dim": particle_dim}
+                raise ValueError(f"{path}:{lineno}: cannot read the values of this {words[0]} line "
+                                 f"(a damaged .restart?)") from None
+    if declared is not None and len(inv_mass) != declared:
+        raise ValueError(f"{path}:{declared_line}: 'Particles {declared}' but {len(inv_mass)} particle lines follow "
+                         f"(a truncated or damaged .restart); write it again, or pass fixed= instead")
+    # the file's order is the particle handler's, which is the order of the .data rows
+    return {"density": density, "inv_mass": np.array(inv_mass, dtype=float),
+            "positions": np.array(positions, dtype=float).reshape(-1, 3), "normals": normals,
+            "particle_dim": particle_dim}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -259,7 +283,8 @@ class MercuryReader(FrameSequence):
             raise ValueError(f"{self.data_path}: mixes 2D and 3D headers")
         self.dim = dim if dim is not None else (dims.pop() if dims else 3)
         restart = _read_restart(self.restart_path) if self.restart_path else None
-        self._restart_inv_mass = None if restart is None else restart["inv_mass"]
+        self._restart = None if restart is None else {"inv_mass": restart["inv_mass"],
+                                                      "positions": restart["positions"]}
         self.density = self._densities(density, restart)
         pdim = particle_dim if particle_dim is not None else (restart or {}).get("particle_dim")
         self.particle_dim = int(pdim) if pdim is not None else self.dim
@@ -365,7 +390,7 @@ class MercuryReader(FrameSequence):
             raise ValueError(f"{path}: frame at line {data_line}: the species column holds non-integers")
         species = species.astype(np.int64)
         box = Box(np.minimum(lower, upper), np.maximum(lower, upper), self.periodic)
-        fixed = self._fixed(radii, species, n)
+        fixed = self._fixed(radii, species, n, pos, time)
         masses = self._masses(radii, species, fixed)
         if fstat_offset is not None:
             contacts, wall_index, overlap = self._contacts(fstat_offset, fstat_line, marker, time, pos, radii, box)
@@ -375,7 +400,7 @@ class MercuryReader(FrameSequence):
                         species=species, body_force=self.body_force, radii=radii, time=time)
         return MercuryFrame(snap, wall_index, overlap, data_line, fstat_line)
 
-    def _fixed(self, radii, species, n):
+    def _fixed(self, radii, species, n, positions, time):
         f = self.fixed
         if callable(f):
             out = np.asarray(f(radii, species), dtype=bool)
@@ -393,10 +418,32 @@ class MercuryReader(FrameSequence):
                 raise IndexError(f"fixed: indices must lie in [0, {n})")
             out[idx] = True
             return out
-        inv = self._restart_inv_mass
-        if inv is not None and inv.size == n:
-            return inv == 0
-        return np.zeros(n, bool)
+        if self._restart is None:
+            return np.zeros(n, bool)
+        return self._fixed_from_restart(n, positions, time)
+
+    def _fixed_from_restart(self, n, positions, time):
+        """The restart's fixed particles (invMass 0) in the order of its particle lines, which is the
+        order of the .data rows: MercuryDPM appends inserted particles, so a frame with fewer particles
+        than the restart holds its first ones. Fixed particles do not move, so each must sit where the
+        restart has it."""
+        inv, where = self._restart["inv_mass"], self._restart["positions"][:, :self.dim]
+        if n > inv.size:
+            raise ValueError(f"{self.restart_path}: holds {inv.size} particles but the frame at t = {time:g} of "
+                             f"{self.data_path} has {n}; use the .restart written at the end of the run (particles "
+                             f"are only appended), or pass fixed=")
+        fixed = inv[:n] == 0
+        idx = np.flatnonzero(fixed)
+        if idx.size:
+            scale = max(1.0, float(np.max(np.abs(where[idx]))))
+            moved = np.max(np.abs(positions[idx] - where[idx]), axis=1) > 1e-8 * scale
+            if np.any(moved):
+                k = int(idx[np.flatnonzero(moved)[0]])
+                raise ValueError(f"{self.data_path}: particle {k} is fixed in {self.restart_path} at "
+                                 f"{where[k].tolist()} but sits at {positions[k].tolist()} in the frame at "
+                                 f"t = {time:g}: the restart's particles are not this frame's rows (particles "
+                                 f"deleted or reordered?); pass fixed= instead")
+        return fixed
 
     def _masses(self, radii, species, fixed):
         dens = self.density

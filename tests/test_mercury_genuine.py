@@ -1,0 +1,105 @@
+"""The MercuryDPM reader on genuine MercuryDPM output (a chute with particle insertion), checked against
+MercuryCG's own .stat files of the same run (tests/data/mercurydpm/README.md says how both were made)."""
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+import cgbound as cg
+from cgbound.cli import main
+from cgbound.readers import MercuryReader
+
+HERE = os.path.join(os.path.dirname(__file__), "data", "mercurydpm", "ChutePeriodicDemo")
+STEM = os.path.join(HERE, "ChutePeriodicDemo")
+
+
+def reader(restart=STEM + ".restart", **options):
+    return MercuryReader(STEM + ".data", STEM + ".fstat", restart_path=restart, body_force=(0, 0, -1), **options)
+
+
+def test_fixed_base_particles_found_in_every_frame_while_particles_are_inserted():
+    frames = reader()
+    counts = [frames[k].n_particles for k in range(len(frames))]
+    assert counts[0] == 960 and counts[-1] == 1025 and counts == sorted(counts)
+    for k in range(len(frames)):
+        snap = frames[k]
+        # the 210 base particles are the first rows of every frame (the insertion boundary's template
+        # particle in the .restart is not a particle)
+        assert snap.fixed.sum() == 210 and snap.fixed[:210].all()
+
+
+def test_domain_averages_agree_with_mercurycg_to_its_printed_digits():
+    # MercuryCG ... -coordinates O -tmin 15: every field averaged over the domain, 6 significant digits,
+    # compression-positive ContactStress = bulk + boundary contact stress, symmetric MomentumFlux
+    stat = np.loadtxt(STEM + ".O.stat", skiprows=2)
+    frames = reader()
+    upper = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+    times = [frames[k].time for k in range(len(frames))]
+    for row in stat:
+        snap = frames[times.index(row[0])]
+        grid = cg.Grid(snap.box, (1, 1, 1), average=("x", "y", "z"))
+        out = cg.coarse_grain(snap, grid, cg.Lucy(1.0), convention="compression",
+                              fields=("volume_fraction", "density", "momentum", "momentum_flux", "contact_stress",
+                                      "boundary_stress", "interaction_force_density"))
+        flux = out.momentum_flux.reshape(3, 3)
+        ours = np.concatenate([out.volume_fraction.ravel(), out.density.ravel(), out.momentum.ravel(),
+                               [flux[a, b] for a, b in upper], (out.contact_stress + out.boundary_stress).ravel(),
+                               out.interaction_force_density.ravel()])
+        np.testing.assert_allclose(ours, row[1:24], rtol=5e-6, atol=0)
+
+
+def test_cli_uses_the_companion_files_and_reproduces_mercurycg_density(tmp_path, capsys):
+    out = tmp_path / "o.npz"
+    assert main(["run", STEM + ".data", "--gravity", "0,0,-1", "--kernel", "lucy", "--cutoff", "1", "--grid", "1",
+                 "--average", "x,y,z", "--fields", "density", "--time-average", "none", "--start", "6", "-o",
+                 str(out), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "ChutePeriodicDemo.fstat" in err and "ChutePeriodicDemo.restart" in err
+    stat = np.loadtxt(STEM + ".O.stat", skiprows=2)
+    with np.load(out) as result:
+        np.testing.assert_allclose(result["density"].ravel(), stat[:, 2], rtol=5e-6)
+
+
+def copy_restart(tmp_path, edit):
+    lines = open(STEM + ".restart").read().splitlines(keepends=True)
+    target = tmp_path / "c.restart"
+    target.write_text("".join(edit(lines)))
+    return str(target)
+
+
+def test_truncated_restart_is_refused_naming_the_file_and_line(tmp_path):
+    path = copy_restart(tmp_path, lambda lines: lines[:600])
+    with pytest.raises(ValueError, match=r"c.restart:19: 'Particles 1025' but \d+ particle lines follow"):
+        reader(path)
+
+
+def test_restart_whose_fixed_particle_moved_is_refused(tmp_path):
+    def swap(lines):
+        # the first two particle lines exchanged: a fixed particle now claims another's place
+        k = next(i for i, line in enumerate(lines) if line.startswith("BaseParticle"))
+        lines[k], lines[k + 1] = lines[k + 1], lines[k]
+        return lines
+    frames = reader(copy_restart(tmp_path, swap))
+    with pytest.raises(ValueError, match="particle 0 is fixed in .* but sits at"):
+        frames[0]
+
+
+def test_frame_with_more_particles_than_the_restart_is_refused(tmp_path):
+    def drop_last(lines):
+        k = max(i for i, line in enumerate(lines) if line.startswith("BaseParticle"))
+        del lines[k]
+        return [line.replace("Particles 1025", "Particles 1024") for line in lines]
+    frames = reader(copy_restart(tmp_path, drop_last))
+    frames[0]                                  # 960 particles: fine
+    with pytest.raises(ValueError, match="holds 1024 particles but the frame at t = 20.0001 .* has 1025"):
+        frames[len(frames) - 1]
+
+
+def test_without_restart_and_fixed_the_reader_has_no_fixed_particles_but_fixed_ids_work(tmp_path):
+    # no restart: the user names the fixed particles (the CLI's --fixed-ids)
+    frames = MercuryReader(STEM + ".data", STEM + ".fstat", density=6 / np.pi, fixed=np.arange(210),
+                           periodic=(True, True, False))
+    assert frames[3].fixed.sum() == 210
+    shutil.copy(STEM + ".data", tmp_path / "alone.data")
+    assert MercuryReader(tmp_path / "alone.data", density=1.0)[0].fixed.sum() == 0
