@@ -20,14 +20,12 @@ out = cg.CoarseGrain(frames, grid, kernel, fields=fields, convention="compressio
 out
 
 # %%
-import matplotlib
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 fig, axes = plt.subplots(1, 3, figsize=(11, 3.8), sharey=True, constrained_layout=True)
 plot.profile(out, "density", ax=axes[0])
 plot.profile(out, "velocity", component="x", ax=axes[1])
 plot.profile(out, "stress", component="zz", ax=axes[2])
-fig
+plt.show()
 
 # %% [markdown]
 # The boundary contacts show up as the interaction force density: on average it carries the weight of

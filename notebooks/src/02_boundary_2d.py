@@ -8,8 +8,6 @@
 
 # %%
 import numpy as np
-import matplotlib
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import cgbound as cg
 from cgbound import plot
@@ -79,4 +77,4 @@ for ax, name, title in zip(axes, ("interaction_force_density", "stress"), ("|t|"
     plot.particles(ax, snap)
     ax.set_title(f"{title}, w = d/8")
 axes[0].plot(*points.T, "r+", ms=6)
-fig
+plt.show()

@@ -9,8 +9,6 @@
 # %%
 import json
 import numpy as np
-import matplotlib
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import cgbound as cg
 from cgbound import scenes
@@ -41,7 +39,7 @@ fig, ax = plt.subplots(figsize=(7, 3), constrained_layout=True)
 ax.plot(time, kinetic, lw=0.6)
 ax.axvspan(frames[0].time, frames[len(frames) - 1].time, color="C1", alpha=0.3, label="averaging window")
 ax.set_xlabel("t"); ax.set_ylabel("kinetic energy of the flow"); ax.legend()
-fig
+plt.show()
 
 # %% [markdown]
 # **Fig. 2**: a steady-state frame, shaded by speed.
@@ -56,7 +54,7 @@ ax.scatter(*snap.positions[snap.fixed].T, s=30, c="0.3")
 p = ax.scatter(*snap.positions[flow].T, s=8, c=speed, cmap="gray")
 fig.colorbar(p, label="speed", shrink=0.6)
 ax.set_box_aspect((20, 10, 8))
-fig
+plt.show()
 
 # %% [markdown]
 # **Fig. 3**: depth profiles averaged over x, y (analytically) and t with w = d/4: σzz without the
@@ -97,7 +95,7 @@ fig, axes = plt.subplots(1, 2, figsize=(9.5, 4.6), sharey=True, constrained_layo
 for ax, prof, title in zip(axes, (profiles, dense), ("101 shipped frames", "4001 frames every $t_c/2$")):
     prof.plot(ax)
     ax.set_title(f"{title}: lithostatic error {100 * prof.lithostatic_error:.2f} %", fontsize=9)
-fig
+plt.show()
 
 # %% [markdown]
 # Without the boundary correction σzz falls off towards the base where the flow meets the rough

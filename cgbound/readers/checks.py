@@ -1,0 +1,44 @@
+"""What readers verify on every frame they read, and the errors that say what was found, the likely
+causes and the fix (nothing read silently wrong)."""
+import re
+
+import numpy as np
+
+#: A frame balances when the contact forces plus the body forces reproduce the dumped per-particle
+#: forces to this fraction of the RMS contact force. Frames written inside ``run 0`` with ``%.17g``
+#: reach 1e-15 (``newton on``) to 1e-13 (``newton off``); frames dumped during a run with damping
+#: 1e-3 to 1e-1; a wrong column order, pair style or missing body force order 1.
+FORCE_BALANCE_TOLERANCE = 1e-9
+
+_GENERIC = re.compile(r"^c_[A-Za-z0-9_]+\[\d+\]$")
+
+
+def generic_columns(columns):
+    """The columns of a dump header that name only a compute and an index (``c_pl[3]``)."""
+    return [c for c in columns if _GENERIC.match(c)]
+
+
+def check_force_balance(balance, ids, path, timestep, tolerance, hints):
+    """Raise when a frame's contact and body forces do not reproduce its dumped forces.
+
+    ``balance``: the dict of ``LammpsFrame.force_balance``; ``hints``: the reader's options that could
+    explain a mismatch, as text naming the API keyword and the command-line flag.
+    """
+    if not balance["relative"] > tolerance:
+        return
+    mismatch = balance["mismatch"]
+    worst = int(np.nanargmax(mismatch))
+    raise ValueError(
+        f"{path}: timestep {timestep}: the contact forces plus the body forces do not reproduce the dumped "
+        f"per-particle forces: mismatch {balance['relative']:.2g} of the RMS contact force "
+        f"({balance['scale']:.3g}) at atom ID {int(ids[worst])}, tolerance {tolerance:g}. Likely causes: "
+        + "; ".join(hints) + ". Frames dumped during a run (not inside 'run 0') mismatch by 1e-3..1e-1: "
+        "write each frame inside its own 'run 0' (the recipe in the cgbound.readers.lammps docstring), or "
+        "read them anyway with check_forces=False (--no-check-forces)")
+
+
+def check_selects(selected, name, flag, path, where, present):
+    """Refuse a selection that selects nothing: ``selected`` is a bool mask of particles."""
+    if not np.any(selected):
+        raise ValueError(f"{name}: selects no particle in {path} at {where} (present: {present}); "
+                         f"check {flag}")
