@@ -15,7 +15,8 @@ h5py = pytest.importorskip("h5py")
 
 HOOKE3D = os.path.join(os.path.dirname(__file__), "data", "lammps", "hooke3d")
 ATOMS, PAIRS = os.path.join(HOOKE3D, "atoms.dump"), os.path.join(HOOKE3D, "pairs.dump")
-LAMMPS_ARGS = ["--pairs", PAIRS, "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1"]
+GRAN = "dist,fx,fy,fz,p1,p2,p3,p4"   # the compute pair/local line of tests/data/lammps/in.hooke3d
+LAMMPS_ARGS = ["--pairs", PAIRS, "--pair-values", GRAN, "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1"]
 
 
 def test_demo_runs_fig3_on_the_shipped_chute(tmp_path, capsys):
@@ -58,7 +59,7 @@ def test_help_explains_every_option_with_an_example_per_format(capsys):
 
 def lammps_expected(fields=("interaction_force_density",), grid_shape=(1, 1, 40), average=("x", "y"), box=None):
     from cgbound.readers import LammpsReader
-    frames = LammpsReader(ATOMS, PAIRS, fixed_types=[2], walls=["w"], body_force=[0, 0, -1])
+    frames = LammpsReader(ATOMS, PAIRS, pair_values=GRAN.split(","), fixed_types=[2], walls=["w"], body_force=[0, 0, -1])
     grid = cg.Grid(box or frames[0].box, grid_shape, average=average)
     return cg.CoarseGrain(frames, grid, cg.Gaussian(0.25), fields=fields).run().results
 
@@ -92,11 +93,12 @@ def test_run_reads_per_frame_files_by_pattern_in_numeric_order(tmp_path):
     split_frames(ATOMS, tmp_path, "atoms", names)
     split_frames(PAIRS, tmp_path, "pairs", names)
     out = tmp_path / "p.npz"
-    assert main(["run", str(tmp_path / "atoms.*.dump"), "--pairs", str(tmp_path / "pairs.*.dump"), "--fixed-types",
+    assert main(["run", str(tmp_path / "atoms.*.dump"), "--pairs", str(tmp_path / "pairs.*.dump"), "--pair-values",
+                 GRAN, "--fixed-types",
                  "2", "--walls", "w", "--gravity", "0,0,-1", "--grid", "1,1,40", "--average", "x,y", "--fields",
                  "interaction_force_density", "--time-average", "none", "-o", str(out), "-q"]) == 0
     from cgbound.readers import LammpsReader
-    frames = LammpsReader(ATOMS, PAIRS, fixed_types=[2], walls=["w"], body_force=[0, 0, -1])
+    frames = LammpsReader(ATOMS, PAIRS, pair_values=GRAN.split(","), fixed_types=[2], walls=["w"], body_force=[0, 0, -1])
     grid = cg.Grid(frames[0].box, (1, 1, 40), average=("x", "y"))
     expected = cg.CoarseGrain(frames, grid, cg.Gaussian(0.25), fields=("interaction_force_density",),
                               time_average="none").run().results
@@ -133,6 +135,22 @@ def test_run_grid_extent_from_lower_and_upper(tmp_path):
         np.testing.assert_array_equal(result["density"], expected.density)
         np.testing.assert_allclose(result["coordinates"][0, 0, [0, -1], 2], [1.1, 4.9])
     assert box.upper[2] == 10
+
+
+def test_a_pair_dump_without_pair_values_is_refused_naming_the_flag(tmp_path, capsys):
+    status, err = run_error(["run", ATOMS, "--pairs", PAIRS, "--fixed-types", "2", "--walls", "w", "--gravity",
+                             "0,0,-1", "-o", str(tmp_path / "o.npz")], capsys)
+    assert status == 2 and err.startswith("cgbound: error: --pair-values: the contact dump")
+
+
+def test_a_wrong_pair_values_order_fails_loudly_not_silently(tmp_path, capsys):
+    # the genuine dump read with the keywords in another order: the force balance says so (the CLI exited
+    # 0 with wrong physics before)
+    status, err = run_error(["run", ATOMS, "--pairs", PAIRS, "--pair-values", "fx,fy,fz,p1,p2,p3,p4,dist",
+                             "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1", "--grid", "1,1,10",
+                             "--average", "x,y", "--fields", "stress", "-o", str(tmp_path / "o.npz"), "-q"], capsys)
+    assert status == 1 and "do not reproduce the dumped per-particle forces" in err and "--pair-values" in err
+    assert not (tmp_path / "o.npz").exists()
 
 
 def test_pair_values_name_a_reordered_pair_dump(tmp_path):
@@ -179,7 +197,7 @@ BAD = [
     (["--time-average", "soon"], "--time-average", "expected mean, none"),
     (["--step", "0"], "--step", "non-zero"),
     (["--fixed-types", "3"], "--fixed-types", "select no particle"),
-    (["--fixed-ids", "100000"], "--fixed-ids", "not in the first frame"),
+    (["--fixed-ids", "100000"], "--fixed-ids", "are not in"),
     (["--restart", "/nonexistent/x.restart"], "--restart", "no such file"),
     (["--density", "2"], "--density", "applies to mercury"),
     (["--lower", "0,0"], "--lower", "expected 3"),
@@ -196,7 +214,7 @@ BAD = [
 @pytest.mark.parametrize("extra, flag, text", BAD, ids=[b[1] + ":" + " ".join(b[0]) for b in BAD])
 def test_every_error_is_one_line_naming_the_flag_with_status_2(tmp_path, capsys, extra, flag, text):
     out = tmp_path / "never.npz"
-    base = {"--fixed-types": "2", "--walls": "w", "--gravity": "0,0,-1", "--grid": "1,1,10", "--average": "x,y",
+    base = {"--pair-values": GRAN, "--fixed-types": "2", "--walls": "w", "--gravity": "0,0,-1", "--grid": "1,1,10", "--average": "x,y",
             "--fields": "density"}
     merged = dict(base)
     for k in range(0, len(extra), 2):

@@ -18,11 +18,15 @@ from cgbound.readers import LammpsReader
 DATA = os.path.join(os.path.dirname(__file__), "data", "lammps")
 LMP = shutil.which("lmp")
 
+#: the keywords of 'compute pl all pair/local ...' in tests/data/lammps/in.*
+GRAN_VALUES = ("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4")
+GRANULAR_VALUES = ("dist", "fx", "fy", "fz") + tuple(f"p{k}" for k in range(1, 13))
+
 CASES = {
     # name: reader options (gravity 1 along -z in 3D, along LAMMPS -y = cgbound -z in 2D)
-    "hooke3d": dict(pair_style="gran", body_force=(0.0, 0.0, -1.0)),
-    "granular3d": dict(pair_style="granular", body_force=(0.0, 0.0, -1.0)),
-    "hooke2d": dict(pair_style="granular", body_force=(0.0, -1.0), dimension=2),
+    "hooke3d": dict(pair_style="gran", pair_values=GRAN_VALUES, body_force=(0.0, 0.0, -1.0)),
+    "granular3d": dict(pair_style="granular", pair_values=GRANULAR_VALUES, body_force=(0.0, 0.0, -1.0)),
+    "hooke2d": dict(pair_style="granular", pair_values=GRANULAR_VALUES, body_force=(0.0, -1.0), dimension=2),
 }
 TOL = 1e-9
 
@@ -47,7 +51,8 @@ def lammps_dir(tmp_path_factory):
 
 def reader(lammps_dir, name, consistent=True, **extra):
     pre = "" if consistent else "run_"
-    opts = dict(CASES[name], walls=["w"], fixed_types=[2])
+    # frames dumped during a run do not balance (see test_dumps_during_a_run_do_not_balance)
+    opts = dict(CASES[name], walls=["w"], fixed_types=[2], check_forces=consistent)
     opts.update(extra)
     return LammpsReader(os.path.join(lammps_dir, name, f"{pre}atoms.dump"),
                         os.path.join(lammps_dir, name, f"{pre}pairs.dump"), **opts)
@@ -88,8 +93,10 @@ def test_sign_conventions_of_pair_local(lammps_dir):
     r = reader(lammps_dir, "hooke3d")
     fr = r.frame(2)
     assert fr.force_balance()["relative"] < TOL
-    tangential_only = reader(lammps_dir, "hooke3d", pair_style="total")
+    tangential_only = reader(lammps_dir, "hooke3d", pair_style="total", check_forces=False)
     assert tangential_only.force_mismatch(2) > 1e-2
+    with pytest.raises(ValueError, match="timestep .*: the contact forces plus the body forces do not reproduce"):
+        reader(lammps_dir, "hooke3d", pair_style="total")[2]
     snap = fr.snapshot
     c = snap.contacts
     pair = c.j >= 0
@@ -193,8 +200,10 @@ def test_wall_contacts(lammps_dir, name):
     assert np.allclose(c.point[w, :-1], snap.positions[c.i[w], :-1], atol=1e-12)
     assert np.mean(c.force[w, -1] > 0) > 0.5  # mostly pushing up (damping can pull a rebounding particle)
     assert np.all(snap.positions[c.i[w], -1] < snap.radii[c.i[w]])
-    # without the wall the balance breaks
-    assert reader(lammps_dir, name, walls=()).force_mismatch(0) > 1e-3
+    # without the wall the balance breaks, and reading the frame says so
+    assert reader(lammps_dir, name, walls=(), check_forces=False).force_mismatch(0) > 1e-3
+    with pytest.raises(ValueError, match="walls are not marked"):
+        reader(lammps_dir, name, walls=())[0]
 
 
 def test_scaled_unwrapped_positions_and_column_order(lammps_dir):
@@ -295,19 +304,20 @@ def test_errors_name_the_problem(lammps_dir, tmp_path):
     base = os.path.join(lammps_dir, "hooke3d")
     atoms, pairs = os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump")
     # a pairs dump without the atoms dump's timesteps
+    gran = CASES["hooke3d"]["pair_values"]
     with pytest.raises(ValueError, match="no contact frame for timestep"):
-        LammpsReader(atoms, os.path.join(base, "run_pairs.dump"))
+        LammpsReader(atoms, os.path.join(base, "run_pairs.dump"), pair_values=gran)
     # files swapped
     with pytest.raises(ValueError, match="dump local"):
         LammpsReader(pairs)
     # compute IDs that do not match the dump's columns
-    r = LammpsReader(atoms, pairs, pair_compute="forces", walls=["w"])
+    r = LammpsReader(atoms, pairs, pair_compute="forces", pair_values=gran, walls=["w"])
     with pytest.raises(ValueError, match="c_forces"):
         r[0]
     with pytest.raises(ValueError, match="f_nowall"):
-        LammpsReader(atoms, pairs, walls=["nowall"])[0]
+        LammpsReader(atoms, pairs, pair_values=gran, walls=["nowall"])[0]
     with pytest.raises(ValueError, match="pair_style"):
-        LammpsReader(atoms, pairs, pair_style="hooke")
+        LammpsReader(atoms, pairs, pair_values=gran, pair_style="hooke")
     # a truncated file
     text = open(atoms).read()
     bad = tmp_path / "cut.dump"
@@ -318,3 +328,49 @@ def test_errors_name_the_problem(lammps_dir, tmp_path):
     # no pairs: particles only
     only = LammpsReader(atoms, fixed_types=[2])
     assert len(only) == 3 and len(only[0].contacts) == 0
+
+
+# --- what the reader verifies instead of assuming (nothing silently wrong) ----------------------------
+
+def test_a_pair_dump_without_its_column_meanings_is_refused(lammps_dir):
+    base = os.path.join(lammps_dir, "hooke3d")
+    with pytest.raises(ValueError, match=r"pair_values: the contact dump .* names its columns only by compute "
+                                         r"and index .*c_pl\[8\].*--pair-values"):
+        LammpsReader(os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump"))
+    with pytest.raises(ValueError, match="pair_values: 9 keywords .* holds 8 columns of compute 'pl'"):
+        LammpsReader(os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump"),
+                     pair_values=GRAN_VALUES + ("p5",))
+
+
+def test_a_wrong_column_order_fails_the_force_balance(lammps_dir, tmp_path):
+    # the dump written as 'pair/local fx fy fz p1 p2 p3 p4 dist' but read as 'dist fx fy fz ...': every
+    # frame read says so (the CLI exited 0 with a wrong IFD integral before this check)
+    base = os.path.join(lammps_dir, "hooke3d")
+    wrong = reader(lammps_dir, "hooke3d", pair_values=("fx", "fy", "fz", "p1", "p2", "p3", "p4", "dist"))
+    for k in range(len(wrong)):
+        if len(reader(lammps_dir, "hooke3d")[k].contacts):
+            with pytest.raises(ValueError, match="pair_values=.*--pair-values"):
+                wrong[k]
+    assert os.path.exists(os.path.join(base, "pairs.dump"))
+
+
+def test_a_missing_body_force_fails_the_force_balance(lammps_dir):
+    with pytest.raises(ValueError, match="a body force is missing or wrong"):
+        reader(lammps_dir, "hooke3d", body_force=None)[0]
+
+
+def test_dumps_during_a_run_are_refused_unless_asked(lammps_dir):
+    unchecked = reader(lammps_dir, "hooke3d", consistent=False)
+    worst = max(contact_frames(unchecked), key=unchecked.force_mismatch)
+    with pytest.raises(ValueError, match="inside 'run 0'.*check_forces=False"):
+        reader(lammps_dir, "hooke3d", consistent=False, check_forces=True)[worst]
+
+
+@pytest.mark.parametrize("option, value, message", [
+    ("fixed_types", [3], r"fixed_types: type\(s\) \[3\] select no particle .*types present: \[1, 2\]"),
+    ("fixed_types", [2, 7], r"fixed_types: type\(s\) \[7\]"),
+    ("fixed_ids", [10 ** 6], r"fixed_ids: atom ID\(s\) \[1000000\] are not in"),
+])
+def test_a_selection_of_nothing_is_an_error(lammps_dir, option, value, message):
+    with pytest.raises(ValueError, match=message):
+        reader(lammps_dir, "hooke3d", **{option: value})[0]

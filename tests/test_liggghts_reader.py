@@ -37,7 +37,8 @@ def liggghts_dir(tmp_path_factory):
 
 def reader(d, consistent=True, **extra):
     pre = "" if consistent else "run_"
-    opts = dict(pair_values=VALUES, fixed_types=[2], body_force=G)
+    # frames dumped during a run do not balance (test_dumps_during_a_run_do_not_balance)
+    opts = dict(pair_values=VALUES, fixed_types=[2], body_force=G, check_forces=consistent)
     opts.update(extra)
     return LiggghtsReader(os.path.join(d, f"{pre}atoms.dump"), os.path.join(d, f"{pre}pairs.dump"), **opts)
 
@@ -125,7 +126,8 @@ def test_contact_points_wrapped_and_on_the_centre_line(liggghts_dir):
         c, box = snap.contacts, snap.box
         per = np.array(box.periodic)
         assert np.all((c.point[:, per] >= box.lower[per]) & (c.point[:, per] < box.upper[per]))
-        raw = r.__class__(r.atoms_path, r.pairs_path, pair_values=VALUES, wrap=False)[k].contacts.point
+        raw = r.__class__(r.atoms_path, r.pairs_path, pair_values=VALUES, fixed_types=[2], body_force=G,
+                          wrap=False)[k].contacts.point
         raw_outside += int(np.sum(np.any((raw[:, per] < box.lower[per]) | (raw[:, per] >= box.upper[per]), axis=1)))
         d = snap.positions[c.i] - snap.positions[c.j]
         crossings += int(np.sum(np.any(np.abs(d[:, per]) > 0.5 * box.lengths[per], axis=1)))
@@ -141,7 +143,8 @@ def test_contact_points_wrapped_and_on_the_centre_line(liggghts_dir):
         # the rebuilt point (without the contactPoint columns) is the same
         cols = pair_gran_local_columns("pgl", VALUES)
         del cols["contactPoint"]
-        rebuilt = LiggghtsReader(r.atoms_path, r.pairs_path, pair_columns=cols)[k].contacts.point
+        rebuilt = LiggghtsReader(r.atoms_path, r.pairs_path, pair_columns=cols, fixed_types=[2],
+                                 body_force=G)[k].contacts.point
         assert np.allclose(rebuilt, c.point, rtol=0, atol=1e-15)
         _, boundary = snap.split_contacts()
         assert np.all(np.linalg.norm(boundary["branch"], axis=1) <= R[boundary["i"]] + 1e-15)
@@ -200,3 +203,14 @@ def test_errors_name_the_problem(liggghts_dir):
         LiggghtsReader(a, p, pair_values=("pos", "force"))
     with pytest.raises(ValueError, match="'force'"):
         LiggghtsReader(a, p, pair_values=("pos", "id"))
+
+
+def test_keywords_that_do_not_match_the_dump_are_refused(liggghts_dir):
+    a, p = os.path.join(liggghts_dir, "atoms.dump"), os.path.join(liggghts_dir, "pairs.dump")
+    with pytest.raises(ValueError, match="pair_values: the keywords .* make 13 columns but .* holds 19"):
+        LiggghtsReader(a, p, pair_values=("pos", "id", "force", "delta"))
+
+
+def test_a_missing_body_force_is_refused_by_the_force_balance(liggghts_dir):
+    with pytest.raises(ValueError, match="a body force is missing or wrong"):
+        reader(liggghts_dir, body_force=None)[0]

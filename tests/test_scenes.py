@@ -4,6 +4,7 @@ import pytest
 
 import cgbound as cg
 from cgbound import scenes
+from cgbound.scenes.lammps import PAIR_VALUES
 from cgbound.scenes import (PAPER_COLLISION_TIME, PAPER_CONTACT_MODEL, ContactModel, Frames, Run, Scene, Settle,
                             Wall)
 
@@ -129,7 +130,7 @@ def test_boundary_2d_scene_relaxes_to_a_static_balanced_frame(tmp_path):
     assert snap.dim == 2 and snap.fixed.sum() == 5 and len(snap.contacts) >= 8
     from cgbound.readers import LammpsReader
     reader = LammpsReader(tmp_path / "frames.atoms.dump", tmp_path / "frames.pairs.dump", fixed_types=[2],
-                          body_force=[0, -1], dimension=2)
+                          pair_values=PAIR_VALUES, body_force=[0, -1], dimension=2)
     mismatch = reader.force_mismatch(0)
     assert np.nanmax(mismatch) < 1e-12
     # the whole weight goes into the base: boundary contact forces on the flow balance gravity
@@ -153,7 +154,7 @@ def test_short_chute_frames_balance_and_round_trip(tmp_path):
     assert np.all(np.diff(run.thermo["time"]) > 0) and run.thermo["time"][-1] == pytest.approx(1.25)
     from cgbound.readers import LammpsReader
     reader = LammpsReader(tmp_path / "frames.atoms.dump", tmp_path / "frames.pairs.dump", fixed_types=[2],
-                          body_force=scene.gravity)
+                          pair_values=PAIR_VALUES, body_force=scene.gravity)
     assert np.nanmax(reader.force_mismatch(1)) < 1e-12
     # the per-contact forces balance the particles: momentum balance residual at round-off
     snap = run.snapshots[1]

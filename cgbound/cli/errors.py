@@ -26,16 +26,14 @@ API_FLAGS = {
 _LEADING_NAME = re.compile(r"^([A-Za-z_][A-Za-z0-9_.]*): ")
 
 
-def flag_of(message):
-    """The flag an API message is about (its leading ``name:``), or None."""
-    match = _LEADING_NAME.match(message)
-    return API_FLAGS.get(match.group(1)) if match else None
+_NO_FLAG = object()
 
 
 @contextlib.contextmanager
-def as_usage(default_flag=None):
+def as_usage(default_flag=_NO_FLAG):
     """Turn the API's ValueError/TypeError into a UsageError naming the flag behind its argument
-    (the message's leading ``name:``), else ``default_flag``."""
+    (the message's leading ``name:``), else ``default_flag``; without a default, an error about no
+    argument (the data itself) passes unchanged."""
     try:
         yield
     except (ValueError, TypeError, OverflowError) as exc:
@@ -44,4 +42,6 @@ def as_usage(default_flag=None):
         flag = API_FLAGS.get(match.group(1)) if match else None
         if flag is not None:
             raise UsageError(flag, message[match.end():]) from exc
+        if default_flag is _NO_FLAG:
+            raise
         raise UsageError(default_flag, message) from exc

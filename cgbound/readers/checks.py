@@ -13,6 +13,20 @@ FORCE_BALANCE_TOLERANCE = 1e-9
 _GENERIC = re.compile(r"^c_[A-Za-z0-9_]+\[\d+\]$")
 
 
+def dump_local_header(path):
+    """The column names of the first ``ITEM: ENTRIES`` line of a LAMMPS dump local (empty if none)."""
+    with open(path, "rb") as fh:
+        for line in fh:
+            if line.startswith(b"ITEM: ENTRIES"):
+                return line.decode(errors="replace").split()[2:]
+    return []
+
+
+def compute_columns(header, compute):
+    """The columns of ``header`` that hold values of compute ``compute`` (``c_ID`` or ``c_ID[k]``)."""
+    return [c for c in header if c == f"c_{compute}" or c.startswith(f"c_{compute}[")]
+
+
 def generic_columns(columns):
     """The columns of a dump header that name only a compute and an index (``c_pl[3]``)."""
     return [c for c in columns if _GENERIC.match(c)]

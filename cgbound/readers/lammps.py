@@ -89,6 +89,7 @@ import numpy as np
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._sequence import FrameSequence
+from .checks import FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, dump_local_header, generic_columns
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -129,6 +130,26 @@ def pair_local_columns(pair_compute="pl", pair_values=DEFAULT_PAIR_VALUES, prope
     if pair_style == "granular" and all(k in pv for k in ("p10", "p11", "p12")):
         out["branch"] = tuple(col(pair_compute, pv, k, "pair_values") for k in ("p10", "p11", "p12"))
     return out
+
+
+def _unknown_pair_values(path, header, pair_compute, pair_style):
+    generic = generic_columns(header)
+    shown = " ".join(header) if len(header) <= 16 else " ".join(header[:16]) + " ..."
+    example = "fx,fy,fz,p1,p2,p3,p4,dist" if pair_style != "total" else "fx,fy,fz"
+    return (f"pair_values: the contact dump {path} names its columns only by compute and index "
+            f"({len(generic)} such columns: {shown}); what each holds depends on the 'compute {pair_compute} "
+            f"all pair/local ...' line that wrote it, which the dump does not record. Say it with "
+            f"pair_values=(...) in that line's order (command line: --pair-values {example}); reading them "
+            f"in an assumed order is how a wrong force, and a wrong stress, go unnoticed")
+
+
+def _check_value_count(path, header, pair_compute, pair_values):
+    """The dump must hold as many ``c_ID[k]`` columns of the pair compute as ``pair_values`` names."""
+    cols = compute_columns(header, pair_compute)
+    if header and cols and len(cols) != len(pair_values):
+        raise ValueError(f"pair_values: {len(pair_values)} keywords ({' '.join(pair_values)}) but the contact "
+                         f"dump {path} holds {len(cols)} columns of compute {pair_compute!r} ({' '.join(cols)}); "
+                         f"give the keywords of that compute's line, in order")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -307,8 +328,9 @@ class LammpsReader(FrameSequence):
         "total": fx fy fz is the whole force (non-granular pair styles).
     pair_compute, pair_values, property_compute, property_values :
         IDs and keywords of the two computes, used to name the columns (see :func:`pair_local_columns`).
-        ``pair_values`` defaults to ``dist fx fy fz p1 p2 p3 p4`` ("gran") or
-        ``dist fx fy fz p1 ... p12`` ("granular").
+        ``pair_values`` (the keywords of ``compute pair/local`` in order, e.g. ``("dist", "fx", "fy",
+        "fz", "p1", "p2", "p3", "p4")``) is required with a contact dump: the dump's header names
+        its columns only ``c_pl[1] ... c_pl[k]``, so their meaning cannot be read from the file.
     pair_columns : dict, optional
         Explicit column names, overriding the above (keys as returned by pair_local_columns).
     walls : sequence of str
@@ -331,12 +353,18 @@ class LammpsReader(FrameSequence):
     drop_inactive : bool
         Drop pair rows with no overlap and zero force (pairs within a force cutoff but not touching;
         default True).
+    check_forces : bool
+        With a contact dump and ``fx fy fz`` in the atoms dump, every frame read is checked: the
+        contact forces plus the body forces must reproduce the dumped force of every flowing
+        particle to ``FORCE_BALANCE_TOLERANCE`` (1e-9) of the RMS contact force, else a ValueError
+        names the frame, the atom and the likely causes (wrong column order or pair style, missing
+        body force, walls or fixed particles, a frame dumped during a run). Default True.
     """
 
     def __init__(self, atoms, pairs=None, *, pair_style="gran", pair_compute="pl", pair_values=None,
                  property_compute="pp", property_values=("patom1", "patom2"), pair_columns=None,
                  walls=(), fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=3,
-                 dt=None, wrap=True, drop_inactive=True):
+                 dt=None, wrap=True, drop_inactive=True, check_forces=True):
         if dimension not in (2, 3):
             raise ValueError(f"dimension: expected 2 or 3, got {dimension!r}")
         if pair_style not in PAIR_STYLES:
@@ -346,11 +374,15 @@ class LammpsReader(FrameSequence):
         self.dimension = dimension
         self.pair_style = pair_style
         if pair_columns is None and pairs is not None:
+            header = dump_local_header(self.pairs_path)
             if pair_values is None:
-                pair_values = DEFAULT_GRANULAR_VALUES if pair_style == "granular" else DEFAULT_PAIR_VALUES
+                raise ValueError(_unknown_pair_values(self.pairs_path, header, pair_compute, pair_style))
+            pair_values = tuple(str(v) for v in pair_values)
+            _check_value_count(self.pairs_path, header, pair_compute, pair_values)
             pair_columns = pair_local_columns(pair_compute, pair_values, property_compute, property_values,
                                               pair_style)
         self.pair_columns = None if pair_columns is None else dict(pair_columns)
+        self.pair_values = pair_values
         if isinstance(walls, str):
             walls = [walls]
         self.walls = tuple(str(w) for w in walls)
@@ -363,6 +395,9 @@ class LammpsReader(FrameSequence):
         self.dt = None if dt is None else float(dt)
         self.wrap = bool(wrap)
         self.drop_inactive = bool(drop_inactive)
+        if not isinstance(check_forces, (bool, np.bool_)):
+            raise TypeError(f"check_forces: expected True or False, got {check_forces!r}")
+        self.check_forces = bool(check_forces)
         atom_frames = _scan(self.atoms_path, "atoms")
         self._frames = self._match(atom_frames)
         self._cache = None
@@ -503,6 +538,7 @@ class LammpsReader(FrameSequence):
             radii = None
 
         fixed = np.isin(types, self.fixed_types) | np.isin(ids, self.fixed_ids)
+        self._check_selection(types, ids, timestep)
 
         # contacts ---------------------------------------------------------------------------
         ci, cj, cf, cp, cids, cov = [], [], [], [], [], []
@@ -547,7 +583,32 @@ class LammpsReader(FrameSequence):
         safe_masses = np.where(fixed & ~(masses > 0), 1.0, masses)
         snap = Snapshot(pos, velocities=vel, masses=safe_masses, box=box, contacts=contacts, fixed=fixed,
                         species=types, body_force=self.body_force, radii=radii, time=time)
-        return LammpsFrame(snap, ids, types, timestep, forces, contact_ids, overlap)
+        frame = LammpsFrame(snap, ids, types, timestep, forces, contact_ids, overlap)
+        if self.check_forces and forces is not None and pairs_offset is not None:
+            check_force_balance(frame.force_balance(), ids, path, timestep, FORCE_BALANCE_TOLERANCE,
+                                self._balance_hints())
+        return frame
+
+    def _check_selection(self, types, ids, timestep):
+        """Fixed types and IDs that select no particle are errors (a typo must not read as 'no boundary')."""
+        missing = [t for t in self.fixed_types if not np.any(types == t)]
+        if missing:
+            raise ValueError(f"fixed_types: type(s) {missing} select no particle in {self.atoms_path} at timestep "
+                             f"{timestep} (types present: {sorted(set(types.tolist()))})")
+        absent = np.setdiff1d(self.fixed_ids, ids)
+        if absent.size:
+            raise ValueError(f"fixed_ids: atom ID(s) {absent[:10].tolist()} are not in {self.atoms_path} at "
+                             f"timestep {timestep}")
+
+    def _balance_hints(self):
+        named = f"pair_values={self.pair_values}" if self.pair_values else f"pair_columns={self.pair_columns}"
+        hints = [f"the contact dump's columns are not {named} (--pair-values): check the order of the "
+                 f"'compute pair/local' line",
+                 f"the pair style is not pair_style={self.pair_style!r} (--pair-style)",
+                 "a body force is missing or wrong (body_force=, --gravity)",
+                 "fixed particles or walls are not marked (fixed_types=, fixed_ids=, walls=; "
+                 "--fixed-types, --fixed-ids, --walls)"]
+        return hints
 
     def _wrap(self, x, box):
         x = np.array(x, dtype=float)

@@ -63,9 +63,11 @@ contacts are not read by this reader yet. Use fixed particles for boundaries, or
 contacts yourself.
 """
 import numbers
+import os
 
 import numpy as np
 
+from .checks import compute_columns, dump_local_header
 from .lammps import LammpsReader, _read_frame, contact_indices
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns"]
@@ -123,14 +125,18 @@ class LiggghtsReader(LammpsReader):
         Number of history values when ``history`` is among ``pair_values``.
     pair_columns : dict, optional
         Explicit column names per keyword (as returned by :func:`pair_gran_local_columns`).
-    fixed_types, fixed_ids, body_force, masses, dimension, dt, wrap :
-        As for :class:`LammpsReader`.
+    fixed_types, fixed_ids, body_force, masses, dimension, dt, wrap, check_forces :
+        As for :class:`LammpsReader` (every frame's force balance is checked by default).
+
+    The number of ``c_ID[k]`` columns in the dump must be what ``pair_values`` (and ``history``)
+    give: keywords other than the compute's are an error, not a shifted reading.
     """
 
     def __init__(self, atoms, pairs=None, *, pair_compute="pgl", pair_values=DEFAULT_VALUES, history=0,
                  pair_columns=None, fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=3,
-                 dt=None, wrap=True):
-        if pair_columns is None and pairs is not None:
+                 dt=None, wrap=True, check_forces=True):
+        from_values = pair_columns is None and pairs is not None
+        if from_values:
             pair_columns = pair_gran_local_columns(pair_compute, pair_values, history)
         if pair_columns is not None:
             pair_columns = {k: tuple(v) for k, v in dict(pair_columns).items()}
@@ -140,9 +146,16 @@ class LiggghtsReader(LammpsReader):
                                                     and "force_tangential" in pair_columns):
                 raise ValueError("pair_values: compute pair/gran/local needs 'force' (or both "
                                  "'force_normal' and 'force_tangential')")
+        if from_values:
+            found = compute_columns(dump_local_header(os.fspath(pairs)), pair_compute)
+            expected = sum(len(v) for v in pair_columns.values())
+            if found and len(found) != expected:
+                raise ValueError(f"pair_values: the keywords {' '.join(pair_values)} make {expected} columns but "
+                                 f"the contact dump {os.fspath(pairs)} holds {len(found)} columns of compute "
+                                 f"{pair_compute!r}; give the keywords of that compute's line (--pair-values)")
         super().__init__(atoms, pairs, pair_style="total", pair_columns=pair_columns, fixed_types=fixed_types,
                          fixed_ids=fixed_ids, body_force=body_force, masses=masses, dimension=dimension,
-                         dt=dt, wrap=wrap, drop_inactive=False)
+                         dt=dt, wrap=wrap, drop_inactive=False, check_forces=check_forces)
 
     def __repr__(self):
         return "Liggghts" + super().__repr__()[len("Lammps"):]
