@@ -143,6 +143,16 @@ def test_a_pair_dump_without_pair_values_is_refused_naming_the_flag(tmp_path, ca
     assert status == 2 and err.startswith("cgbound: error: --pair-values: the contact dump")
 
 
+def test_no_check_forces_reads_a_dump_written_during_a_run(tmp_path, capsys):
+    atoms, pairs = os.path.join(HOOKE3D, "run_atoms.dump"), os.path.join(HOOKE3D, "run_pairs.dump")
+    args = ["run", atoms, "--pairs", pairs, "--pair-values", GRAN, "--fixed-types", "2", "--walls", "w", "--gravity",
+            "0,0,-1", "--grid", "1,1,10", "--average", "x,y", "--fields", "stress", "-o", str(tmp_path / "o.npz"),
+            "-q"]
+    status, err = run_error(args, capsys)
+    assert status == 1 and "inside 'run 0'" in err and "--no-check-forces" in err
+    assert main(args + ["--no-check-forces"]) == 0
+
+
 def test_a_wrong_pair_values_order_fails_loudly_not_silently(tmp_path, capsys):
     # the genuine dump read with the keywords in another order: the force balance says so (the CLI exited
     # 0 with wrong physics before)
@@ -244,18 +254,36 @@ def test_a_flag_of_another_format_is_an_error_not_ignored(tmp_path, capsys):
     status, err = run_error(["run", str(tmp_path / "in.h5"), "--fixed-types", "2", "-o", str(tmp_path / "o.npz")],
                             capsys)
     assert status == 2 and "--fixed-types: applies to lammps, liggghts input, not to hdf5 input" in err
+    status, err = run_error(["run", str(tmp_path / "in.h5"), "--no-check-forces", "-o", str(tmp_path / "o.npz")],
+                            capsys)
+    assert status == 2 and "--no-check-forces: applies to lammps, liggghts input" in err
 
 
-def test_unknown_format_and_gzip_are_named(tmp_path, capsys):
+def test_unknown_format_is_named(tmp_path, capsys):
     junk = tmp_path / "junk.txt"
     junk.write_text("hello\n")
     status, err = run_error(["run", str(junk), "-o", str(tmp_path / "o.npz")], capsys)
     assert status == 2 and err.startswith("cgbound: error: --format: ") and "junk.txt" in err
+
+
+def test_gzipped_per_frame_dumps_read_as_the_plain_ones(tmp_path):
     import gzip
-    gz = tmp_path / "atoms.dump.gz"
-    gz.write_bytes(gzip.compress(open(ATOMS, "rb").read()))
-    status, err = run_error(["run", str(gz), "-o", str(tmp_path / "o.npz")], capsys)
-    assert status == 2 and "gzip" in err
+    names = ["4500", "5000", "5500"]
+    for path in split_frames(ATOMS, tmp_path, "atoms", names) + split_frames(PAIRS, tmp_path, "pairs", names):
+        with open(path, "rb") as src, gzip.open(str(path) + ".gz", "wb") as dst:
+            dst.write(src.read())
+        os.remove(path)
+    out = tmp_path / "p.npz"
+    assert main(["run", str(tmp_path / "atoms.*.dump.gz"), "--pairs", str(tmp_path / "pairs.*.dump.gz"),
+                 "--pair-values", GRAN, "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1", "--grid",
+                 "1,1,40", "--average", "x,y", "--fields", "interaction_force_density,stress", "--time-average",
+                 "none", "-o", str(out), "-q"]) == 0
+    frames = cg.readers.LammpsReader(ATOMS, PAIRS, pair_values=GRAN.split(","), fixed_types=[2], walls=["w"],
+                                     body_force=[0, 0, -1])
+    expected = cg.CoarseGrain(frames, cg.Grid(frames[0].box, (1, 1, 40), average=("x", "y")), cg.Gaussian(0.25),
+                              fields=("stress",), time_average="none").run().results
+    with np.load(out) as result:
+        np.testing.assert_array_equal(result["stress"], expected.stress)
 
 
 def test_missing_input_and_empty_pattern_are_named(tmp_path, capsys):
@@ -298,7 +326,9 @@ def test_the_installed_command_prints_no_traceback(tmp_path):
 def test_contact_fields_without_a_contact_file_warn(tmp_path, capsys):
     assert main(["run", ATOMS, "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1", "--grid", "1,1,10",
                  "--average", "x,y", "--fields", "stress", "-o", str(tmp_path / "o.npz"), "-q"]) == 0
-    assert "warning: no contact file (--pairs)" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "cgbound: warning: " in err and "no contact dump" in err and "bulk contact stress is zero" in err
+    assert "UserWarning" not in err
 
 
 def test_mercury_companion_files_are_used_and_announced(tmp_path, capsys):

@@ -326,7 +326,8 @@ def test_errors_name_the_problem(lammps_dir, tmp_path):
         with pytest.raises(ValueError, match="truncated"):
             LammpsReader(str(bad))
     # no pairs: particles only
-    only = LammpsReader(atoms, fixed_types=[2])
+    with pytest.warns(UserWarning, match="no contact dump .* the bulk contact stress is zero"):
+        only = LammpsReader(atoms, fixed_types=[2])
     assert len(only) == 3 and len(only[0].contacts) == 0
 
 

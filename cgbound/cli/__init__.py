@@ -5,6 +5,7 @@ status 2 for arguments and 1 for data; ``--debug`` shows the traceback instead.
 """
 import argparse
 import sys
+import warnings
 
 from . import demo, run
 from .errors import UsageError
@@ -30,12 +31,20 @@ def build_parser():
     return parser
 
 
+def show_warning(message, category, filename, lineno, file=None, line=None):
+    """Warnings as one line on stderr, like the errors."""
+    print(f"cgbound: warning: {one_line(message)}", file=sys.stderr)
+
+
 def main(argv=None):
     """Run the command line; returns the exit status."""
     args = build_parser().parse_args(argv)
     try:
-        args.check(args)
-        return args.func(args)
+        with warnings.catch_warnings():
+            if not args.debug:
+                warnings.showwarning = show_warning
+            args.check(args)
+            return args.func(args)
     except KeyboardInterrupt:
         if args.debug:
             raise

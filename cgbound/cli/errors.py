@@ -21,6 +21,7 @@ API_FLAGS = {
     "masses": "--masses", "dt": "--dt", "dimension": "--dimension", "dim": "--dimension",
     "density": "--density", "pair_values": "--pair-values", "pair_compute": "--pair-compute",
     "pair_style": "--pair-style", "species": "--species", "lower": "--lower", "upper": "--upper",
+    "paths": "PATH", "check_forces": "--no-check-forces",
 }
 
 _LEADING_NAME = re.compile(r"^([A-Za-z_][A-Za-z0-9_.]*): ")

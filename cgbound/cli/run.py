@@ -20,7 +20,7 @@ FORMATS = ("hdf5", "lammps", "liggghts", "mdanalysis", "mercury")
 
 #: reader flags and the formats they apply to (a flag given for another format is an error, not ignored)
 FLAG_FORMATS = {
-    "pairs": ("lammps", "liggghts", "mercury"), "pair_style": ("lammps",),
+    "pairs": ("lammps", "liggghts", "mercury"), "pair_style": ("lammps",), "no_check_forces": ("lammps", "liggghts"),
     "pair_compute": ("lammps", "liggghts"), "pair_values": ("lammps", "liggghts"),
     "fixed_types": ("lammps", "liggghts"), "fixed_ids": ("lammps", "liggghts", "mercury"),
     "walls": ("lammps",), "masses": ("lammps", "liggghts"), "dt": ("lammps", "liggghts"),
@@ -78,6 +78,9 @@ def add_parser(sub):
     g.add_argument("--masses", metavar="TYPE=MASS,...",
                    help="lammps/liggghts: masses per atom type when the dump has no mass column")
     g.add_argument("--dt", metavar="DT", help="lammps/liggghts: time step size (time = timestep x dt)")
+    g.add_argument("--no-check-forces", action="store_const", const=True, default=None,
+                   help="lammps/liggghts: read frames whose contact and body forces do not reproduce the dumped "
+                        "per-particle forces (dumps written during a run; by default such a frame is an error)")
     g.add_argument("--dimension", type=int, choices=[2, 3], help="lammps/liggghts: dimension of the run "
                                                                   "(default 3)")
     g.add_argument("--restart", metavar="PATH", help="mercury: the .restart file (fixed particles, densities, "
@@ -207,29 +210,22 @@ def companion(path, old, new):
     return candidate if os.path.isfile(candidate) else None
 
 
-def pair_files(args, paths, fmt):
-    """One contact file per particle file (or None each)."""
-    if args.pairs is None:
-        if fmt == "mercury":
-            found = [companion(p, ".data", ".fstat") for p in paths]
-            if all(found):
-                print(f"cgbound: contacts from {', '.join(os.path.basename(f) for f in found[:3])}"
-                      f"{' ...' if len(found) > 3 else ''}", file=sys.stderr)
-                return found
-        return [None] * len(paths)
-    from ..readers.files import expand_paths
-    try:
-        pairs = expand_paths([args.pairs], "--pairs")
-    except (OSError, ValueError) as exc:
-        raise UsageError(None, str(exc)) from None
-    if len(pairs) != len(paths):
-        raise UsageError("--pairs", f"expected one contact file per particle file ({len(paths)}), got {len(pairs)}: "
-                                    f"{', '.join(map(os.path.basename, pairs[:4]))}")
-    return pairs
+def contact_files(args, paths, fmt):
+    """The contact files: --pairs (a file or a pattern), or for MercuryDPM the .fstat next to each .data."""
+    if args.pairs is not None:
+        return args.pairs
+    if fmt == "mercury":
+        found = [companion(p, ".data", ".fstat") for p in paths]
+        if all(found):
+            print(f"cgbound: contacts from {', '.join(os.path.basename(f) for f in found[:3])}"
+                  f"{' ...' if len(found) > 3 else ''}", file=sys.stderr)
+            return found
+    return None
 
 
 def mercury_dimension(path):
-    with open(path, "rb") as f:
+    from ..readers.files import open_input
+    with open_input(path) as f:
         words = f.readline().split()
     return 2 if len(words) == 6 else 3
 
@@ -255,6 +251,8 @@ def reader_options(args, fmt, paths):
         for name in ("pair_compute", "pair_values", "fixed_types", "fixed_ids", "masses", "dt", "dimension"):
             if getattr(args, name) is not None:
                 options[name] = getattr(args, name)
+        if args.no_check_forces:
+            options["check_forces"] = False
         if fmt == "lammps":
             if args.pair_style is not None:
                 options["pair_style"] = args.pair_style
@@ -270,35 +268,28 @@ def reader_options(args, fmt, paths):
 
 def open_data(args):
     """The dataset as one frame sequence, with every reader flag checked against the format."""
-    from ..readers import HDF5Snapshots, LammpsReader, LiggghtsReader, MDAnalysisReader, MercuryReader
-    from ..readers.files import ConcatenatedFrames
+    from ..readers import open_dataset
     paths = input_files(args)
     fmt = data_format(args, paths)
     check_flags_apply(args, fmt)
     if fmt == "mdanalysis":
         with as_usage("PATH"):
-            return MDAnalysisReader(tuple(paths) if len(paths) > 1 else paths[0]), fmt, paths
+            return open_dataset(tuple(paths) if len(paths) > 1 else paths[0], format=fmt), fmt, paths
     options = reader_options(args, fmt, paths)
-    pairs = pair_files(args, paths, fmt) if fmt != "hdf5" else [None] * len(paths)
-    readers = []
-    for path, pair in zip(paths, pairs):
-        with as_usage("PATH"):
-            if fmt == "hdf5":
-                readers.append(HDF5Snapshots(path))
-            elif fmt == "lammps":
-                readers.append(LammpsReader(path, pair, **options))
-            elif fmt == "liggghts":
-                readers.append(LiggghtsReader(path, pair, **options))
-            else:
-                restart = args.restart or companion(path, ".data", ".restart")
-                readers.append(MercuryReader(path, pair, restart_path=restart, **options))
-    if fmt == "mercury" and args.restart is None and companion(paths[0], ".data", ".restart"):
-        print(f"cgbound: fixed particles, densities and periodic axes from "
-              f"{os.path.basename(companion(paths[0], '.data', '.restart'))}", file=sys.stderr)
-    try:
-        data = readers[0] if len(readers) == 1 else ConcatenatedFrames(readers, "PATH")
-    except ValueError as exc:
-        raise UsageError(None, str(exc)) from None
+    contacts = contact_files(args, paths, fmt) if fmt != "hdf5" else None
+    if contacts is not None:
+        options["fstat_path" if fmt == "mercury" else "pairs"] = contacts
+    if fmt == "mercury":
+        restart = args.restart or companion(paths[0], ".data", ".restart")
+        if restart and args.restart is None:
+            print(f"cgbound: fixed particles, densities and periodic axes from {os.path.basename(restart)}",
+                  file=sys.stderr)
+        options["restart_path"] = restart
+    with as_usage("PATH"):
+        try:
+            data = open_dataset(paths, format=fmt, **options)
+        except OSError as exc:     # a missing file named by a pattern or option: an argument error too
+            raise ValueError(str(exc)) from None
     if len(data) == 0:
         raise UsageError("PATH", f"{', '.join(paths[:3])}: no frames")
     return data, fmt, paths
@@ -358,15 +349,6 @@ def check_figure(args, grid):
                                      f"{grid!r} resolves {len(grid.resolved)}: average over more axes (--average)")
 
 
-def warn_missing_contacts(args, data, fmt):
-    from ..fields import FIELDS
-    contact_fields = [f for f in args.fields if set(FIELDS[f][1]) & {"sb", "sw", "t", "sx"}]
-    if contact_fields and fmt in ("lammps", "liggghts", "mercury") and args.pairs is None \
-            and getattr(data, "pairs_path", 1) is None:
-        print(f"cgbound: warning: no contact file (--pairs): {', '.join(contact_fields)} will hold no bulk "
-              f"contact stress", file=sys.stderr)
-
-
 # --- the command ----------------------------------------------------------------------------------------
 
 def run(args):
@@ -377,7 +359,6 @@ def run(args):
     grid = make_grid(args, first)
     kernel = make_kernel(args)
     check_figure(args, grid)
-    warn_missing_contacts(args, data, fmt)
     with as_usage("--fields"):
         analysis = CoarseGrain(data, grid, kernel, fields=args.fields, convention=args.convention,
                                species=args.species, time_average=args.time_average)

@@ -4,6 +4,8 @@ import re
 
 import numpy as np
 
+from .files import open_input
+
 #: A frame balances when the contact forces plus the body forces reproduce the dumped per-particle
 #: forces to this fraction of the RMS contact force. Frames written inside ``run 0`` with ``%.17g``
 #: reach 1e-15 (``newton on``) to 1e-13 (``newton off``); frames dumped during a run with damping
@@ -15,7 +17,7 @@ _GENERIC = re.compile(r"^c_[A-Za-z0-9_]+\[\d+\]$")
 
 def dump_local_header(path):
     """The column names of the first ``ITEM: ENTRIES`` line of a LAMMPS dump local (empty if none)."""
-    with open(path, "rb") as fh:
+    with open_input(path) as fh:
         for line in fh:
             if line.startswith(b"ITEM: ENTRIES"):
                 return line.decode(errors="replace").split()[2:]

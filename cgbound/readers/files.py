@@ -6,12 +6,29 @@ numbers in their names (``dump.900`` before ``dump.1000``), not by string, and t
 checked to increase from one file to the next.
 """
 import glob
+import gzip
 import os
 import re
 
 from ._sequence import FrameSequence
 
 _NUMBER = re.compile(r"(\d+)")
+
+
+GZIP_MAGIC = b"\x1f\x8b"
+
+
+def is_gzip(path):
+    with open(path, "rb") as f:
+        return f.read(2) == GZIP_MAGIC
+
+
+def open_input(path, text=False):
+    """Open a data file for reading, gzip-compressed or not (told by its first bytes, not its name):
+    compressed files are decompressed as a stream (seek and tell count decompressed bytes)."""
+    if is_gzip(path):
+        return gzip.open(path, "rt" if text else "rb")
+    return open(path, "r" if text else "rb")
 
 
 def natural_key(path):

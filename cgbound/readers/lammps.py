@@ -83,6 +83,7 @@ timestep and the dumped per-particle forces.
 """
 import numbers
 import os
+import warnings
 
 import numpy as np
 
@@ -90,6 +91,7 @@ from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._sequence import FrameSequence
 from .checks import FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, dump_local_header, generic_columns
+from .files import open_input
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -159,7 +161,7 @@ def _scan(path, kind):
     """Byte offsets of the frames of a LAMMPS text dump: list of (offset, timestep)."""
     count_item = "ITEM: NUMBER OF ATOMS" if kind == "atoms" else "ITEM: NUMBER OF ENTRIES"
     frames = []
-    with open(path, "rb") as fh:
+    with open_input(path) as fh:
         while True:
             offset = fh.tell()
             line = fh.readline()
@@ -195,7 +197,7 @@ def _scan(path, kind):
 
 def _read_frame(path, offset):
     """One frame: dict with timestep, time (or None), box bounds/flags, column names and rows."""
-    with open(path, "rb") as fh:
+    with open_input(path) as fh:
         fh.seek(offset)
         head = {"time": None, "bounds": None, "flags": None, "triclinic": False}
         line = fh.readline().decode()
@@ -398,6 +400,10 @@ class LammpsReader(FrameSequence):
         if not isinstance(check_forces, (bool, np.bool_)):
             raise TypeError(f"check_forces: expected True or False, got {check_forces!r}")
         self.check_forces = bool(check_forces)
+        if self.pairs_path is None and (self.walls or self.fixed_types or self.fixed_ids.size):
+            warnings.warn(f"{self.atoms_path}: walls or fixed particles but no contact dump (pairs=): the contacts "
+                          f"between particles are missing, so the bulk contact stress is zero and only wall "
+                          f"contacts reach the boundary stress and the IFD", stacklevel=2)
         atom_frames = _scan(self.atoms_path, "atoms")
         self._frames = self._match(atom_frames)
         self._cache = None

@@ -101,6 +101,7 @@ import numpy as np
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._sequence import FrameSequence
+from .files import open_input
 
 __all__ = ["MercuryReader", "MercuryFrame", "write_mercury"]
 
@@ -121,7 +122,7 @@ def _floats(words, path, lineno):
 def _scan_data(path, dim):
     """Frames of a .data file: list of (byte offset of the header, line number, n, time, dim)."""
     frames = []
-    with open(path, "rb") as fh:
+    with open_input(path) as fh:
         lineno = 0
         while True:
             offset = fh.tell()
@@ -155,7 +156,7 @@ def _scan_data(path, dim):
 def _scan_fstat(path):
     """Frames of a .fstat file: list of (byte offset of the first header line, line number, time, marker)."""
     frames = []
-    with open(path, "rb") as fh:
+    with open_input(path) as fh:
         lineno = 0
         in_header = 0   # header lines seen in the current block (3 per frame)
         while True:
@@ -193,7 +194,7 @@ def _read_restart(path):
     density, normals, particle_dim = {}, [], None
     inv_mass, positions = [], []
     declared, declared_line = None, None
-    with open(path) as fh:
+    with open_input(path, text=True) as fh:
         for lineno, line in enumerate(fh, 1):
             words = line.split()
             if not words:
@@ -368,7 +369,7 @@ class MercuryReader(FrameSequence):
     def _build(self, data_offset, data_line, n, fstat_offset, fstat_line, marker):
         path, dim = self.data_path, self.dim
         ncol = _DATA_COLUMNS[dim]
-        with open(path, "rb") as fh:
+        with open_input(path) as fh:
             fh.seek(data_offset)
             head = fh.readline().split()
             rows = [fh.readline() for _ in range(n)]
@@ -464,7 +465,7 @@ class MercuryReader(FrameSequence):
     def _contacts(self, offset, first_line, marker, time, pos, radii, box):
         path, dim, n = self.fstat_path, self.dim, pos.shape[0]
         lines, numbers_ = [], []
-        with open(path, "rb") as fh:
+        with open_input(path) as fh:
             fh.seek(offset)
             lineno = first_line - 1
             seen_data, headers = False, 0

@@ -1,29 +1,27 @@
 """Telling a dataset's format from its first bytes (and, for MercuryDPM, its name)."""
 import os
 
+from .files import open_input
+
 HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
-GZIP_SIGNATURE = b"\x1f\x8b"
 
 FORMATS = ("hdf5", "lammps", "liggghts", "mdanalysis", "mercury")
 
 
 def sniff_format(path):
     """``"hdf5"``, ``"lammps"`` (LAMMPS and LIGGGHTS dumps look alike: LIGGGHTS needs ``format="liggghts"``)
-    or ``"mercury"``; a ValueError naming the file when the format cannot be told."""
+    or ``"mercury"`` (gzip-compressed text too); a ValueError naming the file when the format cannot be told."""
     path = os.fspath(path)
-    with open(path, "rb") as f:
+    with open_input(path) as f:
         head = f.read(4096)
     if head.startswith(HDF5_SIGNATURE):
         return "hdf5"
-    if head.startswith(GZIP_SIGNATURE):
-        raise ValueError(f"{path}: a gzip-compressed file; compressed input is not read yet: decompress it first "
-                         f"(gunzip -k {os.path.basename(path)})")
     if not head.strip():
         raise ValueError(f"{path}: the file is empty; expected a dataset")
     if head.lstrip().startswith(b"ITEM: TIMESTEP"):
         return "lammps"
     name = os.path.basename(path)
-    if name.endswith(".data") or ".data." in name:
+    if name.endswith(".data") or ".data." in name or name.endswith(".data.gz"):
         return "mercury"
     first = head.split(b"\n", 1)[0].split()
     if len(first) in (6, 8) and _all_numbers(first):
