@@ -6,6 +6,12 @@ from ._validate import flag, real_array
 AXIS_NAMES = ("x", "y", "z")
 
 
+def _core_geometry():
+    """The C core's geometry functions (``minimum_image``, ``wrap``): this module's one way into the core."""
+    from . import _core
+    return _core
+
+
 class Box:
     """Axis-aligned box ``[lower, upper]`` with a periodic flag per axis.
 
@@ -53,6 +59,22 @@ class Box:
     @property
     def axis_names(self):
         return ("x", "z") if self.dim == 2 else AXIS_NAMES
+
+    def minimum_image(self, vectors):
+        """Copy of ``vectors`` ((N, D)) with each component along a periodic axis replaced by its
+        minimum image: ``v - L round(v / L)`` (ties to even) when ``|v| > L/2``, else ``v`` unchanged
+        (the core's rule, the one the coarse graining uses for contact branches)."""
+        vectors = real_array(vectors, "vectors", ndim=2, shape=(None, self.dim))
+        return _core_geometry().minimum_image(vectors, self.periodic, [float(x) for x in self.lengths])
+
+    def wrap(self, positions):
+        """Copy of ``positions`` ((N, D)) moved into ``[lower, upper)`` along the periodic axes.
+
+        A coordinate already inside is kept exactly; any other becomes ``lower + mod(x - lower, L)``
+        (NumPy's ``mod``), and a result that rounds up to ``upper`` becomes ``lower``.
+        """
+        positions = real_array(positions, "positions", ndim=2, shape=(None, self.dim))
+        return _core_geometry().wrap(positions, self.periodic, self.lower, self.upper)
 
     def __eq__(self, other):
         return (isinstance(other, Box) and self.dim == other.dim and np.array_equal(self.lower, other.lower)

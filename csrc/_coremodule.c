@@ -513,6 +513,44 @@ static PyObject *py_minimum_image(PyObject *self, PyObject *args)
     return (PyObject *)out;
 }
 
+static PyObject *py_wrap(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *pos_obj, *periodic_obj, *lower_obj, *upper_obj;
+    if (!PyArg_ParseTuple(args, "OOOO", &pos_obj, &periodic_obj, &lower_obj, &upper_obj)) return NULL;
+    const npy_intp any[2] = {-1, -1};
+    PyArrayObject *pos = as_array(pos_obj, "positions", 2, any), *lower = NULL, *upper = NULL, *out = NULL;
+    if (!pos) return NULL;
+    const npy_intp D = PyArray_DIM(pos, 1);
+    int periodic[3] = {0, 0, 0};
+    if (D < 1 || D > 3 || PySequence_Size(periodic_obj) != D) {
+        PyErr_SetString(PyExc_ValueError, "wrap: positions need 1 to 3 columns and periodic one entry per column");
+        goto done;
+    }
+    for (npy_intp d = 0; d < D; ++d) {
+        PyObject *p = PySequence_GetItem(periodic_obj, d);
+        periodic[d] = p ? PyObject_IsTrue(p) : -1;
+        Py_XDECREF(p);
+        if (periodic[d] < 0) goto done;
+    }
+    lower = as_array(lower_obj, "lower", 1, &D);
+    upper = lower ? as_array(upper_obj, "upper", 1, &D) : NULL;
+    out = upper ? (PyArrayObject *)PyArray_NewCopy(pos, NPY_CORDER) : NULL;
+    if (!out) goto done;
+    const cg_status status = cg_wrap(PyArray_DIM(out, 0), (int)D, PyArray_DATA(out), periodic,
+                                     PyArray_DATA(lower), PyArray_DATA(upper));
+    if (status != CG_OK) {
+        PyErr_Format(PyExc_ValueError, "wrap: %s (a periodic axis needs upper > lower, and positions within "
+                     "reach of the box: x - lower must not overflow)", cg_strerror(status));
+        Py_CLEAR(out);
+    }
+done:
+    Py_DECREF(pos);
+    Py_XDECREF(lower);
+    Py_XDECREF(upper);
+    return (PyObject *)out;
+}
+
 static PyObject *py_have_openmp(PyObject *self, PyObject *args)
 {
     (void)self;
@@ -547,6 +585,8 @@ static PyMethodDef methods[] = {
      "Kinetic stress -sum m (v - V(node)) (v - V(node)) M(node - x) in fluctuation form."},
     {"minimum_image", py_minimum_image, METH_VARARGS,
      "minimum_image(vectors, periodic, period) -> copy of vectors wrapped to the minimum image."},
+    {"wrap", py_wrap, METH_VARARGS,
+     "wrap(positions, periodic, lower, upper) -> copy of positions wrapped into [lower, upper) on periodic axes."},
     {"have_openmp", py_have_openmp, METH_NOARGS, "Whether the core was built with OpenMP."},
     {"set_wide_vectors", py_set_wide_vectors, METH_O,
      "Internal: False makes the Gaussian on grids use its AVX2/baseline build instead of AVX-512 (identical "

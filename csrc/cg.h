@@ -182,6 +182,16 @@ cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kerne
 void cg_minimum_image(cg_index n, int dim, double *vecs,
                       const int *periodic, const double *period);
 
+/* Wrap each row of positions (n x D) into the box [lower, upper) along the
+   periodic data axes (periodic[d] != 0): a coordinate already inside is left
+   unchanged, any other becomes lower + mod(x - lower, L), L = upper - lower,
+   with NumPy's mod (the remainder of fmod moved into [0, L]); a result that
+   rounds to upper is lower. CG_ERR_ARGUMENT when a periodic axis has no
+   positive finite length or x - lower is not finite (positions are then
+   partly wrapped). */
+cg_status cg_wrap(cg_index n, int dim, double *positions, const int *periodic,
+                  const double *lower, const double *upper);
+
 #ifdef __cplusplus
 }
 #endif

@@ -44,6 +44,29 @@ void cg_minimum_image(cg_index n, int dim, double *vecs, const int *periodic, co
     }
 }
 
+cg_status cg_wrap(cg_index n, int dim, double *positions, const int *periodic, const double *lower,
+                  const double *upper)
+{
+    for (int d = 0; d < dim; ++d) {
+        if (!periodic[d]) continue;
+        const double lo = lower[d], hi = upper[d], L = hi - lo;
+        if (!(L > 0.0 && isfinite(L))) return CG_ERR_ARGUMENT;
+        for (cg_index i = 0; i < n; ++i) {
+            double *x = positions + i * dim + d;
+            if (*x >= lo && *x < hi) continue; /* inside: left exactly as it is */
+            /* NumPy's mod: fmod is exact; a negative remainder moves up by L
+               (and may round to L itself); a zero remainder is +0 */
+            double m = fmod(*x - lo, L);
+            if (m < 0.0) m += L;
+            else if (m == 0.0) m = 0.0;
+            const double w = lo + m;
+            if (isinf(m) || isnan(m)) return CG_ERR_ARGUMENT; /* x - lo overflowed (or x was not finite) */
+            *x = w >= hi ? lo : w; /* lo + m rounded up to hi: that is lo again */
+        }
+    }
+    return CG_OK;
+}
+
 /* ------------------------------------------------------------------ */
 
 /* how often (in visited nodes or images) the interrupt flag is polled

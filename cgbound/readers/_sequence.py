@@ -1,7 +1,14 @@
-"""The lazy frame sequence every reader is: len(), indexing, slicing, iteration, cheap pickling."""
+"""The lazy frame sequence every reader is (len(), indexing, slicing, iteration, cheap pickling), and
+what the readers share: the body-force argument, the cached frame objects, the repr."""
 import numbers
+import os
 
 import numpy as np
+
+
+def file_name(path):
+    """A path's base name as the repr shows it (``None`` when there is no file)."""
+    return repr(None if path is None else os.path.basename(path))
 
 
 class FrameSequence:
@@ -9,8 +16,9 @@ class FrameSequence:
 
     A subclass keeps ``self._frames``, a list with one small locator per frame (offsets,
     frame numbers: never arrays), and implements ``_snapshot(position)`` for the frame at
-    a valid non-negative position. Slicing returns a copy of the reader restricted to those
-    frames; ``_cache``, if a subclass uses one, is dropped from slices and pickles.
+    a valid non-negative position and ``_describe()`` for its repr. Slicing returns a copy of
+    the reader restricted to those frames; ``_cache``, if a subclass uses one, is dropped from
+    slices and pickles.
     """
 
     _frames = ()
@@ -59,8 +67,41 @@ class FrameSequence:
         state["_cache"] = None
         return state
 
-    def _cached_frame(self, index):
-        """The frame object ``self._build(*locator)`` at ``index``, keeping the last one built."""
+    def __repr__(self):
+        sources, details = self._describe()
+        return f"{type(self).__name__}({', '.join([*sources, f'{len(self)} frames', *details])})"
+
+    def _describe(self):  # pragma: no cover - abstract
+        """Two lists of strings for the repr: where the frames come from, and details after the frame count."""
+        raise NotImplementedError
+
+    def _snapshot(self, position):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    @staticmethod
+    def _check_body_force(g, dim, program=None):
+        """``body_force`` as a (dim,) float array, or None. With ``program`` named, a 2D run also takes
+        that program's 3 components (the third must be 0)."""
+        if g is None:
+            return None
+        g = np.asarray(g, dtype=float)
+        if program is not None and dim == 2 and g.shape == (3,):
+            if g[2] != 0:
+                raise ValueError(f"body_force: a 2D {program} run has no z component; got a non-zero third value")
+            g = g[:2]
+        if g.shape != (dim,) or not np.all(np.isfinite(g)):
+            raise ValueError(f"body_force: expected {dim} finite values, got {g.tolist()}")
+        return g
+
+
+class FrameReader(FrameSequence):
+    """A reader that builds one frame object per frame: the frame's ``snapshot`` plus what the format
+    adds (IDs, overlaps, ...). A subclass implements ``_build(*locator)`` for the locator
+    ``self._frames[k]``; the last frame built is kept, so ``frame(k)`` then ``reader[k]`` reads once.
+    """
+
+    def frame(self, index):
+        """Frame ``index`` as the reader's frame object (its ``snapshot`` plus the format's data)."""
         k = self._position(index)
         if self._cache is not None and self._cache[0] == k:
             return self._cache[1]
@@ -68,5 +109,8 @@ class FrameSequence:
         self._cache = (k, result)
         return result
 
-    def _snapshot(self, position):  # pragma: no cover - abstract
+    def _snapshot(self, position):
+        return self.frame(position).snapshot
+
+    def _build(self, *locator):  # pragma: no cover - abstract
         raise NotImplementedError

@@ -137,5 +137,5 @@ class HDF5Snapshots(FrameSequence):
                             fixed=data.get("fixed"), species=data.get("species"), body_force=data.get("body_force"),
                             radii=data.get("radii"), time=float(g.attrs["time"]))
 
-    def __repr__(self):
-        return f"HDF5Snapshots({self.path!r}, {len(self)} frames)"
+    def _describe(self):
+        return [repr(self.path)], []

@@ -81,17 +81,18 @@ Particles are sorted by LAMMPS atom ID in every frame, so index k is the same at
 (as long as no atoms are created or lost). :meth:`LammpsReader.frame` also returns the IDs, types,
 timestep and the dumped per-particle forces.
 """
-import numbers
 import os
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 
+from .._validate import flag, index_array, positive_number
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
-from ._sequence import FrameSequence
+from ._lammps_dump import read_dump_frame, scan_dump
+from ._sequence import FrameReader, file_name
 from .checks import FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, dump_local_header, generic_columns
-from .files import open_input
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -155,108 +156,6 @@ def _check_value_count(path, header, pair_compute, pair_values):
 
 
 # ----------------------------------------------------------------------------------------------
-# Low-level dump parsing
-
-def _scan(path, kind):
-    """Byte offsets of the frames of a LAMMPS text dump: list of (offset, timestep)."""
-    count_item = "ITEM: NUMBER OF ATOMS" if kind == "atoms" else "ITEM: NUMBER OF ENTRIES"
-    frames = []
-    with open_input(path) as fh:
-        while True:
-            offset = fh.tell()
-            line = fh.readline()
-            if not line:
-                break
-            if not line.strip():
-                continue
-            if not line.startswith(b"ITEM: TIMESTEP"):
-                raise ValueError(f"{path}: expected 'ITEM: TIMESTEP' at byte {offset}, got {line[:60]!r}")
-            timestep = int(fh.readline().split()[0])
-            n = None
-            while True:
-                line = fh.readline()
-                if not line:
-                    raise ValueError(f"{path}: truncated frame at timestep {timestep}")
-                text = line.decode()
-                if text.startswith(count_item):
-                    n = int(fh.readline().split()[0])
-                elif text.startswith("ITEM: NUMBER OF"):
-                    other = "dump local" if kind == "atoms" else "dump custom (atoms)"
-                    raise ValueError(f"{path}: found {text.strip()!r}; this looks like a {other} file")
-                elif text.startswith("ITEM: ATOMS") or text.startswith("ITEM: ENTRIES"):
-                    break
-            if n is None:
-                raise ValueError(f"{path}: no '{count_item}' in the frame at timestep {timestep}")
-            for _ in range(n):
-                row = fh.readline()
-                if not row.endswith(b"\n"):
-                    raise ValueError(f"{path}: truncated frame at timestep {timestep}: expected {n} rows")
-            frames.append((offset, timestep))
-    return frames
-
-
-def _read_frame(path, offset):
-    """One frame: dict with timestep, time (or None), box bounds/flags, column names and rows."""
-    with open_input(path) as fh:
-        fh.seek(offset)
-        head = {"time": None, "bounds": None, "flags": None, "triclinic": False}
-        line = fh.readline().decode()
-        assert line.startswith("ITEM: TIMESTEP")
-        head["timestep"] = int(fh.readline().split()[0])
-        n = 0
-        while True:
-            text = fh.readline().decode()
-            if text.startswith("ITEM: TIME"):
-                head["time"] = float(fh.readline().split()[0])
-            elif text.startswith("ITEM: NUMBER OF"):
-                n = int(fh.readline().split()[0])
-            elif text.startswith("ITEM: BOX BOUNDS"):
-                words = text.split()[3:]
-                if words[:3] == ["xy", "xz", "yz"]:
-                    head["triclinic"] = True
-                    words = words[3:]
-                head["flags"] = words
-                rows = [fh.readline().split() for _ in range(3)]
-                head["bounds"] = np.array([[float(v) for v in r[:2]] for r in rows])
-            elif text.startswith("ITEM: ATOMS") or text.startswith("ITEM: ENTRIES"):
-                head["columns"] = text.split()[2:]
-                break
-            elif not text:
-                raise ValueError(f"{path}: truncated frame at byte {offset}")
-        raw = b"".join(fh.readline() for _ in range(n))
-    ncol = len(head["columns"])
-    values = np.fromstring(raw.decode(), sep=" ") if n else np.zeros(0)
-    if values.size != n * ncol:
-        # non-numeric columns (e.g. element names): convert column by column when asked
-        table = np.array(raw.decode().split(), dtype=object).reshape(n, ncol)
-        head["data"] = _LazyTable(table, head["columns"])
-    else:
-        head["data"] = _Table(values.reshape(n, ncol), head["columns"])
-    head["n"] = n
-    return head
-
-
-class _Table:
-    def __init__(self, values, columns):
-        self.values = values
-        self.index = {c: k for k, c in enumerate(columns)}
-
-    def __contains__(self, name):
-        return name in self.index
-
-    def __getitem__(self, name):
-        return np.asarray(self.values[:, self.index[name]], dtype=float)
-
-
-class _LazyTable(_Table):
-    def __getitem__(self, name):
-        try:
-            return np.asarray(self.values[:, self.index[name]], dtype=float)
-        except ValueError:
-            raise ValueError(f"column {name!r} is not numeric") from None
-
-
-# ----------------------------------------------------------------------------------------------
 
 class LammpsFrame:
     """One frame read from LAMMPS dumps.
@@ -315,8 +214,9 @@ def contact_indices(ids, id1, id2, path, timestep):
     return i, j
 
 
-class LammpsReader(FrameSequence):
-    """Lazy sequence of :class:`cgbound.Snapshot` from LAMMPS dumps (see the module docstring).
+class LammpsReader(FrameReader):
+    """Lazy sequence of :class:`cgbound.Snapshot` from LAMMPS dumps (see the module docstring);
+    :meth:`frame` gives a :class:`LammpsFrame` (snapshot plus IDs, types, dumped forces).
 
     Parameters
     ----------
@@ -388,46 +288,28 @@ class LammpsReader(FrameSequence):
         if isinstance(walls, str):
             walls = [walls]
         self.walls = tuple(str(w) for w in walls)
-        self.fixed_types = tuple(int(t) for t in fixed_types)
-        self.fixed_ids = np.unique(np.asarray(list(fixed_ids), dtype=np.int64))
-        self.body_force = self._check_body_force(body_force)
+        self.fixed_types = tuple(index_array(list(fixed_types), "fixed_types").tolist())
+        self.fixed_ids = np.unique(index_array(list(fixed_ids), "fixed_ids"))
+        self.body_force = self._check_body_force(body_force, dimension, "LAMMPS")
         self.masses_by_type = None if masses is None else {int(k): float(v) for k, v in dict(masses).items()}
-        if dt is not None and (isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not dt > 0):
-            raise ValueError(f"dt: expected a positive number, got {dt!r}")
-        self.dt = None if dt is None else float(dt)
-        self.wrap = bool(wrap)
-        self.drop_inactive = bool(drop_inactive)
-        if not isinstance(check_forces, (bool, np.bool_)):
-            raise TypeError(f"check_forces: expected True or False, got {check_forces!r}")
-        self.check_forces = bool(check_forces)
+        self.dt = positive_number(dt, "dt", allow_none=True)
+        self.wrap = flag(wrap, "wrap")
+        self.drop_inactive = flag(drop_inactive, "drop_inactive")
+        self.check_forces = flag(check_forces, "check_forces")
         if self.pairs_path is None and (self.walls or self.fixed_types or self.fixed_ids.size):
             warnings.warn(f"{self.atoms_path}: walls or fixed particles but no contact dump (pairs=): the contacts "
                           f"between particles are missing, so the bulk contact stress is zero and only wall "
                           f"contacts reach the boundary stress and the IFD", stacklevel=2)
-        atom_frames = _scan(self.atoms_path, "atoms")
+        atom_frames = scan_dump(self.atoms_path, "atoms")
         self._frames = self._match(atom_frames)
         self._cache = None
-
-    # ------------------------------------------------------------------------------------------
-    def _check_body_force(self, g):
-        if g is None:
-            return None
-        g = np.asarray(g, dtype=float)
-        dim = self.dimension
-        if dim == 2 and g.shape == (3,):
-            if g[2] != 0:
-                raise ValueError("body_force: a 2D LAMMPS run has no z component; got a non-zero z")
-            g = g[:2]
-        if g.shape != (dim,) or not np.all(np.isfinite(g)):
-            raise ValueError(f"body_force: expected {dim} finite values, got {g.tolist()}")
-        return g
 
     def _match(self, atom_frames):
         """Pair each atoms frame with the pairs frame of the same timestep (k-th with k-th)."""
         if self.pairs_path is None:
             return [(off, ts, None) for off, ts in atom_frames]
         by_step = {}
-        for off, ts in _scan(self.pairs_path, "local"):
+        for off, ts in scan_dump(self.pairs_path, "local"):
             by_step.setdefault(ts, []).append(off)
         used = {}
         out = []
@@ -446,25 +328,12 @@ class LammpsReader(FrameSequence):
         return out
 
     # ------------------------------------------------------------------------------------------
-    def __len__(self):
-        return len(self._frames)
-
     @property
     def timesteps(self):
         return [ts for _, ts, _ in self._frames]
 
-    def _snapshot(self, position):
-        return self.frame(position).snapshot
-
-    def __repr__(self):
-        return (f"LammpsReader({os.path.basename(self.atoms_path)!r}, "
-                f"{None if self.pairs_path is None else os.path.basename(self.pairs_path)!r}, "
-                f"{len(self)} frames, {self.dimension}D)")
-
-    # ------------------------------------------------------------------------------------------
-    def frame(self, index):
-        """Frame ``index`` as a :class:`LammpsFrame` (snapshot plus IDs, types, dumped forces)."""
-        return self._cached_frame(index)
+    def _describe(self):
+        return [file_name(self.atoms_path), file_name(self.pairs_path)], [f"{self.dimension}D"]
 
     def force_mismatch(self, index, fixed=False):
         """Max |sum of contact forces + m g - dumped force| over particles, relative to the typical
@@ -479,119 +348,27 @@ class LammpsReader(FrameSequence):
         return f
 
     # ------------------------------------------------------------------------------------------
+    # one frame: box, atoms, contacts (pairs and walls), time
+
     def _axes(self):
         return (0, 1) if self.dimension == 2 else (0, 1, 2)
 
     def _build(self, atoms_offset, timestep, pairs_offset):
-        path = self.atoms_path
-        fr = _read_frame(path, atoms_offset)
-        if fr["triclinic"]:
-            raise NotImplementedError(f"{path}: triclinic boxes are not supported (timestep {timestep})")
-        if fr["bounds"] is None:
-            raise ValueError(f"{path}: no ITEM: BOX BOUNDS in the frame at timestep {timestep}")
-        tab = fr["data"]
-        axes = self._axes()
-        dim = self.dimension
-        lo_all, hi_all = fr["bounds"][:, 0], fr["bounds"][:, 1]
-        lower, upper = lo_all[list(axes)], hi_all[list(axes)]
-        periodic = tuple(fr["flags"][a] == "pp" for a in axes)
-        box = Box(lower, upper, periodic)
-        lengths = upper - lower
-
-        if "id" not in tab:
-            raise ValueError(f"{path}: the atoms dump needs an 'id' column (has {list(tab.index)})")
-        ids_raw = tab["id"].astype(np.int64)
-        order = np.argsort(ids_raw, kind="stable")
-        ids = ids_raw[order]
-        if np.any(np.diff(ids) == 0):
-            raise ValueError(f"{path}: duplicate atom IDs at timestep {timestep}")
-        n = ids.shape[0]
-
-        def cols(names, what):
-            missing = [c for c in names if c not in tab]
-            if missing:
-                raise ValueError(f"{path}: {what} needs columns {missing} (has {list(tab.index)})")
-            return np.stack([tab[names[a]][order] for a in axes], axis=1) if n else np.zeros((0, dim))
-
-        for xn, yn, zn, scaled, unwrapped in _POSITION_COLUMNS:
-            if xn in tab:
-                pos = cols((xn, yn, zn), "positions")
-                if scaled:
-                    pos = lower + pos * lengths
-                break
-        else:
-            raise ValueError(f"{path}: no position columns (x y z, xu yu zu, xs ys zs or xsu ysu zsu)")
-        if self.wrap:
-            pos = self._wrap(pos, box)
-
-        types = tab["type"][order].astype(np.int64) if "type" in tab else np.ones(n, np.int64)
-        vel = cols(("vx", "vy", "vz"), "velocities") if "vx" in tab else None
-        forces = cols(("fx", "fy", "fz"), "forces") if "fx" in tab else None
-        if "mass" in tab:
-            masses = tab["mass"][order]
-        elif self.masses_by_type is not None:
-            try:
-                masses = np.array([self.masses_by_type[int(t)] for t in types], float)
-            except KeyError as exc:
-                raise ValueError(f"masses: no mass given for atom type {exc.args[0]}") from None
-        else:
-            raise ValueError(f"{path}: no 'mass' column; dump it or pass masses={{type: mass}}")
-        if "radius" in tab:
-            radii = tab["radius"][order]
-        elif "diameter" in tab:
-            radii = 0.5 * tab["diameter"][order]
-        else:
-            radii = None
-
-        fixed = np.isin(types, self.fixed_types) | np.isin(ids, self.fixed_ids)
-        self._check_selection(types, ids, timestep)
-
-        # contacts ---------------------------------------------------------------------------
-        ci, cj, cf, cp, cids, cov = [], [], [], [], [], []
+        fr = read_dump_frame(self.atoms_path, atoms_offset)
+        box = self._box(fr, timestep)
+        atoms = self._atoms(fr["data"], box, timestep)
+        parts = []
         if pairs_offset is not None:
-            part = self._pair_contacts(pairs_offset, timestep, ids, pos, radii, box)
-            for lst, val in zip((ci, cj, cf, cp, cids, cov), part):
-                lst.append(val)
-        for wall in self.walls:
-            names = [f"f_{wall}[{k}]" for k in range(1, 9)]
-            missing = [c for c in names[:7] if c not in tab]
-            if missing:
-                raise ValueError(f"{path}: wall {wall!r} needs columns {missing} (dump f_{wall}[*] from "
-                                 f"'fix {wall} ... wall/gran ... contacts')")
-            flag = tab[names[0]][order] != 0
-            k = np.flatnonzero(flag)
-            f3 = np.stack([tab[names[1 + a]][order][k] for a in axes], axis=1)
-            p3 = np.stack([tab[names[4 + a]][order][k] for a in axes], axis=1)
-            if self.wrap:
-                p3 = self._wrap(p3, box)
-            ci.append(k)
-            cj.append(np.full(k.shape, -1, np.int64))
-            cf.append(f3)
-            cp.append(p3)
-            cids.append(np.stack([ids[k], np.full(k.shape, -1, np.int64)], axis=1))
-            cov.append(np.full(k.shape, np.nan))
-        if ci:
-            contacts = Contacts(np.concatenate(ci), np.concatenate(cj), np.concatenate(cf).reshape(-1, dim),
-                                np.concatenate(cp).reshape(-1, dim))
-            contact_ids = np.concatenate(cids).reshape(-1, 2)
-            overlap = np.concatenate(cov)
-        else:
-            contacts = Contacts.empty(dim)
-            contact_ids = np.zeros((0, 2), np.int64)
-            overlap = np.zeros(0)
-
-        if self.dt is not None:
-            time = timestep * self.dt
-        elif fr["time"] is not None:
-            time = fr["time"]
-        else:
-            time = float(timestep)
-        safe_masses = np.where(fixed & ~(masses > 0), 1.0, masses)
-        snap = Snapshot(pos, velocities=vel, masses=safe_masses, box=box, contacts=contacts, fixed=fixed,
-                        species=types, body_force=self.body_force, radii=radii, time=time)
-        frame = LammpsFrame(snap, ids, types, timestep, forces, contact_ids, overlap)
-        if self.check_forces and forces is not None and pairs_offset is not None:
-            check_force_balance(frame.force_balance(), ids, path, timestep, FORCE_BALANCE_TOLERANCE,
+            parts.append(self._pair_contacts(pairs_offset, timestep, atoms.ids, atoms.positions, atoms.radii, box))
+        parts += [self._wall_contacts(fr["data"], atoms, wall, box) for wall in self.walls]
+        contacts, contact_ids, overlap = _joined_contacts(parts, self.dimension)
+        safe_masses = np.where(atoms.fixed & ~(atoms.masses > 0), 1.0, atoms.masses)
+        snap = Snapshot(atoms.positions, velocities=atoms.velocities, masses=safe_masses, box=box, contacts=contacts,
+                        fixed=atoms.fixed, species=atoms.types, body_force=self.body_force, radii=atoms.radii,
+                        time=self._time(timestep, fr))
+        frame = LammpsFrame(snap, atoms.ids, atoms.types, timestep, atoms.forces, contact_ids, overlap)
+        if self.check_forces and atoms.forces is not None and pairs_offset is not None:
+            check_force_balance(frame.force_balance(), atoms.ids, self.atoms_path, timestep, FORCE_BALANCE_TOLERANCE,
                                 self._balance_hints())
         return frame
 
@@ -608,59 +385,133 @@ class LammpsReader(FrameSequence):
 
     def _balance_hints(self):
         named = f"pair_values={self.pair_values}" if self.pair_values else f"pair_columns={self.pair_columns}"
-        hints = [f"the contact dump's columns are not {named} (--pair-values): check the order of the "
-                 f"'compute pair/local' line",
-                 f"the pair style is not pair_style={self.pair_style!r} (--pair-style)",
-                 "a body force is missing or wrong (body_force=, --gravity)",
-                 "fixed particles or walls are not marked (fixed_types=, fixed_ids=, walls=; "
-                 "--fixed-types, --fixed-ids, --walls)"]
-        return hints
+        return [f"the contact dump's columns are not {named} (--pair-values): check the order of the "
+                f"'compute pair/local' line",
+                f"the pair style is not pair_style={self.pair_style!r} (--pair-style)",
+                "a body force is missing or wrong (body_force=, --gravity)",
+                "fixed particles or walls are not marked (fixed_types=, fixed_ids=, walls=; "
+                "--fixed-types, --fixed-ids, --walls)"]
 
-    def _wrap(self, x, box):
-        x = np.array(x, dtype=float)
-        for a, per in enumerate(box.periodic):
-            if per:
-                L = box.upper[a] - box.lower[a]
-                x[:, a] = box.lower[a] + np.mod(x[:, a] - box.lower[a], L)
-                # np.mod can return L itself for tiny negative inputs
-                x[:, a] = np.where(x[:, a] >= box.upper[a], box.lower[a], x[:, a])
-        return x
+    def _box(self, fr, timestep):
+        path = self.atoms_path
+        if fr["triclinic"]:
+            raise NotImplementedError(f"{path}: triclinic boxes are not supported (timestep {timestep})")
+        if fr["bounds"] is None:
+            raise ValueError(f"{path}: no ITEM: BOX BOUNDS in the frame at timestep {timestep}")
+        axes = list(self._axes())
+        lower, upper = fr["bounds"][:, 0][axes], fr["bounds"][:, 1][axes]
+        return Box(lower, upper, tuple(fr["flags"][a] == "pp" for a in self._axes()))
+
+    def _atoms(self, tab, box, timestep):
+        """The atoms of a frame, sorted by ID (an :class:`_Atoms`)."""
+        path = self.atoms_path
+        if "id" not in tab:
+            raise ValueError(f"{path}: the atoms dump needs an 'id' column (has {list(tab.index)})")
+        ids_raw = tab["id"].astype(np.int64)
+        order = np.argsort(ids_raw, kind="stable")
+        ids = ids_raw[order]
+        if np.any(np.diff(ids) == 0):
+            raise ValueError(f"{path}: duplicate atom IDs at timestep {timestep}")
+        n = ids.shape[0]
+
+        def cols(names, what):
+            missing = [c for c in names if c not in tab]
+            if missing:
+                raise ValueError(f"{path}: {what} needs columns {missing} (has {list(tab.index)})")
+            return self._vectors(tab, names, order) if n else np.zeros((0, self.dimension))
+
+        for xn, yn, zn, scaled, unwrapped in _POSITION_COLUMNS:
+            if xn in tab:
+                pos = cols((xn, yn, zn), "positions")
+                if scaled:
+                    pos = box.lower + pos * (box.upper - box.lower)
+                break
+        else:
+            raise ValueError(f"{path}: no position columns (x y z, xu yu zu, xs ys zs or xsu ysu zsu)")
+        if self.wrap:
+            pos = box.wrap(pos)
+        types = tab["type"][order].astype(np.int64) if "type" in tab else np.ones(n, np.int64)
+        vel = cols(("vx", "vy", "vz"), "velocities") if "vx" in tab else None
+        forces = cols(("fx", "fy", "fz"), "forces") if "fx" in tab else None
+        masses = self._masses(tab, order, types)
+        if "radius" in tab:
+            radii = tab["radius"][order]
+        elif "diameter" in tab:
+            radii = 0.5 * tab["diameter"][order]
+        else:
+            radii = None
+        fixed = np.isin(types, self.fixed_types) | np.isin(ids, self.fixed_ids)
+        self._check_selection(types, ids, timestep)
+        return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed)
+
+    def _vectors(self, tab, names, rows=slice(None)):
+        """An (n, D) array of the columns ``names`` (one per LAMMPS axis) at ``rows``, cgbound axes."""
+        return np.stack([tab[names[a]][rows] for a in self._axes()], axis=1)
+
+    def _masses(self, tab, order, types):
+        if "mass" in tab:
+            return tab["mass"][order]
+        if self.masses_by_type is not None:
+            try:
+                return np.array([self.masses_by_type[int(t)] for t in types], float)
+            except KeyError as exc:
+                raise ValueError(f"masses: no mass given for atom type {exc.args[0]}") from None
+        raise ValueError(f"{self.atoms_path}: no 'mass' column; dump it or pass masses={{type: mass}}")
+
+    def _time(self, timestep, fr):
+        if self.dt is not None:
+            return timestep * self.dt
+        if fr["time"] is not None:
+            return fr["time"]
+        return float(timestep)
+
+    def _wall_contacts(self, tab, atoms, wall, box):
+        """The contacts of ``fix wall/gran ... contacts`` ID ``wall``, from its f_ID[1..8] columns."""
+        names = [f"f_{wall}[{k}]" for k in range(1, 9)]
+        missing = [c for c in names[:7] if c not in tab]
+        if missing:
+            raise ValueError(f"{self.atoms_path}: wall {wall!r} needs columns {missing} (dump f_{wall}[*] from "
+                             f"'fix {wall} ... wall/gran ... contacts')")
+        order = atoms.order
+        k = np.flatnonzero(tab[names[0]][order] != 0)
+        force = self._vectors(tab, names[1:4], order[k])
+        point = self._vectors(tab, names[4:7], order[k])
+        if self.wrap:
+            point = box.wrap(point)
+        wall_j = np.full(k.shape, -1, np.int64)
+        return k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), np.full(k.shape, np.nan)
 
     def _pair_contacts(self, offset, timestep, ids, pos, radii, box):
+        """The contacts of the pairs dump's frame at ``offset``: (i, j, force, point, contact IDs, overlap)."""
+        fr = read_dump_frame(self.pairs_path, offset)
+        if fr["n"] == 0:
+            dim = self.dimension
+            return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)),
+                    np.zeros((0, 2), np.int64), np.zeros(0))
+        return self._pairs_from_table(fr["data"], fr["n"], timestep, ids, pos, radii, box)
+
+    def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
         path = self.pairs_path
-        fr = _read_frame(path, offset)
-        tab = fr["data"]
         names = self.pair_columns
-        dim = self.dimension
-        axes = self._axes()
         needed = [names["id1"], names["id2"], *names["force"]]
         for key in ("tangential", "branch"):
             if names.get(key):
                 needed += list(names[key])
-        if fr["n"]:
-            missing = [c for c in needed if c not in tab]
-            if missing:
-                raise ValueError(f"{path}: expected columns {missing} in the dump local (has "
-                                 f"{list(tab.index)}); set pair_compute/pair_values/property_compute "
-                                 "or pair_columns to match your computes")
-        m = fr["n"]
-        if m == 0:
-            return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)),
-                    np.zeros((0, 2), np.int64), np.zeros(0))
+        missing = [c for c in needed if c not in tab]
+        if missing:
+            raise ValueError(f"{path}: expected columns {missing} in the dump local (has "
+                             f"{list(tab.index)}); set pair_compute/pair_values/property_compute "
+                             "or pair_columns to match your computes")
         id1 = tab[names["id1"]].astype(np.int64)
         id2 = tab[names["id2"]].astype(np.int64)
         i, j = contact_indices(ids, id1, id2, path, timestep)
-        force = np.stack([tab[names["force"][a]] for a in axes], axis=1)
+        force = self._vectors(tab, names["force"])
         if names.get("tangential"):
-            force = force + np.stack([tab[names["tangential"][a]] for a in axes], axis=1)
+            force = force + self._vectors(tab, names["tangential"])
         if names.get("branch"):
-            branch = np.stack([tab[names["branch"][a]] for a in axes], axis=1)
+            branch = self._vectors(tab, names["branch"])
         else:
-            branch = pos[i] - pos[j]
-            for a, per in enumerate(box.periodic):
-                if per:
-                    L = box.upper[a] - box.lower[a]
-                    branch[:, a] -= L * np.round(branch[:, a] / L)
+            branch = box.minimum_image(pos[i] - pos[j])
         dist = np.linalg.norm(branch, axis=1)
         if radii is None:
             raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or 'diameter' column")
@@ -674,6 +525,27 @@ class LammpsReader(FrameSequence):
         normal = branch / dist[:, None]
         point = pos[i] - (radii[i] - 0.5 * overlap)[:, None] * normal
         if self.wrap:
-            point = self._wrap(point, box)
+            point = box.wrap(point)
         contact_ids = np.stack([ids[i], ids[j]], axis=1)
         return i, j, force, point, contact_ids, overlap
+
+
+class _Atoms(NamedTuple):
+    """The atoms of one frame, sorted by ID; ``order`` takes the dump's rows to that order."""
+    ids: np.ndarray
+    order: np.ndarray
+    types: np.ndarray
+    positions: np.ndarray
+    velocities: object
+    forces: object
+    masses: np.ndarray
+    radii: object
+    fixed: np.ndarray
+
+
+def _joined_contacts(parts, dim):
+    """Contacts, contact IDs and overlaps from the (i, j, force, point, ids, overlap) of each source."""
+    if not parts:
+        return Contacts.empty(dim), np.zeros((0, 2), np.int64), np.zeros(0)
+    i, j, force, point, ids, overlap = (np.concatenate(column) for column in zip(*parts))
+    return Contacts(i, j, force.reshape(-1, dim), point.reshape(-1, dim)), ids.reshape(-1, 2), overlap

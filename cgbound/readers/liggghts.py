@@ -62,13 +62,13 @@ Walls
 contacts are not read by this reader yet. Use fixed particles for boundaries, or add the wall
 contacts yourself.
 """
-import numbers
 import os
 
 import numpy as np
 
+from .._validate import integer
 from .checks import compute_columns, dump_local_header
-from .lammps import LammpsReader, _read_frame, contact_indices
+from .lammps import LammpsReader, contact_indices
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns"]
 
@@ -94,8 +94,7 @@ def pair_gran_local_columns(compute="pgl", values=DEFAULT_VALUES, history=0):
     if not values:
         raise ValueError("values: give the compute's keywords explicitly (LIGGGHTS' default set has "
                          "pair-style dependent history columns)")
-    if "history" in values and (isinstance(history, bool) or not isinstance(history, numbers.Integral)
-                                or history <= 0):
+    if "history" in values and integer(history, "history") <= 0:
         raise ValueError(f"history: expected the number of history values (> 0), got {history!r}")
     out, k = {}, 1
     for key, count in _LAYOUT:
@@ -157,20 +156,9 @@ class LiggghtsReader(LammpsReader):
                          fixed_ids=fixed_ids, body_force=body_force, masses=masses, dimension=dimension,
                          dt=dt, wrap=wrap, drop_inactive=False, check_forces=check_forces)
 
-    def __repr__(self):
-        return "Liggghts" + super().__repr__()[len("Lammps"):]
-
-    def _pair_contacts(self, offset, timestep, ids, pos, radii, box):
+    def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
         path = self.pairs_path
-        fr = _read_frame(path, offset)
-        tab = fr["data"]
         names = self.pair_columns
-        dim = self.dimension
-        axes = list(self._axes())
-        m = fr["n"]
-        if m == 0:
-            return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)),
-                    np.zeros((0, 2), np.int64), np.zeros(0))
         needed = [c for cols in names.values() for c in cols]
         missing = [c for c in needed if c not in tab]
         if missing:
@@ -180,35 +168,23 @@ class LiggghtsReader(LammpsReader):
         id1 = np.rint(tab[names["id"][0]]).astype(np.int64)
         id2 = np.rint(tab[names["id"][1]]).astype(np.int64)
         i, j = contact_indices(ids, id1, id2, path, timestep)
-
-        def vec(key):
-            return np.stack([tab[names[key][a]] for a in axes], axis=1)
-
         if "force" in names:
-            force = vec("force")
+            force = self._vectors(tab, names["force"])
         else:
-            force = vec("force_normal") + vec("force_tangential")
-        branch = pos[i] - pos[j]
-        for a, per in enumerate(box.periodic):
-            if per:
-                L = box.upper[a] - box.lower[a]
-                branch[:, a] -= L * np.round(branch[:, a] / L)
+            force = self._vectors(tab, names["force_normal"]) + self._vectors(tab, names["force_tangential"])
+        branch = box.minimum_image(pos[i] - pos[j])
         dist = np.linalg.norm(branch, axis=1)
         if "contactPoint" in names:
-            point = vec("contactPoint")
+            point = self._vectors(tab, names["contactPoint"])
         else:
             if radii is None:
                 raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or "
                                  "'diameter' column (or dump contactPoint)")
             point = pos[i] - (radii[i] / (radii[i] + radii[j]))[:, None] * branch
         # minimum image relative to particle i, then into the box
-        for a, per in enumerate(box.periodic):
-            if per:
-                L = box.upper[a] - box.lower[a]
-                d = point[:, a] - pos[i, a]
-                point[:, a] = pos[i, a] + d - L * np.round(d / L)
+        point = pos[i] + box.minimum_image(point - pos[i])
         if self.wrap:
-            point = self._wrap(point, box)
+            point = box.wrap(point)
         if "delta" in names:
             overlap = tab[names["delta"][0]]
         elif radii is not None:

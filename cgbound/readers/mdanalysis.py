@@ -33,9 +33,10 @@ import os
 
 import numpy as np
 
+from .._validate import flag
 from ..box import Box
-from ._sequence import FrameSequence
 from ..snapshot import Contacts, Snapshot
+from ._sequence import FrameSequence
 
 __all__ = ["MDAnalysisReader"]
 
@@ -132,8 +133,8 @@ class MDAnalysisReader(FrameSequence):
             raise TypeError(f"contacts: expected a callable (frame, snapshot) -> cg.Contacts or None, "
                             f"got {type(contacts).__name__}")
         self.contacts = contacts
-        self.body_force = self._check_body_force(body_force)
-        self.wrap = bool(wrap)
+        self.body_force = self._check_body_force(body_force, self.dimension)
+        self.wrap = flag(wrap, "wrap")
         self.masses = self._masses(group)
         self.radii = self._radii(group)
         self._frames = list(range(len(u.trajectory)))
@@ -182,14 +183,6 @@ class MDAnalysisReader(FrameSequence):
         raise ValueError(f"fixed: expected {n} bools (the selected atoms) or {u.atoms.n_atoms} (all atoms), "
                          f"got {arr.shape[0]}")
 
-    def _check_body_force(self, g):
-        if g is None:
-            return None
-        g = np.asarray(g, dtype=float)
-        if g.shape != (self.dimension,) or not np.all(np.isfinite(g)):
-            raise ValueError(f"body_force: expected {self.dimension} finite values, got {g.tolist()}")
-        return g
-
     def _masses(self, group):
         try:
             masses = np.asarray(group.masses, dtype=float)
@@ -225,10 +218,9 @@ class MDAnalysisReader(FrameSequence):
             state["_universe"] = None  # rebuilt lazily from the arguments
         return state
 
-    def __repr__(self):
+    def _describe(self):
         src = "Universe" if self._args is None else repr(self._args[0])
-        return f"MDAnalysisReader({src}, select={self.select!r}, {len(self)} frames, {self.indices.size} atoms, " \
-               f"{self.dimension}D)"
+        return [src, f"select={self.select!r}"], [f"{self.indices.size} atoms", f"{self.dimension}D"]
 
     # ------------------------------------------------------------------------------------------
     def _frame_number(self, index):
@@ -254,17 +246,6 @@ class MDAnalysisReader(FrameSequence):
         upper = lengths[self._axes()]
         return Box(np.zeros(self.dimension), upper, periodic=True)
 
-    def _wrap(self, x, box):
-        x = np.array(x, dtype=float)
-        for a, per in enumerate(box.periodic):
-            if per:
-                L = box.upper[a] - box.lower[a]
-                outside = (x[:, a] < box.lower[a]) | (x[:, a] >= box.upper[a])
-                if np.any(outside):
-                    w = box.lower[a] + np.mod(x[outside, a] - box.lower[a], L)
-                    x[outside, a] = np.where(w >= box.upper[a], box.lower[a], w)  # mod may round up to L
-        return x
-
     def _snapshot(self, position):
         return self.snapshot(position)
 
@@ -277,7 +258,7 @@ class MDAnalysisReader(FrameSequence):
         vel = np.asarray(ts.velocities[idx][:, axes], dtype=float) if ts.has_velocities else None
         box = self._box(ts)
         if box is not None and self.wrap:
-            pos = self._wrap(pos, box)
+            pos = box.wrap(pos)
         snap = Snapshot(pos, velocities=vel, masses=self.masses, box=box, fixed=self.fixed,
                         body_force=self.body_force, radii=self.radii, time=float(ts.time))
         if self.contacts is not None:
