@@ -161,3 +161,18 @@ class with_body:
         msg = str(exc)
         assert self.path in msg and "body " in msg and "PyRunner" in msg and "check_forces=False" in msg, msg
         return True
+
+
+def test_clump_members_are_particles():
+    path = os.path.join(DATA, "clump", "yade_0000003000.npz")
+    frame = YadeReader(path).frame(0)
+    snap = frame.snapshot
+    with np.load(path) as d:
+        clump_mass = float(d["mass"][d["id"] == 7][0])
+        shapes = list(d["shape"])
+    assert shapes[7] == "Clump" and 7 not in frame.ids          # the clump body is not a particle
+    members = frame.clump_id == 7
+    assert list(frame.ids[members]) == [5, 6]
+    assert snap.masses[members].sum() == pytest.approx(clump_mass, rel=1e-14)
+    assert not snap.fixed[members].any() and snap.fixed.sum() == 4
+    assert YadeReader(path).force_mismatch(0) < 1e-12

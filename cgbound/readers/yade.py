@@ -12,7 +12,8 @@ list of files. Frames are ordered by Yade's iteration number.
 How Yade's data becomes a Snapshot:
 
 * particles are the spherical bodies (clump members included; the clump bodies themselves, which
-  have no shape, are not particles). Non-spherical bodies (``Wall``, ``Facet``, ``Box``, ...) are
+  have no shape, are not particles; a clump's mass is shared by its members in proportion to their own
+  masses, so the members carry the clump's mass and momentum). Non-spherical bodies (``Wall``, ``Facet``, ``Box``, ...) are
   walls: their contacts become boundary contacts with ``j = -1``. A sphere is fixed (boundary) when
   it is not ``dynamic`` or its three translational DOFs are blocked (``blockedDOFs`` contains x, y
   and z); a clump member takes the flags of its clump. Partly blocked translation (e.g. ``"z"``)
@@ -287,10 +288,18 @@ class YadeReader(FrameSequence):
                                  "contact distance); cgbound's branch vectors would be wrong")
             pos = pos - lengths * np.floor(pos / lengths)
             point = point - lengths * np.floor(point / lengths)
+        masses = data["mass"][part].copy()
+        member = clump[part] >= 0
+        if member.any():
+            # a clump's mass can differ from the sum of its members' (Yade integrates overlapping clumps);
+            # members share the clump's mass in proportion to their own, so density and momentum are the clump's
+            for c in np.unique(clump[part][member]):
+                rows = clump[part] == c
+                masses[rows] *= data["mass"][by_id[int(c)]] / masses[rows].sum()
         g = self.body_force
         if g is None and np.all(np.isfinite(data["gravity"])):
             g = data["gravity"]
-        snapshot = Snapshot(pos, data["vel"][part], data["mass"][part], box=box,
+        snapshot = Snapshot(pos, data["vel"][part], masses, box=box,
                             contacts=Contacts(ci, cj, cf, point), fixed=fixed_all[part], body_force=g,
                             radii=data["radius"][part], time=float(data["time"]))
         result = YadeFrame(snapshot, ids[part], data["force"][part], clump[part], int(data["iter"]), path,
