@@ -127,6 +127,10 @@ def test_substitution_and_gravity_styles(tmp_path):
                     "tangential": ("c_c_x[1]", "c_c_x[2]", "c_c_x[3]"), "branch": None}
     s = read_input(p, {"x": 9})
     assert s.dump_for("pair_9.dump").file == "pair_9.dump"
+    # quotes stop substitution (and comments), as in LAMMPS
+    s = read_input(script(tmp_path, 'variable x index 3\nprint "${undefined} # not a comment"\n'
+                          'dump d all custom 1 a$x.dump id\n'))
+    assert s.dumps[0].file == "a3.dump"
 
 
 @pytest.mark.parametrize("body,match", [

@@ -227,7 +227,7 @@ class _Parser:
                 quote = ch
             elif ch == quote:
                 quote = None
-            if ch == "$" and quote != "'" and pos + 1 < len(text):
+            if ch == "$" and quote is None and pos + 1 < len(text):   # LAMMPS: no substitution inside quotes
                 nxt = text[pos + 1]
                 if nxt == "{":
                     end = text.find("}", pos)
