@@ -208,3 +208,18 @@ def test_cgbound_agrees_with_mercurycg(chute, name):
         cs = (res["contact_stress"] + res["boundary_stress"])[:, 1]
         theirs = stat.columns["ContactStress"][0][:, 1]
         assert np.max(np.abs(cs - theirs)) <= 5e-6 * np.max(np.abs(theirs))
+
+
+def test_time_axis_result(tmp_path):
+    """A result with a time axis (time_average="none") is written as one block per frame time."""
+    snaps = [small_snapshot() for _ in range(3)]
+    for k, s in enumerate(snaps):
+        s.time = 1.0 + k
+    grid = cg.Grid(snaps[0].box, (1, 1, 5), average=("x", "y"))
+    run = cg.CoarseGrain(snaps, grid, cg.Lucy(0.7), fields=["density", "momentum"], time_average="none").run()
+    res = run.results
+    write_stat(tmp_path / "t.stat", res)
+    back = read_stat(tmp_path / "t.stat")
+    assert np.array_equal(back.times, [1.0, 2.0, 3.0])
+    assert np.array_equal(back.columns["Density"], printed(res["density"].reshape(3, 5)))
+    assert np.array_equal(back.columns["Momentum"], printed(res["momentum"].reshape(3, 5, 3)))
