@@ -1,0 +1,324 @@
+"""Read Yade frames written by :mod:`cgbound.readers.yade_export` as a lazy sequence of Snapshots.
+
+Recipe (inside Yade; ``yade_export.py`` needs numpy only, so cgbound need not be installed there)::
+
+    exec(open("/path/to/cgbound/readers/yade_export.py").read())
+    O.engines = [..., NewtonIntegrator(gravity=(0, 0, -9.81)),
+                 PyRunner(command='export_frame("frames")', iterPeriod=1000)]   # LAST engine
+
+then ``YadeReader("frames")`` (a directory), ``YadeReader("frames/yade_*.npz")`` (a pattern) or a
+list of files. Frames are ordered by Yade's iteration number.
+
+How Yade's data becomes a Snapshot:
+
+* particles are the spherical bodies (clump members included; the clump bodies themselves, which
+  have no shape, are not particles; a clump's mass is shared by its members in proportion to their own
+  masses, so the members carry the clump's mass and momentum). Non-spherical bodies (``Wall``, ``Facet``, ``Box``, ...) are
+  walls: their contacts become boundary contacts with ``j = -1``. A sphere is fixed (boundary) when
+  it is not ``dynamic`` or its three translational DOFs are blocked (``blockedDOFs`` contains x, y
+  and z); a clump member takes the flags of its clump. Partly blocked translation (e.g. ``"z"``)
+  is refused: such a particle is neither flowing nor boundary.
+* Yade applies ``i.phys.normalForce + i.phys.shearForce`` ON ``id2`` FROM ``id1`` (verified:
+  a sphere resting on a fixed sphere below it has ``normalForce`` pointing up, id1 = the lower
+  one, and ``O.forces.f(id2)`` equals it). cgbound's ``Contacts`` hold the force ON ``i`` FROM
+  ``j``, so ``i = id2, j = id1``; a contact whose ``id2`` is a wall is flipped onto ``id1``.
+  The contact point is ``i.geom.contactPoint``.
+* periodic cells (``O.periodic``): the box is ``[0, diag(hSize))``, periodic on all three axes;
+  positions and contact points are wrapped into it. Each particle pair's branch vector from Yade
+  (``pos2 + cellDist * size - pos1``) must equal the minimum image that cgbound uses, else the
+  cell is too small for the minimum-image convention and the frame is refused. Sheared cells are
+  refused.
+* the body force per unit mass is the NewtonIntegrator's gravity.
+
+Checks made on every frame (cheap, before the snapshot is returned):
+
+* format and version of the file;
+* force balance: Yade's per-body force ``O.forces.f(id)`` holds the contact forces only (the
+  NewtonIntegrator adds gravity to the acceleration, not to the force container), so the contact
+  forces of the frame summed on each particle, fixed ones included, must reproduce it, to
+  ``tolerance`` (default 1e-9) times the RMS contact force. A mismatch names the file and the body;
+  likely causes: the exporting PyRunner is not the last engine (forces and interactions from
+  different steps), an engine adds forces (``O.forces.addF``, drag, buoyancy), or interactions that
+  are not contacts. ``check_forces=False`` skips the check.
+"""
+import glob
+import os
+
+import numpy as np
+
+from ..box import Box
+from ..snapshot import Contacts, Snapshot
+from ._sequence import FrameSequence
+from .yade_export import FORMAT, VERSION
+
+__all__ = ["YadeFrame", "YadeReader"]
+
+DEFAULT_TOLERANCE = 1e-9
+
+
+def _expand(paths):
+    """File names from a directory, a glob pattern, one path or a list of these."""
+    items = [paths] if isinstance(paths, (str, bytes, os.PathLike)) else list(paths)
+    if not items:
+        raise ValueError("paths: expected a directory, a pattern or a list of .npz files, got an empty list")
+    out = []
+    for item in items:
+        item = os.fspath(item)
+        if os.path.isdir(item):
+            found = sorted(glob.glob(os.path.join(item, "*.npz")))
+            if not found:
+                raise FileNotFoundError(f"paths: no .npz files in the directory {item!r}")
+            out.extend(found)
+        elif glob.has_magic(item):
+            found = sorted(glob.glob(item))
+            if not found:
+                raise FileNotFoundError(f"paths: the pattern {item!r} matches no file")
+            out.extend(found)
+        elif os.path.isfile(item):
+            out.append(item)
+        else:
+            raise FileNotFoundError(f"paths: no such file {item!r}")
+    return [os.path.abspath(p) for p in out]
+
+
+def _load(path):
+    try:
+        data = np.load(path, allow_pickle=False)
+    except Exception as exc:
+        raise ValueError(f"{path}: not a cgbound Yade export (.npz written by yade_export.export_frame): {exc}") from None
+    fmt = str(data["format"]) if "format" in data.files else None
+    if fmt != FORMAT:
+        raise ValueError(f"{path}: expected format {FORMAT!r} (written by yade_export.export_frame), got {fmt!r}")
+    version = int(data["version"])
+    if version != VERSION:
+        raise ValueError(f"{path}: expected format version {VERSION}, got {version}; use the yade_export.py "
+                         "shipped with this cgbound")
+    return data
+
+
+class YadeFrame:
+    """One Yade frame: ``snapshot``, ``ids`` (Yade body id of each particle), ``forces`` ((N, 3)
+    ``O.forces.f`` of each particle: contact forces only), ``clump_id`` (N,; -1 when not in a
+    clump), ``iter``, ``path``, ``contact_ids`` ((M, 2) Yade ids ``(id of i, id of j)``; the wall's
+    id for wall contacts)."""
+
+    def __init__(self, snapshot, ids, forces, clump_id, iteration, path, contact_ids):
+        self.snapshot = snapshot
+        self.ids = ids
+        self.forces = forces
+        self.clump_id = clump_id
+        self.iter = iteration
+        self.path = path
+        self.contact_ids = contact_ids
+
+    def force_balance(self):
+        """Per-particle mismatch between the summed contact forces and Yade's ``O.forces.f``.
+
+        Returns a dict: ``mismatch`` ((N,) norms), ``scale`` (RMS contact-force magnitude, or RMS
+        of Yade's forces without contacts) and ``relative`` (max mismatch / scale)."""
+        snap = self.snapshot
+        c = snap.contacts
+        total = np.zeros((snap.n_particles, 3))
+        if len(c):
+            np.add.at(total, c.i, c.force)
+            pair = c.j >= 0
+            np.add.at(total, c.j[pair], -c.force[pair])
+        diff = np.linalg.norm(total - self.forces, axis=1)
+        if len(c):
+            scale = float(np.sqrt(np.mean(np.sum(c.force ** 2, axis=1))))
+        else:
+            scale = float(np.sqrt(np.mean(np.sum(self.forces ** 2, axis=1)))) if snap.n_particles else 0.0
+        worst = float(diff.max()) if diff.size else 0.0
+        return {"mismatch": diff, "scale": scale, "relative": worst / scale if scale > 0 else worst}
+
+
+class YadeReader(FrameSequence):
+    """Lazy sequence of :class:`cgbound.Snapshot` from Yade exports (see the module docstring).
+
+    Parameters
+    ----------
+    paths : path, pattern or list of paths
+        A directory (its ``*.npz``), a glob pattern, a file, or a list of these.
+    check_forces : bool
+        Check every frame's force balance (default True).
+    tolerance : float
+        Largest accepted force mismatch relative to the RMS contact force (default 1e-9).
+    fixed_ids : sequence of int
+        Yade body ids to treat as boundary in addition to the non-dynamic / blocked ones.
+    body_force : (3,) array, optional
+        Overrides the NewtonIntegrator's gravity (per unit mass).
+    """
+
+    def __init__(self, paths, *, check_forces=True, tolerance=DEFAULT_TOLERANCE, fixed_ids=(), body_force=None):
+        files = _expand(paths)
+        if not (isinstance(tolerance, (int, float)) and not isinstance(tolerance, bool) and tolerance > 0):
+            raise ValueError(f"tolerance: expected a positive number, got {tolerance!r}")
+        self.check_forces = bool(check_forces)
+        self.tolerance = float(tolerance)
+        self.fixed_ids = np.unique(np.asarray(list(fixed_ids), dtype=np.int64))
+        if body_force is not None:
+            body_force = np.asarray(body_force, dtype=float)
+            if body_force.shape != (3,) or not np.all(np.isfinite(body_force)):
+                raise ValueError(f"body_force: expected 3 finite values, got {body_force.tolist()}")
+        self.body_force = body_force
+        frames = []
+        for path in files:
+            with _load(path) as data:
+                frames.append((int(data["iter"]), path))
+        frames.sort()
+        steps = [k for k, _ in frames]
+        if len(set(steps)) != len(steps):
+            dup = next(k for k in steps if steps.count(k) > 1)
+            raise ValueError(f"paths: two files hold iteration {dup}: "
+                             f"{[p for k, p in frames if k == dup]}")
+        self._frames = [(p,) for _, p in frames]
+        self._cache = None
+
+    @property
+    def iterations(self):
+        return [self._load_iter(p) for (p,) in self._frames]
+
+    @staticmethod
+    def _load_iter(path):
+        with np.load(path) as data:
+            return int(data["iter"])
+
+    def frame(self, index):
+        """Frame ``index`` as a :class:`YadeFrame`."""
+        return self._cached_frame(index)
+
+    def force_mismatch(self, index):
+        """Max |summed contact forces - O.forces.f| over particles relative to the RMS contact force."""
+        return self.frame(index).force_balance()["relative"]
+
+    def _snapshot(self, position):
+        return self.frame(position).snapshot
+
+    def __repr__(self):
+        return f"YadeReader({len(self)} frames)"
+
+    # ------------------------------------------------------------------------------------------
+    def _build(self, path):
+        with _load(path) as d:
+            data = {k: d[k] for k in d.files}
+        ids, shape = data["id"], data["shape"]
+        dynamic, blocked, clump = data["dynamic"], data["blocked"], data["clump_id"]
+        sphere = shape == "Sphere"
+        is_clump = shape == "Clump"
+        wall = ~sphere & ~is_clump
+        by_id = {int(b): k for k, b in enumerate(ids)}
+
+        def translation_blocked(k):
+            return sum(ch in str(blocked[k]) for ch in "xyz")
+
+        # flags of a clump member come from its clump
+        owner = np.array([by_id.get(int(c), k) if c >= 0 else k for k, c in enumerate(clump)])
+        n_blocked = np.array([translation_blocked(int(o)) for o in owner], dtype=int)
+        partly = sphere & dynamic[owner] & (n_blocked > 0) & (n_blocked < 3)
+        if np.any(partly):
+            k = int(np.flatnonzero(partly)[0])
+            raise ValueError(f"{path}: body {ids[k]} has blockedDOFs {str(blocked[owner[k]])!r}: partly blocked "
+                             "translation is neither flowing nor boundary; block x, y and z, or make it "
+                             "non-dynamic, or unblock it")
+        moving_wall = wall & dynamic & (np.array([translation_blocked(k) for k in range(len(ids))]) < 3)
+        if np.any(moving_wall):
+            k = int(np.flatnonzero(moving_wall)[0])
+            raise ValueError(f"{path}: body {ids[k]} is a dynamic {shape[k]}: only spheres can be particles; "
+                             "make the body non-dynamic (fixed=True) to use it as a wall")
+        fixed_all = ~dynamic[owner] | (n_blocked == 3) | np.isin(ids, self.fixed_ids)
+        part = np.flatnonzero(sphere)
+        index_of = np.full(int(ids.max()) + 1 if ids.size else 1, -1, np.int64)
+        index_of[ids[part]] = np.arange(part.size)
+        wall_id = np.zeros(index_of.shape, bool)
+        wall_id[ids[wall]] = True
+
+        pos = data["pos"][part]
+        periodic = bool(data["periodic"])
+        if periodic:
+            h = data["cell_hsize"]
+            if np.any(h != np.diag(np.diag(h))):
+                raise ValueError(f"{path}: the periodic cell is sheared (hSize {h.tolist()}); only orthogonal cells "
+                                 "are supported")
+            lengths = np.diag(h).copy()
+            box = Box(np.zeros(3), lengths, periodic=True)
+        else:
+            r = data["radius"][part]
+            pts = [pos - r[:, None], pos + r[:, None]]
+            if data["contact_point"].size:
+                pts.append(data["contact_point"])
+            allpts = np.concatenate(pts)
+            lo, hi = allpts.min(axis=0), allpts.max(axis=0)
+            pad = np.maximum(hi - lo, 1.0) * 1e-9
+            box = Box(lo - pad, hi + pad)
+
+        id1, id2 = data["id1"], data["id2"]
+        force = data["normal_force"] + data["shear_force"]   # on id2 from id1
+        point = data["contact_point"]
+        known = (id1 < index_of.size) & (id2 < index_of.size)
+        if not np.all(known):
+            k = int(np.flatnonzero(~known)[0])
+            raise ValueError(f"{path}: interaction ({id1[k]}, {id2[k]}) names a body that is not in the frame")
+        p1, p2 = index_of[id1], index_of[id2]
+        w1, w2 = wall_id[id1], wall_id[id2]
+        bad = ((p1 < 0) & ~w1) | ((p2 < 0) & ~w2) | (w1 & w2)
+        if np.any(bad):
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"{path}: interaction ({id1[k]}, {id2[k]}) is not between a sphere and a sphere or "
+                             "a wall body; cgbound cannot place it")
+        flip = w2      # the particle is id1: the force on it is the opposite
+        ci = np.where(flip, p1, p2)
+        cj = np.where(flip, -1, np.where(w1, -1, p1))
+        cf = np.where(flip[:, None], -force, force)
+        contact_ids = np.stack([np.where(flip, id1, id2), np.where(flip, id2, id1)], axis=1)
+
+        cell_dist = data["cell_dist"]
+        if not periodic and np.any(cell_dist != 0):
+            raise ValueError(f"{path}: non-periodic frame with non-zero cellDist")
+        if periodic:
+            pair = (p1 >= 0) & (p2 >= 0)
+            # cgbound's branch of contact (i = id2, j = id1) is r_id2 - r_id1 (minimum image)
+            yade_branch = (pos[p2[pair]] + cell_dist[pair] * lengths) - pos[p1[pair]]
+            raw = pos[p2[pair]] - pos[p1[pair]]
+            minimum = raw - lengths * np.round(raw / lengths)
+            off = np.linalg.norm(minimum - yade_branch, axis=1) > 1e-9 * float(lengths.max())
+            if np.any(off):
+                k = int(np.flatnonzero(pair)[np.flatnonzero(off)[0]])
+                raise ValueError(f"{path}: bodies {id1[k]} and {id2[k]} touch across the periodic cell at a "
+                                 "distance that is not the minimum image (the cell is smaller than twice the "
+                                 "contact distance); cgbound's branch vectors would be wrong")
+            pos = pos - lengths * np.floor(pos / lengths)
+            point = point - lengths * np.floor(point / lengths)
+        masses = data["mass"][part].copy()
+        member = clump[part] >= 0
+        if member.any():
+            # a clump's mass can differ from the sum of its members' (Yade integrates overlapping clumps);
+            # members share the clump's mass in proportion to their own, so density and momentum are the clump's
+            for c in np.unique(clump[part][member]):
+                rows = clump[part] == c
+                masses[rows] *= data["mass"][by_id[int(c)]] / masses[rows].sum()
+        g = self.body_force
+        if g is None and np.all(np.isfinite(data["gravity"])):
+            g = data["gravity"]
+        snapshot = Snapshot(pos, data["vel"][part], masses, box=box,
+                            contacts=Contacts(ci, cj, cf, point), fixed=fixed_all[part], body_force=g,
+                            radii=data["radius"][part], time=float(data["time"]))
+        result = YadeFrame(snapshot, ids[part], data["force"][part], clump[part], int(data["iter"]), path,
+                           contact_ids)
+        if self.check_forces:
+            balance = result.force_balance()
+            if balance["relative"] > self.tolerance:
+                k = int(np.argmax(balance["mismatch"]))
+                raise ValueError(
+                    f"{path}: body {ids[part][k]}: its contact forces sum to {self._sum(result, k)} but Yade's "
+                    f"O.forces.f gives {data['force'][part][k].tolist()} (mismatch {balance['relative']:.3g} of the "
+                    f"RMS contact force, tolerance {self.tolerance:g}). Likely causes: the PyRunner calling "
+                    "export_frame is not the last engine (forces and interactions from different steps), an engine "
+                    "adds forces (O.forces.addF, drag, buoyancy), or non-contact interactions. Fix: make the "
+                    "PyRunner the last engine, or pass check_forces=False if you know why")
+        return result
+
+    @staticmethod
+    def _sum(frame, k):
+        c = frame.snapshot.contacts
+        total = c.force[c.i == k].sum(axis=0) - c.force[c.j == k].sum(axis=0)
+        return total.tolist()
