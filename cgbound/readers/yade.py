@@ -48,7 +48,7 @@ import numpy as np
 
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
-from ._sequence import FrameSequence
+from ._sequence import FrameReader
 from .yade_export import FORMAT, VERSION
 
 __all__ = ["YadeFrame", "YadeReader"]
@@ -132,7 +132,7 @@ class YadeFrame:
         return {"mismatch": diff, "scale": scale, "relative": worst / scale if scale > 0 else worst}
 
 
-class YadeReader(FrameSequence):
+class YadeReader(FrameReader):
     """Lazy sequence of :class:`cgbound.Snapshot` from Yade exports (see the module docstring).
 
     Parameters
@@ -183,19 +183,12 @@ class YadeReader(FrameSequence):
         with np.load(path) as data:
             return int(data["iter"])
 
-    def frame(self, index):
-        """Frame ``index`` as a :class:`YadeFrame`."""
-        return self._cached_frame(index)
-
     def force_mismatch(self, index):
         """Max |summed contact forces - O.forces.f| over particles relative to the RMS contact force."""
         return self.frame(index).force_balance()["relative"]
 
-    def _snapshot(self, position):
-        return self.frame(position).snapshot
-
-    def __repr__(self):
-        return f"YadeReader({len(self)} frames)"
+    def _describe(self):
+        return [], []
 
     # ------------------------------------------------------------------------------------------
     def _build(self, path):
