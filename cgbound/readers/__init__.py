@@ -1,5 +1,5 @@
 """Readers: each yields cg.Snapshot objects lazily, with len() and slicing where the format allows
-(DESIGN.md section 1)."""
+(docs/theory.md, "The snapshot model")."""
 from .hdf5 import HDF5Snapshots, write_snapshots
 from .lammps import LammpsFrame, LammpsReader, pair_local_columns
 from .liggghts import LiggghtsReader, pair_gran_local_columns
