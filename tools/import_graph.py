@@ -32,8 +32,8 @@ LAYER_NAMES = {
     2: ("kernels", "coarse-graining kernels and the Gaussian's truncation"),
     3: ("targets", "where fields are evaluated: grids and point sets"),
     4: ("fields", "the primary sums, the derived fields, the momentum-balance check"),
-    5: ("pipeline", "the per-snapshot pipeline, entry points, tiles, executors, the Result it returns"),
-    6: ("I/O", "readers, writers, plots"),
+    5: ("pipeline", "the per-snapshot pipeline, entry points, tiles, executors, the Result they return and its writers"),
+    6: ("I/O", "readers, plots, MercuryCG files"),
     7: ("front ends", "the package root, the command line, the paper-reproduction wing"),
 }
 
@@ -46,10 +46,12 @@ LAYERS = {
     "kernels": 2, "truncation": 2,
     "grid": 3,
     "primaries": 4, "fields": 4, "residual": 4,
-    # result.py: the object the pipeline returns (coarse_grain builds one), so it sits with the pipeline
-    "pipeline": 5, "coarse": 5, "tiled": 5, "executors": 5, "result": 5,
+    # result.py is the object the pipeline returns (coarse_grain builds one), so it sits with the pipeline, and
+    # writers.py with it: Result.to_hdf5 & co. call the writers, which import nothing above layer 0
+    "pipeline": 5, "coarse": 5, "tiled": 5, "executors": 5, "result": 5, "writers": 5,
+    "averaging": 5,                                               # time averages over blocks of frames
     "_partial": 5, "_dask": 5,                                    # today
-    "readers": 6, "writers": 6, "plot": 6, "mercurycg": 6,
+    "readers": 6, "plot": 6, "mercurycg": 6,
     "__init__": 7, "__main__": 7, "cli": 7, "paper": 7,
     "scenes": 7, "profiles": 7, "datasets": 7, "blobs": 7,        # today (the paper wing, before cgbound/paper/)
 }
