@@ -13,7 +13,7 @@ Measures (all relative):
   line_err    line sweep only: against exact erf line integrals at the same cutoff (the quadrature
               error alone). Without the line_quadrature option the Gauss-Legendre rows are emulated from
               point scatters at the nodes (same numbers as the option gives; no time, no residual).
-  mass_err    |sum(rho) dV - total flowing mass| / total mass (DESIGN.md 3.1).
+  mass_err    |sum(rho) dV - total flowing mass| / total mass (docs/theory.md, "Mass").
   virial_err  |integral of (sigma_b + sigma_w) dV + sum f_ij r_ij + sum f_ik a_ik|_F / |sum f r|_F (3.2).
   mb_resid    largest relative momentum-balance residual at random points (3.3,
               cgbound.momentum_balance_residual; NaN for the Heaviside kernel, which has no gradient).
@@ -91,7 +91,7 @@ def make_grid(snap, h, pad):
 
 
 def contact_virial(snap):
-    """-sum f_ij (x) r_ij - sum f_ik (x) a_ik: what the contact stress must integrate to (DESIGN 3.2)."""
+    """-sum f_ij (x) r_ij - sum f_ik (x) a_ik: what the contact stress must integrate to (docs/theory.md, "Virial")."""
     bulk, boundary = snap.split_contacts()
     return -(np.einsum("ma,mb->ab", bulk["force"], bulk["branch"])
              + np.einsum("ma,mb->ab", boundary["force"], boundary["branch"]))

@@ -1,4 +1,4 @@
-"""The momentum balance of eq. (6), checked pointwise with analytic kernel gradients (DESIGN section 3.3)."""
+"""The momentum balance of eq. (6), checked pointwise with analytic kernel gradients (docs/theory.md, "Momentum balance")."""
 import numpy as np
 
 from . import _core

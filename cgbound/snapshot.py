@@ -46,7 +46,7 @@ class Contacts:
 
 
 class Snapshot:
-    """Particle data at one instant (DESIGN.md section 1).
+    """Particle data at one instant (docs/theory.md, "The snapshot model").
 
     Parameters
     ----------
@@ -182,7 +182,7 @@ class Snapshot:
         return self.with_fixed(self.fixed | (self.species != species))
 
     def split_contacts(self):
-        """Classify contacts (DESIGN.md section 1).
+        """Classify contacts (docs/theory.md, "The snapshot model").
 
         Returns ``(bulk, boundary)`` dicts of arrays: bulk has i, j, force, branch
         (r_i - r_j, minimum image); boundary has i (the flowing particle), force

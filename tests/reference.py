@@ -330,7 +330,7 @@ def _min_image(vec, box):
 
 
 def classify(snap):
-    """Bulk and boundary contacts by plain loops (DESIGN section 1)."""
+    """Bulk and boundary contacts by plain loops (docs/theory.md, "The snapshot model")."""
     bulk, boundary = [], []
     c = snap.contacts
     for k in range(len(c)):
@@ -348,7 +348,7 @@ def classify(snap):
 
 
 def ref_fields(snap, where, kernel_obj, fields, convention="tension"):
-    """All requested fields, flat over nodes (P, ...), from the formulas of DESIGN section 2."""
+    """All requested fields, flat over nodes (P, ...), from the formulas of docs/theory.md, "Fields"."""
     import cgbound as cg
 
     kind = {cg.Gaussian: "gaussian", cg.Lucy: "lucy", cg.Heaviside: "heaviside"}[type(kernel_obj)]

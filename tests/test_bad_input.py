@@ -1,4 +1,4 @@
-"""Bad input gets a clear error (DESIGN.md section 8), raised before any work.
+"""Bad input gets a clear error (docs/theory.md, "Hard cases and bad input"), raised before any work.
 
 Every case is (call, exception type, regex): the message must start with the
 argument's name and say what was expected. An autouse fixture replaces the C

@@ -1,4 +1,4 @@
-"""Hard cases of DESIGN.md section 8, each against a 50-digit mpmath reference or an exact value.
+"""Hard cases of docs/theory.md ("Hard cases and bad input"), each against a 50-digit mpmath reference or an exact value.
 
 Each test asserts 1e-12 relative agreement (relative to the value itself, or to the
 field's scale where the value is near zero) and the absence of NaN/Inf, and records

@@ -1,4 +1,4 @@
-"""Physical identities of DESIGN.md section 3, each able to catch a sign or factor error."""
+"""Physical identities of docs/theory.md ("Identities the tests check"), each able to catch a sign or factor error."""
 import math
 
 import numpy as np

@@ -1,5 +1,5 @@
 """Property-based tests: random snapshots, including degenerate geometry, keep the identities
-of DESIGN.md section 3 and never produce NaN or Inf (velocity and temperature are NaN only
+of docs/theory.md ("Identities the tests check") and never produce NaN or Inf (velocity and temperature are NaN only
 where the density is zero)."""
 import numpy as np
 import pytest

@@ -15,8 +15,9 @@
 #
 # Data: a jammed polydisperse packing on a rough base of fixed particles (`benchmarks/packing.py`, fixed seed),
 # periodic, with bulk and boundary contacts whose forces follow from the overlaps. Measures: relative L2 error
-# of the contact stress σᵇ + σʷ, the mass and virial identities (DESIGN.md §3.1–3.2) and the largest relative
-# momentum-balance residual (`cg.momentum_balance_residual`, §3.3). This notebook runs the `--quick` size.
+# of the contact stress σᵇ + σʷ, the [mass](../docs/theory.md#mass) and [virial](../docs/theory.md#virial) identities
+# and the largest relative [momentum-balance residual](../docs/theory.md#momentum-balance)
+# (`cg.momentum_balance_residual`). This notebook runs the `--quick` size.
 
 # %%
 import pathlib
