@@ -256,7 +256,7 @@ def test_a_flag_of_another_format_is_an_error_not_ignored(tmp_path, capsys):
     assert status == 2 and "--fixed-types: applies to lammps, liggghts input, not to hdf5 input" in err
     status, err = run_error(["run", str(tmp_path / "in.h5"), "--no-check-forces", "-o", str(tmp_path / "o.npz")],
                             capsys)
-    assert status == 2 and "--no-check-forces: applies to lammps, liggghts input" in err
+    assert status == 2 and "--no-check-forces: applies to lammps, liggghts, yade input, not to hdf5" in err
 
 
 def test_unknown_format_is_named(tmp_path, capsys):
@@ -351,3 +351,49 @@ def test_demo_refuses_an_output_in_a_missing_directory_before_work(tmp_path, cap
     assert main(args) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"cgbound: error: {option}: directory") and not (tmp_path / "d.h5").exists()
+
+
+def test_input_script_gives_the_columns_types_walls_and_gravity(tmp_path):
+    out = tmp_path / "p.npz"
+    script = os.path.join(os.path.dirname(__file__), "data", "lammps", "in.hooke3d")
+    assert main(["run", ATOMS, "--pairs", PAIRS, "--input", script, "--grid", "1,1,40", "--average", "x,y",
+                 "--fields", "density,stress", "-o", str(out), "-q"]) == 0
+    expected = lammps_expected(("density", "stress"))
+    with np.load(out) as result:
+        np.testing.assert_array_equal(result["stress"], expected.stress)
+
+
+def test_var_needs_input_and_input_must_exist(tmp_path, capsys):
+    status, err = run_error(["run", ATOMS, "--var", "tilt=10", "-o", str(tmp_path / "o.npz")], capsys)
+    assert status == 2 and err.startswith("cgbound: error: --var: given without --input")
+    status, err = run_error(["run", ATOMS, "--input", str(tmp_path / "in.none"), "-o", str(tmp_path / "o.npz")],
+                            capsys)
+    assert status == 2 and err.startswith("cgbound: error: --input: no such file")
+
+
+def test_yade_exports_by_directory(tmp_path):
+    d = os.path.join(os.path.dirname(__file__), "data", "yade", "walls")
+    out = tmp_path / "y.npz"
+    assert main(["run", d, "--grid", "1,1,20", "--average", "x,y", "--fields", "density,stress", "-o", str(out),
+                 "-q"]) == 0
+    frames = cg.readers.YadeReader(d)
+    expected = cg.CoarseGrain(frames, cg.Grid(frames[0].box, (1, 1, 20), average=("x", "y")), cg.Gaussian(0.25),
+                              fields=("density", "stress")).run().results
+    with np.load(out) as result:
+        np.testing.assert_array_equal(result["stress"], expected.stress)
+
+
+def test_stat_output_is_mercurycg_format_and_its_kernel_is_checked_before_work(tmp_path, capsys):
+    from cgbound.mercurycg import read_stat
+    out = tmp_path / "p.stat"
+    status, err = run_error(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,20", "--average", "x,y", "-o", str(out)],
+                            capsys)
+    assert status == 2 and "--output: a MercuryCG .stat file holds MercuryCG's Gauss" in err and not out.exists()
+    assert main(["run", ATOMS] + LAMMPS_ARGS + ["--kernel", "lucy", "--cutoff", "1", "--grid", "1,1,20", "--average",
+                 "x,y", "--fields", "density,momentum", "-o", str(out), "-q"]) == 0
+    stat = read_stat(out)
+    frames = cg.readers.LammpsReader(ATOMS, PAIRS, pair_values=GRAN.split(","), fixed_types=[2], walls=["w"],
+                                     body_force=[0, 0, -1])
+    expected = cg.CoarseGrain(frames, cg.Grid(frames[0].box, (1, 1, 20), average=("x", "y")), cg.Lucy(1.0),
+                              fields=("density",)).run().results
+    np.testing.assert_allclose(stat.columns["Density"].ravel(), expected.density.ravel(), rtol=5e-6)

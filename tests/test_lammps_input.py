@@ -175,3 +175,39 @@ def test_include_and_never_integrated(tmp_path):
                "fix w flow wall/gran hooke 1 1 1 1 1 0 zplane 0 NULL contacts\n")
     s = read_input(p)
     assert s.fixed_types == (2, 3) and s.walls == ("w",) and s.gravity is None
+
+
+# --- the readers take the script itself: input= (the CLI's --input, --var) ------------------------------
+
+def test_lammps_reader_with_its_input_script_reads_what_the_explicit_options_read():
+    base = os.path.join(os.path.dirname(__file__), "data", "lammps")
+    atoms, pairs = os.path.join(base, "hooke3d", "atoms.dump"), os.path.join(base, "hooke3d", "pairs.dump")
+    by_script = LammpsReader(atoms, pairs, input=os.path.join(base, "in.hooke3d"))
+    explicit = LammpsReader(atoms, pairs, pair_values=("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4"),
+                            fixed_types=[2], walls=["w"], body_force=(0, 0, -1))
+    assert by_script.walls == ("w",) and by_script.fixed_types == (2,)
+    for k in range(len(explicit)):
+        a, b = by_script[k], explicit[k]
+        np.testing.assert_array_equal(a.fixed, b.fixed)
+        np.testing.assert_array_equal(a.contacts.force, b.contacts.force)
+        np.testing.assert_array_equal(a.body_force, b.body_force)
+
+
+def test_the_reordered_dump_reads_balanced_through_its_script_with_variables():
+    d = os.path.join(DATA, "lammps_input")
+    frames = LammpsReader(os.path.join(d, "atoms.3000.dump"), os.path.join(d, "pairs.3000.dump"), input=REORDERED,
+                          variables={"tilt": 10})
+    assert frames.force_mismatch(0) < 1e-12 and frames[0].fixed.sum() == 25
+
+
+def test_liggghts_reader_with_its_input_script():
+    from cgbound.readers import LiggghtsReader
+    d = os.path.join(os.path.dirname(__file__), "data", "liggghts")
+    by_script = LiggghtsReader(os.path.join(d, "atoms.dump"), os.path.join(d, "pairs.dump"),
+                               input=os.path.join(d, "in.settle"))
+    explicit = LiggghtsReader(os.path.join(d, "atoms.dump"), os.path.join(d, "pairs.dump"),
+                              pair_values=("pos", "id", "force", "torque", "delta", "contactPoint"), fixed_types=[2],
+                              body_force=(0, 0, -9.81))
+    for k in range(len(explicit)):
+        np.testing.assert_array_equal(by_script[k].contacts.point, explicit[k].contacts.point)
+        np.testing.assert_array_equal(by_script[k].fixed, explicit[k].fixed)

@@ -15,17 +15,18 @@ from .figures import check_matplotlib, figure_format, save_figure
 from .values import existing_file, integers, numbers, output_directory_exists, positive_number, split_list, type_masses
 
 KERNELS = ("gaussian", "lucy", "heaviside")
-OUTPUTS = (".h5", ".hdf5", ".npz", ".vtk")
-FORMATS = ("hdf5", "lammps", "liggghts", "mdanalysis", "mercury")
+OUTPUTS = (".h5", ".hdf5", ".npz", ".vtk", ".stat")
+FORMATS = ("hdf5", "lammps", "liggghts", "mdanalysis", "mercury", "yade")
 
 #: reader flags and the formats they apply to (a flag given for another format is an error, not ignored)
 FLAG_FORMATS = {
-    "pairs": ("lammps", "liggghts", "mercury"), "pair_style": ("lammps",), "no_check_forces": ("lammps", "liggghts"),
+    "pairs": ("lammps", "liggghts", "mercury"), "pair_style": ("lammps",),
+    "no_check_forces": ("lammps", "liggghts", "yade"), "input": ("lammps", "liggghts"), "var": ("lammps", "liggghts"),
     "pair_compute": ("lammps", "liggghts"), "pair_values": ("lammps", "liggghts"),
-    "fixed_types": ("lammps", "liggghts"), "fixed_ids": ("lammps", "liggghts", "mercury"),
+    "fixed_types": ("lammps", "liggghts"), "fixed_ids": ("lammps", "liggghts", "mercury", "yade"),
     "walls": ("lammps",), "masses": ("lammps", "liggghts"), "dt": ("lammps", "liggghts"),
     "dimension": ("lammps", "liggghts"), "restart": ("mercury",), "density": ("mercury",),
-    "gravity": ("lammps", "liggghts", "mercury"),
+    "gravity": ("lammps", "liggghts", "mercury", "yade"),
 }
 
 EXAMPLES = """\
@@ -42,6 +43,13 @@ examples, one per format:
   MercuryDPM (name.fstat and name.restart next to name.data are used when present):
     cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1.5 --grid 1,1,100 --average x,y \\
         -o chute.h5
+  LAMMPS read with its input script (columns, frozen types, walls and gravity from the script):
+    cgbound run atoms.dump --pairs pairs.dump --input in.chute --var angle=26 --grid 1,1,200 --average x,y \
+        -o profile.h5
+  Yade (a directory of exports written by cgbound.readers.yade_export inside Yade):
+    cgbound run yade_frames/ --grid 1,1,50 --average x,y --fields density,stress -o yade.h5
+  MercuryCG's .stat format out (Lucy: MercuryCG's width is the cutoff):
+    cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1 --grid 1,1,140 --average x,y -o chute.stat
   MDAnalysis (topology and trajectory):
     cgbound run topol.tpr traj.xtc --format mdanalysis --grid 40,40,40 --fields density -o density.npz
 
@@ -70,6 +78,11 @@ def add_parser(sub):
                                                         "(default pl) or pair/gran/local (default pgl)")
     g.add_argument("--pair-values", metavar="LIST",
                    help="lammps/liggghts: the keywords of the pair compute in order, e.g. fx,fy,fz,p1,p2,p3,p4,dist")
+    g.add_argument("--input", metavar="SCRIPT",
+                   help="lammps/liggghts: the input script that wrote the dumps: the contact dump's columns, and "
+                        "fixed types, walls and gravity unless given by their flags")
+    g.add_argument("--var", metavar="NAME=VALUE", action="append",
+                   help="lammps/liggghts: a variable of --input as LAMMPS's -var gave it (repeat for several)")
     g.add_argument("--fixed-types", metavar="LIST", help="lammps/liggghts: atom types of fixed particles, e.g. 2")
     g.add_argument("--fixed-ids", metavar="LIST",
                    help="atom IDs (lammps/liggghts) or particle indices (mercury) of fixed particles")
@@ -105,7 +118,8 @@ def add_parser(sub):
     f.add_argument("--stop", type=int, default=None, help="stop before this frame")
     f.add_argument("--step", type=int, default=None, help="frame step")
     o = r.add_argument_group("output")
-    o.add_argument("-o", "--output", default="cgbound_fields.h5", help="output file: .h5, .npz or .vtk (default cgbound_fields.h5)")
+    o.add_argument("-o", "--output", default="cgbound_fields.h5",
+                   help="output file: .h5, .npz, .vtk or .stat (MercuryCG's format; default cgbound_fields.h5)")
     o.add_argument("--figure", "--png", dest="figure", default=None, metavar="FILE",
                    help="also plot the fields (profiles or maps) to FILE: .png, .pdf or .svg")
     o.add_argument("--figure-fields", default=None, metavar="LIST",
@@ -166,9 +180,34 @@ def check(args):
     args.masses = None if args.masses is None else type_masses(args.masses)
     args.dt = None if args.dt is None else positive_number(args.dt, "--dt")
     args.density = None if args.density is None else positive_number(args.density, "--density")
-    for name in ("restart",):
+    if args.var is not None:
+        args.var = variables(args.var)
+    if args.var and args.input is None:
+        raise UsageError("--var", "given without --input (variables are the input script's)")
+    if ext == ".stat":
+        stat_kernel_check(args)
+    for name in ("restart", "input"):
         if getattr(args, name):
             existing_file(getattr(args, name), "--" + name.replace("_", "-"))
+
+
+def variables(items):
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise UsageError("--var", f"expected NAME=VALUE, got {item!r}")
+        out[name.strip()] = value
+    return out
+
+
+def stat_kernel_check(args):
+    """MercuryCG's Gauss is cut off at 3 widths and renormalised over the ball: a .stat says so, so the
+    kernel must be that one (checked before the run, not after it)."""
+    if args.kernel == "gaussian" and not (args.normalize == "truncated" and args.cutoff is not None
+                                          and abs(args.cutoff - 3 * args.width) <= 1e-12 * args.cutoff):
+        raise UsageError("--output", f"a MercuryCG .stat file holds MercuryCG's Gauss (cut off at 3 w and "
+                                     f"renormalised): add --cutoff {3 * args.width:g} --normalize truncated")
 
 
 # --- opening the dataset -----------------------------------------------------------------------------
@@ -178,6 +217,8 @@ def input_files(args):
     try:
         if args.format == "mdanalysis":
             return [existing_file(p, "PATH") for p in args.paths]
+        if len(args.paths) == 1 and os.path.isdir(args.paths[0]):
+            return list(args.paths)            # a directory of Yade exports
         return expand_paths(args.paths, "PATH")
     except (OSError, ValueError) as exc:
         raise UsageError(None, str(exc)) from None
@@ -233,7 +274,7 @@ def mercury_dimension(path):
 def check_gravity(args, fmt, paths):
     if args.gravity is None:
         return None
-    dim = (args.dimension or 3) if fmt in ("lammps", "liggghts") else mercury_dimension(paths[0])
+    dim = mercury_dimension(paths[0]) if fmt == "mercury" else (args.dimension or 3)
     allowed = (2, 3) if dim == 2 else (3,)
     if len(args.gravity) not in allowed:
         text = ",".join(f"{g:g}" for g in args.gravity)
@@ -253,11 +294,19 @@ def reader_options(args, fmt, paths):
                 options[name] = getattr(args, name)
         if args.no_check_forces:
             options["check_forces"] = False
+        if args.input is not None:
+            options["input"] = args.input
+            options["variables"] = args.var or None
         if fmt == "lammps":
             if args.pair_style is not None:
                 options["pair_style"] = args.pair_style
             if args.walls is not None:
                 options["walls"] = args.walls
+    elif fmt == "yade":
+        if args.fixed_ids is not None:
+            options["fixed_ids"] = args.fixed_ids
+        if args.no_check_forces:
+            options["check_forces"] = False
     elif fmt == "mercury":
         if args.fixed_ids is not None:
             options["fixed"] = args.fixed_ids
@@ -372,6 +421,9 @@ def run(args):
                                              "command": "cgbound run"})
     elif ext == ".npz":
         out.to_npz(args.output)
+    elif ext == ".stat":
+        from ..mercurycg import write_stat
+        write_stat(args.output, out)
     else:
         out.to_vtk(args.output, frame=None if args.time_average == "mean" else 0)
     print(f"cgbound: {analysis.n_frames} frames of {first.n_particles} particles -> {', '.join(args.fields)} on "

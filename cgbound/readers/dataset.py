@@ -18,7 +18,7 @@ def open_dataset(paths, format=None, **options):
         ``-fileType multiple``) are ordered by the numbers in their names and their frames read one
         after another; the frames' timesteps must increase from file to file. Gzip-compressed files
         are read as they are.
-    format : "hdf5", "lammps", "liggghts", "mercury" or "mdanalysis", optional
+    format : "hdf5", "lammps", "liggghts", "mercury", "yade" or "mdanalysis", optional
         Default: told from the first file (HDF5 signature, ``ITEM: TIMESTEP``, MercuryDPM's ``.data``);
         LIGGGHTS dumps look like LAMMPS dumps and need ``format="liggghts"``.
     **options
@@ -30,8 +30,15 @@ def open_dataset(paths, format=None, **options):
     if format == "mdanalysis":
         from .mdanalysis import MDAnalysisReader
         return MDAnalysisReader(paths, **options)
+    single = isinstance(paths, (str, os.PathLike)) and os.path.isdir(paths)
+    if format == "yade" or (format is None and single and sniff_format(paths) == "yade"):
+        from .yade import YadeReader
+        return YadeReader(paths, **options)       # a directory, a pattern or files of .npz exports
     files = expand_paths(paths, "paths")
     fmt = format or sniff_format(files[0])
+    if fmt == "yade":
+        from .yade import YadeReader
+        return YadeReader(files, **options)
     contact_key = CONTACT_FILES.get(fmt)
     contacts = [None] * len(files)
     if contact_key and options.get(contact_key) is not None:

@@ -142,8 +142,9 @@ def _unknown_pair_values(path, header, pair_compute, pair_style):
     return (f"pair_values: the contact dump {path} names its columns only by compute and index "
             f"({len(generic)} such columns: {shown}); what each holds depends on the 'compute {pair_compute} "
             f"all pair/local ...' line that wrote it, which the dump does not record. Say it with "
-            f"pair_values=(...) in that line's order (command line: --pair-values {example}); reading them "
-            f"in an assumed order is how a wrong force, and a wrong stress, go unnoticed")
+            f"pair_values=(...) in that line's order (command line: --pair-values {example}), or give the "
+            f"input script with input= (--input in.lmp); reading them in an assumed order is how a wrong "
+            f"force, and a wrong stress, go unnoticed")
 
 
 def _check_value_count(path, header, pair_compute, pair_values):
@@ -255,6 +256,13 @@ class LammpsReader(FrameReader):
     drop_inactive : bool
         Drop pair rows with no overlap and zero force (pairs within a force cutoff but not touching;
         default True).
+    input : path, optional
+        The LAMMPS input script that wrote the dumps (:func:`cgbound.readers.read_input`): the contact
+        dump's columns come from its ``compute pair/local`` and ``dump`` lines, and ``fixed_types``,
+        ``walls`` and ``body_force`` from its frozen groups, ``fix wall/gran ... contacts`` and
+        ``fix gravity`` unless given here.
+    variables : dict, optional
+        Values of the script's variables, as ``-var NAME value`` gave them to LAMMPS.
     check_forces : bool
         With a contact dump and ``fx fy fz`` in the atoms dump, every frame read is checked: the
         contact forces plus the body forces must reproduce the dumped force of every flowing
@@ -266,7 +274,19 @@ class LammpsReader(FrameReader):
     def __init__(self, atoms, pairs=None, *, pair_style="gran", pair_compute="pl", pair_values=None,
                  property_compute="pp", property_values=("patom1", "patom2"), pair_columns=None,
                  walls=(), fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=3,
-                 dt=None, wrap=True, drop_inactive=True, check_forces=True):
+                 dt=None, wrap=True, drop_inactive=True, input=None, variables=None, check_forces=True):
+        self.input_script = None
+        if input is not None:
+            from .lammps_input import read_input
+            script = self.input_script = read_input(input, variables)
+            if pairs is not None and pair_values is None and pair_columns is None:
+                pair_columns = script.pair_columns(pairs)
+            if not len(fixed_types) and not len(fixed_ids):
+                fixed_types = script.fixed_types
+            if body_force is None and script.gravity is not None:
+                body_force = script.gravity
+            if not walls:
+                walls = script.walls
         if dimension not in (2, 3):
             raise ValueError(f"dimension: expected 2 or 3, got {dimension!r}")
         if pair_style not in PAIR_STYLES:

@@ -124,16 +124,23 @@ class LiggghtsReader(LammpsReader):
         Number of history values when ``history`` is among ``pair_values``.
     pair_columns : dict, optional
         Explicit column names per keyword (as returned by :func:`pair_gran_local_columns`).
-    fixed_types, fixed_ids, body_force, masses, dimension, dt, wrap, check_forces :
-        As for :class:`LammpsReader` (every frame's force balance is checked by default).
+    fixed_types, fixed_ids, body_force, masses, dimension, dt, wrap, input, variables, check_forces :
+        As for :class:`LammpsReader` (every frame's force balance is checked by default; with ``input``
+        the compute's ID and keywords come from the script's ``compute pair/gran/local`` line).
 
     The number of ``c_ID[k]`` columns in the dump must be what ``pair_values`` (and ``history``)
     give: keywords other than the compute's are an error, not a shifted reading.
     """
 
-    def __init__(self, atoms, pairs=None, *, pair_compute="pgl", pair_values=DEFAULT_VALUES, history=0,
+    def __init__(self, atoms, pairs=None, *, pair_compute="pgl", pair_values=None, history=0,
                  pair_columns=None, fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=3,
-                 dt=None, wrap=True, check_forces=True):
+                 dt=None, wrap=True, input=None, variables=None, check_forces=True):
+        if input is not None and pairs is not None and pair_values is None and pair_columns is None:
+            from .lammps_input import read_input
+            spec = read_input(input, variables).compute_for(pairs)
+            pair_compute, pair_values = spec.id, spec.values
+        if pair_values is None:
+            pair_values = DEFAULT_VALUES
         from_values = pair_columns is None and pairs is not None
         if from_values:
             pair_columns = pair_gran_local_columns(pair_compute, pair_values, history)
@@ -154,7 +161,8 @@ class LiggghtsReader(LammpsReader):
                                  f"{pair_compute!r}; give the keywords of that compute's line (--pair-values)")
         super().__init__(atoms, pairs, pair_style="total", pair_columns=pair_columns, fixed_types=fixed_types,
                          fixed_ids=fixed_ids, body_force=body_force, masses=masses, dimension=dimension,
-                         dt=dt, wrap=wrap, drop_inactive=False, check_forces=check_forces)
+                         dt=dt, wrap=wrap, drop_inactive=False, input=input, variables=variables,
+                         check_forces=check_forces)
 
     def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
         path = self.pairs_path
