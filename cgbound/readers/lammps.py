@@ -92,7 +92,8 @@ from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._lammps_dump import read_dump_frame, scan_dump
 from ._sequence import FrameReader, file_name
-from .checks import FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, dump_local_header, generic_columns
+from .checks import (FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, dump_local_header, force_balance,
+                     generic_columns)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -187,18 +188,8 @@ class LammpsFrame:
         if self.forces is None:
             raise ValueError("force_balance: the atoms dump has no fx fy fz columns")
         snap = self.snapshot
-        total = snap.particle_forces()
-        c = snap.contacts
-        diff = np.linalg.norm(total - self.forces, axis=1)
-        checked = np.ones(snap.n_particles, bool) if fixed else snap.flowing.copy()
-        mismatch = np.where(checked, diff, np.nan)
-        if len(c):
-            scale = float(np.sqrt(np.mean(np.sum(c.force ** 2, axis=1))))
-        else:
-            scale = float(np.sqrt(np.mean(np.sum(self.forces ** 2, axis=1)))) if snap.n_particles else 0.0
-        worst = float(np.max(diff[checked])) if checked.any() else 0.0
-        relative = worst / scale if scale > 0 else worst
-        return {"mismatch": mismatch, "scale": scale, "relative": relative}
+        checked = np.ones(snap.n_particles, bool) if fixed else snap.flowing
+        return force_balance(snap.particle_forces(), self.forces, snap.contacts.force, checked)
 
 
 def contact_indices(ids, id1, id2, path, timestep):

@@ -49,6 +49,7 @@ import numpy as np
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._sequence import FrameReader
+from .checks import force_balance
 from .yade_export import FORMAT, VERSION
 
 __all__ = ["YadeFrame", "YadeReader"]
@@ -123,13 +124,7 @@ class YadeFrame:
             np.add.at(total, c.i, c.force)
             pair = c.j >= 0
             np.add.at(total, c.j[pair], -c.force[pair])
-        diff = np.linalg.norm(total - self.forces, axis=1)
-        if len(c):
-            scale = float(np.sqrt(np.mean(np.sum(c.force ** 2, axis=1))))
-        else:
-            scale = float(np.sqrt(np.mean(np.sum(self.forces ** 2, axis=1)))) if snap.n_particles else 0.0
-        worst = float(diff.max()) if diff.size else 0.0
-        return {"mismatch": diff, "scale": scale, "relative": worst / scale if scale > 0 else worst}
+        return force_balance(total, self.forces, c.force)
 
 
 class YadeReader(FrameReader):
