@@ -81,6 +81,7 @@ Particles are sorted by LAMMPS atom ID in every frame, so index k is the same at
 (as long as no atoms are created or lost). :meth:`LammpsReader.frame` also returns the IDs, types,
 timestep and the dumped per-particle forces.
 """
+from dataclasses import dataclass
 import os
 import warnings
 from typing import NamedTuple
@@ -159,6 +160,7 @@ def _check_value_count(path, header, pair_compute, pair_values):
 
 # ----------------------------------------------------------------------------------------------
 
+@dataclass
 class LammpsFrame:
     """One frame read from LAMMPS dumps.
 
@@ -167,14 +169,13 @@ class LammpsFrame:
     ((M, 2) LAMMPS IDs of each contact, -1 for walls), ``overlap`` ((M,) overlaps, NaN for walls).
     """
 
-    def __init__(self, snapshot, ids, types, timestep, forces, contact_ids, overlap):
-        self.snapshot = snapshot
-        self.ids = ids
-        self.types = types
-        self.timestep = timestep
-        self.forces = forces
-        self.contact_ids = contact_ids
-        self.overlap = overlap
+    snapshot: Snapshot
+    ids: np.ndarray
+    types: np.ndarray
+    timestep: int
+    forces: np.ndarray
+    contact_ids: np.ndarray
+    overlap: np.ndarray
 
     def force_balance(self, fixed=False):
         """Per-particle force-balance mismatch against the dumped forces.

@@ -92,6 +92,7 @@ Unverified / not supported
 * Frames are matched by time: a ``.data`` frame without an ``.fstat`` frame of the same time
   (within 1e-9 relative) raises; unmatched ``.fstat`` frames are ignored.
 """
+from dataclasses import dataclass
 import math
 import numbers
 import os
@@ -110,16 +111,16 @@ __all__ = ["MercuryReader", "MercuryFrame", "write_mercury"]
 
 # ----------------------------------------------------------------------------------------------
 
+@dataclass
 class MercuryFrame:
     """One frame: ``snapshot`` plus ``wall_index`` ((M,) MercuryDPM wall index, -1 for pairs),
     ``overlap`` ((M,) delta), ``data_line`` and ``fstat_line`` (line numbers of the frame headers)."""
 
-    def __init__(self, snapshot, wall_index, overlap, data_line, fstat_line):
-        self.snapshot = snapshot
-        self.wall_index = wall_index
-        self.overlap = overlap
-        self.data_line = data_line
-        self.fstat_line = fstat_line
+    snapshot: Snapshot
+    wall_index: np.ndarray
+    overlap: np.ndarray
+    data_line: int
+    fstat_line: int
 
 
 class MercuryReader(FrameReader):

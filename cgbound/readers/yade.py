@@ -41,6 +41,7 @@ Checks made on every frame (cheap, before the snapshot is returned):
   different steps), an engine adds forces (``O.forces.addF``, drag, buoyancy), or interactions that
   are not contacts. ``check_forces=False`` skips the check.
 """
+from dataclasses import dataclass
 import glob
 import os
 
@@ -97,20 +98,20 @@ def _load(path):
     return data
 
 
+@dataclass
 class YadeFrame:
     """One Yade frame: ``snapshot``, ``ids`` (Yade body id of each particle), ``forces`` ((N, 3)
     ``O.forces.f`` of each particle: contact forces only), ``clump_id`` (N,; -1 when not in a
     clump), ``iter``, ``path``, ``contact_ids`` ((M, 2) Yade ids ``(id of i, id of j)``; the wall's
     id for wall contacts)."""
 
-    def __init__(self, snapshot, ids, forces, clump_id, iteration, path, contact_ids):
-        self.snapshot = snapshot
-        self.ids = ids
-        self.forces = forces
-        self.clump_id = clump_id
-        self.iter = iteration
-        self.path = path
-        self.contact_ids = contact_ids
+    snapshot: Snapshot
+    ids: np.ndarray
+    forces: np.ndarray
+    clump_id: np.ndarray
+    iter: int
+    path: str
+    contact_ids: np.ndarray
 
     def force_balance(self):
         """Per-particle mismatch between the summed contact forces and Yade's ``O.forces.f``.
