@@ -11,7 +11,7 @@ import contextlib
 import contextvars
 import numbers
 
-from . import _core
+from . import _engine
 
 _default = None                                   # set_num_threads
 _override = contextvars.ContextVar("cgbound_threads", default=None)   # threads(n), per thread / task
@@ -37,12 +37,12 @@ def set_num_threads(n):
 
 def get_num_threads():
     """Threads the C core will use at most for a large enough input (1 without OpenMP)."""
-    if not _core.have_openmp():
+    if not _engine.have_openmp():
         return 1
     n = _override.get()
     if n is None:
         n = _default
-    return n if n is not None else _core.default_threads()
+    return n if n is not None else _engine.default_threads()
 
 
 @contextlib.contextmanager

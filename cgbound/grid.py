@@ -107,10 +107,6 @@ class Grid:
     def field_shape(self):
         return self.shape
 
-    def _core_target(self, box):
-        return (self.dim, self.resolved, [self.axis_coordinates[d] for d in self.resolved], None,
-                [box.periodic[d] for d in self.resolved], [float(box.lengths[d]) for d in self.resolved])
-
     def __repr__(self):
         names = self.box.axis_names
         res = "".join(names[d] for d in self.resolved).upper() or "O"
@@ -148,10 +144,6 @@ class Points:
     @property
     def coordinates(self):
         return self.positions
-
-    def _core_target(self, box):
-        return (self.dim, tuple(range(self.dim)), None, self.positions, list(box.periodic),
-                [float(x) for x in box.lengths])
 
     def __repr__(self):
         return f"Points({self.positions.shape[0]} points in {self.dim}D)"

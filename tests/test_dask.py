@@ -33,7 +33,7 @@ FIELDS = ("density", "velocity", "momentum_flux", "kinetic_stress", "contact_str
 def client():
     if distributed is None:
         pytest.skip("dask.distributed is not installed")
-    from cgbound._dask import local_cluster
+    from cgbound.executors import local_cluster
     cluster = local_cluster(2)  # LocalCluster(n_workers=2, processes=True, threads_per_worker=1), environment kept
     with distributed.Client(cluster) as c:
         yield c

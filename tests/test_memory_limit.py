@@ -16,8 +16,7 @@ HUGE = (100000, 100000, 100)  # 1e12 nodes: terabytes for any field
 
 @pytest.fixture
 def no_work(monkeypatch):
-    monkeypatch.setattr(cgbound.fields, "_core", ForbiddenCore(cgbound.fields._core, "although memory was about to run out"))
-    monkeypatch.setattr(cgbound.residual, "_core", ForbiddenCore(cgbound.residual._core, "although memory was about to run out"))
+    monkeypatch.setattr(cgbound._engine, "_core", ForbiddenCore(cgbound._engine._core, "although memory was about to run out"))
 
 
 def small_snapshot(n=10, seed=0):
@@ -115,9 +114,9 @@ class FakeCore:
 
 
 def test_thread_count(monkeypatch):
-    import cgbound._threads as threads
+    import cgbound._engine as engine
 
-    monkeypatch.setattr(threads, "_core", FakeCore(True, 8))
+    monkeypatch.setattr(engine, "_core", FakeCore(True, 8))
     assert memory.core_threads() == 8                 # the OpenMP default
     assert memory.core_threads(n_objects=3) == 3    # the core never runs more threads than objects
     assert memory.core_threads(n_objects=0) == 1
@@ -128,7 +127,7 @@ def test_thread_count(monkeypatch):
         assert memory.core_threads() == 3
     finally:
         cg.set_num_threads(previous)
-    monkeypatch.setattr(threads, "_core", FakeCore(False))
+    monkeypatch.setattr(engine, "_core", FakeCore(False))
     assert memory.core_threads() == 1
     assert cg.have_openmp() in (True, False)
 
