@@ -331,3 +331,15 @@ def test_tiled_with_auto_line_quadrature_uses_the_whole_snapshots_rule():
     fixed = resolve_auto_line_quadrature(kernel, (bulk, boundary))
     n = cg.kernels.auto_line_points(lengths.max(), width)
     assert fixed.line_quadrature == (n if n else "exact") and kernel.line_quadrature == "auto"
+
+
+@pytest.mark.parametrize("kernel", [cg.Gaussian(0.5), cg.Gaussian(0.5, line_quadrature="auto"), cg.Lucy(1.2)],
+                         ids=["gaussian", "auto", "lucy"])
+def test_tiled_without_contact_fields(kernel):
+    """Fields that need no contacts: there is no split of the contacts (it raised a TypeError)."""
+    snap = big_snapshot((True, True, False))
+    grid = cg.Grid(snap.box, (9, 8, 10))
+    fields = ("density", "velocity", "kinetic_stress", "body_force_density")
+    tiled = cg.coarse_grain_tiled(snap, grid, kernel, fields=fields, tiles=(3, 2, 4), backend="serial")
+    assert_same(cg.coarse_grain(snap, grid, kernel, fields=fields), tiled, fields, "no contacts")
+    assert getattr(tiled.kernel, "line_quadrature", None) == getattr(kernel, "line_quadrature", None)
