@@ -21,9 +21,9 @@ def demo(args):
     import time
 
     _check_output_paths(args, ("output", "png"))
-    from .datasets import chute_steady
     from .kernels import Gaussian
-    from .profiles import DepthProfiles
+    from .paper.datasets import chute_steady
+    from .paper.profiles import DepthProfiles
 
     frames = chute_steady()
     start = time.perf_counter()
@@ -44,7 +44,7 @@ def demo(args):
     print(f"integral of rho g_z over z vs N m g cos(26) / area: relative difference {mass_error:.1e}")
     dense = None
     try:
-        from .datasets import chute_dense_profiles
+        from .paper.datasets import chute_dense_profiles
         dense = chute_dense_profiles()
     except FileNotFoundError:
         pass
@@ -97,19 +97,15 @@ def run(args):
     options = {}
     if args.format == "mercury" or (args.format is None and args.input.endswith(".data")):
         options = dict(fstat_path=args.pairs, density=args.density)
-        if args.gravity:
-            options["body_force"] = [float(x) for x in args.gravity.split(",")]
     elif args.format == "liggghts":
         options = dict(pairs=args.pairs, dimension=args.dimension,
                        fixed_types=_ints(args.fixed_types) if args.fixed_types else ())
-        if args.gravity:
-            options["body_force"] = [float(x) for x in args.gravity.split(",")]
     elif args.format == "lammps":
         options = dict(pairs=args.pairs, pair_style=args.pair_style, dimension=args.dimension,
                        fixed_types=_ints(args.fixed_types) if args.fixed_types else (),
                        walls=tuple(w for w in (args.walls or "").split(",") if w))
-        if args.gravity:
-            options["body_force"] = [float(x) for x in args.gravity.split(",")]
+    if args.gravity and options:  # the text formats take a body force; HDF5 and MDAnalysis data carry theirs
+        options["body_force"] = [float(x) for x in args.gravity.split(",")]
     data = open_dataset(args.input, format=args.format, **options)
     if len(data) == 0:
         raise SystemExit(f"{args.input}: no snapshots")
