@@ -123,23 +123,25 @@ def _scalar(value):
     return value
 
 
+def _real_number(value, name, expected):
+    """float(value) of a real, non-bool number (or a 0-d array of one); else a TypeError saying ``expected``."""
+    value = _scalar(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected {expected}, got {value!r}")
+    return float(value)
+
+
 def positive_number(value, name, allow_none=False):
     if value is None and allow_none:
         return None
-    value = _scalar(value)
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a positive number, got {value!r}")
-    value = float(value)
+    value = _real_number(value, name, "a positive number")
     if not (np.isfinite(value) and value > 0.0):
         raise ValueError(f"{name}: expected a positive finite number, got {value!r}")
     return value
 
 
 def finite_number(value, name):
-    value = _scalar(value)
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a finite real number, got {value!r}")
-    value = float(value)
+    value = _real_number(value, name, "a finite real number")
     if not np.isfinite(value):
         raise ValueError(f"{name}: expected a finite real number, got {value!r}")
     return value
