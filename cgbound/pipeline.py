@@ -8,12 +8,12 @@ Time averages (:mod:`cgbound.averaging`) reuse :func:`prepare` and :func:`whole_
 """
 from typing import NamedTuple, Optional
 
-from ._memory import check_fits, core_threads, per_node_doubles
+from ._memory import check_fits, core_threads
 from ._validate import integer
-from .fields import FIELDS, check_convention, check_fields, derive, field_rank, needed_primaries
+from .fields import check_convention, check_fields, derive, field_rank, needed_primaries
 from .grid import check_target
 from .kernels import check_kernel
-from .primaries import check_computable, compute_primaries, reference_velocity
+from .primaries import PARTICLES, PRIMARIES, check_computable, compute_primaries, reference_velocity
 from .result import Result
 from .snapshot import Snapshot
 
@@ -53,14 +53,38 @@ def prepare(snapshot, grid, kernel, fields, convention, species):
     return Job(snapshot, target, kernel, fields, convention, needed, check_computable(snapshot, needed))
 
 
-def field_ranks():
-    return {name: field_rank(name) for name in FIELDS}
+def per_node_doubles(needed, fields, dim, threads, frames=1, time_average="mean", n_times=1):
+    """Doubles per node held at the peak of a coarse-graining request.
+
+    The estimate counts the primary sums kept at once, the C core's per-thread copies of the
+    output of one scatter (the core gives each of its ``n_threads - 1`` extra threads a private
+    copy of the output array, except on grids it cuts into slabs, where the threads write to the
+    output itself), the derived fields and one temporary. Good enough to turn a hopeless request
+    into a clear MemoryError instead of a crash or swapping; with slabs it counts copies that are
+    not made.
+    """
+    prim = sum(dim ** PRIMARIES[p].rank for p in needed)
+    # the primaries of the particles' positions are summed in one scatter (primaries.particle_sums)
+    batched = sum(dim ** PRIMARIES[p].rank for p in needed if PRIMARIES[p].source == PARTICLES)
+    widest = max([dim ** PRIMARIES[p].rank for p in needed if PRIMARIES[p].source != PARTICLES] + [batched])
+    scratch = dim if "sk" in needed else 0                  # node velocities for the fluctuation sum
+    out = sum(dim ** field_rank(f) for f in fields)
+    widest_field = max((dim ** field_rank(f) for f in fields), default=0)
+    one_frame = prim + scratch + (threads - 1) * widest + out + widest_field + batched
+    if time_average == "mean" and frames > 1:
+        # running sums, their mean and the velocity spread, beside one frame's primaries
+        return one_frame + 2 * prim + (dim * dim if "sk" in needed else 0)
+    if time_average == "none":
+        return one_frame + 2 * frames * out                 # every frame's fields, then the stacked copy
+    if time_average == "smooth":
+        return one_frame + frames * prim + 2 * prim + 2 * n_times * out
+    return one_frame
 
 
 def check_memory(target, fields, dim, threads, frames=1, time_average="mean", n_times=1):
     """Raise MemoryError naming the grid if the fields (and the core's scratch) cannot fit."""
     needed = needed_primaries(fields)
-    doubles = per_node_doubles(needed, fields, field_ranks(), dim, threads, frames, time_average, n_times)
+    doubles = per_node_doubles(needed, fields, dim, threads, frames, time_average, n_times)
     check_fits("grid", target.size, doubles, what=f"fields {', '.join(fields)}"
                + (f" over {frames} frames" if frames > 1 else ""))
 

@@ -9,6 +9,7 @@ import cgbound
 from helpers import ForbiddenCore
 import cgbound as cg
 import cgbound._memory as memory
+import cgbound.pipeline as pipeline
 from cgbound.fields import FIELDS
 
 HUGE = (100000, 100000, 100)  # 1e12 nodes: terabytes for any field
@@ -133,17 +134,16 @@ def test_thread_count(monkeypatch):
 
 
 def test_per_thread_buffers_are_counted():
-    ranks = {name: spec[0] for name, spec in FIELDS.items()}
     needed = cgbound.fields.needed_primaries(("stress",))
-    one = memory.per_node_doubles(needed, ("stress",), ranks, 3, threads=1)
-    eight = memory.per_node_doubles(needed, ("stress",), ranks, 3, threads=8)
+    one = pipeline.per_node_doubles(needed, ("stress",), 3, threads=1)
+    eight = pipeline.per_node_doubles(needed, ("stress",), 3, threads=8)
     assert eight - one == 7 * 9                        # 7 extra copies of the widest scatter (a 3x3 tensor)
     # rho 1 + p_w 3 + sk 9 + sb 9 + sw 9 primaries, node velocities 3, output 9, one temporary 9, and
     # the one scatter of rho and p_w together (4) before it is split into its primaries
     assert one == 31 + 3 + 9 + 9 + 4
-    dens = memory.per_node_doubles({"rho"}, ("density",), ranks, 2, threads=2)
+    dens = pipeline.per_node_doubles({"rho"}, ("density",), 2, threads=2)
     assert dens == 1 + 1 + 1 + 1 + 1                     # primary, one thread copy, output, temporary, scatter
-    frames = memory.per_node_doubles({"rho"}, ("density",), ranks, 2, threads=1, frames=10, time_average="none")
+    frames = pipeline.per_node_doubles({"rho"}, ("density",), 2, threads=1, frames=10, time_average="none")
     assert frames == 1 + 1 + 1 + 1 + 2 * 10
 
 
