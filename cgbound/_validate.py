@@ -158,6 +158,23 @@ def integer(value, name, allow_none=False):
     return int(value)
 
 
+def counts_per_axis(value, name, dim, unit, hint=""):
+    """D positive ints (one per axis) from a sequence, e.g. nodes or tiles per axis (``unit``: "node",
+    "tile"); ``hint`` follows "expected D positive integers" in the message for a non-sequence."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise TypeError(f"{name}: expected {dim} positive integers{hint}, got {value!r}")
+    value = tuple(value)
+    if len(value) != dim:
+        raise ValueError(f"{name}: expected {dim} positive integers (one per axis), got {value!r}")
+    try:
+        counts = tuple(integer(n, name) for n in value)
+    except TypeError:
+        raise TypeError(f"{name}: expected {dim} positive integers, got {value!r}") from None
+    if any(n < 1 for n in counts):
+        raise ValueError(f"{name}: expected positive {unit} counts, got {value!r}")
+    return counts
+
+
 def flag(value, name):
     """A Python bool from a bool (or 0/1 integer); anything else (strings, None) is a TypeError."""
     value = _scalar(value)

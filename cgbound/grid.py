@@ -4,7 +4,7 @@ import numbers
 
 import numpy as np
 
-from ._validate import integer, real_array
+from ._validate import counts_per_axis, integer, real_array
 from .box import Box
 
 
@@ -58,25 +58,12 @@ class Grid:
             raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}")
         if isinstance(shape, numbers.Integral):
             shape = tuple(1 if d in averaged else int(shape) for d in range(dim))
-        if isinstance(shape, (str, bytes)):
-            raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}")
-        try:
-            shape = tuple(shape)
-        except TypeError:
-            raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}") from None
-        if len(shape) != dim:
-            raise ValueError(f"shape: expected {dim} positive integers (one per axis), got {shape!r}")
-        try:
-            counts = tuple(integer(n, "shape") for n in shape)
-        except TypeError:
-            raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}") from None
-        if any(n < 1 for n in counts):
-            raise ValueError(f"shape: expected positive node counts, got {shape!r}")
+        shape = counts_per_axis(shape, "shape", dim, "node")
         for d in averaged:
             if shape[d] != 1:
                 raise ValueError(f"shape: expected 1 node along the averaged axis {box.axis_names[d]}, got {shape[d]}")
         self.box = box
-        self.shape = counts
+        self.shape = shape
         self.averaged = tuple(averaged)
         self.resolved = tuple(d for d in range(dim) if d not in averaged)
         spacing = box.lengths / np.array(self.shape, dtype=float)

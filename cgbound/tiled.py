@@ -13,7 +13,7 @@ then hold exactly the same non-zero terms as in one process, so the stitched fie
 """
 import numpy as np
 
-from ._validate import flag, integer
+from ._validate import counts_per_axis, flag
 from .executors import check_backend, executor
 from .grid import Grid
 from .pipeline import DEFAULT_FIELDS, prepare, run_snapshot
@@ -91,17 +91,8 @@ def check_tiles(tiles, grid):
     """Tiles per axis as a tuple of D ints, checked against the grid."""
     dim = grid.dim
     names = grid.box.axis_names
-    if isinstance(tiles, (str, bytes)) or not hasattr(tiles, "__len__"):
-        raise TypeError(f"tiles: expected {dim} positive integers (tiles along each axis), got {tiles!r}")
-    if len(tiles) != dim:
-        raise ValueError(f"tiles: expected {dim} positive integers (one per axis), got {tiles!r}")
-    try:
-        tiles = tuple(integer(t, "tiles") for t in tiles)
-    except TypeError:
-        raise TypeError(f"tiles: expected {dim} positive integers, got {tiles!r}") from None
+    tiles = counts_per_axis(tiles, "tiles", dim, "tile", hint=" (tiles along each axis)")
     for d, t in enumerate(tiles):
-        if t < 1:
-            raise ValueError(f"tiles: expected positive tile counts, got {tiles!r}")
         if d in grid.averaged and t != 1:
             raise ValueError(f"tiles: expected 1 tile along the averaged axis {names[d]}, got {t}")
         if t > grid.shape[d]:
