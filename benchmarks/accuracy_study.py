@@ -162,9 +162,9 @@ def emulated_gl_stress(snap, grid, kernel, n):
     on [0, 1]) carrying weight_k * (-f (x) b). This is the rule a C implementation of line_quadrature=n
     evaluates, so its error is the quadrature error whatever the implementation; its time is not
     representative (n separate point scatters from Python), so the study reports no time for it.
-    Uses the package's private point-scatter entry point (cgbound._core.scatter_points).
+    Uses the package's private point-scatter entry point (cgbound._engine.scatter_points).
     """
-    from cgbound import _core
+    from cgbound import _engine
     nodes, weights = np.polynomial.legendre.leggauss(n)
     s, wts = 0.5 * (nodes + 1.0), 0.5 * weights
     bulk, boundary = snap.split_contacts()
@@ -174,7 +174,8 @@ def emulated_gl_stress(snap, grid, kernel, n):
     values = -np.einsum("ma,mb->mab", force, branch).reshape(len(force), -1)
     pts = np.concatenate([start - sk * branch for sk in s])
     vals = np.concatenate([wk * values for wk in wts])
-    return _core.scatter_points(grid._core_target(snap.box), kernel._core_args(grid.avg_extent), pts, vals)
+    return _engine.scatter_points(_engine.core_target(grid, snap.box), _engine.core_kernel(kernel, grid.avg_extent),
+                                  pts, vals)
 
 
 # --- the study ------------------------------------------------------------------------------

@@ -30,7 +30,7 @@ import time
 import numpy as np
 
 import cgbound as cg
-from cgbound._dask import local_cluster
+from cgbound.executors import local_cluster
 from cgbound._memory import core_threads
 from common import cpu_model
 

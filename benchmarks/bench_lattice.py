@@ -18,7 +18,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import cgbound as cg  # noqa: E402
-from cgbound import _core  # noqa: E402
+from cgbound import _engine  # noqa: E402
 from common import header, save_plot, thread_list, timed  # noqa: E402
 from workloads import lattice  # noqa: E402
 
@@ -51,11 +51,11 @@ def main():
     grids = {"W1": cg.Grid(box, (46, 46, 46)), "W2": cg.Grid(box, (1, 1, 100), average=("x", "y"))}
     rows = []
     for vectors in builds:
-        previous = _core.set_wide_vectors(vectors == "wide")
+        previous = _engine.set_wide_vectors(vectors == "wide")
         try:
             run_tables(args, snap, grids, thread_list(args.threads), rows, vectors)
         finally:
-            _core.set_wide_vectors(previous)
+            _engine.set_wide_vectors(previous)
     if args.plot:
         plot(args.plot, rows)
 

@@ -27,8 +27,8 @@ def load_average():
 
 def vector_build():
     """Which build of the separable Gaussian runs: 8-wide (AVX-512) or 4-wide (AVX2/baseline)."""
-    from cgbound import _core
-    return "AVX-512 (8 doubles)" if _core.wide_vectors() else "AVX2/baseline (4 doubles)"
+    from cgbound import _engine
+    return "AVX-512 (8 doubles)" if _engine.wide_vectors() else "AVX2/baseline (4 doubles)"
 
 
 def header(threads=None, extra=""):

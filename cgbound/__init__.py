@@ -4,7 +4,8 @@ Goldhirsch's coarse graining extended to boundaries by Weinhart, Thornton,
 Luding and Bokhove (2012), with a C core. Stresses follow the paper's
 tension-positive sign unless ``convention="compression"`` is asked for.
 """
-from . import _core, readers
+from . import readers
+from ._engine import have_openmp
 from .box import Box
 from .coarse import CoarseGrain, coarse_grain
 from .fields import FIELDS
@@ -17,7 +18,7 @@ from ._threads import get_num_threads, set_num_threads, threads
 from .tiled import coarse_grain_tiled
 from .truncation import gaussian_cutoff_for, gaussian_tail_fraction
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 FIELD_NAMES = tuple(FIELDS)
 
@@ -25,8 +26,3 @@ __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", 
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
            "gaussian_cutoff_for", "gaussian_tail_fraction"]
-
-
-def have_openmp():
-    """Whether the C core was built with OpenMP threads."""
-    return _core.have_openmp()

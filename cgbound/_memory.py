@@ -1,22 +1,10 @@
-"""Estimate the memory a request needs and refuse, before allocating, one that cannot fit.
+"""Refuse, before allocating, a request that cannot fit in memory; the threads the core will use.
 
-The estimate counts doubles per evaluation node: the primary sums kept at once,
-the C core's per-thread copies of the output of one scatter (the core gives each
-of its ``n_threads - 1`` extra threads a private copy of the output array, except
-on grids it cuts into slabs, where the threads write to the output itself), the
-derived fields and one temporary. Good enough to turn a hopeless request into a
-clear MemoryError instead of a crash or swapping; with slabs it counts copies
-that are not made.
+The estimate of what a coarse graining needs is :func:`cgbound.pipeline.per_node_doubles`.
 """
 import os
 
 from ._threads import get_num_threads
-
-#: doubles per node of each primary sum (also the width of the scatter that makes it), as powers of D
-PRIMARY_RANK = {"rho": 0, "p_w": 1, "k": 2, "sk": 2, "b": 1, "phi": 0, "sb": 2, "sw": 2, "sx": 2, "t": 1}
-
-#: primaries summed over the flowing particles' positions, in one scatter
-POSITION_PRIMARIES = ("rho", "p_w", "k", "b", "phi")
 
 GB = 1e9
 
@@ -38,26 +26,6 @@ def core_threads(n_objects=None):
     if n_objects is not None:
         threads = min(threads, max(int(n_objects), 1))
     return threads
-
-
-def per_node_doubles(needed, fields, field_ranks, dim, threads, frames=1, time_average="mean", n_times=1):
-    """Doubles per node held at the peak of a coarse-graining request."""
-    prim = sum(dim ** PRIMARY_RANK[p] for p in needed)
-    # the primaries of the particle positions are summed in one scatter (fields.compute_primaries)
-    batched = sum(dim ** PRIMARY_RANK[p] for p in needed if p in POSITION_PRIMARIES)
-    widest = max([dim ** PRIMARY_RANK[p] for p in needed if p not in POSITION_PRIMARIES] + [batched])
-    scratch = dim if "sk" in needed else 0                  # node velocities for the fluctuation sum
-    out = sum(dim ** field_ranks[f] for f in fields)
-    widest_field = max((dim ** field_ranks[f] for f in fields), default=0)
-    one_frame = prim + scratch + (threads - 1) * widest + out + widest_field + batched
-    if time_average == "mean" and frames > 1:
-        # running sums, their mean and the velocity spread, beside one frame's primaries
-        return one_frame + 2 * prim + (dim * dim if "sk" in needed else 0)
-    if time_average == "none":
-        return one_frame + 2 * frames * out                 # every frame's fields, then the stacked copy
-    if time_average == "smooth":
-        return one_frame + frames * prim + 2 * prim + 2 * n_times * out
-    return one_frame
 
 
 def check_fits(name, nodes, doubles_per_node, what="the requested fields"):

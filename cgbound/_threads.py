@@ -9,9 +9,9 @@ otherwise they agree to rounding (per-thread sums are added in a fixed order).
 """
 import contextlib
 import contextvars
-import numbers
 
-from . import _core
+from . import _engine
+from ._validate import integer
 
 _default = None                                   # set_num_threads
 _override = contextvars.ContextVar("cgbound_threads", default=None)   # threads(n), per thread / task
@@ -20,11 +20,13 @@ _override = contextvars.ContextVar("cgbound_threads", default=None)   # threads(
 def _check(n, name="n"):
     if n is None:
         return None
-    if isinstance(n, bool) or not isinstance(n, numbers.Integral):
-        raise TypeError(f"{name}: expected a positive int number of threads or None, got {n!r}")
-    if int(n) < 1:
+    try:
+        count = integer(n, name)
+    except TypeError:
+        raise TypeError(f"{name}: expected a positive int number of threads or None, got {n!r}") from None
+    if count < 1:
         raise ValueError(f"{name}: expected a positive number of threads or None, got {n!r}")
-    return int(n)
+    return count
 
 
 def set_num_threads(n):
@@ -37,12 +39,12 @@ def set_num_threads(n):
 
 def get_num_threads():
     """Threads the C core will use at most for a large enough input (1 without OpenMP)."""
-    if not _core.have_openmp():
+    if not _engine.have_openmp():
         return 1
     n = _override.get()
     if n is None:
         n = _default
-    return n if n is not None else _core.default_threads()
+    return n if n is not None else _engine.default_threads()
 
 
 @contextlib.contextmanager

@@ -123,23 +123,25 @@ def _scalar(value):
     return value
 
 
+def _real_number(value, name, expected):
+    """float(value) of a real, non-bool number (or a 0-d array of one); else a TypeError saying ``expected``."""
+    value = _scalar(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected {expected}, got {value!r}")
+    return float(value)
+
+
 def positive_number(value, name, allow_none=False):
     if value is None and allow_none:
         return None
-    value = _scalar(value)
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a positive number, got {value!r}")
-    value = float(value)
+    value = _real_number(value, name, "a positive number")
     if not (np.isfinite(value) and value > 0.0):
         raise ValueError(f"{name}: expected a positive finite number, got {value!r}")
     return value
 
 
 def finite_number(value, name):
-    value = _scalar(value)
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a finite real number, got {value!r}")
-    value = float(value)
+    value = _real_number(value, name, "a finite real number")
     if not np.isfinite(value):
         raise ValueError(f"{name}: expected a finite real number, got {value!r}")
     return value
@@ -154,6 +156,23 @@ def integer(value, name, allow_none=False):
         what = "an integer or None" if allow_none else "an integer"
         raise TypeError(f"{name}: expected {what}, got {value!r}")
     return int(value)
+
+
+def counts_per_axis(value, name, dim, unit, hint=""):
+    """D positive ints (one per axis) from a sequence, e.g. nodes or tiles per axis (``unit``: "node",
+    "tile"); ``hint`` follows "expected D positive integers" in the message for a non-sequence."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise TypeError(f"{name}: expected {dim} positive integers{hint}, got {value!r}")
+    value = tuple(value)
+    if len(value) != dim:
+        raise ValueError(f"{name}: expected {dim} positive integers (one per axis), got {value!r}")
+    try:
+        counts = tuple(integer(n, name) for n in value)
+    except TypeError:
+        raise TypeError(f"{name}: expected {dim} positive integers, got {value!r}") from None
+    if any(n < 1 for n in counts):
+        raise ValueError(f"{name}: expected positive {unit} counts, got {value!r}")
+    return counts
 
 
 def flag(value, name):

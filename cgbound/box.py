@@ -1,15 +1,10 @@
 """The simulation box: bounds and periodicity per axis."""
 import numpy as np
 
+from . import _engine
 from ._validate import flag, real_array
 
 AXIS_NAMES = ("x", "y", "z")
-
-
-def _core_geometry():
-    """The C core's geometry functions (``minimum_image``, ``wrap``): this module's one way into the core."""
-    from . import _core
-    return _core
 
 
 class Box:
@@ -65,7 +60,7 @@ class Box:
         minimum image: ``v - L round(v / L)`` (ties to even) when ``|v| > L/2``, else ``v`` unchanged
         (the core's rule, the one the coarse graining uses for contact branches)."""
         vectors = real_array(vectors, "vectors", ndim=2, shape=(None, self.dim))
-        return _core_geometry().minimum_image(vectors, self.periodic, [float(x) for x in self.lengths])
+        return _engine.minimum_image(vectors, self.periodic, [float(x) for x in self.lengths])
 
     def wrap(self, positions):
         """Copy of ``positions`` ((N, D)) moved into ``[lower, upper)`` along the periodic axes.
@@ -74,7 +69,7 @@ class Box:
         (NumPy's ``mod``), and a result that rounds up to ``upper`` becomes ``lower``.
         """
         positions = real_array(positions, "positions", ndim=2, shape=(None, self.dim))
-        return _core_geometry().wrap(positions, self.periodic, self.lower, self.upper)
+        return _engine.wrap(positions, self.periodic, self.lower, self.upper)
 
     def __eq__(self, other):
         return (isinstance(other, Box) and self.dim == other.dim and np.array_equal(self.lower, other.lower)

@@ -1,39 +1,19 @@
 """Entry points: coarse_grain (one snapshot) and CoarseGrain (many snapshots)."""
-import sys
+import itertools
 
 import numpy as np
 
-from ._dask import check_backend
-from ._memory import check_fits, core_threads, per_node_doubles
-from ._partial import FramePlan, Partial, prepare as _prepare, read_frame
+from ._memory import core_threads
 from ._validate import flag, integer, positive_number, real_array
-from .fields import (check_computable, check_convention, check_fields, compute_primaries, derive, needed_primaries,
-                     reference_velocity, FIELDS)
+from .averaging import FramePlan, fill_partial, read_frame, run_blocks
+from .executors import check_backend, executor
+from .fields import check_convention, check_fields
 from .grid import Grid, Points
 from .kernels import check_kernel
+from .pipeline import DEFAULT_FIELDS, check_memory, prepare, run_snapshot, shape_fields
+from .progress import progress, progress_bar
 from .result import Result
 from .snapshot import Snapshot
-
-DEFAULT_FIELDS = ("density", "velocity", "stress")
-
-
-def _field_ranks():
-    return {name: spec[0] for name, spec in FIELDS.items()}
-
-
-def _check_memory(target, fields, dim, threads, frames=1, time_average="mean", n_times=1):
-    needed = needed_primaries(fields)
-    doubles = per_node_doubles(needed, fields, _field_ranks(), dim, threads, frames, time_average, n_times)
-    check_fits("grid", target.size, doubles, what=f"fields {', '.join(fields)}"
-               + (f" over {frames} frames" if frames > 1 else ""))
-
-
-def _shape_fields(flat, target, dim, leading=()):
-    shaped = {}
-    for name, value in flat.items():
-        rank = FIELDS[name][0]
-        shaped[name] = value.reshape(leading + target.field_shape + (dim,) * rank)
-    return shaped
 
 
 def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None):
@@ -60,14 +40,7 @@ def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tens
     -------
     Result
     """
-    snapshot, target, kernel, fields, convention = _prepare(snapshot, grid, kernel, fields, convention, species)
-    needed = needed_primaries(fields)
-    split = check_computable(snapshot, needed)
-    _check_memory(target, fields, snapshot.dim, core_threads(max(snapshot.n_particles, len(snapshot.contacts))))
-    u_ref = reference_velocity(snapshot)
-    primaries = compute_primaries(snapshot, target, kernel, needed, u_ref, split)
-    flat = derive(primaries, fields, u_ref, snapshot.dim, convention)
-    return Result(_shape_fields(flat, target, snapshot.dim), target, kernel, convention, [snapshot.time], snapshot.box)
+    return run_snapshot(prepare(snapshot, grid, kernel, fields, convention, species))
 
 
 class CoarseGrain:
@@ -128,7 +101,6 @@ class CoarseGrain:
                     (x is None or x >= 0) for x in (start, stop, step)):
                 raise ValueError("start, stop, step: expected values >= 0 for snapshots without len(), "
                                  f"got start={start}, stop={stop}, step={step}")
-            import itertools
             for index, snap in itertools.islice(enumerate(snaps), start, stop, step):
                 yield index, snap
 
@@ -166,7 +138,7 @@ class CoarseGrain:
         if hasattr(self.snapshots, "__len__"):
             total = len(range(*slice(start, stop, step).indices(len(self.snapshots))))
         n_times = len(self.times) if self.times is not None else (total or 1)
-        _check_memory(self._target, self.fields, self._target.dim, core_threads(), frames=total or 1,
+        check_memory(self._target, self.fields, self._target.dim, core_threads(), frames=total or 1,
                       time_average=self.time_average, n_times=n_times)
         plan = self._plan()
         if backend == "dask":
@@ -176,19 +148,17 @@ class CoarseGrain:
             indices = list(range(*slice(start, stop, step).indices(len(self.snapshots))))
             if not indices:
                 self._no_frames(start, stop, step)
-            from ._dask import run_blocks
-            partial = run_blocks(plan, self.snapshots, indices, client, n_workers, verbose)
+            with executor("dask", client, n_workers) as cluster:
+                partial = run_blocks(cluster, plan, self.snapshots, indices, progress(verbose, len(indices), "frame"))
         else:
-            partial = Partial(plan)
-            for index, snap in self._progress(self._frames(start, stop, step), total, verbose):
-                partial.add(index, snap)
+            partial = fill_partial(plan, self._progress(self._frames(start, stop, step), total, verbose))
             if not partial.times:
                 self._no_frames(start, stop, step)
             if plan.mode == "store":
                 partial = partial.smoothed(partial.times)
         flat, out_times = partial.finish()
         leading = () if self.time_average == "mean" else (len(out_times),)
-        shaped = _shape_fields(flat, partial.target, partial.dim, leading)
+        shaped = shape_fields(flat, partial.target, partial.dim, leading)
         self.results = Result(shaped, partial.target, partial.kernel, self.convention, out_times, partial.box)
         self.n_frames = len(partial.times)
         self.frame_times = np.asarray(partial.times)
@@ -199,32 +169,3 @@ class CoarseGrain:
             raise ValueError("snapshots: expected at least one snapshot, got an empty sequence")
         raise ValueError(f"start, stop, step: expected a selection of at least one frame, got none "
                          f"(start={start}, stop={stop}, step={step})")
-
-
-def progress_bar(total, unit, iterable=None):
-    """tqdm when installed, else a plain count on stderr; ``update(n)`` and iteration both work."""
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:
-        return _SimpleProgress(iterable, total, unit)
-    return tqdm(iterable, total=total, desc="coarse graining", unit=unit)
-
-
-class _SimpleProgress:
-    """Fallback progress report on stderr when tqdm is not installed."""
-
-    def __init__(self, iterable, total, unit="frame"):
-        self.iterable, self.total, self.unit, self.count = iterable, total, unit, 0
-
-    def update(self, n=1):
-        self.count += n
-        print(f"\rcoarse graining: {self.count}/{self.total or '?'} {self.unit}s", end="", file=sys.stderr)
-
-    def close(self):
-        print(file=sys.stderr)
-
-    def __iter__(self):
-        for item in self.iterable:
-            yield item
-            self.update()
-        self.close()

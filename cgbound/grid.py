@@ -4,7 +4,7 @@ import numbers
 
 import numpy as np
 
-from ._validate import real_array
+from ._validate import counts_per_axis, integer, real_array
 from .box import Box
 
 
@@ -14,11 +14,13 @@ def _axis_index(name, dim):
         if name not in names:
             raise ValueError(f"average: expected axis names {names} or indices, got unknown axis {name!r}")
         return names.index(name)
-    if isinstance(name, (bool, np.bool_)) or not isinstance(name, numbers.Integral):
-        raise TypeError(f"average: expected axis names {names} or indices, got {name!r}")
-    if not 0 <= int(name) < dim:
-        raise ValueError(f"average: expected axis indices in [0, {dim}), got {int(name)}")
-    return int(name)
+    try:
+        index = integer(name, "average")
+    except TypeError:
+        raise TypeError(f"average: expected axis names {names} or indices, got {name!r}") from None
+    if not 0 <= index < dim:
+        raise ValueError(f"average: expected axis indices in [0, {dim}), got {index}")
+    return index
 
 
 def _averaged_axes(average, dim):
@@ -32,10 +34,6 @@ def _averaged_axes(average, dim):
     if len(set(axes)) != len(axes):
         raise ValueError(f"average: expected each axis at most once, got {average!r}")
     return sorted(axes)
-
-
-def _node_count(n):
-    return isinstance(n, numbers.Integral) and not isinstance(n, (bool, np.bool_))
 
 
 class Grid:
@@ -60,23 +58,12 @@ class Grid:
             raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}")
         if isinstance(shape, numbers.Integral):
             shape = tuple(1 if d in averaged else int(shape) for d in range(dim))
-        if isinstance(shape, (str, bytes)):
-            raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}")
-        try:
-            shape = tuple(shape)
-        except TypeError:
-            raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}") from None
-        if len(shape) != dim:
-            raise ValueError(f"shape: expected {dim} positive integers (one per axis), got {shape!r}")
-        if not all(_node_count(n) for n in shape):
-            raise TypeError(f"shape: expected {dim} positive integers, got {shape!r}")
-        if any(n < 1 for n in shape):
-            raise ValueError(f"shape: expected positive node counts, got {shape!r}")
+        shape = counts_per_axis(shape, "shape", dim, "node")
         for d in averaged:
             if shape[d] != 1:
                 raise ValueError(f"shape: expected 1 node along the averaged axis {box.axis_names[d]}, got {shape[d]}")
         self.box = box
-        self.shape = tuple(int(n) for n in shape)
+        self.shape = shape
         self.averaged = tuple(averaged)
         self.resolved = tuple(d for d in range(dim) if d not in averaged)
         spacing = box.lengths / np.array(self.shape, dtype=float)
@@ -106,10 +93,6 @@ class Grid:
     @property
     def field_shape(self):
         return self.shape
-
-    def _core_target(self, box):
-        return (self.dim, self.resolved, [self.axis_coordinates[d] for d in self.resolved], None,
-                [box.periodic[d] for d in self.resolved], [float(box.lengths[d]) for d in self.resolved])
 
     def __repr__(self):
         names = self.box.axis_names
@@ -148,10 +131,6 @@ class Points:
     @property
     def coordinates(self):
         return self.positions
-
-    def _core_target(self, box):
-        return (self.dim, tuple(range(self.dim)), None, self.positions, list(box.periodic),
-                [float(x) for x in box.lengths])
 
     def __repr__(self):
         return f"Points({self.positions.shape[0]} points in {self.dim}D)"

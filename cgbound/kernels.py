@@ -71,7 +71,17 @@ class Kernel:
     _line_points = 0      # Gauss-Legendre points along segments, 0 = exact (Gaussian only)
     _per_node = False     # benchmarks only: evaluate node by node, without the separable fast path
 
-    def _resolved_line_points(self, longest_branch):
+    @property
+    def kind(self):
+        """The core's kernel type (GAUSSIAN, LUCY or HEAVISIDE)."""
+        return self._type
+
+    @property
+    def per_node(self):
+        """Benchmarks only: whether the core evaluates node by node (no separable fast path)."""
+        return self._per_node
+
+    def line_points_for(self, longest_branch):
         """The core's line_points; line_quadrature="auto" is resolved from the longest branch (exact without it)."""
         if self._line_points != AUTO_LINE_POINTS:
             return self._line_points
@@ -88,15 +98,9 @@ class Kernel:
             return self
         import copy
         fixed = copy.copy(self)
-        fixed._line_points = self._resolved_line_points(longest_branch)
+        fixed._line_points = self.line_points_for(longest_branch)
         fixed.line_quadrature = fixed._line_points or "exact"
         return fixed
-
-    def _core_args(self, avg_extent, longest_branch=None):
-        """The core's kernel tuple; ``longest_branch`` resolves line_quadrature="auto" (exact without it)."""
-        points = self._resolved_line_points(longest_branch)
-        return (self._type, float(self.width if self.width is not None else self.radius),
-                float(self.radius), int(self.truncated), float(avg_extent), int(points), int(self._per_node))
 
     @property
     def differentiable(self):

@@ -1,11 +1,10 @@
 """The momentum balance of eq. (6), checked pointwise with analytic kernel gradients (docs/theory.md, "Momentum balance")."""
 import numpy as np
 
-from . import _core
+from ._engine import core_kernel, core_target, point_target, scatter_points, scatter_segments
 from ._threads import get_num_threads
 from ._memory import check_fits, core_threads
-from .fields import _outer as outer
-from .fields import longest_branch
+from .primaries import longest_branch, outer
 from .grid import Points, check_target
 from .kernels import check_kernel
 from .snapshot import Snapshot
@@ -77,8 +76,8 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
     # the gradient scatter has D^3 doubles per node (and per thread); the terms D each
     threads = core_threads(max(snapshot.n_particles, len(snapshot.contacts)))
     check_fits("points", P, threads * dim ** 3 + 8 * dim, what="the momentum balance terms")
-    core_target = target._core_target(snapshot.box)
-    core_kernel = kernel._core_args(1.0)
+    where = core_target(target, snapshot.box)
+    point_kernel = core_kernel(kernel, 1.0)
     flow = snapshot.flowing
     pos = snapshot.positions[flow]
     m = snapshot.masses[flow]
@@ -86,17 +85,17 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
     nt = get_num_threads()
 
     def points_value(x, values):
-        return _core.scatter_points(core_target, core_kernel, x, values, n_threads=nt)
+        return scatter_points(where, point_kernel, x, values, n_threads=nt)
 
     def divergence(starts, vecs, tensors):
         # tensors (n, D*D) row-major over (alpha, beta); contract the gradient with beta
-        g = _core.scatter_segments(core_target, segment_kernel, starts, vecs, tensors, gradient=True, n_threads=nt)
+        g = scatter_segments(where, segment_kernel, starts, vecs, tensors, gradient=True, n_threads=nt)
         return np.einsum("pabb->pa", g.reshape(P, dim, dim, dim))
 
     terms = {"forcing": points_value(pos, forces[flow])}
     bulk, boundary = snapshot.split_contacts()
     # the contact stress's divergence with the line rule coarse_grain would use for these contacts
-    segment_kernel = kernel._core_args(1.0, longest_branch(bulk, boundary))
+    segment_kernel = core_kernel(kernel, 1.0, longest_branch(bulk, boundary))
     zero = np.zeros((P, dim))
     terms["div_contact_stress"] = (divergence(snapshot.positions[bulk["i"]], -bulk["branch"],
                                               -outer(bulk["force"], bulk["branch"]))
@@ -112,8 +111,7 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
                                    if snapshot.body_force is not None else zero)
     # largest possible term magnitude: peak kernel value times the largest force
     origin = np.zeros((1, dim))
-    peak = _core.scatter_points((dim, tuple(range(dim)), None, origin, [False] * dim, [1.0] * dim), core_kernel,
-                                origin, np.ones((1, 1)))[0, 0]
+    peak = scatter_points(point_target(origin), point_kernel, origin, np.ones((1, 1)))[0, 0]
     largest = max(np.abs(forces[flow]).max(initial=0.0), np.abs(snapshot.contacts.force).max(initial=0.0),
                   np.abs(m[:, None] * snapshot.body_force[flow]).max(initial=0.0) if snapshot.body_force is not None
                   else 0.0)

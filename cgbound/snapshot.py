@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from . import _core
+from ._engine import minimum_image as core_minimum_image
 from ._validate import bool_array, finite_number, index_array, real_array
 from .box import Box
 
@@ -201,7 +201,7 @@ class Snapshot:
         periodic, lengths = list(box.periodic), [float(x) for x in box.lengths]
 
         def minimum_image(vectors):
-            return _core.minimum_image(vectors, periodic, lengths) if any(periodic) else vectors
+            return core_minimum_image(vectors, periodic, lengths) if any(periodic) else vectors
 
         wall = j < 0
         if not self.fixed.any() and not wall.any():

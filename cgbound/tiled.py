@@ -11,17 +11,14 @@ stress is the exception: its rays run from a boundary contact out of the region,
 then hold exactly the same non-zero terms as in one process, so the stitched fields agree with
 :func:`cgbound.coarse_grain` to rounding.
 """
-import numbers
-
 import numpy as np
 
-from ._dask import check_backend
-from ._memory import core_threads
-from ._partial import prepare
-from .coarse import DEFAULT_FIELDS, _check_memory, _shape_fields
-from .fields import check_computable, compute_primaries, derive, needed_primaries, reference_velocity
+from ._validate import counts_per_axis, flag
+from .executors import check_backend, executor
 from .grid import Grid
-from .result import Result
+from .pipeline import DEFAULT_FIELDS, prepare, run_snapshot
+from .primaries import CONTACT_PRIMARIES, compute_primaries, longest_branch
+from .progress import progress
 from .snapshot import Snapshot
 
 #: tiles in flight per worker thread: keeps workers busy without sending every tile's particles at once
@@ -68,50 +65,34 @@ def coarse_grain_tiled(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention
     if not isinstance(snapshot, Snapshot):
         raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
     backend, n_workers = check_backend(backend, client, n_workers)
-    if not isinstance(verbose, (bool, np.bool_)):
-        raise TypeError(f"verbose: expected True or False, got {verbose!r}")
-    snapshot, target, kernel, fields, convention = prepare(snapshot, grid, kernel, fields, convention, species)
+    verbose = flag(verbose, "verbose")
+    job = prepare(snapshot, grid, kernel, fields, convention, species)
     tiles = check_tiles(tiles, grid)
-    needed = needed_primaries(fields)
-    split = check_computable(snapshot, needed)
-    kernel = resolve_auto_line_quadrature(kernel, split)
-    _check_memory(target, fields, snapshot.dim, core_threads(max(snapshot.n_particles, len(snapshot.contacts))))
-    u_ref = reference_velocity(snapshot)
-    cutter = _Cutter(snapshot, grid, kernel, split, needed)
-    boxes = tile_ranges(grid, tiles)
-    stitched = _Stitched(grid, snapshot.dim)
-    jobs = ((ranges, cutter.tile(ranges)) for ranges in boxes)
-    if backend == "serial":
-        from ._dask import _progress
-        bar = _progress(verbose, len(boxes), "tile")
+    job = job._replace(kernel=resolve_auto_line_quadrature(job.kernel, job.split))
+
+    def tiled_sums(job, u_ref):
+        cutter = _Cutter(job.snapshot, grid, job.kernel, job.split, job.needed)
+        boxes = tile_ranges(grid, tiles)
+        stitched = _Stitched(grid, job.snapshot.dim)
+        jobs = ((ranges, (cutter.tile(ranges), TileTarget(grid, ranges), job.kernel, job.needed, u_ref))
+                for ranges in boxes)
+        bar = progress(verbose, len(boxes), "tile")
         try:
-            for ranges, data in jobs:
-                stitched.put(ranges, tile_primaries(data, _TileTarget(grid, ranges), kernel, needed, u_ref))
-                bar.update()
+            with executor(backend, client, n_workers) as run:
+                run.stream(tile_primaries, jobs, stitched.put, bar, TILES_IN_FLIGHT_PER_THREAD)
         finally:
             bar.close()
-    else:
-        from ._dask import run_tiles
-        run_tiles(jobs, len(boxes), grid, kernel, needed, u_ref, stitched, client, n_workers, verbose)
-    flat = derive(stitched.primaries, fields, u_ref, snapshot.dim, convention)
-    return Result(_shape_fields(flat, target, snapshot.dim), target, kernel, convention, [snapshot.time],
-                  snapshot.box)
+        return stitched.primaries
+
+    return run_snapshot(job, tiled_sums)
 
 
 def check_tiles(tiles, grid):
     """Tiles per axis as a tuple of D ints, checked against the grid."""
     dim = grid.dim
     names = grid.box.axis_names
-    if isinstance(tiles, (str, bytes)) or not hasattr(tiles, "__len__"):
-        raise TypeError(f"tiles: expected {dim} positive integers (tiles along each axis), got {tiles!r}")
-    if len(tiles) != dim:
-        raise ValueError(f"tiles: expected {dim} positive integers (one per axis), got {tiles!r}")
-    if not all(isinstance(t, (numbers.Integral, np.integer)) and not isinstance(t, (bool, np.bool_)) for t in tiles):
-        raise TypeError(f"tiles: expected {dim} positive integers, got {tiles!r}")
-    tiles = tuple(int(t) for t in tiles)
+    tiles = counts_per_axis(tiles, "tiles", dim, "tile", hint=" (tiles along each axis)")
     for d, t in enumerate(tiles):
-        if t < 1:
-            raise ValueError(f"tiles: expected positive tile counts, got {tiles!r}")
         if d in grid.averaged and t != 1:
             raise ValueError(f"tiles: expected 1 tile along the averaged axis {names[d]}, got {t}")
         if t > grid.shape[d]:
@@ -129,17 +110,14 @@ def tile_ranges(grid, tiles):
     return [tuple(per_axis[d][k] for d, k in enumerate(combo)) for combo in np.ndindex(*tiles)]
 
 
-class _TileTarget:
+class TileTarget:
     """The nodes of one tile, with the grid's own coordinates (bitwise) and averaging extent."""
 
     def __init__(self, grid, ranges):
         self.dim, self.resolved, self.avg_extent = grid.dim, grid.resolved, grid.avg_extent
-        self.coordinates = [np.ascontiguousarray(grid.axis_coordinates[d][a:b]) for d, (a, b) in enumerate(ranges)]
+        self.axis_coordinates = [np.ascontiguousarray(grid.axis_coordinates[d][a:b])
+                                 for d, (a, b) in enumerate(ranges)]
         self.size = int(np.prod([b - a for a, b in ranges]))
-
-    def _core_target(self, box):
-        return (self.dim, self.resolved, [self.coordinates[d] for d in self.resolved], None,
-                [box.periodic[d] for d in self.resolved], [float(box.lengths[d]) for d in self.resolved])
 
 
 class _TileData:
@@ -157,7 +135,8 @@ class _TileData:
 def resolve_auto_line_quadrature(kernel, split):
     """line_quadrature="auto" picks n from the longest branch; fix it from the whole snapshot so that
     every tile uses the rule the single-process run would."""
-    from .fields import longest_branch
+    if split is None:  # no contact primary needed: no branch, and nothing to resolve
+        return kernel
     return kernel.with_resolved_line_quadrature(longest_branch(*split))
 
 
@@ -197,7 +176,7 @@ class _Cutter:
         self.contact_halo = (kernel.radius + longest) * (1 + HALO_SLACK)
         self.bulk_owner = snapshot.positions[self.bulk["i"]]
         self.boundary_owner = snapshot.positions[self.boundary["i"]]
-        self.with_contacts = bool(needed & {"sb", "sw", "sx", "t"})
+        self.with_contacts = bool(needed & CONTACT_PRIMARIES)
         # the extended stress integrates along rays from the particle through the contact point and
         # beyond, out of the region: no halo bounds them, so every tile gets every boundary contact
         self.all_boundary = "sx" in needed

@@ -13,7 +13,7 @@ from .grid import Grid
 
 
 def _metadata(result):
-    from . import __version__
+    from ._version import __version__
 
     k = result.kernel
     meta = {

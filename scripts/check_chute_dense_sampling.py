@@ -11,7 +11,7 @@ This script continues the chute from the last shipped frame (positions and veloc
 tangential springs start from zero, so it first runs SETTLE time units), samples WINDOW time units
 every t_c / 2 (dumps of ~0.25 MB per frame go to a temporary directory and are deleted), prints
 the Fig. 3 numbers and writes the averaged profiles (a few kB) to cgbound/data/chute_dense_profiles.h5,
-which notebook 03 and `cgbound demo` read (cgbound.profiles.DepthProfiles.from_hdf5).
+which notebook 03 and `cgbound demo` read (cgbound.paper.profiles.DepthProfiles.from_hdf5).
 
     python scripts/check_chute_dense_sampling.py --settle 20 --window 10
 """
@@ -24,9 +24,9 @@ import tempfile
 import time
 
 
-from cgbound.datasets import chute_steady
-from cgbound.profiles import DepthProfiles
-from cgbound.scenes import PAPER_COLLISION_TIME, Frames, Run, Scene, chute, run_scene
+from cgbound.paper.datasets import chute_steady
+from cgbound.paper.profiles import DepthProfiles
+from cgbound.paper.scenes import PAPER_COLLISION_TIME, Frames, Run, Scene, chute, run_scene
 
 
 def main(argv=None):

@@ -1,6 +1,6 @@
 """Regenerate the embedded Fig. 1 configuration (cgbound/data/boundary_2d.h5) with LAMMPS.
 
-The paper's 2D scene (cgbound.scenes.boundary_2d: five fixed and five flowing discs, gravity -z,
+The paper's 2D scene (cgbound.paper.scenes.boundary_2d: five fixed and five flowing discs, gravity -z,
 the paper's contact model) is relaxed until the kinetic energy of the flow is below 1e-20, and
 the static frame with its contacts is written.
 
@@ -10,7 +10,7 @@ import argparse
 import os
 import sys
 
-from cgbound.scenes import Frames, Settle, boundary_2d, run_scene
+from cgbound.paper.scenes import Frames, Settle, boundary_2d, run_scene
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 

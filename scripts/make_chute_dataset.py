@@ -1,6 +1,6 @@
 """Regenerate the embedded chute dataset (cgbound/data/chute_steady.h5) with LAMMPS.
 
-The paper's Figs. 2-3 scene (cgbound.scenes.chute: 1000 flowing particles, rough base, 26 degrees,
+The paper's Figs. 2-3 scene (cgbound.paper.scenes.chute: 1000 flowing particles, rough base, 26 degrees,
 periodic 20 x 10, the paper's contact model, dt = t_c / 50) is run from rest to t = SPINUP, then
 frames with contacts are written every INTERVAL over [SPINUP, SPINUP + WINDOW]. All frames go to
 --full (not committed; ~40 MB); every --embed-every-th frame to the embedded file (<= 10 MB),
@@ -20,7 +20,7 @@ import numpy as np
 
 from cgbound._atomic import atomic_write
 from cgbound.readers.hdf5 import HDF5Snapshots, write_snapshots
-from cgbound.scenes import Frames, Run, chute, run_scene
+from cgbound.paper.scenes import Frames, Run, chute, run_scene
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.path.join(HERE, "..", "cgbound", "data")

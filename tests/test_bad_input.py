@@ -55,8 +55,7 @@ PTS = np.array([[1.0, 1.0, 1.0], [0.5, 1.5, 0.7]])
 
 @pytest.fixture(autouse=True)
 def no_work(monkeypatch):
-    monkeypatch.setattr(cgbound.fields, "_core", ForbiddenCore(cgbound.fields._core))
-    monkeypatch.setattr(cgbound.residual, "_core", ForbiddenCore(cgbound.residual._core))
+    monkeypatch.setattr(cgbound._engine, "_core", ForbiddenCore(cgbound._engine._core))
 
 
 def test_the_forbidden_core_catches_work():

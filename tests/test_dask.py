@@ -33,7 +33,7 @@ FIELDS = ("density", "velocity", "momentum_flux", "kinetic_stress", "contact_str
 def client():
     if distributed is None:
         pytest.skip("dask.distributed is not installed")
-    from cgbound._dask import local_cluster
+    from cgbound.executors import local_cluster
     cluster = local_cluster(2)  # LocalCluster(n_workers=2, processes=True, threads_per_worker=1), environment kept
     with distributed.Client(cluster) as c:
         yield c
@@ -331,3 +331,15 @@ def test_tiled_with_auto_line_quadrature_uses_the_whole_snapshots_rule():
     fixed = resolve_auto_line_quadrature(kernel, (bulk, boundary))
     n = cg.kernels.auto_line_points(lengths.max(), width)
     assert fixed.line_quadrature == (n if n else "exact") and kernel.line_quadrature == "auto"
+
+
+@pytest.mark.parametrize("kernel", [cg.Gaussian(0.5), cg.Gaussian(0.5, line_quadrature="auto"), cg.Lucy(1.2)],
+                         ids=["gaussian", "auto", "lucy"])
+def test_tiled_without_contact_fields(kernel):
+    """Fields that need no contacts: there is no split of the contacts (it raised a TypeError)."""
+    snap = big_snapshot((True, True, False))
+    grid = cg.Grid(snap.box, (9, 8, 10))
+    fields = ("density", "velocity", "kinetic_stress", "body_force_density")
+    tiled = cg.coarse_grain_tiled(snap, grid, kernel, fields=fields, tiles=(3, 2, 4), backend="serial")
+    assert_same(cg.coarse_grain(snap, grid, kernel, fields=fields), tiled, fields, "no contacts")
+    assert getattr(tiled.kernel, "line_quadrature", None) == getattr(kernel, "line_quadrature", None)

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import cgbound as cg
-from cgbound import datasets
-from cgbound.blobs import blob_centroids
-from cgbound.profiles import DepthProfiles, integral_from_above
+from cgbound.paper import datasets
+from cgbound.paper.blobs import blob_centroids
+from cgbound.paper.profiles import DepthProfiles, integral_from_above
 
 
 def test_embedded_chute_is_small_and_covers_the_papers_window():

@@ -9,6 +9,7 @@ import cgbound
 from helpers import ForbiddenCore
 import cgbound as cg
 import cgbound._memory as memory
+import cgbound.pipeline as pipeline
 from cgbound.fields import FIELDS
 
 HUGE = (100000, 100000, 100)  # 1e12 nodes: terabytes for any field
@@ -16,8 +17,7 @@ HUGE = (100000, 100000, 100)  # 1e12 nodes: terabytes for any field
 
 @pytest.fixture
 def no_work(monkeypatch):
-    monkeypatch.setattr(cgbound.fields, "_core", ForbiddenCore(cgbound.fields._core, "although memory was about to run out"))
-    monkeypatch.setattr(cgbound.residual, "_core", ForbiddenCore(cgbound.residual._core, "although memory was about to run out"))
+    monkeypatch.setattr(cgbound._engine, "_core", ForbiddenCore(cgbound._engine._core, "although memory was about to run out"))
 
 
 def small_snapshot(n=10, seed=0):
@@ -115,9 +115,9 @@ class FakeCore:
 
 
 def test_thread_count(monkeypatch):
-    import cgbound._threads as threads
+    import cgbound._engine as engine
 
-    monkeypatch.setattr(threads, "_core", FakeCore(True, 8))
+    monkeypatch.setattr(engine, "_core", FakeCore(True, 8))
     assert memory.core_threads() == 8                 # the OpenMP default
     assert memory.core_threads(n_objects=3) == 3    # the core never runs more threads than objects
     assert memory.core_threads(n_objects=0) == 1
@@ -128,23 +128,22 @@ def test_thread_count(monkeypatch):
         assert memory.core_threads() == 3
     finally:
         cg.set_num_threads(previous)
-    monkeypatch.setattr(threads, "_core", FakeCore(False))
+    monkeypatch.setattr(engine, "_core", FakeCore(False))
     assert memory.core_threads() == 1
     assert cg.have_openmp() in (True, False)
 
 
 def test_per_thread_buffers_are_counted():
-    ranks = {name: spec[0] for name, spec in FIELDS.items()}
     needed = cgbound.fields.needed_primaries(("stress",))
-    one = memory.per_node_doubles(needed, ("stress",), ranks, 3, threads=1)
-    eight = memory.per_node_doubles(needed, ("stress",), ranks, 3, threads=8)
+    one = pipeline.per_node_doubles(needed, ("stress",), 3, threads=1)
+    eight = pipeline.per_node_doubles(needed, ("stress",), 3, threads=8)
     assert eight - one == 7 * 9                        # 7 extra copies of the widest scatter (a 3x3 tensor)
     # rho 1 + p_w 3 + sk 9 + sb 9 + sw 9 primaries, node velocities 3, output 9, one temporary 9, and
     # the one scatter of rho and p_w together (4) before it is split into its primaries
     assert one == 31 + 3 + 9 + 9 + 4
-    dens = memory.per_node_doubles({"rho"}, ("density",), ranks, 2, threads=2)
+    dens = pipeline.per_node_doubles({"rho"}, ("density",), 2, threads=2)
     assert dens == 1 + 1 + 1 + 1 + 1                     # primary, one thread copy, output, temporary, scatter
-    frames = memory.per_node_doubles({"rho"}, ("density",), ranks, 2, threads=1, frames=10, time_average="none")
+    frames = pipeline.per_node_doubles({"rho"}, ("density",), 2, threads=1, frames=10, time_average="none")
     assert frames == 1 + 1 + 1 + 1 + 2 * 10
 
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import cgbound as cg
-from cgbound.datasets import boundary_2d
+from cgbound.paper.datasets import boundary_2d
 
 matplotlib = pytest.importorskip("matplotlib")
 matplotlib.use("Agg")

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 import cgbound as cg
-from cgbound import scenes
-from cgbound.scenes.lammps import PAIR_VALUES
-from cgbound.scenes import (PAPER_COLLISION_TIME, PAPER_CONTACT_MODEL, ContactModel, Frames, Run, Scene, Settle,
+from cgbound.paper import scenes
+from cgbound.paper.scenes.lammps import PAIR_VALUES
+from cgbound.paper.scenes import (PAPER_COLLISION_TIME, PAPER_CONTACT_MODEL, ContactModel, Frames, Run, Scene, Settle,
                             Wall)
 
 LAMMPS = scenes.find_lammps()
@@ -164,7 +164,7 @@ def test_short_chute_frames_balance_and_round_trip(tmp_path):
 
 
 def test_thermo_block_ends_at_a_line_that_is_not_three_numbers():
-    from cgbound.scenes.runner import _thermo
+    from cgbound.paper.scenes.runner import _thermo
     log = "Step Time c_ke\n0 0 0\n10 0.5 2.5\n\nLoop time of 1\nStep Time c_ke\n10 0.5 2.5\n20 1.0 3.0\nWARNING: x\n"
     thermo = _thermo(log)
     assert list(thermo["step"]) == [0, 10, 20] and list(thermo["kinetic_energy"]) == [0.0, 2.5, 3.0]

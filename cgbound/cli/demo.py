@@ -37,9 +37,9 @@ def check(args):
 
 def demo(args):
     """Fig. 3 on the shipped chute dataset: depth profiles, eq. (27), lithostatic balance, bed and surface."""
-    from ..datasets import chute_dense_profiles, chute_steady
+    from ..paper.datasets import chute_dense_profiles, chute_steady
     from ..kernels import Gaussian
-    from ..profiles import DepthProfiles
+    from ..paper.profiles import DepthProfiles
 
     frames = chute_steady()
     start = time.perf_counter()

@@ -56,7 +56,7 @@ def write_snapshots(path, snapshots, provenance=None):
     is never left half-written.
     """
     h5py = _h5py()
-    from .. import __version__
+    from .._version import __version__
 
     count = 0
 

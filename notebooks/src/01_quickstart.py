@@ -7,7 +7,7 @@
 # %%
 import cgbound as cg
 from cgbound import plot
-from cgbound.datasets import chute_steady
+from cgbound.paper.datasets import chute_steady
 
 frames = chute_steady()                 # lazy: frames are read when used
 frames[0]

@@ -2,7 +2,7 @@
 # # Fig. 1: the interaction force density and the stress near a boundary
 #
 # The paper's two-dimensional scene: five fixed and five flowing discs under gravity (-z), with the
-# paper's contact model (`cgbound.scenes.PAPER_CONTACT_MODEL`), relaxed with LAMMPS until static.
+# paper's contact model (`cgbound.paper.scenes.PAPER_CONTACT_MODEL`), relaxed with LAMMPS until static.
 # With LAMMPS installed the scene is simulated here (about a second); otherwise the relaxed frame
 # shipped with cgbound (made by the same scene, `scripts/make_boundary_2d_dataset.py`) is used.
 
@@ -11,8 +11,8 @@ import numpy as np
 import matplotlib.pyplot as plt
 import cgbound as cg
 from cgbound import plot
-from cgbound import scenes
-from cgbound.blobs import blob_centroids
+from cgbound.paper import scenes
+from cgbound.paper.blobs import blob_centroids
 
 scene = scenes.boundary_2d()
 print(scene)
@@ -21,7 +21,7 @@ if scenes.find_lammps():
     snap = run.snapshots[0]
     print(f"LAMMPS relaxed it in {run.wall_time:.1f} s: kinetic energy {run.thermo['kinetic_energy'][-1]:.1e} at t = {snap.time:g}")
 else:
-    from cgbound.datasets import boundary_2d
+    from cgbound.paper.datasets import boundary_2d
     snap = boundary_2d()
     print("LAMMPS not installed: using the shipped relaxed frame")
 snap

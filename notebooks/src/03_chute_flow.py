@@ -1,7 +1,7 @@
 # %% [markdown]
 # # Figs. 2-3: steady chute flow over a rough base
 #
-# The paper's 3D scene (`cgbound.scenes.chute`): 1000 flowing particles (d = 1, m = 1) on a disordered
+# The paper's 3D scene (`cgbound.paper.scenes.chute`): 1000 flowing particles (d = 1, m = 1) on a disordered
 # base of fixed particles of diameter 2, periodic in x ∈ [0, 20] and y ∈ [0, 10], inclined at 26°,
 # with the paper's contact model, simulated with LAMMPS from random positions at rest by
 # `scripts/make_chute_dataset.py`. The shipped frames cover the paper's window t ∈ [2000, 2100].
@@ -11,9 +11,9 @@ import json
 import numpy as np
 import matplotlib.pyplot as plt
 import cgbound as cg
-from cgbound import scenes
-from cgbound.datasets import chute_steady, chute_kinetic_energy
-from cgbound.profiles import DepthProfiles
+from cgbound.paper import scenes
+from cgbound.paper.datasets import chute_steady, chute_kinetic_energy
+from cgbound.paper.profiles import DepthProfiles
 
 frames = chute_steady()
 info = json.loads(frames.provenance)
@@ -63,7 +63,7 @@ plt.show()
 # Eq. (27) is checked against the extended stress of eq. (24) computed directly (ray integrals).
 
 # %%
-from cgbound.datasets import chute_dense_profiles
+from cgbound.paper.datasets import chute_dense_profiles
 profiles = DepthProfiles(width=0.25, rays=True, blocks=5).run(frames)
 print("shipped frames:", profiles.summary())
 ray_gap = np.max(np.abs(profiles.ray_extended_stress_zz - profiles.extended_stress_zz)) / profiles.total_weight

@@ -2,15 +2,15 @@
 
 A :class:`Scene` is declarative: it says *what* is simulated (particles, fixed boundary
 particles, plane walls, gravity, the contact model, rotation, background damping, periodic
-axes, 2D or 3D). :mod:`cgbound.scenes.lammps` turns it into engine input that contains exactly
+axes, 2D or 3D). :mod:`cgbound.paper.scenes.lammps` turns it into engine input that contains exactly
 the effects listed in :attr:`Scene.effects`.
 """
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._validate import real_array
-from ..box import AXIS_NAMES, Box
+from ..._validate import real_array
+from ...box import AXIS_NAMES, Box
 
 
 @dataclass(frozen=True)

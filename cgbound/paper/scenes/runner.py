@@ -61,7 +61,7 @@ class SceneRun:
 
     def write_snapshots(self, path, provenance=None):
         """Write the frames to ``path`` in cgbound's HDF5 format (atomically); returns the count."""
-        from ..readers.hdf5 import write_snapshots
+        from ...readers.hdf5 import write_snapshots
         info = {"scene": self.scene.name, "effects": list(self.scene.effects), "engine": "LAMMPS",
                 "input_script": self.input_script, "lammps_wall_time_s": self.wall_time}
         info.update(provenance or {})
@@ -106,7 +106,7 @@ def run_scene(scene, stages, workdir=None, executable=None, timeout=None, keep=T
     timeout : float, optional
         Seconds before LAMMPS is stopped.
     """
-    from ..readers.lammps import LammpsReader
+    from ...readers.lammps import LammpsReader
     from .scene import Scene
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected a cgbound.scenes.Scene, got {type(scene).__name__}")

@@ -1,4 +1,4 @@
-"""Engine input for a :class:`~cgbound.scenes.Scene`: a LAMMPS data file and input script.
+"""Engine input for a :class:`~cgbound.paper.scenes.Scene`: a LAMMPS data file and input script.
 
 The script contains exactly the effects of :attr:`Scene.effects` (no gravity fix without
 gravity, no tangential history without a tangential spring, no rotation integration without

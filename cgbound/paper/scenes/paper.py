@@ -4,7 +4,7 @@ Units: flowing particle diameter d = 1, mass m = 1, gravity g = 1.
 """
 import numpy as np
 
-from ..box import Box
+from ...box import Box
 from .lammps import Trace
 from .scene import PAPER_CONTACT_MODEL, PAPER_TIMESTEP, Scene
 

@@ -5,11 +5,11 @@ mean over the frames. Stresses here are compression-positive, as in the paper's 
 """
 import numpy as np
 
-from ._validate import positive_number
-from .box import Box
-from .coarse import CoarseGrain
-from .grid import Grid
-from .kernels import Gaussian, check_kernel
+from .._validate import positive_number
+from ..box import Box
+from ..coarse import CoarseGrain
+from ..grid import Grid
+from ..kernels import Gaussian, check_kernel
 
 PROFILE_FIELDS = ("density", "stress", "interaction_force_density", "body_force_density")
 
@@ -189,7 +189,7 @@ class DepthProfiles:
         """Write the profiles (datasets) and bed, surface, lithostatic error (attributes) atomically."""
         import h5py
 
-        from ._atomic import atomic_write
+        from .._atomic import atomic_write
 
         def write(tmp):
             with h5py.File(tmp, "w") as f:

@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 
-DATA_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+DATA_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data")
 
 
 def path(name):
@@ -22,7 +22,7 @@ def path(name):
 
 def chute_steady():
     """The steady chute frames as a lazy :class:`cgbound.readers.HDF5Snapshots`."""
-    from .readers.hdf5 import HDF5Snapshots
+    from ..readers.hdf5 import HDF5Snapshots
     return HDF5Snapshots(path("chute_steady.h5"))
 
 
@@ -34,12 +34,12 @@ def chute_kinetic_energy():
 
 def chute_dense_profiles():
     """Fig. 3 profiles averaged over 4001 chute frames taken every t_c / 2 (a
-    :class:`cgbound.profiles.DepthProfiles`; made by scripts/check_chute_dense_sampling.py)."""
+    :class:`cgbound.paper.profiles.DepthProfiles`; made by scripts/check_chute_dense_sampling.py)."""
     from .profiles import DepthProfiles
     return DepthProfiles.from_hdf5(path("chute_dense_profiles.h5"))
 
 
 def boundary_2d():
     """The relaxed Fig. 1 scene (a :class:`cgbound.Snapshot`)."""
-    from .readers.hdf5 import HDF5Snapshots
+    from ..readers.hdf5 import HDF5Snapshots
     return HDF5Snapshots(path("boundary_2d.h5"))[0]

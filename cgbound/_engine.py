@@ -1,0 +1,110 @@
+"""The one seam to the C core: the only module that imports ``_core``.
+
+The core takes a target and a kernel as tuples it parses by position (see ``convert_target`` and
+``convert_kernel`` in csrc/_coremodule.c). :class:`CoreTarget` and :class:`CoreKernel` name those
+positions (they are still tuples); :func:`core_target` and :func:`core_kernel` build them from a
+grid, point set or tile and from a kernel object, read by attribute only, so that this module
+imports nothing above it. Every ``_core`` entry point the package uses is wrapped here.
+"""
+from typing import NamedTuple, Optional, Sequence
+
+from . import _core
+
+
+class CoreTarget(NamedTuple):
+    """Where the core evaluates: resolved axes with node coordinates (a grid), or points."""
+    dim: int
+    axes: Sequence[int]               # the resolved axes, increasing
+    coordinates: Optional[list]       # per resolved axis, the node coordinates (grids); else None
+    points: Optional[object]          # (P, D) evaluation points; else None
+    periodic: list                    # per resolved axis
+    period: list                      # per resolved axis, the box length
+
+
+class CoreKernel(NamedTuple):
+    """The kernel as the core sees it (``type``: 0 Gaussian, 1 Lucy, 2 Heaviside)."""
+    type: int
+    width: float                      # the Gaussian's standard deviation; the radius for the others
+    radius: float                     # support radius
+    truncated: int                    # 1: Gaussian renormalised over the cut-off ball
+    avg_extent: float                 # product of the averaged axes' lengths (1 without)
+    line_points: int = 0              # Gauss-Legendre points along segments, 0 = exact
+    per_node: int = 0                 # benchmarks only: no separable fast path
+
+
+def core_target(target, box):
+    """The core's description of ``target`` (a Grid, a tile of one, or Points) in ``box``.
+
+    Grids and tiles give ``axis_coordinates`` for every axis; point sets give ``positions``.
+    """
+    resolved = tuple(target.resolved)
+    positions = getattr(target, "positions", None)
+    if positions is not None:
+        return CoreTarget(target.dim, tuple(range(target.dim)), None, positions, list(box.periodic),
+                          [float(x) for x in box.lengths])
+    coordinates = target.axis_coordinates
+    return CoreTarget(target.dim, resolved, [coordinates[d] for d in resolved], None,
+                      [box.periodic[d] for d in resolved], [float(box.lengths[d]) for d in resolved])
+
+
+def point_target(origin):
+    """A target of one point ``origin`` (shape (1, D)), in unbounded space."""
+    dim = origin.shape[1]
+    return CoreTarget(dim, tuple(range(dim)), None, origin, [False] * dim, [1.0] * dim)
+
+
+def core_kernel(kernel, avg_extent, longest_branch=None):
+    """The core's description of ``kernel``; ``longest_branch`` resolves line_quadrature="auto"
+    (exact without it)."""
+    points = kernel.line_points_for(longest_branch)
+    return CoreKernel(kernel.kind, float(kernel.width if kernel.width is not None else kernel.radius),
+                      float(kernel.radius), int(kernel.truncated), float(avg_extent), int(points),
+                      int(kernel.per_node))
+
+
+def scatter_points(target, kernel, positions, values, gradient=False, n_threads=0):
+    """sum_i values_i W(r - positions_i) at the target's nodes (or its gradient), shape (P, K[, D])."""
+    return _core.scatter_points(target, kernel, positions, values, gradient=gradient, n_threads=n_threads)
+
+
+def scatter_segments(target, kernel, starts, vectors, values, ray=False, gradient=False, n_threads=0):
+    """sum_c values_c times the kernel integrated along starts_c + s vectors_c, s in [0, 1]
+    (``ray``: s >= 0), or its gradient."""
+    return _core.scatter_segments(target, kernel, starts, vectors, values, ray=ray, gradient=gradient,
+                                  n_threads=n_threads)
+
+
+def scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity, n_threads=0):
+    """The kinetic stress in fluctuation form, -sum_i m_i v'_i v'_i W_i, shape (P, D, D)."""
+    return _core.scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity,
+                                     n_threads=n_threads)
+
+
+def minimum_image(vectors, periodic, period):
+    """``vectors`` folded to their nearest periodic image along the periodic axes."""
+    return _core.minimum_image(vectors, periodic, period)
+
+
+def wrap(positions, periodic, lower, upper):
+    """``positions`` moved into ``[lower, upper)`` along the periodic axes (others unchanged)."""
+    return _core.wrap(positions, periodic, lower, upper)
+
+
+def have_openmp():
+    """Whether the core was built with OpenMP threads."""
+    return _core.have_openmp()
+
+
+def default_threads():
+    """The OpenMP default number of threads."""
+    return _core.default_threads()
+
+
+def set_wide_vectors(wide):
+    """Benchmarks and tests: run the Gaussian's AVX-512 build (True) or the narrow one; returns the previous."""
+    return _core.set_wide_vectors(wide)
+
+
+def wide_vectors():
+    """Whether the Gaussian on grids runs its AVX-512 build."""
+    return _core.wide_vectors()

@@ -1,0 +1,110 @@
+"""The per-snapshot pipeline, written once: prepare → check → reference velocity → primaries →
+derive → shape.
+
+:func:`prepare` checks the arguments and what the snapshot must hold; :func:`run_snapshot` takes a
+prepared :class:`Job` through the rest, with the primary sums computed by a function it is given
+(the whole target at once, :func:`whole_target_sums`, or tile by tile in :mod:`cgbound.tiled`).
+Time averages (:mod:`cgbound.averaging`) reuse :func:`prepare` and :func:`whole_target_sums`.
+"""
+from typing import NamedTuple, Optional
+
+from ._memory import check_fits, core_threads
+from ._validate import integer
+from .fields import check_convention, check_fields, derive, field_rank, needed_primaries
+from .grid import check_target
+from .kernels import check_kernel
+from .primaries import PARTICLES, PRIMARIES, check_computable, compute_primaries, reference_velocity
+from .result import Result
+from .snapshot import Snapshot
+
+DEFAULT_FIELDS = ("density", "velocity", "stress")
+
+
+class Job(NamedTuple):
+    """One snapshot's checked coarse graining: the snapshot seen by the species, and what to compute."""
+    snapshot: Snapshot
+    target: object            # Grid or Points
+    kernel: object
+    fields: tuple
+    convention: str
+    needed: set               # primary names
+    split: Optional[tuple]    # Snapshot.split_contacts() if a contact primary is needed, else None
+
+
+def check_arguments(snapshot, grid, kernel, fields, convention, species):
+    """Checked arguments of one coarse graining, and the snapshot seen by ``species``."""
+    if not isinstance(snapshot, Snapshot):
+        raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
+    target = check_target(grid, snapshot.dim)
+    kernel = check_kernel(kernel)
+    fields = check_fields(fields)
+    convention = check_convention(convention)
+    species = integer(species, "species", allow_none=True)
+    if species is not None:
+        snapshot = snapshot.species_view(species)
+    return snapshot, target, kernel, fields, convention
+
+
+def prepare(snapshot, grid, kernel, fields, convention, species):
+    """Steps prepare and check: the :class:`Job`, raising before any work if it cannot be done."""
+    snapshot, target, kernel, fields, convention = check_arguments(snapshot, grid, kernel, fields, convention,
+                                                                   species)
+    needed = needed_primaries(fields)
+    return Job(snapshot, target, kernel, fields, convention, needed, check_computable(snapshot, needed))
+
+
+def per_node_doubles(needed, fields, dim, threads, frames=1, time_average="mean", n_times=1):
+    """Doubles per node held at the peak of a coarse-graining request.
+
+    The estimate counts the primary sums kept at once, the C core's per-thread copies of the
+    output of one scatter (the core gives each of its ``n_threads - 1`` extra threads a private
+    copy of the output array, except on grids it cuts into slabs, where the threads write to the
+    output itself), the derived fields and one temporary. Good enough to turn a hopeless request
+    into a clear MemoryError instead of a crash or swapping; with slabs it counts copies that are
+    not made.
+    """
+    prim = sum(dim ** PRIMARIES[p].rank for p in needed)
+    # the primaries of the particles' positions are summed in one scatter (primaries.particle_sums)
+    batched = sum(dim ** PRIMARIES[p].rank for p in needed if PRIMARIES[p].source == PARTICLES)
+    widest = max([dim ** PRIMARIES[p].rank for p in needed if PRIMARIES[p].source != PARTICLES] + [batched])
+    scratch = dim if "sk" in needed else 0                  # node velocities for the fluctuation sum
+    out = sum(dim ** field_rank(f) for f in fields)
+    widest_field = max((dim ** field_rank(f) for f in fields), default=0)
+    one_frame = prim + scratch + (threads - 1) * widest + out + widest_field + batched
+    if time_average == "mean" and frames > 1:
+        # running sums, their mean and the velocity spread, beside one frame's primaries
+        return one_frame + 2 * prim + (dim * dim if "sk" in needed else 0)
+    if time_average == "none":
+        return one_frame + 2 * frames * out                 # every frame's fields, then the stacked copy
+    if time_average == "smooth":
+        return one_frame + frames * prim + 2 * prim + 2 * n_times * out
+    return one_frame
+
+
+def check_memory(target, fields, dim, threads, frames=1, time_average="mean", n_times=1):
+    """Raise MemoryError naming the grid if the fields (and the core's scratch) cannot fit."""
+    needed = needed_primaries(fields)
+    doubles = per_node_doubles(needed, fields, dim, threads, frames, time_average, n_times)
+    check_fits("grid", target.size, doubles, what=f"fields {', '.join(fields)}"
+               + (f" over {frames} frames" if frames > 1 else ""))
+
+
+def shape_fields(flat, target, dim, leading=()):
+    """Fields flat over nodes reshaped to the target's shape (after ``leading`` axes)."""
+    return {name: value.reshape(leading + target.field_shape + (dim,) * field_rank(name))
+            for name, value in flat.items()}
+
+
+def whole_target_sums(job, u_ref):
+    """Step primaries, all the target's nodes at once."""
+    return compute_primaries(job.snapshot, job.target, job.kernel, job.needed, u_ref, job.split)
+
+
+def run_snapshot(job, sums=whole_target_sums):
+    """Steps reference velocity → primaries (``sums(job, u_ref)``) → derive → shape of a prepared job."""
+    snap = job.snapshot
+    check_memory(job.target, job.fields, snap.dim, core_threads(max(snap.n_particles, len(snap.contacts))))
+    u_ref = reference_velocity(snap)
+    flat = derive(sums(job, u_ref), job.fields, u_ref, snap.dim, job.convention)
+    return Result(shape_fields(flat, job.target, snap.dim), job.target, job.kernel, job.convention, [snap.time],
+                  snap.box)
