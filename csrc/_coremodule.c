@@ -11,6 +11,7 @@
 #define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
 #include <numpy/arrayobject.h>
 
+#include <limits.h>
 #include <math.h>
 #include <signal.h>
 #include <string.h>
@@ -103,9 +104,21 @@ static void sigint_end(sigint_guard *g)
 
 /* ------------------------------------------------------------------ */
 /* argument conversion                                                  */
+/*
+ * Every wrapper parses its arguments with PyArg_ParseTupleAndKeywords and
+ * one `O&` converter per argument (as scipy.ndimage's NI_ObjectToInputArray).
+ * Converters that take a reference declare Py_CLEANUP_SUPPORTED: when a
+ * later argument fails, Python calls them again with obj == NULL and they
+ * release what they took. Their release functions also clear the pointers,
+ * so each wrapper's one cleanup label can release every argument whatever
+ * happened (nothing twice, nothing missed).
+ *
+ * Converters run in the order of the format string, so a converter may use
+ * what an earlier one produced: the kernel needs the target's dimensions, and
+ * an array's required shape may point at lengths found by earlier arguments
+ * (positions fix the rows of values; the target fixes the columns).
+ */
 
-/* A C-contiguous, aligned float64 copy/view of obj with ndim dimensions;
-   shape entries >= 0 are required, -1 is free. Checks finiteness. */
 /* Whether all n values are finite: x * 0 is 0 for finite x and NaN for an
    infinity or NaN, so sums in 8 independent lanes (vectorised, no reordering
    of any one sum) tell, at a fraction of the cost of isfinite per value. */
@@ -121,6 +134,8 @@ static int all_finite(const double *data, npy_intp n)
     return total == 0.0;
 }
 
+/* A C-contiguous, aligned float64 copy/view of obj with ndim dimensions;
+   shape entries >= 0 are required, -1 is free. Checks finiteness. */
 static PyArrayObject *as_array(PyObject *obj, const char *name, int ndim, const npy_intp *shape)
 {
     PyArrayObject *arr = (PyArrayObject *)PyArray_FROM_OTF(obj, NPY_DOUBLE, NPY_ARRAY_IN_ARRAY);
@@ -157,22 +172,86 @@ static PyArrayObject *as_array(PyObject *obj, const char *name, int ndim, const 
     return arr;
 }
 
+/* An input array argument. The wrapper fills in name, ndim and the required
+   length along each axis (NULL: free; else the address of a length that an
+   earlier argument's converter sets); array_converter fills in the rest. */
+typedef struct input_array {
+    const char *name;
+    int ndim;
+    const npy_intp *length[2];
+    PyArrayObject *array; /* owned; NULL until converted */
+    npy_intp rows;        /* length along axis 0, once converted */
+} input_array;
+
+static void release_array(input_array *in)
+{
+    Py_CLEAR(in->array);
+}
+
+static int array_converter(PyObject *obj, void *address)
+{
+    input_array *in = (input_array *)address;
+    if (!obj) { /* cleanup after a later argument failed */
+        release_array(in);
+        return 1;
+    }
+    npy_intp shape[2] = {-1, -1};
+    for (int d = 0; d < in->ndim; ++d)
+        if (in->length[d]) shape[d] = *in->length[d];
+    in->array = as_array(obj, in->name, in->ndim, shape);
+    if (!in->array) return 0;
+    in->rows = PyArray_DIM(in->array, 0);
+    return Py_CLEANUP_SUPPORTED;
+}
+
+static double *array_data(const input_array *in)
+{
+    return in->array ? (double *)PyArray_DATA(in->array) : NULL;
+}
+
+/* periodic[a], period[a] for n axes from two sequences (of the target or of
+   minimum_image; `owner` and `entry` name them in the messages) */
+static int convert_periodicity(PyObject *periodic_obj, PyObject *period_obj, Py_ssize_t n, const char *owner,
+                               const char *entry, int *periodic, double *period)
+{
+    if (!PySequence_Check(periodic_obj) || !PySequence_Check(period_obj) ||
+        PySequence_Size(periodic_obj) != n || PySequence_Size(period_obj) != n) {
+        PyErr_Format(PyExc_ValueError, "%s: periodic and period need one entry per %s", owner, entry);
+        return 0;
+    }
+    for (Py_ssize_t a = 0; a < n; ++a) {
+        PyObject *p = PySequence_GetItem(periodic_obj, a), *L = PySequence_GetItem(period_obj, a);
+        if (!p || !L) { Py_XDECREF(p); Py_XDECREF(L); return 0; }
+        periodic[a] = PyObject_IsTrue(p);
+        period[a] = PyFloat_AsDouble(L);
+        Py_DECREF(p);
+        Py_DECREF(L);
+        if (PyErr_Occurred()) return 0;
+        if (periodic[a] && !(period[a] > 0.0 && isfinite(period[a]))) {
+            PyErr_Format(PyExc_ValueError, "%s: a periodic axis needs a positive finite period", owner);
+            return 0;
+        }
+    }
+    return 1;
+}
+
 typedef struct converted_target {
     cg_target target;
-    PyArrayObject *coords[3];
-    PyArrayObject *points;
+    PyArrayObject *coords[3]; /* owned, grids */
+    PyArrayObject *points;    /* owned, point sets */
+    npy_intp dim;             /* D, for the shapes of later arguments */
+    npy_intp size;            /* P, the number of nodes */
 } converted_target;
 
 static void release_target(converted_target *ct)
 {
-    for (int a = 0; a < 3; ++a) Py_XDECREF(ct->coords[a]);
-    Py_XDECREF(ct->points);
+    for (int a = 0; a < 3; ++a) Py_CLEAR(ct->coords[a]);
+    Py_CLEAR(ct->points);
 }
 
 /* target = (dim, axes, coords or None, points or None, periodic, period) */
 static int convert_target(PyObject *obj, converted_target *ct)
 {
-    memset(ct, 0, sizeof *ct);
     int dim;
     PyObject *axes, *coords, *points, *periodic, *period;
     if (!PyTuple_Check(obj) ||
@@ -206,24 +285,7 @@ static int convert_target(PyObject *obj, converted_target *ct)
         t->axes[a] = (int)v;
     }
     Py_DECREF(seq);
-    if (!PySequence_Check(periodic) || !PySequence_Check(period) ||
-        PySequence_Size(periodic) != nr || PySequence_Size(period) != nr) {
-        PyErr_SetString(PyExc_ValueError, "target: periodic and period need one entry per resolved axis");
-        return 0;
-    }
-    for (Py_ssize_t a = 0; a < nr; ++a) {
-        PyObject *p = PySequence_GetItem(periodic, a), *L = PySequence_GetItem(period, a);
-        if (!p || !L) { Py_XDECREF(p); Py_XDECREF(L); return 0; }
-        t->periodic[a] = PyObject_IsTrue(p);
-        t->period[a] = PyFloat_AsDouble(L);
-        Py_DECREF(p);
-        Py_DECREF(L);
-        if (PyErr_Occurred()) return 0;
-        if (t->periodic[a] && !(t->period[a] > 0.0 && isfinite(t->period[a]))) {
-            PyErr_SetString(PyExc_ValueError, "target: a periodic axis needs a positive finite period");
-            return 0;
-        }
-    }
+    if (!convert_periodicity(periodic, period, nr, "target", "resolved axis", t->periodic, t->period)) return 0;
     if (coords != Py_None) {
         t->is_grid = 1;
         if (!PySequence_Check(coords) || PySequence_Size(coords) != nr) {
@@ -232,15 +294,14 @@ static int convert_target(PyObject *obj, converted_target *ct)
         }
         for (Py_ssize_t a = 0; a < nr; ++a) {
             PyObject *c = PySequence_GetItem(coords, a);
-            if (!c) { release_target(ct); return 0; } /* earlier axes are already converted */
+            if (!c) return 0; /* the caller releases earlier axes */
             const npy_intp any = -1;
             ct->coords[a] = as_array(c, "grid coordinates", 1, &any);
             Py_DECREF(c);
-            if (!ct->coords[a]) { release_target(ct); return 0; }
+            if (!ct->coords[a]) return 0;
             t->shape[a] = PyArray_DIM(ct->coords[a], 0);
             if (t->shape[a] < 1) {
                 PyErr_SetString(PyExc_ValueError, "grid coordinates: every resolved axis needs at least one node");
-                release_target(ct);
                 return 0;
             }
             t->coords[a] = (const double *)PyArray_DATA(ct->coords[a]);
@@ -256,12 +317,38 @@ static int convert_target(PyObject *obj, converted_target *ct)
         t->n_points = PyArray_DIM(ct->points, 0);
         t->points = (const double *)PyArray_DATA(ct->points);
     }
+    ct->dim = dim;
+    ct->size = cg_target_size(t);
     return 1;
 }
 
-/* kernel = (type, width, radius, truncated, avg_extent[, line_points[, per_node]]) */
-static int convert_kernel(PyObject *obj, const cg_target *t, cg_kernel *k)
+static int target_converter(PyObject *obj, void *address)
 {
+    converted_target *ct = (converted_target *)address;
+    if (!obj) { /* cleanup after a later argument failed */
+        release_target(ct);
+        return 1;
+    }
+    memset(ct, 0, sizeof *ct);
+    if (!convert_target(obj, ct)) {
+        release_target(ct);
+        return 0;
+    }
+    return Py_CLEANUP_SUPPORTED;
+}
+
+/* The kernel argument: needs the target's dimensions, so the wrapper points
+   `target` at the target argument, converted before it. */
+typedef struct kernel_arg {
+    const converted_target *target;
+    cg_kernel kernel;
+} kernel_arg;
+
+/* kernel = (type, width, radius, truncated, avg_extent[, line_points[, per_node]]) */
+static int kernel_converter(PyObject *obj, void *address)
+{
+    kernel_arg *ka = (kernel_arg *)address;
+    cg_kernel *k = &ka->kernel;
     memset(k, 0, sizeof *k);
     if (!PyTuple_Check(obj) ||
         !PyArg_ParseTuple(obj, "iddid|ii", &k->type, &k->width, &k->radius, &k->truncated_norm, &k->avg_extent,
@@ -275,8 +362,8 @@ static int convert_kernel(PyObject *obj, const cg_target *t, cg_kernel *k)
                      CG_MAX_LINE_POINTS, k->line_points);
         return 0;
     }
-    k->dim = t->dim;
-    k->n_resolved = t->n_resolved;
+    k->dim = ka->target->target.dim;
+    k->n_resolved = ka->target->target.n_resolved;
     if (cg_kernel_init(k) != CG_OK) {
         PyErr_SetString(PyExc_ValueError,
                         "kernel: type must be 0, 1 or 2 and width, radius, avg_extent positive and finite");
@@ -285,13 +372,21 @@ static int convert_kernel(PyObject *obj, const cg_target *t, cg_kernel *k)
     return 1;
 }
 
-static int check_threads(int n_threads)
+/* n_threads: an int (as the "i" format), 0 or positive */
+static int threads_converter(PyObject *obj, void *address)
 {
-    if (n_threads < 0) {
-        PyErr_Format(PyExc_ValueError, "n_threads: expected 0 (the OpenMP default) or a positive count, got %d",
-                     n_threads);
+    const long n = PyLong_AsLong(obj);
+    if (n == -1 && PyErr_Occurred()) return 0;
+    if (n > INT_MAX || n < INT_MIN) {
+        PyErr_SetString(PyExc_OverflowError,
+                        n > INT_MAX ? "signed integer is greater than maximum" : "signed integer is less than minimum");
         return 0;
     }
+    if (n < 0) {
+        PyErr_Format(PyExc_ValueError, "n_threads: expected 0 (the OpenMP default) or a positive count, got %ld", n);
+        return 0;
+    }
+    *(int *)address = (int)n;
     return 1;
 }
 
@@ -302,19 +397,20 @@ static PyObject *default_threads(PyObject *self, PyObject *args)
     return PyLong_FromLong(cg_default_threads());
 }
 
-static PyObject *raise_status(cg_status st)
+/* Sets the Python exception for a failed core call (GIL held). */
+static void raise_status(cg_status st)
 {
     switch (st) {
-    case CG_ERR_NOMEM: return PyErr_NoMemory();
+    case CG_ERR_NOMEM: PyErr_NoMemory(); return;
     case CG_ERR_INTERRUPTED:
         /* run the Python-level handler the chained signal tripped (the
            default one raises KeyboardInterrupt); if it did not raise, the
            work is still incomplete, so raise KeyboardInterrupt ourselves */
-        if (PyErr_CheckSignals() < 0) return NULL;
+        if (PyErr_CheckSignals() < 0) return;
         PyErr_SetNone(PyExc_KeyboardInterrupt);
-        return NULL;
-    case CG_ERR_UNSUPPORTED: PyErr_SetString(PyExc_NotImplementedError, cg_strerror(st)); return NULL;
-    default: PyErr_SetString(PyExc_ValueError, cg_strerror(st)); return NULL;
+        return;
+    case CG_ERR_UNSUPPORTED: PyErr_SetString(PyExc_NotImplementedError, cg_strerror(st)); return;
+    default: PyErr_SetString(PyExc_ValueError, cg_strerror(st)); return;
     }
 }
 
@@ -327,80 +423,62 @@ static PyArrayObject *zeros(npy_intp P, int n_extra, const npy_intp *extra)
 }
 
 /* ------------------------------------------------------------------ */
+/* wrappers: parse (converters), check what spans arguments, allocate the
+   result, run the core with the GIL released, one cleanup label           */
 
 static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
 {
     static char *kw_points[] = {"target", "kernel", "positions", "values", "gradient", "n_threads", NULL};
     static char *kw_segments[] = {"target", "kernel", "starts", "vectors", "values", "ray", "gradient", "n_threads",
                                   NULL};
-    PyObject *target_obj, *kernel_obj, *pos_obj, *vec_obj = NULL, *val_obj;
+    converted_target ct = {0};
+    kernel_arg ka = {.target = &ct};
+    input_array pos = {.name = segments ? "starts" : "positions", .ndim = 2, .length = {NULL, &ct.dim}};
+    input_array vec = {.name = "vectors", .ndim = 2, .length = {&pos.rows, &ct.dim}};
+    input_array val = {.name = "values", .ndim = 2, .length = {&pos.rows, NULL}};
     int ray = 0, gradient = 0, n_threads = 0;
-    if (segments) {
-        if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOO|ppi", kw_segments, &target_obj, &kernel_obj,
-                                         &pos_obj, &vec_obj, &val_obj, &ray, &gradient, &n_threads))
-            return NULL;
-    } else {
-        if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOO|pi", kw_points, &target_obj, &kernel_obj,
-                                         &pos_obj, &val_obj, &gradient, &n_threads))
-            return NULL;
-    }
-    if (!check_threads(n_threads)) return NULL;
-    converted_target ct;
-    if (!convert_target(target_obj, &ct)) return NULL;
-    ct.target.n_threads = n_threads;
-    cg_kernel kernel;
-    PyArrayObject *pos = NULL, *vec = NULL, *val = NULL, *out = NULL;
-    if (!convert_kernel(kernel_obj, &ct.target, &kernel)) goto fail;
-    const int D = ct.target.dim;
-    const npy_intp pshape[2] = {-1, D};
-    pos = as_array(pos_obj, segments ? "starts" : "positions", 2, pshape);
-    if (!pos) goto fail;
-    const npy_intp n = PyArray_DIM(pos, 0);
-    const npy_intp nshape[2] = {n, D};
-    if (segments) {
-        vec = as_array(vec_obj, "vectors", 2, nshape);
-        if (!vec) goto fail;
-    }
-    const npy_intp vshape[2] = {n, -1};
-    val = as_array(val_obj, "values", 2, vshape);
-    if (!val) goto fail;
-    const int n_values = (int)PyArray_DIM(val, 1);
+    PyArrayObject *out = NULL;
+    int parsed;
+    if (segments)
+        parsed = PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&|ppO&", kw_segments, target_converter, &ct,
+                                             kernel_converter, &ka, array_converter, &pos, array_converter, &vec,
+                                             array_converter, &val, &ray, &gradient, threads_converter, &n_threads);
+    else
+        parsed = PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&|pO&", kw_points, target_converter, &ct,
+                                             kernel_converter, &ka, array_converter, &pos, array_converter, &val,
+                                             &gradient, threads_converter, &n_threads);
+    if (!parsed) goto done;
+    const int n_values = (int)PyArray_DIM(val.array, 1);
     if (n_values < 1) {
         PyErr_SetString(PyExc_ValueError, "values: expected at least one column");
-        goto fail;
+        goto done;
     }
-    const npy_intp P = cg_target_size(&ct.target);
+    ct.target.n_threads = n_threads;
     npy_intp extra[2] = {n_values, ct.target.n_resolved};
-    out = zeros(P, gradient ? 2 : 1, extra);
-    if (!out) goto fail;
+    out = zeros(ct.size, gradient ? 2 : 1, extra);
+    if (!out) goto done;
     cg_status st;
     sigint_guard guard;
     ct.target.interrupt = sigint_begin(&guard);
     Py_BEGIN_ALLOW_THREADS
     if (segments)
-        st = cg_scatter_segments(&ct.target, &kernel, n, PyArray_DATA(pos), PyArray_DATA(vec), ray,
-                                 n_values, PyArray_DATA(val), gradient, PyArray_DATA(out));
+        st = cg_scatter_segments(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec), ray,
+                                 n_values, array_data(&val), gradient, PyArray_DATA(out));
     else
-        st = cg_scatter_points(&ct.target, &kernel, n, PyArray_DATA(pos), n_values, PyArray_DATA(val),
+        st = cg_scatter_points(&ct.target, &ka.kernel, pos.rows, array_data(&pos), n_values, array_data(&val),
                                gradient, PyArray_DATA(out));
     Py_END_ALLOW_THREADS
     sigint_end(&guard);
     if (st != CG_OK) {
         raise_status(st);
-        goto fail;
+        Py_CLEAR(out);
     }
-    Py_DECREF(pos);
-    Py_XDECREF(vec);
-    Py_DECREF(val);
+done:
     release_target(&ct);
+    release_array(&pos);
+    release_array(&vec);
+    release_array(&val);
     return (PyObject *)out;
-fail:
-    Py_XDECREF(pos);
-    Py_XDECREF(vec);
-    Py_XDECREF(val);
-    Py_XDECREF(out);
-    release_target(&ct);
-    return NULL;
 }
 
 static PyObject *py_scatter_points(PyObject *self, PyObject *args, PyObject *kwds)
@@ -419,112 +497,89 @@ static PyObject *py_scatter_fluctuation(PyObject *self, PyObject *args, PyObject
 {
     (void)self;
     static char *kw[] = {"target", "kernel", "positions", "masses", "velocities", "node_velocity", "n_threads", NULL};
-    PyObject *target_obj, *kernel_obj, *pos_obj, *mass_obj, *vel_obj, *nodev_obj;
+    converted_target ct = {0};
+    kernel_arg ka = {.target = &ct};
+    input_array pos = {.name = "positions", .ndim = 2, .length = {NULL, &ct.dim}};
+    input_array mass = {.name = "masses", .ndim = 1, .length = {&pos.rows, NULL}};
+    input_array vel = {.name = "velocities", .ndim = 2, .length = {&pos.rows, &ct.dim}};
+    input_array nodev = {.name = "node_velocity", .ndim = 2, .length = {&ct.size, &ct.dim}};
     int n_threads = 0;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOO|i", kw, &target_obj, &kernel_obj, &pos_obj,
-                                     &mass_obj, &vel_obj, &nodev_obj, &n_threads))
-        return NULL;
-    if (!check_threads(n_threads)) return NULL;
-    converted_target ct;
-    if (!convert_target(target_obj, &ct)) return NULL;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&O&|O&", kw, target_converter, &ct, kernel_converter,
+                                     &ka, array_converter, &pos, array_converter, &mass, array_converter, &vel,
+                                     array_converter, &nodev, threads_converter, &n_threads))
+        goto done;
     ct.target.n_threads = n_threads;
-    cg_kernel kernel;
-    PyArrayObject *pos = NULL, *mass = NULL, *vel = NULL, *nodev = NULL, *out = NULL;
-    if (!convert_kernel(kernel_obj, &ct.target, &kernel)) goto fail;
-    const int D = ct.target.dim;
-    const npy_intp pshape[2] = {-1, D};
-    pos = as_array(pos_obj, "positions", 2, pshape);
-    if (!pos) goto fail;
-    const npy_intp n = PyArray_DIM(pos, 0);
-    const npy_intp nshape[2] = {n, D};
-    mass = as_array(mass_obj, "masses", 1, &n);
-    if (!mass) goto fail;
-    vel = as_array(vel_obj, "velocities", 2, nshape);
-    if (!vel) goto fail;
-    const npy_intp P = cg_target_size(&ct.target);
-    const npy_intp vshape[2] = {P, D};
-    nodev = as_array(nodev_obj, "node_velocity", 2, vshape);
-    if (!nodev) goto fail;
-    const npy_intp extra[2] = {D, D};
-    out = zeros(P, 2, extra);
-    if (!out) goto fail;
+    const npy_intp extra[2] = {ct.dim, ct.dim};
+    out = zeros(ct.size, 2, extra);
+    if (!out) goto done;
     cg_status st;
     sigint_guard guard;
     ct.target.interrupt = sigint_begin(&guard);
     Py_BEGIN_ALLOW_THREADS
-    st = cg_scatter_fluctuation(&ct.target, &kernel, n, PyArray_DATA(pos), PyArray_DATA(mass),
-                                PyArray_DATA(vel), PyArray_DATA(nodev), PyArray_DATA(out));
+    st = cg_scatter_fluctuation(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&mass),
+                                array_data(&vel), array_data(&nodev), PyArray_DATA(out));
     Py_END_ALLOW_THREADS
     sigint_end(&guard);
     if (st != CG_OK) {
         raise_status(st);
-        goto fail;
+        Py_CLEAR(out);
     }
-    Py_DECREF(pos);
-    Py_DECREF(mass);
-    Py_DECREF(vel);
-    Py_DECREF(nodev);
+done:
     release_target(&ct);
+    release_array(&pos);
+    release_array(&mass);
+    release_array(&vel);
+    release_array(&nodev);
     return (PyObject *)out;
-fail:
-    Py_XDECREF(pos);
-    Py_XDECREF(mass);
-    Py_XDECREF(vel);
-    Py_XDECREF(nodev);
-    Py_XDECREF(out);
-    release_target(&ct);
-    return NULL;
 }
 
-static PyObject *py_minimum_image(PyObject *self, PyObject *args)
+static PyObject *py_minimum_image(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
-    PyObject *vec_obj, *periodic_obj, *period_obj;
-    if (!PyArg_ParseTuple(args, "OOO", &vec_obj, &periodic_obj, &period_obj)) return NULL;
-    const npy_intp any[2] = {-1, -1};
-    PyArrayObject *vec = as_array(vec_obj, "vectors", 2, any);
-    if (!vec) return NULL;
-    const int D = (int)PyArray_DIM(vec, 1);
-    if (D < 1 || D > 3 || PySequence_Size(periodic_obj) != D || PySequence_Size(period_obj) != D) {
-        Py_DECREF(vec);
-        PyErr_SetString(PyExc_ValueError, "minimum_image: periodic and period need one entry per column");
-        return NULL;
-    }
+    static char *kw[] = {"vectors", "periodic", "period", NULL};
+    input_array vec = {.name = "vectors", .ndim = 2, .length = {NULL, NULL}};
+    PyObject *periodic_obj, *period_obj;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&OO", kw, array_converter, &vec, &periodic_obj, &period_obj))
+        goto done;
+    const int D = (int)PyArray_DIM(vec.array, 1);
     int periodic[3] = {0, 0, 0};
     double period[3] = {0.0, 0.0, 0.0};
-    for (int d = 0; d < D; ++d) {
-        PyObject *p = PySequence_GetItem(periodic_obj, d), *L = PySequence_GetItem(period_obj, d);
-        if (!p || !L) { Py_XDECREF(p); Py_XDECREF(L); Py_DECREF(vec); return NULL; }
-        periodic[d] = PyObject_IsTrue(p);
-        period[d] = PyFloat_AsDouble(L);
-        Py_DECREF(p);
-        Py_DECREF(L);
-        if (PyErr_Occurred()) { Py_DECREF(vec); return NULL; }
-        if (periodic[d] && !(period[d] > 0.0 && isfinite(period[d]))) {
-            Py_DECREF(vec);
-            PyErr_SetString(PyExc_ValueError, "minimum_image: a periodic axis needs a positive finite period");
-            return NULL;
-        }
+    if (D < 1 || D > 3) {
+        PyErr_SetString(PyExc_ValueError, "minimum_image: periodic and period need one entry per column");
+        goto done;
     }
-    PyArrayObject *out = (PyArrayObject *)PyArray_NewCopy(vec, NPY_CORDER);
-    Py_DECREF(vec);
-    if (!out) return NULL;
+    if (!convert_periodicity(periodic_obj, period_obj, D, "minimum_image", "column", periodic, period)) goto done;
+    out = (PyArrayObject *)PyArray_NewCopy(vec.array, NPY_CORDER);
+    if (!out) goto done;
+    Py_BEGIN_ALLOW_THREADS
     cg_minimum_image(PyArray_DIM(out, 0), D, PyArray_DATA(out), periodic, period);
+    Py_END_ALLOW_THREADS
+done:
+    release_array(&vec);
     return (PyObject *)out;
 }
 
-static PyObject *py_wrap(PyObject *self, PyObject *args)
+static PyObject *py_wrap(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
-    PyObject *pos_obj, *periodic_obj, *lower_obj, *upper_obj;
-    if (!PyArg_ParseTuple(args, "OOOO", &pos_obj, &periodic_obj, &lower_obj, &upper_obj)) return NULL;
-    const npy_intp any[2] = {-1, -1};
-    PyArrayObject *pos = as_array(pos_obj, "positions", 2, any), *lower = NULL, *upper = NULL, *out = NULL;
-    if (!pos) return NULL;
-    const npy_intp D = PyArray_DIM(pos, 1);
+    static char *kw[] = {"positions", "periodic", "lower", "upper", NULL};
+    input_array pos = {.name = "positions", .ndim = 2, .length = {NULL, NULL}};
+    input_array lower = {.name = "lower", .ndim = 1, .length = {NULL, NULL}};
+    input_array upper = {.name = "upper", .ndim = 1, .length = {NULL, NULL}};
+    PyObject *periodic_obj;
+    PyArrayObject *out = NULL;
+    cg_status status = CG_OK;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&OO&O&", kw, array_converter, &pos, &periodic_obj,
+                                     array_converter, &lower, array_converter, &upper))
+        goto done;
+    const npy_intp D = PyArray_DIM(pos.array, 1);
     int periodic[3] = {0, 0, 0};
-    if (D < 1 || D > 3 || PySequence_Size(periodic_obj) != D) {
-        PyErr_SetString(PyExc_ValueError, "wrap: positions need 1 to 3 columns and periodic one entry per column");
+    if (D < 1 || D > 3 || PySequence_Size(periodic_obj) != D || lower.rows != D || upper.rows != D) {
+        PyErr_Clear();
+        PyErr_SetString(PyExc_ValueError, "wrap: positions need 1 to 3 columns, and periodic, lower and upper "
+                                          "one entry per column");
         goto done;
     }
     for (npy_intp d = 0; d < D; ++d) {
@@ -533,21 +588,21 @@ static PyObject *py_wrap(PyObject *self, PyObject *args)
         Py_XDECREF(p);
         if (periodic[d] < 0) goto done;
     }
-    lower = as_array(lower_obj, "lower", 1, &D);
-    upper = lower ? as_array(upper_obj, "upper", 1, &D) : NULL;
-    out = upper ? (PyArrayObject *)PyArray_NewCopy(pos, NPY_CORDER) : NULL;
+    out = (PyArrayObject *)PyArray_NewCopy(pos.array, NPY_CORDER);
     if (!out) goto done;
-    const cg_status status = cg_wrap(PyArray_DIM(out, 0), (int)D, PyArray_DATA(out), periodic,
-                                     PyArray_DATA(lower), PyArray_DATA(upper));
+    Py_BEGIN_ALLOW_THREADS
+    status = cg_wrap(PyArray_DIM(out, 0), (int)D, PyArray_DATA(out), periodic, array_data(&lower),
+                     array_data(&upper));
+    Py_END_ALLOW_THREADS
     if (status != CG_OK) {
         PyErr_Format(PyExc_ValueError, "wrap: %s (a periodic axis needs upper > lower, and positions within "
                      "reach of the box: x - lower must not overflow)", cg_strerror(status));
         Py_CLEAR(out);
     }
 done:
-    Py_DECREF(pos);
-    Py_XDECREF(lower);
-    Py_XDECREF(upper);
+    release_array(&pos);
+    release_array(&lower);
+    release_array(&upper);
     return (PyObject *)out;
 }
 
@@ -583,9 +638,9 @@ static PyMethodDef methods[] = {
     {"scatter_fluctuation", (PyCFunction)(void (*)(void))py_scatter_fluctuation, METH_VARARGS | METH_KEYWORDS,
      "scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity, n_threads=0) -> (P, D, D)\n\n"
      "Kinetic stress -sum m (v - V(node)) (v - V(node)) M(node - x) in fluctuation form."},
-    {"minimum_image", py_minimum_image, METH_VARARGS,
+    {"minimum_image", (PyCFunction)(void (*)(void))py_minimum_image, METH_VARARGS | METH_KEYWORDS,
      "minimum_image(vectors, periodic, period) -> copy of vectors wrapped to the minimum image."},
-    {"wrap", py_wrap, METH_VARARGS,
+    {"wrap", (PyCFunction)(void (*)(void))py_wrap, METH_VARARGS | METH_KEYWORDS,
      "wrap(positions, periodic, lower, upper) -> copy of positions wrapped into [lower, upper) on periodic axes."},
     {"have_openmp", py_have_openmp, METH_NOARGS, "Whether the core was built with OpenMP."},
     {"set_wide_vectors", py_set_wide_vectors, METH_O,

@@ -7,7 +7,7 @@ import pytest
 import cgbound as cg
 import cgbound.fields
 from helpers import assert_fields_close, random_snapshot
-from reference import ref_fields
+from oracle import oracle_coarse_grain
 
 LINEAR = ("density", "momentum", "momentum_flux", "contact_stress", "boundary_stress",
           "interaction_force_density", "body_force_density")
@@ -146,7 +146,7 @@ def test_mean_over_snapshots():
     fields = LINEAR + ("kinetic_stress", "velocity")
     avg = cg.CoarseGrain(snaps, grid, kernel, fields=fields).run()
     assert avg.run() is avg
-    per = [ref_fields(s, grid, kernel, fields) for s in snaps]
+    per = [oracle_coarse_grain(s, grid, kernel, fields) for s in snaps]
     for name in LINEAR:
         mean = np.mean([p[name] for p in per], axis=0)
         assert_fields_close(avg.results[name].reshape(mean.shape), mean, 1e-10, name)

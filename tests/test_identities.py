@@ -7,7 +7,7 @@ from scipy.special import erfc
 
 import cgbound as cg
 from helpers import assert_fields_close, random_snapshot
-from reference import RefKernel
+from oracle import OracleKernel
 
 CONTACT_STRESSES = ("contact_stress", "boundary_stress")
 
@@ -135,7 +135,7 @@ def test_gradients_match_the_oracle(kind):
     dim = 3
     snap = random_snapshot(10, dim=dim, periodic=(False, False, False))
     kernel = cg.Gaussian(0.6, cutoff=3.0) if kind == "gaussian" else cg.Lucy(1.4)
-    ref = RefKernel(kind, dim, getattr(kernel, "width", None) or kernel.radius, kernel.radius)
+    ref = OracleKernel(kind, dim, getattr(kernel, "width", None) or kernel.radius, kernel.radius)
     pts = random_points(snap, 30, 4)
     res = cg.momentum_balance_residual(snap, pts, kernel)
     bulk, boundary = snap.split_contacts()

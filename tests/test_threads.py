@@ -102,7 +102,7 @@ def lattice_packing(shape=(30, 4, 4), spacing=0.8, seed=5):
 def test_slabs_sum_in_the_same_order_for_any_thread_count(line_quadrature):
     """On a grid of many nodes along x (non-periodic) the core cuts the objects into slabs that write to
     disjoint nodes: results are then bit-for-bit the same for every thread count, and right."""
-    from reference import ref_fields
+    from oracle import oracle_coarse_grain
     snap = lattice_packing()
     grid = cg.Grid(snap.box, (100, 4, 5))
     kernel = cg.Gaussian(0.3, cutoff=0.9, line_quadrature=line_quadrature)
@@ -114,6 +114,6 @@ def test_slabs_sum_in_the_same_order_for_any_thread_count(line_quadrature):
             many = cg.coarse_grain(snap, grid, kernel, fields=fields)
         for name in fields:
             np.testing.assert_array_equal(many[name], one[name], err_msg=f"{name} with {n} threads")
-    ref = ref_fields(snap, grid, kernel, fields)
+    ref = oracle_coarse_grain(snap, grid, kernel, fields)
     for name in fields:
         assert_fields_close(one[name].reshape(ref[name].shape), ref[name], 1e-10, name)

@@ -1,4 +1,12 @@
-"""A slow pure-NumPy reference ("oracle") for every field, written from the formulas.
+"""Slow pure-NumPy twins ("oracles") of the C core and of the pipeline, written from the formulas.
+
+Each twin is named after what it mirrors: ``oracle_scatter_points``,
+``oracle_scatter_segments``, ``oracle_scatter_fluctuation`` and
+``oracle_minimum_image`` mirror the ``_core`` entry points of the same name;
+``oracle_split_contacts`` mirrors ``Snapshot.split_contacts``;
+``oracle_coarse_grain`` mirrors ``cgbound.coarse_grain`` (the whole pipeline);
+``OracleKernel`` mirrors the core's kernels (cg_kernel_value, cg_kernel_line,
+cg_kernel_gradient) and ``oracle_target`` the nodes of a Grid or Points target.
 
 It shares no numerics with the C core: marginals over averaged axes are
 integrated numerically from the D-dimensional kernel, line integrals use the
@@ -45,8 +53,8 @@ def _graded_panels(lo, hi, scale):
     return fine
 
 
-class RefKernel:
-    """Kernel from its textbook definition in D dimensions."""
+class OracleKernel:
+    """Kernel from its textbook definition in D dimensions (twin of the core's cg_kernel_*)."""
 
     def __init__(self, kind, dim, width, radius, truncated=False, line_points=0):
         self.kind, self.dim, self.w, self.R, self.truncated = kind, dim, width, radius, truncated
@@ -171,12 +179,31 @@ class RefKernel:
         safe = np.where(r > 0, r, 1.0)
         return (self.radial_derivative(r) / safe)[:, None] * x
 
-    def line_gradient(self, q, e):
-        """grad_r psi for nodes q (P x D) of int_0^1 W(q - s e) ds: quadrature of grad W along the segment."""
+    def marginal_gradient(self, q, n_res=None, avg_extent=1.0):
+        """grad_q M(|q|^2) at offsets q (P x n_res), as cg_kernel_gradient: the full kernel's gradient when
+        nothing is averaged; the Gaussian's marginal is Gaussian in the resolved axes."""
         q = np.atleast_2d(q)
+        n_res = self.dim if n_res is None else n_res
+        if n_res == self.dim:
+            return self.gradient(q) / avg_extent
+        if self.kind == "gaussian":
+            return -q / self.w**2 * self.marginal((q * q).sum(axis=1), n_res, avg_extent)[:, None]
+        raise ValueError("no gradient of an averaged Lucy or Heaviside kernel")
+
+    def line_gradient(self, q, e, n_res=None, avg_extent=1.0, ray=False):
+        """grad_r psi for nodes q (P x n_res) of int_0^S M(q - s e) ds (S = 1, or infinity for a ray):
+        quadrature of grad M along the segment (the kernel's n-point rule if it has one, as cg_kernel_line)."""
+        q = np.atleast_2d(q)
+        n_res = self.dim if n_res is None else n_res
+        if self.line_points and not ray:
+            x, w = np.polynomial.legendre.leggauss(self.line_points)
+            total = np.zeros_like(q, dtype=float)
+            for s, wg in zip(0.5 * (x + 1.0), 0.5 * w):
+                total += wg * self.marginal_gradient(q - s * np.asarray(e, float), n_res, avg_extent)
+            return total
         L = float(np.linalg.norm(e))
         if L == 0.0:
-            return self.gradient(q)
+            return self.marginal_gradient(q, n_res, avg_extent)
         n = e / L
         u = q @ n
         qperp = q - u[:, None] * n
@@ -184,7 +211,7 @@ class RefKernel:
         out = np.zeros_like(q)
         for p in np.flatnonzero(a2 < self.R**2):
             b = math.sqrt(self.R**2 - a2[p])
-            t_hi, t_lo = min(u[p], b), max(u[p] - L, -b)
+            t_hi, t_lo = min(u[p], b), (-b if ray else max(u[p] - L, -b))
             if t_lo >= t_hi:
                 continue
             th_lo, th_hi = math.asin(max(-1.0, t_lo / b)), math.asin(min(1.0, t_hi / b))
@@ -193,7 +220,7 @@ class RefKernel:
                     t = b * np.sin(th)
                     x = qperp[p][None, None, :] + t[..., None] * n
                     shape = t.shape
-                    g = self.gradient(x.reshape(-1, q.shape[1]))[:, comp].reshape(shape)
+                    g = self.marginal_gradient(x.reshape(-1, q.shape[1]), n_res, avg_extent)[:, comp].reshape(shape)
                     return g * b * np.cos(th)
                 edges = _graded_panels(th_lo, th_hi, max(math.sqrt(a2[p]) / b, 1e-6))
                 out[p, comp] = sum(float(_gl(f, x0, x1)) for x0, x1 in zip(edges[:-1], edges[1:])) / L
@@ -204,8 +231,9 @@ class RefKernel:
 # evaluation targets
 
 
-def target_nodes(grid_or_points, box):
-    """(nodes (P x n_res), resolved axes, periodic flags, periods, avg_extent) computed independently."""
+def oracle_target(grid_or_points, box):
+    """(nodes (P x n_res), resolved axes, periodic flags, periods, avg_extent) computed independently:
+    the twin of the core target a Grid or Points describes."""
     from cgbound import Grid
 
     dim = box.dim
@@ -248,12 +276,15 @@ def _sum_images(weight_of_shift, periodic, periods, P):
     (contributing images form a contiguous block once the object is wrapped next to the nodes)."""
     total = np.zeros(P)
     empty = 0
+    first = True
     k = 0
     while True:
         shifts = _shell(periodic, periods, k)
         if shifts.shape[0] == 0:
             break
         added = sum(weight_of_shift(s) for s in shifts)
+        if first:  # weights may have a trailing axis (gradients)
+            total, first = np.zeros(np.shape(added)), False
         total += added
         if not any(periodic):
             break
@@ -275,42 +306,55 @@ def _wrap(x, tgt):
     return x
 
 
-def object_weights(kernel, tgt, x, e=None, ray=False):
-    """Kernel weight (e is None) or line integral of one object at every node, summed over images."""
+def _object_weights(kernel, tgt, x, e=None, ray=False, gradient=False):
+    """Kernel weight (e is None) or line integral of one object at every node, summed over images
+    ((P,), or (P, n_res) with gradient: the gradient with respect to the node)."""
     nodes, resolved, periodic, periods, avg = tgt
     n_res = len(resolved)
     if n_res == 0:
-        return np.full(nodes.shape[0], 1.0 / avg)
+        return np.zeros((nodes.shape[0], 0)) if gradient else np.full(nodes.shape[0], 1.0 / avg)
     xr = _wrap(x[resolved], tgt)
-    if e is None:
+    if e is None and gradient:
+        def weight(s):
+            return kernel.marginal_gradient(nodes - (xr + s), n_res, avg)
+    elif e is None:
         def weight(s):
             d = nodes - (xr + s)
             return kernel.marginal((d * d).sum(axis=1), n_res, avg)
+    elif gradient:
+        def weight(s):
+            return kernel.line_gradient(nodes - (xr + s), e[resolved], n_res, avg, ray=ray)
     else:
         def weight(s):
             return kernel.line(nodes - (xr + s), e[resolved], n_res, avg, ray=ray)
     return _sum_images(weight, periodic, periods, nodes.shape[0])
 
 
-def ref_points(kernel, tgt, positions, values):
-    out = np.zeros((tgt[0].shape[0], values.shape[1]))
-    for x, v in zip(positions, values):
-        out += object_weights(kernel, tgt, x)[:, None] * v[None, :]
+def _scatter(kernel, tgt, values, objects, ray=False, gradient=False):
+    P, n_res = tgt[0].shape[0], len(tgt[1])
+    out = np.zeros((P, values.shape[1], n_res) if gradient else (P, values.shape[1]))
+    for (x, e), v in zip(objects, values):
+        w = _object_weights(kernel, tgt, x, e, ray, gradient)
+        out += w[:, None, :] * v[None, :, None] if gradient else w[:, None] * v[None, :]
     return out
 
 
-def ref_segments(kernel, tgt, starts, vecs, values, ray=False):
-    out = np.zeros((tgt[0].shape[0], values.shape[1]))
-    for x, e, v in zip(starts, vecs, values):
-        out += object_weights(kernel, tgt, x, e, ray)[:, None] * v[None, :]
-    return out
+def oracle_scatter_points(kernel, tgt, positions, values, gradient=False):
+    """Twin of _core.scatter_points: (P, K), or (P, K, n_res) with gradient."""
+    return _scatter(kernel, tgt, values, [(x, None) for x in positions], gradient=gradient)
 
 
-def ref_fluctuation(kernel, tgt, positions, masses, velocities, node_velocity):
+def oracle_scatter_segments(kernel, tgt, starts, vecs, values, ray=False, gradient=False):
+    """Twin of _core.scatter_segments: (P, K), or (P, K, n_res) with gradient."""
+    return _scatter(kernel, tgt, values, list(zip(starts, vecs)), ray=ray, gradient=gradient)
+
+
+def oracle_scatter_fluctuation(kernel, tgt, positions, masses, velocities, node_velocity):
+    """Twin of _core.scatter_fluctuation: (P, D, D)."""
     D = node_velocity.shape[1]
     out = np.zeros((tgt[0].shape[0], D, D))
     for x, m, v in zip(positions, masses, velocities):
-        w = object_weights(kernel, tgt, x)
+        w = _object_weights(kernel, tgt, x)
         dv = v[None, :] - node_velocity
         out -= (m * w)[:, None, None] * dv[:, :, None] * dv[:, None, :]
     return out
@@ -320,17 +364,18 @@ def ref_fluctuation(kernel, tgt, positions, masses, velocities, node_velocity):
 # fields
 
 
-def _min_image(vec, box):
-    vec = np.array(vec, float)
-    for d in range(box.dim):
-        if box.periodic[d]:
-            L = box.upper[d] - box.lower[d]
+def oracle_minimum_image(vectors, periodic, period):
+    """Twin of _core.minimum_image (and Box.minimum_image): each periodic column to its nearest image."""
+    vec = np.array(vectors, float)
+    for d, (p, L) in enumerate(zip(periodic, period)):
+        if p:
             vec[..., d] -= L * np.round(vec[..., d] / L)
     return vec
 
 
-def classify(snap):
-    """Bulk and boundary contacts by plain loops (docs/theory.md, "The snapshot model")."""
+def oracle_split_contacts(snap):
+    """Twin of Snapshot.split_contacts: bulk and boundary contacts by plain loops (docs/theory.md, "The snapshot
+    model")."""
     bulk, boundary = [], []
     c = snap.contacts
     for k in range(len(c)):
@@ -347,16 +392,17 @@ def classify(snap):
     return bulk, boundary
 
 
-def ref_fields(snap, where, kernel_obj, fields, convention="tension"):
-    """All requested fields, flat over nodes (P, ...), from the formulas of docs/theory.md, "Fields"."""
+def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
+    """Twin of cgbound.coarse_grain: all requested fields, flat over nodes (P, ...), from the formulas of
+    docs/theory.md, "Fields"."""
     import cgbound as cg
 
     kind = {cg.Gaussian: "gaussian", cg.Lucy: "lucy", cg.Heaviside: "heaviside"}[type(kernel_obj)]
     line = getattr(kernel_obj, "line_quadrature", "exact")
-    kernel = RefKernel(kind, snap.dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
+    kernel = OracleKernel(kind, snap.dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
                        truncated=getattr(kernel_obj, "truncated", False), line_points=0 if line == "exact" else line)
     box = snap.box
-    tgt = target_nodes(where, box)
+    tgt = oracle_target(where, box)
     D = snap.dim
     P = tgt[0].shape[0]
     flow = ~np.asarray(snap.fixed)
@@ -364,33 +410,34 @@ def ref_fields(snap, where, kernel_obj, fields, convention="tension"):
     m = np.asarray(snap.masses)[flow]
     vel = np.zeros_like(pos) if snap.velocities is None else np.asarray(snap.velocities)[flow]
 
-    rho = ref_points(kernel, tgt, pos, m[:, None])[:, 0]
-    p = ref_points(kernel, tgt, pos, m[:, None] * vel)
+    rho = oracle_scatter_points(kernel, tgt, pos, m[:, None])[:, 0]
+    p = oracle_scatter_points(kernel, tgt, pos, m[:, None] * vel)
     with np.errstate(invalid="ignore", divide="ignore"):
         V = np.where(rho[:, None] > 0, p / rho[:, None], np.nan)
-    k = ref_points(kernel, tgt, pos, (m[:, None, None] * vel[:, :, None] * vel[:, None, :]).reshape(-1, D * D)).reshape(P, D, D)
-    sk = ref_fluctuation(kernel, tgt, pos, m, vel, np.nan_to_num(V))
+    k = oracle_scatter_points(kernel, tgt, pos, (m[:, None, None] * vel[:, :, None] * vel[:, None, :]).reshape(-1, D * D)).reshape(P, D, D)
+    sk = oracle_scatter_fluctuation(kernel, tgt, pos, m, vel, np.nan_to_num(V))
 
-    bulk, boundary = classify(snap)
+    bulk, boundary = oracle_split_contacts(snap)
+    lengths = [box.upper[d] - box.lower[d] for d in range(D)]
     X = np.asarray(snap.positions)
     sb = np.zeros((P, D * D))
     for i, j, f in bulk:
-        r_ij = _min_image(X[i] - X[j], box)
-        sb += ref_segments(kernel, tgt, X[i][None], -r_ij[None], -np.outer(f, r_ij).reshape(1, -1), False)
+        r_ij = oracle_minimum_image(X[i] - X[j], box.periodic, lengths)
+        sb += oracle_scatter_segments(kernel, tgt, X[i][None], -r_ij[None], -np.outer(f, r_ij).reshape(1, -1), False)
     sw = np.zeros((P, D * D))
     sx = np.zeros((P, D * D))
     t = np.zeros((P, D))
     for i, f, c in boundary:
-        a = _min_image(X[i] - c, box)
+        a = oracle_minimum_image(X[i] - c, box.periodic, lengths)
         vals = -np.outer(f, a).reshape(1, -1)
         if "boundary_stress" in fields or "stress" in fields or "pressure" in fields:
-            sw += ref_segments(kernel, tgt, X[i][None], -a[None], vals, False)
+            sw += oracle_scatter_segments(kernel, tgt, X[i][None], -a[None], vals, False)
         if "extended_stress" in fields:
-            sx += ref_segments(kernel, tgt, X[i][None], -a[None], vals, True)
-        t += ref_points(kernel, tgt, (X[i] - a)[None], f[None])
+            sx += oracle_scatter_segments(kernel, tgt, X[i][None], -a[None], vals, True)
+        t += oracle_scatter_points(kernel, tgt, (X[i] - a)[None], f[None])
     sb, sw, sx = (x.reshape(P, D, D) for x in (sb, sw, sx))
     if snap.body_force is not None:
-        b = ref_points(kernel, tgt, pos, m[:, None] * np.asarray(snap.body_force)[flow])
+        b = oracle_scatter_points(kernel, tgt, pos, m[:, None] * np.asarray(snap.body_force)[flow])
     else:
         b = np.zeros((P, D))
     sign = -1.0 if convention == "compression" else 1.0
@@ -408,7 +455,7 @@ def ref_fields(snap, where, kernel_obj, fields, convention="tension"):
             "body_force_density": lambda: b,
             "stress": lambda: sign * (sk + sb + sw),
             "extended_stress": lambda: sign * (sk + sb + sx),
-            "volume_fraction": lambda: ref_points(kernel, tgt, pos, (
+            "volume_fraction": lambda: oracle_scatter_points(kernel, tgt, pos, (
                 (math.pi * np.asarray(snap.radii)[flow] ** 2) if D == 2 else
                 (4 / 3 * math.pi * np.asarray(snap.radii)[flow] ** 3))[:, None])[:, 0],
             "pressure": lambda: -np.trace(sk + sb + sw, axis1=1, axis2=2) / D,
