@@ -9,7 +9,6 @@ frame by frame (zlib, never a temporary file).
 Errors are ``ValueError`` naming the file (``name``), the frame (``frame``, e.g. "timestep 4500")
 and the 1-based line of the file, with the offending token or line quoted.
 """
-import mmap
 import os
 import zlib
 from typing import NamedTuple
@@ -44,6 +43,16 @@ def _line_of(data, offset):
     return 1 + sum(int(np.count_nonzero(view[i:i + block] == 10)) for i in range(0, offset, block))
 
 
+def _size(data):
+    """Bytes in data (bytes, bytearray, mmap, memoryview), or the TypeError the C binding would give."""
+    try:
+        with memoryview(data) as view:
+            return view.nbytes
+    except TypeError:
+        raise TypeError(f"data: expected bytes, bytearray, mmap or a contiguous memoryview, "
+                        f"got {type(data).__name__}") from None
+
+
 def _where(name, frame, line):
     return f"{name}{f' ({frame})' if frame else ''}, line {line}"
 
@@ -61,8 +70,7 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
 
     Returns a ``Table`` (values, ints).
     """
-    size = len(memoryview(data).cast("B")) if not isinstance(data, (bytes, bytearray, mmap.mmap)) else len(data)
-    stop = size if stop is None else stop
+    stop = _size(data) if stop is None else stop
     if ncols is None or isinstance(ncols, bool) or not isinstance(ncols, (int, np.integer)) or ncols < 1:
         raise ValueError(f"ncols: expected a positive number of columns, got {ncols!r}")
     ncols = int(ncols)
@@ -90,7 +98,10 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
         where = _where(name, frame, line_number(line))
         raw = memoryview(data)[start + offset:start + offset + length]
         if status == _ROW_LENGTH:
-            got = "no values (a blank line)" if length == 0 else f"{column} value{'' if column == 1 else 's'}" if column < ncols else "more values"
+            if length == 0:
+                got = "no values (a blank line)"
+            else:
+                got = f"{column} value{'' if column == 1 else 's'}" if column < ncols else "more values"
             raise ValueError(f"{where}: expected {ncols} values, found {got}: {_quote(raw)}")
         if status == _ROWS:
             raise ValueError(f"{where}: the table should end after {nrows} rows (the declared count), "
@@ -120,7 +131,7 @@ def find_lines(data, prefix, start=0, stop=None):
     """Byte offsets (from the start of data, int64) of the lines of data[start:stop] that begin with prefix."""
     if isinstance(prefix, str):
         prefix = prefix.encode()
-    stop = len(data) if stop is None else stop
+    stop = _size(data) if stop is None else stop
     return _core.text_find_lines(data, start, stop, prefix)
 
 
