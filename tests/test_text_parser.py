@@ -417,7 +417,7 @@ def double_batches(draw):
     return tokens
 
 
-@settings(max_examples=60, deadline=None, derandomize=True)
+@settings(max_examples=90, deadline=None, derandomize=True)  # 90 x 1200 = 108,000 tokens
 @given(double_batches())
 def test_fuzz_doubles_equal_python_float(tokens):
     # rows of 6 columns (the last row padded) so the row machinery runs too
@@ -441,7 +441,7 @@ def python_accepts(token):
         return False
 
 
-@settings(max_examples=40, deadline=None, derandomize=True)
+@settings(max_examples=40, deadline=None, derandomize=True)  # 12,000 tokens
 @given(st.lists(st.text(alphabet=JUNK, min_size=1, max_size=12), min_size=300, max_size=300))
 def test_fuzz_junk_tokens_agree_with_python_float(tokens):
     accepted, rejected = [], []
@@ -456,3 +456,13 @@ def test_fuzz_junk_tokens_agree_with_python_float(tokens):
     for t in rejected:
         with pytest.raises(ValueError, match="line 2, column 1: not a number"):
             _text.parse_table(f"1\n{t}\n".encode(), ncols=1)
+
+
+def test_fuzz_tool_mutated_dumps_and_doubles_agree_with_the_twin():
+    """tools/fuzz_text.py (mutated genuine frames + formatted doubles vs a Python twin), bounded."""
+    import subprocess
+    import sys
+    tool = pathlib.Path(__file__).parent.parent / "tools" / "fuzz_text.py"
+    run = subprocess.run([sys.executable, str(tool), "--cases", "150", "--seed", "0"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr + run.stdout
+    assert re.search(r"150 cases, \d+ tokens compared bit for bit, 0 failures", run.stdout)
