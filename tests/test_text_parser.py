@@ -466,3 +466,23 @@ def test_fuzz_tool_mutated_dumps_and_doubles_agree_with_the_twin():
     run = subprocess.run([sys.executable, str(tool), "--cases", "150", "--seed", "0"], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr + run.stdout
     assert re.search(r"150 cases, \d+ tokens compared bit for bit, 0 failures", run.stdout)
+
+
+def test_c_program_page_end_guard_and_valgrind(tmp_path):
+    """csrc/tests/test_text.c: every prefix of adversarial texts placed right before an inaccessible
+    page (a read past the range faults), built with -Wall -Wextra -Werror, run plain and under valgrind."""
+    import shutil
+    import subprocess
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if not cc:
+        pytest.skip("no C compiler")
+    root = pathlib.Path(__file__).parent.parent / "csrc"
+    exe = tmp_path / "test_text"
+    subprocess.run([cc, "-std=c11", "-Wall", "-Wextra", "-Werror", "-O2", "-g", str(root / "tests" / "test_text.c"),
+                    str(root / "cg_text.c"), str(root / "cg_status.c"), "-lm", "-o", str(exe)], check=True)
+    run = subprocess.run([str(exe)], capture_output=True, text=True)
+    assert run.returncode == 0 and "test_text: ok" in run.stdout, run.stderr
+    if shutil.which("valgrind"):
+        run = subprocess.run(["valgrind", "-q", "--error-exitcode=1", "--leak-check=full", str(exe)],
+                             capture_output=True, text=True)
+        assert run.returncode == 0 and "test_text: ok" in run.stdout, run.stderr
