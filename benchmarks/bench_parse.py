@@ -121,16 +121,13 @@ def frames_of(kind, mm):
             rows = a + sum(len(x) + 1 for x in head[:9])
             out.append((rows, b, ncols, n, (0, 1)))
         return out
-    if kind == "data":
+    if kind == "data":  # frames delimited only by the declared count: parsed to find the next one
         out, pos = [], 0
         while pos < size:
             end = mm.find(b"\n", pos)
             n = int(bytes(mm[pos:end]).split()[0])
-            stop = pos
-            for _ in range(n + 1):  # the header and n rows (a reader knows n from the header)
-                stop = mm.find(b"\n", stop) + 1 or size
-            out.append((end + 1, stop, 14, n, (13,)))
-            pos = stop
+            pos = _text.parse_table(mm, end + 1, size, 14, int_columns=(13,), nrows=n, stop_after_rows=True).end
+            out.append((end + 1, pos, 14, n, (13,)))
         return out
     # fstat: frames start at a '#' line after rows; the rows follow the 3 header lines
     heads = list(_text.find_lines(mm, b"#"))
@@ -146,6 +143,14 @@ def frames_of(kind, mm):
 def parse_cg_text(path, kind):
     with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
         total = 0
+        if kind == "data":  # the scan parses each frame already (as a reader would keep it)
+            pos, size = 0, len(mm)
+            while pos < size:
+                end = mm.find(b"\n", pos)
+                n = int(bytes(mm[pos:end]).split()[0])
+                table = _text.parse_table(mm, end + 1, size, 14, int_columns=(13,), nrows=n, stop_after_rows=True)
+                total, pos = total + len(table.values), table.end
+            return total
         for start, stop, ncols, n, ints in frames_of(kind, mm):
             total += len(_text.parse_table(mm, start, stop, ncols, int_columns=ints, nrows=n).values)
         return total

@@ -586,11 +586,11 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
     (void)self;
     text_buffer data = {0}, mask = {0};
     Py_ssize_t start, stop, ncols, max_rows;
-    int skip_blank;
+    int flags;
     PyArrayObject *values = NULL, *ints = NULL;
     PyObject *ret = NULL;
-    if (!PyArg_ParseTuple(args, "O&nnnO&np", convert_text_buffer, &data, &start, &stop, &ncols, convert_text_buffer,
-                          &mask, &max_rows, &skip_blank))
+    if (!PyArg_ParseTuple(args, "O&nnnO&ni", convert_text_buffer, &data, &start, &stop, &ncols, convert_text_buffer,
+                          &mask, &max_rows, &flags))
         return NULL;
     if (!check_text_range(&data, start, stop)) goto done;
     if (ncols < 1 || mask.view.len != ncols) {
@@ -619,14 +619,15 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
     cg_text_result res;
     cg_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = cg_text_parse_table(text, length, ncols, n_int ? is_int : NULL, skip_blank ? CG_TEXT_SKIP_BLANK : 0,
-                             max_rows, (double *)PyArray_DATA(values), (int64_t *)PyArray_DATA(ints), &res);
+    st = cg_text_parse_table(text, length, ncols, n_int ? is_int : NULL,
+                             flags & (CG_TEXT_SKIP_BLANK | CG_TEXT_STOP_AT_MAX_ROWS), max_rows, (double *)PyArray_DATA(values), (int64_t *)PyArray_DATA(ints), &res);
     Py_END_ALLOW_THREADS
     if (st == CG_ERR_ARGUMENT) {
         PyErr_SetString(PyExc_ValueError, cg_strerror(st));
         goto done;
     }
-    ret = Py_BuildValue("OOn(isLLLL)(LLLLL)", values, ints, (Py_ssize_t)res.nrows, (int)st, cg_strerror(st),
+    ret = Py_BuildValue("OOnn(isLLLL)(LLLLL)", values, ints, (Py_ssize_t)res.nrows, (Py_ssize_t)(start + res.end),
+                        (int)st, cg_strerror(st),
                         (long long)res.error.line, (long long)res.error.column, (long long)res.error.offset,
                         (long long)res.error.length, (long long)res.nonfinite, (long long)res.first_nonfinite.line,
                         (long long)res.first_nonfinite.column, (long long)res.first_nonfinite.offset,
@@ -675,8 +676,9 @@ done:
 
 #define CG_TEXT_METHODS                                                                                             \
     {"text_parse_table", py_text_parse_table, METH_VARARGS,                                                         \
-     "text_parse_table(data, start, stop, ncols, int_mask, max_rows, skip_blank) -> (values, ints, nrows, "         \
+     "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags) -> (values, ints, nrows, end, "         \
      "(status, message, line, column, offset, length), (nonfinite, line, column, offset, length))\n\n"             \
+     "flags: 1 skip blank lines, 2 stop after max_rows rows (end: offset in data where parsing stopped). "          \
      "Parse data[start:stop] as rows of ncols numbers (cg_text_parse_table); max_rows < 0: one per line at most. "  \
      "Errors are returned, not raised: cgbound.readers._text turns them into messages."},                           \
         {"text_find_lines", py_text_find_lines, METH_VARARGS,                                                       \

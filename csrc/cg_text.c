@@ -366,8 +366,10 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
         if (p < end) ++p;
         ++line;
         ++row;
+        if (row == max_rows && (flags & CG_TEXT_STOP_AT_MAX_ROWS)) break;
     }
     result->nrows = row;
+    result->end = (int64_t)(p - base);
     return CG_OK;
 }
 

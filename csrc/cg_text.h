@@ -53,6 +53,9 @@ extern "C" {
 
 /* flags of cg_text_parse_table */
 #define CG_TEXT_SKIP_BLANK 1 /* lines without tokens are skipped instead of being an error */
+#define CG_TEXT_STOP_AT_MAX_ROWS 2 /* stop (CG_OK) after max_rows rows instead of failing on more: for
+                                      frames delimited only by a declared count (MercuryDPM .data);
+                                      result->end says where the next frame starts */
 
 /* Where something is in the parsed range. */
 typedef struct cg_text_where {
@@ -68,6 +71,9 @@ typedef struct cg_text_where {
 
 typedef struct cg_text_result {
     int64_t nrows;            /* rows stored (all of them when the status is CG_OK) */
+    int64_t end;              /* byte offset (from the start of the range) where parsing stopped: the
+                                 length, or with CG_TEXT_STOP_AT_MAX_ROWS the start of the line after
+                                 the last row */
     cg_text_where error;      /* the first error, when the status is not CG_OK */
     int64_t nonfinite;        /* number of nan/inf values stored */
     cg_text_where first_nonfinite; /* the first of them (valid if nonfinite > 0) */

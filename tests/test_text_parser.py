@@ -486,3 +486,22 @@ def test_c_program_page_end_guard_and_valgrind(tmp_path):
         run = subprocess.run(["valgrind", "-q", "--error-exitcode=1", "--leak-check=full", str(exe)],
                              capture_output=True, text=True)
         assert run.returncode == 0 and "test_text: ok" in run.stdout, run.stderr
+
+
+def test_frames_delimited_by_declared_counts_stop_after_rows():
+    """MercuryDPM .data: a header with N, N rows, the next header; the table ends after N rows."""
+    text = b"2 0 -1 -1 1 1\n1 2\n3 4\n1 0.5 -1 -1 1 1\n5 6\n"
+    first = text.index(b"\n") + 1
+    table = _text.parse_table(text, first, ncols=2, nrows=2, stop_after_rows=True)
+    assert_bitwise(table.values, np.array([[1.0, 2.0], [3.0, 4.0]]))
+    assert text[table.end:].startswith(b"1 0.5")
+    second = text.index(b"\n", table.end) + 1
+    last = _text.parse_table(text, second, ncols=2, nrows=1, stop_after_rows=True)
+    assert last.end == len(text) and last.values.tolist() == [[5.0, 6.0]]
+    with pytest.raises(ValueError, match=r"^w\.data \(t = 0\.5\), line 5: expected 2 rows \(the declared count\), "
+                                         r"found 1: the table is truncated"):
+        _text.parse_table(text, second, ncols=2, nrows=2, stop_after_rows=True, name="w.data", frame="t = 0.5")
+    with pytest.raises(ValueError, match=r"line 4: expected 2 values, found more values: '1 0.5 -1 -1 1 1'"):
+        _text.parse_table(text, first, ncols=2, nrows=3, stop_after_rows=True)
+    with pytest.raises(ValueError, match="stop_after_rows: needs nrows"):
+        _text.parse_table(text, first, ncols=2, stop_after_rows=True)

@@ -24,10 +24,12 @@ _ROWS = 10
 
 class Table(NamedTuple):
     """A parsed table: ``values`` (rows, ncols) float64 with every column, ``ints`` (rows,
-    len(int_columns)) int64 with the integer columns in ``int_columns`` order."""
+    len(int_columns)) int64 with the integer columns in ``int_columns`` order, ``end`` the offset in
+    data where the table ended."""
 
     values: np.ndarray
     ints: np.ndarray
+    end: int  # offset in data where the table ended (stop, or with stop_after_rows the next line's start)
 
 
 def _quote(raw):
@@ -58,12 +60,14 @@ def _where(name, frame, line):
 
 
 def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=None, skip_blank=False,
-                allow_nonfinite=False, name="<data>", frame=None, first_line=None):
+                stop_after_rows=False, allow_nonfinite=False, name="<data>", frame=None, first_line=None):
     """Parse ``data[start:stop]`` as rows of exactly ``ncols`` whitespace-separated numbers.
 
     int_columns: column indices that must hold integers (exact int64; '1.0', 'nan' or values
     outside int64 are errors). nrows: the count the file declares; a different count of rows is
-    an error (None: as many as there are). skip_blank: blank lines are skipped instead of being an
+    an error (None: as many as there are). stop_after_rows: the table ends after ``nrows`` rows
+    (frames delimited only by a declared count, as in MercuryDPM .data files; ``Table.end`` is where
+    the next frame starts); fewer rows are still an error. skip_blank: blank lines are skipped instead of being an
     error. allow_nonfinite: nan/inf values are returned instead of being an error. name, frame:
     how the file and the frame are called in messages. first_line: the 1-based line number of
     ``start`` in the file, if the caller knows it (otherwise counted, on errors only).
@@ -85,9 +89,12 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
     if nrows is not None and (isinstance(nrows, bool) or not isinstance(nrows, (int, np.integer)) or nrows < 0):
         raise ValueError(f"nrows: expected a non-negative row count or None, got {nrows!r}")
     max_rows = -1 if nrows is None else int(nrows)
+    if stop_after_rows and nrows is None:
+        raise ValueError("stop_after_rows: needs nrows (the declared row count)")
+    flags = (1 if skip_blank else 0) | (2 if stop_after_rows else 0)
 
-    values, ints, found, error, nonfinite = _core.text_parse_table(data, start, stop, ncols, bytes(mask),
-                                                                    max_rows, bool(skip_blank))
+    values, ints, found, end, error, nonfinite = _core.text_parse_table(data, start, stop, ncols, bytes(mask),
+                                                                         max_rows, flags)
     status, message, line, column, offset, length = error
 
     def line_number(relative_line):
@@ -117,7 +124,7 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
                          f"{_quote(raw)} ({count} nan/inf values in the table); expected finite numbers")
     if found < len(values):
         values, ints = values[:found].copy(), ints[:found].copy()
-    return Table(values, ints)
+    return Table(values, ints, end)
 
 
 def _lines_in(data, start, stop):
