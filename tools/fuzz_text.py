@@ -23,8 +23,11 @@ from decimal import Decimal
 import numpy as np
 
 HERE = pathlib.Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
-from cgbound.readers import _text  # noqa: E402
+try:  # an installed (e.g. sanitizer) build first; else the checkout this script sits in
+    from cgbound.readers import _text
+except ImportError:
+    sys.path.insert(0, str(HERE.parent))
+    from cgbound.readers import _text
 
 DUMPS = sorted((HERE.parent / "tests" / "data").glob("*/**/*.dump"))
 NUMBER = re.compile(rb"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
