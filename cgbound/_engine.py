@@ -90,6 +90,16 @@ def wrap(positions, periodic, lower, upper):
     return _core.wrap(positions, periodic, lower, upper)
 
 
+def text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags):
+    """One pass of the C text parser over ``data[start:stop]`` (see csrc/cg_text.h and readers/_text.py)."""
+    return _core.text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags)
+
+
+def text_find_lines(data, start, stop, prefix):
+    """Byte offsets of the lines of ``data[start:stop]`` that start with ``prefix``."""
+    return _core.text_find_lines(data, start, stop, prefix)
+
+
 def have_openmp():
     """Whether the core was built with OpenMP threads."""
     return _core.have_openmp()

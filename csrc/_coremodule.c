@@ -628,6 +628,160 @@ static PyObject *py_wide_vectors(PyObject *self, PyObject *args)
     return PyBool_FromLong(cg_wide_vectors());
 }
 
+/* ================================================================== */
+/* text parsing (cg_text.h): owned by the text-parser work; one block,  */
+/* its entries in the method table come from CG_TEXT_METHODS below.     */
+/* ================================================================== */
+#include "cg_text.h"
+
+/* a held read-only contiguous buffer (bytes, bytearray, memoryview, mmap) */
+typedef struct text_buffer {
+    Py_buffer view;
+    int held;
+} text_buffer;
+
+static void release_text_buffer(text_buffer *b)
+{
+    if (b->held) PyBuffer_Release(&b->view);
+    b->held = 0;
+}
+
+/* O& converter (with cleanup): data -> text_buffer */
+static int convert_text_buffer(PyObject *obj, void *out)
+{
+    text_buffer *b = (text_buffer *)out;
+    if (!obj) { /* cleanup call after a later argument failed */
+        release_text_buffer(b);
+        return 1;
+    }
+    if (PyObject_GetBuffer(obj, &b->view, PyBUF_SIMPLE) < 0) {
+        PyErr_Format(PyExc_TypeError, "data: expected bytes, bytearray, mmap or a contiguous memoryview, got %.200s",
+                     Py_TYPE(obj)->tp_name);
+        return 0;
+    }
+    b->held = 1;
+    return Py_CLEANUP_SUPPORTED;
+}
+
+/* check 0 <= start <= stop <= len(data) */
+static int check_text_range(const text_buffer *b, Py_ssize_t start, Py_ssize_t stop)
+{
+    if (start < 0 || stop < start || stop > b->view.len) {
+        PyErr_Format(PyExc_ValueError, "start, stop: expected 0 <= start <= stop <= len(data) = %zd, got %zd, %zd",
+                     b->view.len, start, stop);
+        return 0;
+    }
+    return 1;
+}
+
+static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
+{
+    (void)self;
+    text_buffer data = {0}, mask = {0};
+    Py_ssize_t start, stop, ncols, max_rows;
+    int flags;
+    PyArrayObject *values = NULL, *ints = NULL;
+    PyObject *ret = NULL;
+    if (!PyArg_ParseTuple(args, "O&nnnO&ni", convert_text_buffer, &data, &start, &stop, &ncols, convert_text_buffer,
+                          &mask, &max_rows, &flags))
+        return NULL;
+    if (!check_text_range(&data, start, stop)) goto done;
+    if (ncols < 1 || mask.view.len != ncols) {
+        PyErr_Format(PyExc_ValueError, "ncols: expected a positive count equal to len(int_mask) = %zd, got %zd",
+                     mask.view.len, ncols);
+        goto done;
+    }
+    const char *text = (const char *)data.view.buf + start;
+    const size_t length = (size_t)(stop - start);
+    const unsigned char *is_int = (const unsigned char *)mask.view.buf;
+    npy_intp n_int = 0;
+    for (Py_ssize_t c = 0; c < ncols; ++c) n_int += is_int[c] != 0;
+    if (max_rows < 0) { /* unknown: at most one row per line */
+        Py_BEGIN_ALLOW_THREADS
+        max_rows = (Py_ssize_t)cg_text_count_lines(text, length);
+        Py_END_ALLOW_THREADS
+    }
+    if (max_rows > 0 && ncols > PY_SSIZE_T_MAX / (Py_ssize_t)sizeof(double) / max_rows) {
+        PyErr_Format(PyExc_MemoryError, "a table of %zd x %zd values does not fit in memory", max_rows, ncols);
+        goto done;
+    }
+    const npy_intp vshape[2] = {max_rows, ncols}, ishape[2] = {max_rows, n_int};
+    values = (PyArrayObject *)PyArray_SimpleNew(2, vshape, NPY_DOUBLE);
+    ints = (PyArrayObject *)PyArray_SimpleNew(2, ishape, NPY_INT64);
+    if (!values || !ints) goto done;
+    cg_text_result res;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_text_parse_table(text, length, ncols, n_int ? is_int : NULL,
+                             flags & (CG_TEXT_SKIP_BLANK | CG_TEXT_STOP_AT_MAX_ROWS), max_rows, (double *)PyArray_DATA(values), (int64_t *)PyArray_DATA(ints), &res);
+    Py_END_ALLOW_THREADS
+    if (st == CG_ERR_ARGUMENT) {
+        PyErr_SetString(PyExc_ValueError, cg_strerror(st));
+        goto done;
+    }
+    ret = Py_BuildValue("OOnn(isLLLL)(LLLLL)", values, ints, (Py_ssize_t)res.nrows, (Py_ssize_t)(start + res.end),
+                        (int)st, cg_strerror(st),
+                        (long long)res.error.line, (long long)res.error.column, (long long)res.error.offset,
+                        (long long)res.error.length, (long long)res.nonfinite, (long long)res.first_nonfinite.line,
+                        (long long)res.first_nonfinite.column, (long long)res.first_nonfinite.offset,
+                        (long long)res.first_nonfinite.length);
+done:
+    Py_XDECREF(values);
+    Py_XDECREF(ints);
+    release_text_buffer(&mask);
+    release_text_buffer(&data);
+    return ret;
+}
+
+static PyObject *py_text_find_lines(PyObject *self, PyObject *args)
+{
+    (void)self;
+    text_buffer data = {0}, prefix = {0};
+    Py_ssize_t start, stop;
+    PyArrayObject *offsets = NULL;
+    PyObject *ret = NULL;
+    if (!PyArg_ParseTuple(args, "O&nnO&", convert_text_buffer, &data, &start, &stop, convert_text_buffer, &prefix))
+        return NULL;
+    if (!check_text_range(&data, start, stop)) goto done;
+    const char *text = (const char *)data.view.buf + start;
+    const size_t length = (size_t)(stop - start);
+    int64_t count = 0;
+    for (npy_intp capacity = 1024;;) { /* usually one scan; a second one with the exact size if more lines match */
+        Py_XDECREF(offsets);
+        offsets = (PyArrayObject *)PyArray_SimpleNew(1, &capacity, NPY_INT64);
+        if (!offsets) goto done;
+        int64_t *out = (int64_t *)PyArray_DATA(offsets);
+        Py_BEGIN_ALLOW_THREADS
+        cg_text_find_lines(text, length, (const char *)prefix.view.buf, (size_t)prefix.view.len, out, capacity,
+                           &count);
+        for (int64_t i = 0; i < count && i < capacity; ++i) out[i] += start;
+        Py_END_ALLOW_THREADS
+        if (count <= capacity) break;
+        capacity = (npy_intp)count;
+    }
+    ret = PySequence_GetSlice((PyObject *)offsets, 0, (Py_ssize_t)count);
+done:
+    Py_XDECREF(offsets);
+    release_text_buffer(&prefix);
+    release_text_buffer(&data);
+    return ret;
+}
+
+#define CG_TEXT_METHODS                                                                                             \
+    {"text_parse_table", py_text_parse_table, METH_VARARGS,                                                         \
+     "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags) -> (values, ints, nrows, end, "         \
+     "(status, message, line, column, offset, length), (nonfinite, line, column, offset, length))\n\n"             \
+     "flags: 1 skip blank lines, 2 stop after max_rows rows (end: offset in data where parsing stopped). "          \
+     "Parse data[start:stop] as rows of ncols numbers (cg_text_parse_table); max_rows < 0: one per line at most. "  \
+     "Errors are returned, not raised: cgbound.readers._text turns them into messages."},                           \
+        {"text_find_lines", py_text_find_lines, METH_VARARGS,                                                       \
+         "text_find_lines(data, start, stop, prefix) -> int64 offsets (from the start of data) of the lines of "    \
+         "data[start:stop] that start with prefix."},
+
+/* ================================================================== */
+/* end of the text-parsing block                                        */
+/* ================================================================== */
+
 static PyMethodDef methods[] = {
     {"scatter_points", (PyCFunction)(void (*)(void))py_scatter_points, METH_VARARGS | METH_KEYWORDS,
      "scatter_points(target, kernel, positions, values, gradient=False, n_threads=0) -> (P, K) or (P, K, D_res)\n\n"
@@ -649,6 +803,7 @@ static PyMethodDef methods[] = {
     {"wide_vectors", py_wide_vectors, METH_NOARGS, "Internal: whether the Gaussian on grids runs its AVX-512 build."},
     {"default_threads", default_threads, METH_NOARGS,
      "Threads a call with n_threads=0 may use (omp_get_max_threads(); 1 without OpenMP)."},
+    CG_TEXT_METHODS
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_core",

@@ -53,7 +53,13 @@ typedef enum cg_status {
     CG_ERR_NOMEM = 2,        /* an internal allocation failed */
     CG_ERR_DIVERGENT = 3,    /* a ray never leaves the target: its integral is infinite */
     CG_ERR_UNSUPPORTED = 4,  /* e.g. a gradient of a kernel/marginal that has none */
-    CG_ERR_INTERRUPTED = 5   /* *interrupt became non-zero during the work */
+    CG_ERR_INTERRUPTED = 5,  /* *interrupt became non-zero during the work */
+    /* text parsing (cg_text.h); the position is in cg_text_result */
+    CG_ERR_TEXT_NUMBER = 6,     /* a token is not a number */
+    CG_ERR_TEXT_INTEGER = 7,    /* a number in an integer column is not an integer */
+    CG_ERR_TEXT_OVERFLOW = 8,   /* an integer outside the int64 range */
+    CG_ERR_TEXT_ROW_LENGTH = 9, /* a line with more or fewer values than the table's columns */
+    CG_ERR_TEXT_ROWS = 10       /* more rows than the caller expected */
 } cg_status;
 
 /* A static message for a status code (never NULL). */

@@ -17,6 +17,11 @@ const char *cg_strerror(cg_status status)
     case CG_ERR_UNSUPPORTED: return "gradients are only available for the Gaussian kernel and for "
                                     "full-dimensional Lucy or Heaviside kernels";
     case CG_ERR_INTERRUPTED: return "interrupted";
+    case CG_ERR_TEXT_NUMBER: return "not a number";
+    case CG_ERR_TEXT_INTEGER: return "not an integer (an integer column)";
+    case CG_ERR_TEXT_OVERFLOW: return "integer out of the 64-bit range";
+    case CG_ERR_TEXT_ROW_LENGTH: return "wrong number of values on the line";
+    case CG_ERR_TEXT_ROWS: return "more rows than expected";
     default: return "unknown error";
     }
 }

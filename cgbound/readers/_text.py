@@ -1,0 +1,215 @@
+"""Numeric text tables at disk speed: the Python face of the C text layer (csrc/cg_text.h).
+
+``parse_table`` turns a byte range of a dump (bytes, bytearray, mmap or memoryview; nothing is
+copied) into a float64 table, and the integer columns also into an int64 table, in one C pass
+with the GIL released. ``find_lines`` returns the offsets of the lines that start with a prefix
+(``b"ITEM: TIMESTEP"``), for lazy frame access. ``iter_frames`` streams a plain or gzipped file
+frame by frame (zlib, never a temporary file).
+
+Errors are ``ValueError`` naming the file (``name``), the frame (``frame``, e.g. "timestep 4500")
+and the 1-based line of the file, with the offending token or line quoted.
+"""
+import os
+import zlib
+from typing import NamedTuple
+
+import numpy as np
+
+from .. import _engine
+
+# the C status codes of the text layer (cg.h); the messages come from cg_strerror
+_ROW_LENGTH = 9
+_ROWS = 10
+
+
+class Table(NamedTuple):
+    """A parsed table: ``values`` (rows, ncols) float64 with every column, ``ints`` (rows,
+    len(int_columns)) int64 with the integer columns in ``int_columns`` order, ``end`` the offset in
+    data where the table ended."""
+
+    values: np.ndarray
+    ints: np.ndarray
+    end: int  # offset in data where the table ended (stop, or with stop_after_rows the next line's start)
+
+
+def _quote(raw):
+    """A token or line for a message: its bytes shown as Python would, clipped."""
+    text = bytes(raw).decode("utf-8", errors="backslashreplace")
+    return repr(text if len(text) <= 80 else text[:77] + "...")
+
+
+def _line_of(data, offset):
+    """1-based line number of byte ``offset`` of ``data`` (newlines before it, counted in blocks)."""
+    view = np.frombuffer(data, dtype=np.uint8, count=offset) if offset else np.zeros(0, np.uint8)
+    block = 1 << 24
+    return 1 + sum(int(np.count_nonzero(view[i:i + block] == 10)) for i in range(0, offset, block))
+
+
+def _size(data):
+    """Bytes in data (bytes, bytearray, mmap, memoryview), or the TypeError the C binding would give."""
+    try:
+        with memoryview(data) as view:
+            return view.nbytes
+    except TypeError:
+        raise TypeError(f"data: expected bytes, bytearray, mmap or a contiguous memoryview, "
+                        f"got {type(data).__name__}") from None
+
+
+def _where(name, frame, line):
+    return f"{name}{f' ({frame})' if frame else ''}, line {line}"
+
+
+def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=None, skip_blank=False,
+                stop_after_rows=False, allow_nonfinite=False, name="<data>", frame=None, first_line=None):
+    """Parse ``data[start:stop]`` as rows of exactly ``ncols`` whitespace-separated numbers.
+
+    int_columns: column indices that must hold integers (exact int64; '1.0', 'nan' or values
+    outside int64 are errors). nrows: the count the file declares; a different count of rows is
+    an error (None: as many as there are). stop_after_rows: the table ends after ``nrows`` rows
+    (frames delimited only by a declared count, as in MercuryDPM .data files; ``Table.end`` is where
+    the next frame starts); fewer rows are still an error. skip_blank: blank lines are skipped instead of being an
+    error. allow_nonfinite: nan/inf values are returned instead of being an error. name, frame:
+    how the file and the frame are called in messages. first_line: the 1-based line number of
+    ``start`` in the file, if the caller knows it (otherwise counted, on errors only).
+
+    Returns a ``Table`` (values, ints).
+    """
+    stop = _size(data) if stop is None else stop
+    if ncols is None or isinstance(ncols, bool) or not isinstance(ncols, (int, np.integer)) or ncols < 1:
+        raise ValueError(f"ncols: expected a positive number of columns, got {ncols!r}")
+    ncols = int(ncols)
+    mask = bytearray(ncols)
+    for c in int_columns:
+        if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or not 0 <= c < ncols:
+            raise ValueError(f"int_columns: expected column indices in [0, {ncols}), got {c!r}")
+        mask[int(c)] = 1
+    order = sorted({int(c) for c in int_columns})
+    if list(int_columns) != order:
+        raise ValueError(f"int_columns: expected increasing distinct column indices, got {tuple(int_columns)!r}")
+    if nrows is not None and (isinstance(nrows, bool) or not isinstance(nrows, (int, np.integer)) or nrows < 0):
+        raise ValueError(f"nrows: expected a non-negative row count or None, got {nrows!r}")
+    max_rows = -1 if nrows is None else int(nrows)
+    if stop_after_rows and nrows is None:
+        raise ValueError("stop_after_rows: needs nrows (the declared row count)")
+    flags = (1 if skip_blank else 0) | (2 if stop_after_rows else 0)
+
+    values, ints, found, end, error, nonfinite = _engine.text_parse_table(data, start, stop, ncols, bytes(mask),
+                                                                           max_rows, flags)
+    status, message, line, column, offset, length = error
+
+    def line_number(relative_line):
+        base = first_line if first_line is not None else _line_of(data, start)
+        return base + relative_line
+
+    if status:
+        where = _where(name, frame, line_number(line))
+        raw = memoryview(data)[start + offset:start + offset + length]
+        if status == _ROW_LENGTH:
+            if length == 0:
+                got = "no values (a blank line)"
+            else:
+                got = f"{column} value{'' if column == 1 else 's'}" if column < ncols else "more values"
+            raise ValueError(f"{where}: expected {ncols} values, found {got}: {_quote(raw)}")
+        if status == _ROWS:
+            raise ValueError(f"{where}: the table should end after {nrows} rows (the declared count), "
+                             f"but it continues: {_quote(raw)}")
+        raise ValueError(f"{where}, column {column + 1}: {message}: {_quote(raw)}")
+    if nrows is not None and found != nrows:
+        raise ValueError(f"{_where(name, frame, line_number(_lines_in(data, start, stop)))}: expected "
+                         f"{nrows} rows (the declared count), found {found}: the table is truncated")
+    count, line, column, offset, length = nonfinite
+    if count and not allow_nonfinite:
+        raw = memoryview(data)[start + offset:start + offset + length]
+        raise ValueError(f"{_where(name, frame, line_number(line))}, column {column + 1}: non-finite value "
+                         f"{_quote(raw)} ({count} nan/inf values in the table); expected finite numbers")
+    if found < len(values):
+        values, ints = values[:found].copy(), ints[:found].copy()
+    return Table(values, ints, end)
+
+
+def _lines_in(data, start, stop):
+    """Index (0-based, from start) of the last line of data[start:stop]."""
+    view = np.frombuffer(data, dtype=np.uint8, count=stop - start, offset=start)
+    n = int(np.count_nonzero(view == 10))
+    return max(n - 1, 0) if len(view) and view[-1] == 10 else n
+
+
+def find_lines(data, prefix, start=0, stop=None):
+    """Byte offsets (from the start of data, int64) of the lines of data[start:stop] that begin with prefix."""
+    if isinstance(prefix, str):
+        prefix = prefix.encode()
+    stop = _size(data) if stop is None else stop
+    return _engine.text_find_lines(data, start, stop, prefix)
+
+
+def _is_gzip(path):
+    with open(path, "rb") as f:
+        return f.read(2) == b"\x1f\x8b"
+
+
+def iter_chunks(path, chunk_size=1 << 22):
+    """The bytes of the file, decompressed as a stream if it is gzip (by its magic number), in chunks."""
+    if not _is_gzip(path):
+        with open(path, "rb") as f:
+            while chunk := f.read(chunk_size):
+                yield chunk
+        return
+    with open(path, "rb") as f:
+        inflate = zlib.decompressobj(wbits=47)
+        in_member = False
+        try:
+            while raw := f.read(chunk_size):
+                data = raw
+                while data:
+                    in_member = True
+                    out = inflate.decompress(data, chunk_size)  # bounded output: one chunk at a time
+                    if out:
+                        yield out
+                    if inflate.eof:  # a member ended; another may follow (concatenated gzip files)
+                        data = inflate.unused_data
+                        inflate = zlib.decompressobj(wbits=47)
+                        in_member = False
+                    else:
+                        data = inflate.unconsumed_tail
+            if in_member:
+                out = inflate.flush()
+                if out:
+                    yield out
+        except zlib.error as exc:
+            raise ValueError(f"{os.fspath(path)}: damaged gzip data ({exc})") from None
+        if in_member and not inflate.eof:
+            raise ValueError(f"{os.fspath(path)}: the gzip data ends early (a truncated file)")
+
+
+def iter_frames(path, prefix, chunk_size=1 << 22):
+    """Stream a plain or gzipped file as frames: yields (frame bytes, 1-based line of its first line).
+
+    A frame runs from a line starting with ``prefix`` to the next one (or the end). Text before the
+    first such line is yielded as its own piece if there is any. Memory: one frame plus one chunk.
+    """
+    if isinstance(prefix, str):
+        prefix = prefix.encode()
+    buf = bytearray()
+    scan_from = 0  # a line start up to which buf has been searched
+    starts = []  # frame starts found in buf
+    line = 1
+    for chunk in iter_chunks(path, chunk_size):
+        buf += chunk
+        found = find_lines(buf, prefix, scan_from, len(buf))
+        starts.extend(int(s) for s in found if not starts or s != starts[-1])
+        last_newline = buf.rfind(b"\n", scan_from)
+        if last_newline >= 0:
+            scan_from = last_newline + 1
+        # emit every frame that the next frame start closes
+        if len(starts) >= 2 or (starts and starts[0] > 0):
+            bounds = ([0] if starts[0] > 0 else []) + starts
+            for a, b in zip(bounds[:-1], bounds[1:]):
+                frame = bytes(buf[a:b])
+                yield frame, line
+                line += frame.count(b"\n")
+            cut = bounds[-1]
+            del buf[:cut]
+            scan_from -= cut
+            starts = [0]
+    if buf:
+        yield bytes(buf), line

@@ -1,0 +1,428 @@
+/* cg_text.c -- one-pass numeric tables from text, and the frame scan (cg_text.h). */
+#include "cg_text.h"
+
+#include <float.h>
+#include <locale.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cg_text_pow10.h"
+
+/* byte classes: token byte, separator, line end */
+enum { TOKEN = 0, SPACE = 1, NEWLINE = 2 };
+static const unsigned char byte_class[256] = {
+    ['\t'] = SPACE, ['\n'] = NEWLINE, ['\v'] = SPACE, ['\f'] = SPACE, ['\r'] = SPACE, [' '] = SPACE,
+};
+
+static inline int is_digit(unsigned char c) { return (unsigned)(c - '0') < 10u; }
+
+static inline unsigned char lower(unsigned char c) { return (c >= 'A' && c <= 'Z') ? (unsigned char)(c + 32) : c; }
+
+/* whether [p, end) equals the lower-case word w, ignoring letter case */
+static int equals_word(const unsigned char *p, const unsigned char *end, const char *w)
+{
+    size_t n = strlen(w);
+    if ((size_t)(end - p) != n) return 0;
+    for (size_t i = 0; i < n; ++i)
+        if (lower(p[i]) != (unsigned char)w[i]) return 0;
+    return 1;
+}
+
+/* nan/inf spellings after the sign; 1 = nan, 2 = inf, 0 = none */
+static int special_value(const unsigned char *p, const unsigned char *end)
+{
+    if (equals_word(p, end, "nan")) return 1;
+    if (equals_word(p, end, "inf") || equals_word(p, end, "infinity")) return 2;
+    /* MSVC: 1.#INF, 1.#IND, 1.#QNAN, 1.#SNAN, optionally followed by zeros (printf("%f")) */
+    if (end - p >= 6 && p[0] == '1' && p[1] == '.' && p[2] == '#') {
+        const unsigned char *q = end;
+        while (q > p + 3 && q[-1] == '0') --q;
+        if (equals_word(p + 3, q, "inf")) return 2;
+        if (equals_word(p + 3, q, "ind") || equals_word(p + 3, q, "qnan") || equals_word(p + 3, q, "snan")) return 1;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ */
+/* decimal -> double                                                    */
+
+/* high and low 64 bits of a * b */
+static inline uint64_t mul128(uint64_t a, uint64_t b, uint64_t *lo)
+{
+#if defined(__SIZEOF_INT128__)
+    __extension__ typedef unsigned __int128 u128;
+    u128 p = (u128)a * b;
+    *lo = (uint64_t)p;
+    return (uint64_t)(p >> 64);
+#else
+    uint64_t a0 = (uint32_t)a, a1 = a >> 32, b0 = (uint32_t)b, b1 = b >> 32;
+    uint64_t p00 = a0 * b0, p01 = a0 * b1, p10 = a1 * b0, p11 = a1 * b1;
+    uint64_t mid = (p00 >> 32) + (uint32_t)p01 + (uint32_t)p10;
+    *lo = (mid << 32) | (uint32_t)p00;
+    return p11 + (p01 >> 32) + (p10 >> 32) + (mid >> 32);
+#endif
+}
+
+static inline int leading_zeros(uint64_t x)
+{
+#if defined(__GNUC__) || defined(__clang__)
+    return __builtin_clzll(x);
+#else
+    int n = 0;
+    while (!(x & 0x8000000000000000ULL)) { x <<= 1; ++n; }
+    return n;
+#endif
+}
+
+/*
+ * Eisel-Lemire: man * 10^exp10 (man != 0, exp10 in the table's range) to the
+ * nearest double, or 0 when the 128-bit product cannot decide the rounding
+ * (near halfway, subnormal or overflowing results); the caller then takes the
+ * exact path. This is the formulation of Go's strconv (eisel_lemire.go), with
+ * the table rounded down.
+ */
+static int eisel_lemire(uint64_t man, int exp10, int neg, double *out)
+{
+    const uint64_t *pow = cg_pow10_128[exp10 - CG_POW10_MIN_EXP10];
+    int clz = leading_zeros(man);
+    man <<= clz;
+    uint64_t ret_exp2 = (uint64_t)(((217706 * exp10) >> 16) + 64 + 1023) - (uint64_t)clz;
+    uint64_t x_lo, x_hi = mul128(man, pow[1], &x_lo);
+    if ((x_hi & 0x1FF) == 0x1FF && x_lo + man < man) {
+        /* the low bits might carry: widen with the next 64 bits of the power */
+        uint64_t y_lo, y_hi = mul128(man, pow[0], &y_lo);
+        uint64_t merged_hi = x_hi, merged_lo = x_lo + y_hi;
+        if (merged_lo < x_lo) ++merged_hi;
+        if ((merged_hi & 0x1FF) == 0x1FF && merged_lo + 1 == 0 && y_lo + man < man) return 0;
+        x_hi = merged_hi;
+        x_lo = merged_lo;
+    }
+    uint64_t msb = x_hi >> 63;
+    uint64_t ret_man = x_hi >> (msb + 9);
+    ret_exp2 -= 1 ^ msb;
+    if (x_lo == 0 && (x_hi & 0x1FF) == 0 && (ret_man & 3) == 1) return 0; /* halfway: ambiguous */
+    ret_man += ret_man & 1;
+    ret_man >>= 1;
+    if (ret_man >> 53) {
+        ret_man >>= 1;
+        ret_exp2 += 1;
+    }
+    if (ret_exp2 - 1 >= 0x7FF - 1) return 0; /* subnormal, zero or overflow */
+    uint64_t bits = ret_exp2 << 52 | (ret_man & 0x000FFFFFFFFFFFFFULL);
+    if (neg) bits |= 0x8000000000000000ULL;
+    memcpy(out, &bits, sizeof bits);
+    return 1;
+}
+
+/* exact powers of ten for Clinger's fast path */
+static const double exact_pow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                       1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+
+/*
+ * The exact path: strtod on a NUL-terminated copy of the (already validated)
+ * token. strtod follows LC_NUMERIC, so if the process runs in a locale whose
+ * decimal point is not '.', the '.' of the copy is replaced by it.
+ */
+static double exact_strtod(const unsigned char *tok, size_t n)
+{
+    char small[128];
+    char *copy = n < sizeof small ? small : (char *)malloc(n + 1);
+    if (!copy) return NAN; /* unreachable in practice: tokens this long are a malformed file anyway */
+    memcpy(copy, tok, n);
+    copy[n] = '\0';
+    char *endp;
+    double v = strtod(copy, &endp);
+    if (endp != copy + n) {
+        const char *point = localeconv()->decimal_point;
+        char *dot = memchr(copy, '.', n);
+        if (dot && point && point[0] && !point[1]) {
+            *dot = point[0];
+            v = strtod(copy, &endp);
+        }
+    }
+    if (copy != small) free(copy);
+    return v;
+}
+
+/* Parse [tok, end) as a float; returns CG_OK or CG_ERR_TEXT_NUMBER. *special: 0 finite, 1 nan/inf. */
+static cg_status parse_double(const unsigned char *tok, const unsigned char *end, double *value, int *special)
+{
+    const unsigned char *p = tok;
+    int neg = 0;
+    *special = 0;
+    if (p < end && (*p == '+' || *p == '-')) {
+        neg = *p == '-';
+        ++p;
+    }
+    if (p == end) return CG_ERR_TEXT_NUMBER;
+    if ((!is_digit(*p) && *p != '.') || (end - p >= 3 && p[1] == '.' && p[2] == '#')) {
+        int s = special_value(p, end);
+        if (!s) return CG_ERR_TEXT_NUMBER;
+        *special = 1;
+        *value = copysign(s == 1 ? NAN : INFINITY, neg ? -1.0 : 1.0);
+        return CG_OK;
+    }
+    uint64_t man = 0;
+    int ndigits = 0, any = 0, dropped = 0;
+    int64_t exp10 = 0;
+    for (; p < end && is_digit(*p); ++p) {
+        unsigned d = *p - '0';
+        any = 1;
+        if (man == 0 && d == 0) continue;
+        if (ndigits < 19) {
+            man = man * 10 + d;
+            ++ndigits;
+        } else {
+            ++exp10;
+            dropped |= d != 0;
+        }
+    }
+    if (p < end && *p == '.') {
+        for (++p; p < end && is_digit(*p); ++p) {
+            unsigned d = *p - '0';
+            any = 1;
+            if (man == 0 && d == 0) {
+                --exp10;
+                continue;
+            }
+            if (ndigits < 19) {
+                man = man * 10 + d;
+                ++ndigits;
+                --exp10;
+            } else {
+                dropped |= d != 0;
+            }
+        }
+    }
+    if (!any) return CG_ERR_TEXT_NUMBER;
+    if (p < end && (*p == 'e' || *p == 'E')) {
+        ++p;
+        int eneg = 0;
+        if (p < end && (*p == '+' || *p == '-')) {
+            eneg = *p == '-';
+            ++p;
+        }
+        if (p == end || !is_digit(*p)) return CG_ERR_TEXT_NUMBER;
+        int64_t e = 0;
+        for (; p < end && is_digit(*p); ++p)
+            if (e < 100000000) e = e * 10 + (*p - '0'); /* beyond this the value is 0 or inf anyway */
+        exp10 += eneg ? -e : e;
+    }
+    if (p != end) return CG_ERR_TEXT_NUMBER;
+    if (man == 0) {
+        *value = neg ? -0.0 : 0.0;
+        return CG_OK;
+    }
+    if (!dropped) {
+#if FLT_EVAL_METHOD == 0
+        /* Clinger: both operands exact, so one correctly rounded operation */
+        if (man <= (1ULL << 53) && exp10 >= -22 && exp10 <= 22) {
+            double v = (double)man;
+            v = exp10 >= 0 ? v * exact_pow10[exp10] : v / exact_pow10[-exp10];
+            *value = neg ? -v : v;
+            return CG_OK;
+        }
+#endif
+        if (exp10 >= CG_POW10_MIN_EXP10 && exp10 <= CG_POW10_MAX_EXP10 &&
+            eisel_lemire(man, (int)exp10, neg, value))
+            return CG_OK;
+    }
+    *value = exact_strtod(tok, (size_t)(end - tok));
+    if (!isfinite(*value)) *special = 1; /* overflow to inf */
+    return CG_OK;
+}
+
+cg_status cg_text_parse_double(const char *token, size_t length, double *value)
+{
+    if (!token || !value) return CG_ERR_ARGUMENT;
+    int special;
+    return parse_double((const unsigned char *)token, (const unsigned char *)token + length, value, &special);
+}
+
+/* [+-]?digits into int64; CG_ERR_TEXT_INTEGER if not of that form, CG_ERR_TEXT_OVERFLOW if too large */
+static cg_status parse_int(const unsigned char *p, const unsigned char *end, int64_t *value)
+{
+    int neg = 0;
+    if (p < end && (*p == '+' || *p == '-')) {
+        neg = *p == '-';
+        ++p;
+    }
+    if (p == end) return CG_ERR_TEXT_INTEGER;
+    const uint64_t limit = neg ? (uint64_t)INT64_MAX + 1 : (uint64_t)INT64_MAX;
+    uint64_t v = 0;
+    int overflow = 0;
+    for (; p < end; ++p) {
+        if (!is_digit(*p)) return CG_ERR_TEXT_INTEGER;
+        unsigned d = *p - '0';
+        if (v > (limit - d) / 10) overflow = 1; /* keep scanning: a later non-digit is the worse error */
+        else v = v * 10 + d;
+    }
+    if (overflow) return CG_ERR_TEXT_OVERFLOW;
+    *value = neg ? (int64_t)(0 - v) : (int64_t)v;
+    return CG_OK;
+}
+
+/* ------------------------------------------------------------------ */
+
+static void set_where(cg_text_where *w, int64_t line, int64_t column, const unsigned char *at, size_t length,
+                      const unsigned char *base)
+{
+    w->line = line;
+    w->column = column;
+    w->offset = (int64_t)(at - base);
+    w->length = (int64_t)length;
+}
+
+/* end of the line that contains p (the '\n' or the end of the range) */
+static const unsigned char *line_end(const unsigned char *p, const unsigned char *end)
+{
+    const unsigned char *nl = memchr(p, '\n', (size_t)(end - p));
+    return nl ? nl : end;
+}
+
+/* the line from start without its trailing separators (so a CR is not quoted) */
+static size_t line_length(const unsigned char *start, const unsigned char *end)
+{
+    const unsigned char *e = line_end(start, end);
+    while (e > start && byte_class[e[-1]] == SPACE) --e;
+    return (size_t)(e - start);
+}
+
+cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, const unsigned char *int_columns,
+                              int flags, int64_t max_rows, double *values, int64_t *ints, cg_text_result *result)
+{
+    if (!result) return CG_ERR_ARGUMENT;
+    memset(result, 0, sizeof *result);
+    if ((!text && length) || ncols < 1 || max_rows < 0 || (!values && max_rows > 0)) return CG_ERR_ARGUMENT;
+    int64_t n_int = 0;
+    if (int_columns)
+        for (int64_t c = 0; c < ncols; ++c) n_int += int_columns[c] != 0;
+    if (n_int && !ints && max_rows > 0) return CG_ERR_ARGUMENT;
+
+    const unsigned char *base = (const unsigned char *)text, *p = base, *end = base + length;
+    int64_t line = 0, row = 0;
+    while (p < end) {
+        const unsigned char *line_start = p;
+        while (p < end && byte_class[*p] == SPACE) ++p;
+        if (p == end || *p == '\n') { /* a line without tokens (p == end: separators after the last line end) */
+            if (!(flags & CG_TEXT_SKIP_BLANK)) {
+                set_where(&result->error, line, 0, line_start, line_length(line_start, end), base);
+                result->nrows = row;
+                return CG_ERR_TEXT_ROW_LENGTH;
+            }
+            if (p < end) ++p;
+            ++line;
+            continue;
+        }
+        if (row == max_rows) {
+            set_where(&result->error, line, 0, line_start, line_length(line_start, end), base);
+            result->nrows = row;
+            return CG_ERR_TEXT_ROWS;
+        }
+        double *vrow = values + row * ncols;
+        int64_t *irow = n_int ? ints + row * n_int : NULL;
+        for (int64_t c = 0; c < ncols; ++c) {
+            if (c > 0)
+                while (p < end && byte_class[*p] == SPACE) ++p;
+            if (p == end || *p == '\n') { /* too few tokens */
+                set_where(&result->error, line, c, line_start, line_length(line_start, end), base);
+                result->nrows = row;
+                return CG_ERR_TEXT_ROW_LENGTH;
+            }
+            const unsigned char *tok = p;
+            while (p < end && byte_class[*p] == TOKEN) ++p;
+            cg_status st;
+            if (int_columns && int_columns[c]) {
+                int64_t iv = 0;
+                st = parse_int(tok, p, &iv);
+                if (st == CG_ERR_TEXT_INTEGER) {
+                    double dv;
+                    int special;
+                    if (parse_double(tok, p, &dv, &special) != CG_OK) st = CG_ERR_TEXT_NUMBER;
+                }
+                if (st == CG_OK) {
+                    *irow++ = iv;
+                    vrow[c] = (double)iv;
+                }
+            } else {
+                int special;
+                st = parse_double(tok, p, &vrow[c], &special);
+                if (st == CG_OK && special && result->nonfinite++ == 0)
+                    set_where(&result->first_nonfinite, line, c, tok, (size_t)(p - tok), base);
+            }
+            if (st != CG_OK) {
+                set_where(&result->error, line, c, tok, (size_t)(p - tok), base);
+                result->nrows = row;
+                return st;
+            }
+        }
+        while (p < end && byte_class[*p] == SPACE) ++p;
+        if (p < end && *p != '\n') { /* too many tokens */
+            set_where(&result->error, line, ncols, line_start, line_length(line_start, end), base);
+            result->nrows = row;
+            return CG_ERR_TEXT_ROW_LENGTH;
+        }
+        if (p < end) ++p;
+        ++line;
+        ++row;
+        if (row == max_rows && (flags & CG_TEXT_STOP_AT_MAX_ROWS)) break;
+    }
+    result->nrows = row;
+    result->end = (int64_t)(p - base);
+    return CG_OK;
+}
+
+int64_t cg_text_count_lines(const char *text, size_t length)
+{
+    if (!text || !length) return 0;
+    int64_t n = 0;
+    const char *p = text, *end = text + length;
+    while (p < end) {
+        const char *nl = memchr(p, '\n', (size_t)(end - p));
+        if (!nl) return n + 1;
+        ++n;
+        p = nl + 1;
+    }
+    return n;
+}
+
+cg_status cg_text_find_lines(const char *text, size_t length, const char *prefix, size_t prefix_length,
+                             int64_t *offsets, int64_t capacity, int64_t *count)
+{
+    if (!count || capacity < 0 || (capacity > 0 && !offsets) || (!text && length) || (!prefix && prefix_length))
+        return CG_ERR_ARGUMENT;
+    int64_t n = 0;
+    const char *p = text, *end = text + length;
+    if (prefix_length == 0) {
+        /* every line start */
+        while (p < end) {
+            if (n < capacity) offsets[n] = p - text;
+            ++n;
+            const char *nl = memchr(p, '\n', (size_t)(end - p));
+            if (!nl) break;
+            p = nl + 1;
+        }
+        *count = n;
+        return CG_OK;
+    }
+    /* jump between occurrences of the prefix's first byte (rare in numeric
+       rows for the prefixes we use: 'I' of ITEM:, '#'), keep those at a line start */
+    const char first = prefix[0];
+    while (p < end) {
+        const char *hit = memchr(p, first, (size_t)(end - p));
+        if (!hit) break;
+        if ((hit == text || hit[-1] == '\n') && (size_t)(end - hit) >= prefix_length &&
+            memcmp(hit, prefix, prefix_length) == 0) {
+            if (n < capacity) offsets[n] = hit - text;
+            ++n;
+            const char *nl = memchr(hit, '\n', (size_t)(end - hit));
+            if (!nl) break;
+            p = nl + 1;
+        } else {
+            p = hit + 1;
+        }
+    }
+    *count = n;
+    return CG_OK;
+}

@@ -1,0 +1,67 @@
+/* test_text.c -- cg_text.h without Python: text that ends exactly at a page followed by an
+ * inaccessible page (any read past the range faults), every prefix of each text, and a few
+ * exact values. Run by tests/test_text_parser.py (also under valgrind). */
+#define _DEFAULT_SOURCE
+#include <stdio.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include "../cg_text.h"
+
+static int failures = 0;
+#define CHECK(c)                                                              \
+    do {                                                                      \
+        if (!(c)) {                                                           \
+            fprintf(stderr, "%s:%d: check failed: %s\n", __FILE__, __LINE__, #c); \
+            ++failures;                                                       \
+        }                                                                     \
+    } while (0)
+
+int main(void)
+{
+    const long page = sysconf(_SC_PAGESIZE);
+    char *map = mmap(NULL, 2 * (size_t)page, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (map == MAP_FAILED) return 2;
+    if (mprotect(map + page, (size_t)page, PROT_NONE) != 0) return 2;
+    const char *texts[] = {"1 2\n3 4",   "1 2\r\n3 4\r", "1 2\n3",     "1 2\n3 4 5", "1 2\n3 nan",  "1 2\n3 -1.#INF00",
+                           "1 2\n3 1e",  "1 2\n3 1e+", "1 2\n3 inf", "1 2\n\t ",  "1 2\n3 1.",  "1 2\n3 " ,
+                           "1 2\n3 +",   "1 2\n3 x",   "1 2\n3 12345678901234567890123", "1 2\n3 1.#"};
+    double values[16];
+    int64_t ints[16], offsets[8], count;
+    const unsigned char int_cols[2] = {1, 0};
+    for (size_t t = 0; t < sizeof texts / sizeof *texts; ++t) {
+        const size_t n = strlen(texts[t]);
+        for (size_t len = 0; len <= n; ++len) {
+            char *at = map + page - len; /* the range ends at the inaccessible page */
+            memcpy(at, texts[t], len);
+            cg_text_result res;
+            for (int flags = 0; flags < 2; ++flags) {
+                cg_status st = cg_text_parse_table(at, len, 2, NULL, flags, 8, values, NULL, &res);
+                CHECK(st == CG_OK || (st >= CG_ERR_TEXT_NUMBER && st <= CG_ERR_TEXT_ROWS));
+                CHECK(res.error.offset + res.error.length <= (int64_t)len);
+                st = cg_text_parse_table(at, len, 2, int_cols, flags, 8, values, ints, &res);
+                CHECK(st == CG_OK || (st >= CG_ERR_TEXT_NUMBER && st <= CG_ERR_TEXT_ROWS));
+            }
+            CHECK(cg_text_find_lines(at, len, "3 ", 2, offsets, 8, &count) == CG_OK);
+            CHECK(cg_text_find_lines(at, len, "", 0, offsets, 8, &count) == CG_OK);
+            CHECK(cg_text_count_lines(at, len) >= 0);
+            double v;
+            cg_text_parse_double(at, len, &v);
+        }
+    }
+    /* values */
+    const char *ok = "4.9406564584124654e-324 -0\n0.1 9007199254740993\n";
+    cg_text_result res;
+    CHECK(cg_text_parse_table(ok, strlen(ok), 2, NULL, 0, 2, values, NULL, &res) == CG_OK && res.nrows == 2);
+    CHECK(values[0] == 4.9406564584124654e-324 && values[1] == 0.0 && values[2] == 0.1 &&
+          values[3] == 9007199254740992.0);
+    CHECK(cg_text_parse_table(ok, strlen(ok), 2, NULL, 0, 1, values, NULL, &res) == CG_ERR_TEXT_ROWS &&
+          res.error.line == 1);
+    CHECK(cg_text_parse_table(ok, strlen(ok), 0, NULL, 0, 1, values, NULL, &res) == CG_ERR_ARGUMENT);
+    CHECK(strcmp(cg_strerror(CG_ERR_TEXT_NUMBER), "not a number") == 0);
+    munmap(map, 2 * (size_t)page);
+    if (failures) return 1;
+    printf("test_text: ok\n");
+    return 0;
+}
