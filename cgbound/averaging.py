@@ -148,6 +148,7 @@ class Partial:
         n_out = {"mean": 1, "smooth": 0 if plan.out_times is None else len(plan.out_times)}.get(plan.mode, 0)
         self.averages = [PrimaryAverage(plan.needed) for _ in range(n_out)]
         self.target = self.kernel = self.box = None
+        self.species_seen = set()   # the species of the frames read, when partial fields are asked for
 
     def add(self, index, snapshot):
         """Coarse-grain frame ``index`` into the sums; any error names the frame."""
@@ -165,6 +166,8 @@ class Partial:
             self.u_ref, self.dim = reference_velocity(snap), snap.dim
         elif snap.dim != self.dim:
             raise ValueError(f"snapshot: expected a {self.dim}D snapshot like the first frame, got {snap.dim}D")
+        if plan.species is not None:
+            self.species_seen.update(np.unique(snapshot.species).tolist())
         job = Job(snap, target, kernel, plan.fields, plan.convention, plan.needed,
                   check_computable(snap, plan.needed))
         prim = whole_target_sums(job, self.u_ref)
@@ -191,6 +194,7 @@ class Partial:
             self.target, self.kernel, self.box = other.target, other.kernel, other.box
             self.u_ref, self.dim = other.u_ref, other.dim
         self.indices += other.indices
+        self.species_seen |= other.species_seen
         self.times += other.times
         self.frames += other.frames
         for mine, theirs in zip(self.averages, other.averages):
@@ -205,11 +209,15 @@ class Partial:
         for time, prim in zip(self.times, self.frames):
             out._add_primaries(time, prim)
         out.indices, out.times = list(self.indices), list(self.times)
+        out.species_seen = set(self.species_seen)
         return out
 
     def finish(self):
         """Fields (flat over nodes, with a leading time axis unless the mode is "mean") and their times."""
         plan = self.plan
+        if plan.species is not None and plan.species not in self.species_seen:
+            raise ValueError(f"species: {plan.species} is in none of the {len(self.times)} frames read (species "
+                             f"present: {sorted(self.species_seen)}); partial fields of it would be zero")
         if plan.mode == "mean":
             return derive(self.averages[0].result(), plan.fields, self.u_ref, self.dim, plan.convention), \
                 [float(np.mean(self.times))]

@@ -40,7 +40,11 @@ def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tens
     -------
     Result
     """
-    return run_snapshot(prepare(snapshot, grid, kernel, fields, convention, species))
+    job = prepare(snapshot, grid, kernel, fields, convention, species)
+    if species is not None and not np.any(snapshot.species == species):
+        raise ValueError(f"species: {species} is not in the snapshot (species present: "
+                         f"{sorted(set(np.asarray(snapshot.species).tolist()))}); partial fields of it would be zero")
+    return run_snapshot(job)
 
 
 class CoarseGrain:

@@ -221,6 +221,21 @@ def two_species(seed):
                        contacts=cg.Contacts(I, J, F, C), species=species)
 
 
+def test_a_species_in_no_frame_is_an_error_not_zero_fields():
+    snap = two_species(3)
+    grid = cg.Grid(snap.box, (2, 2, 3))
+    with pytest.raises(ValueError, match=r"species: 7 is not in the snapshot \(species present: \[0, 1\]\)"):
+        cg.coarse_grain(snap, grid, cg.Gaussian(0.5), fields=("density",), species=7)
+    with pytest.raises(ValueError, match=r"species: 7 is in none of the 2 frames read"):
+        cg.CoarseGrain([snap, two_species(4)], grid, cg.Gaussian(0.5), fields=("density",), species=7).run()
+    # a species absent from some frames only (inserted later, say) is fine
+    other = two_species(5)
+    only_zero = cg.Snapshot(other.positions, other.velocities, other.masses, box=other.box, contacts=other.contacts,
+                            species=np.zeros(other.n_particles, int))
+    out = cg.CoarseGrain([only_zero, snap], grid, cg.Gaussian(0.5), fields=("density",), species=1).run()
+    assert out.results.density.max() > 0
+
+
 def test_species_partial_fields_add_up_and_interaction_is_antisymmetric():
     snap = two_species(3)
     grid = cg.Grid(snap.box, (4, 4, 6))

@@ -214,6 +214,9 @@ def test_fixed_selection_and_array(universe):
     np.testing.assert_array_equal(sub2[0].fixed, sub[0].fixed)
     with pytest.raises(ValueError, match="fixed"):
         MDAnalysisReader(universe, fixed=np.zeros(3, bool))
+    # a selection of nothing is a typo, not "no boundary"
+    with pytest.raises(ValueError, match="fixed: the selection 'index 1000' selects none of the"):
+        MDAnalysisReader(universe, fixed="index 1000")
     with pytest.raises(TypeError, match="fixed"):
         MDAnalysisReader(universe, fixed=[0, 3])
 

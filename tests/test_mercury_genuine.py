@@ -103,3 +103,10 @@ def test_without_restart_and_fixed_the_reader_has_no_fixed_particles_but_fixed_i
     assert frames[3].fixed.sum() == 210
     shutil.copy(STEM + ".data", tmp_path / "alone.data")
     assert MercuryReader(tmp_path / "alone.data", density=1.0)[0].fixed.sum() == 0
+
+
+def test_a_fixed_predicate_that_selects_nothing_is_an_error():
+    frames = MercuryReader(STEM + ".data", STEM + ".fstat", density=6 / np.pi, periodic=(True, True, False),
+                           fixed=lambda radius, species: species == 3)
+    with pytest.raises(ValueError, match="fixed: selects no particle of the frame at t = 0"):
+        frames[0]

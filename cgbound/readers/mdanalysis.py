@@ -171,7 +171,11 @@ class MDAnalysisReader(FrameSequence):
                 fg = u.select_atoms(fixed)
             except Exception as exc:
                 raise ValueError(f"fixed: invalid selection {fixed!r}: {exc}") from exc
-            return np.isin(self.indices, fg.indices)
+            selected = np.isin(self.indices, fg.indices)
+            if not selected.any():
+                raise ValueError(f"fixed: the selection {fixed!r} selects none of the {n} atoms of select= "
+                                 f"({fg.n_atoms} atoms of the whole universe); check the selection")
+            return selected
         arr = np.asarray(fixed)
         if arr.dtype != bool or arr.ndim != 1:
             raise TypeError(f"fixed: expected a selection string or a 1-D bool array, got {arr.dtype} "

@@ -252,25 +252,34 @@ class MercuryReader(FrameReader):
 
     def _fixed(self, radii, species, n, positions, time):
         f = self.fixed
+        if f is not None:
+            out = self._fixed_given(f, radii, species, n)
+            if not out.any():
+                raise ValueError(f"fixed: selects no particle of the frame at t = {time:g} of {self.data_path} "
+                                 f"({n} particles); check the predicate or the indices")
+            return out
+        if self._restart is None:
+            return np.zeros(n, bool)
+        return self._fixed_from_restart(n, positions, time)
+
+    @staticmethod
+    def _fixed_given(f, radii, species, n):
+        """The fixed flags of ``fixed=``: a callable of (radius, species), N bools, or indices."""
         if callable(f):
             out = np.asarray(f(radii, species), dtype=bool)
             if out.shape != (n,):
                 raise ValueError(f"fixed: the callable returned shape {out.shape}, expected ({n},)")
             return out
-        if f is not None:
-            if f.dtype == bool:
-                if f.shape != (n,):
-                    raise ValueError(f"fixed: expected {n} bools, got shape {f.shape}")
-                return f.copy()
-            out = np.zeros(n, bool)
-            idx = index_array(f.ravel(), "fixed")
-            if np.any((idx < 0) | (idx >= n)):
-                raise IndexError(f"fixed: indices must lie in [0, {n})")
-            out[idx] = True
-            return out
-        if self._restart is None:
-            return np.zeros(n, bool)
-        return self._fixed_from_restart(n, positions, time)
+        if f.dtype == bool:
+            if f.shape != (n,):
+                raise ValueError(f"fixed: expected {n} bools, got shape {f.shape}")
+            return f.copy()
+        out = np.zeros(n, bool)
+        idx = index_array(f.ravel(), "fixed")
+        if np.any((idx < 0) | (idx >= n)):
+            raise IndexError(f"fixed: indices must lie in [0, {n})")
+        out[idx] = True
+        return out
 
     def _fixed_from_restart(self, n, positions, time):
         """The restart's fixed particles (invMass 0) in the order of its particle lines, which is the
