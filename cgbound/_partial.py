@@ -11,8 +11,8 @@ import numpy as np
 from ._validate import integer
 from .fields import (PrimaryAverage, check_computable, check_convention, check_fields, compute_primaries, derive,
                      needed_primaries, reference_velocity)
-from .grid import check_target
-from .kernels import check_kernel
+from .grid import check_target, periodic_resolved_lengths
+from .kernels import check_kernel, check_reach
 from .snapshot import Snapshot
 
 
@@ -27,6 +27,7 @@ def prepare(snapshot, grid, kernel, fields, convention, species):
     species = integer(species, "species", allow_none=True)
     if species is not None:
         snapshot = snapshot.species_view(species)
+    check_reach(kernel, snapshot.dim, periodic_resolved_lengths(snapshot.box, target), snapshot.largest_product)
     return snapshot, target, kernel, fields, convention
 
 

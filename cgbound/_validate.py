@@ -123,13 +123,22 @@ def _scalar(value):
     return value
 
 
+def _to_float(value, name):
+    """float(value), with an int too large for a double a ValueError naming the argument."""
+    try:
+        return float(value)
+    except OverflowError:
+        raise ValueError(f"{name}: expected a number within the floating-point range (below 1.8e308), "
+                         f"got an integer of about 2**{int(value).bit_length()}") from None
+
+
 def positive_number(value, name, allow_none=False):
     if value is None and allow_none:
         return None
     value = _scalar(value)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name}: expected a positive number, got {value!r}")
-    value = float(value)
+    value = _to_float(value, name)
     if not (np.isfinite(value) and value > 0.0):
         raise ValueError(f"{name}: expected a positive finite number, got {value!r}")
     return value
@@ -139,7 +148,7 @@ def finite_number(value, name):
     value = _scalar(value)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name}: expected a finite real number, got {value!r}")
-    value = float(value)
+    value = _to_float(value, name)
     if not np.isfinite(value):
         raise ValueError(f"{name}: expected a finite real number, got {value!r}")
     return value

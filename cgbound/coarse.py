@@ -4,7 +4,7 @@ import sys
 import numpy as np
 
 from ._dask import check_backend
-from ._memory import check_fits, core_threads, per_node_doubles
+from ._memory import check_fits, core_threads, grid_doubles, per_node_doubles
 from ._partial import FramePlan, Partial, prepare as _prepare, read_frame
 from ._validate import flag, integer, positive_number, real_array
 from .fields import (check_computable, check_convention, check_fields, compute_primaries, derive, needed_primaries,
@@ -24,8 +24,10 @@ def _field_ranks():
 def _check_memory(target, fields, dim, threads, frames=1, time_average="mean", n_times=1):
     needed = needed_primaries(fields)
     doubles = per_node_doubles(needed, fields, _field_ranks(), dim, threads, frames, time_average, n_times)
+    # the grid's own node coordinates, or the points' positions, are held beside the fields
+    own = grid_doubles(target.shape) if isinstance(target, Grid) else target.size * dim
     check_fits("grid", target.size, doubles, what=f"fields {', '.join(fields)}"
-               + (f" over {frames} frames" if frames > 1 else ""))
+               + (f" over {frames} frames" if frames > 1 else ""), extra_doubles=own)
 
 
 def _shape_fields(flat, target, dim, leading=()):
