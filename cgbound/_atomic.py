@@ -111,8 +111,18 @@ def atomic_write(path, write, suffix=""):
     ``path`` keeps its permission bits; a symlink keeps pointing at the (replaced) file. See the
     module docstring for temporaries and hard links.
     """
+    if isinstance(path, bool) or not isinstance(path, (str, bytes, os.PathLike)):
+        raise TypeError(f"path: expected a file name (str or os.PathLike), got {path!r}")
     path = os.fspath(path)
+    if isinstance(path, bytes):
+        path = os.fsdecode(path)
+    if not path:
+        raise ValueError("path: expected a file name, got an empty string")
     target = resolve_target(path)
+    if os.path.isdir(target):
+        raise IsADirectoryError(errno.EISDIR, f"path: expected a file name, got the directory {path!r}", path)
+    if not os.path.isdir(os.path.dirname(target)):
+        raise FileNotFoundError(errno.ENOENT, f"path: the directory to write {path!r} in does not exist", path)
     remove_stale_temporaries(target)
     tmp = _new_temporary(target, suffix or os.path.splitext(target)[1])
     try:

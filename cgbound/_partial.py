@@ -27,7 +27,8 @@ def prepare(snapshot, grid, kernel, fields, convention, species):
     species = integer(species, "species", allow_none=True)
     if species is not None:
         snapshot = snapshot.species_view(species)
-    check_reach(kernel, snapshot.dim, periodic_resolved_lengths(snapshot.box, target), snapshot.largest_product)
+    check_reach(kernel, snapshot.dim, periodic_resolved_lengths(snapshot.box, target), snapshot.largest_product,
+                n_resolved=len(target.resolved), avg_extent=target.avg_extent)
     return snapshot, target, kernel, fields, convention
 
 

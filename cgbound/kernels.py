@@ -163,9 +163,8 @@ class Gaussian(Kernel):
 
     def __init__(self, width, cutoff=None, normalize="full", line_quadrature=DEFAULT_LINE_QUADRATURE):
         self.width = kernel_length(width, "width")
-        if cutoff is None:
-            cutoff = DEFAULT_GAUSSIAN_CUTOFF * self.width
-        self.radius = kernel_length(cutoff, "cutoff")
+        # the default cutoff (5 widths) is not range-checked: it follows a checked width
+        self.radius = (DEFAULT_GAUSSIAN_CUTOFF * self.width if cutoff is None else kernel_length(cutoff, "cutoff"))
         if not isinstance(normalize, str):
             raise TypeError(f"normalize: expected 'full' or 'truncated', got {normalize!r}")
         if normalize not in ("full", "truncated"):
@@ -229,7 +228,7 @@ def periodic_images(radius, periodic_lengths):
     return math.prod(math.floor(2.0 * radius / length) + 2.0 for length in periodic_lengths.values())
 
 
-def check_reach(kernel, dim, periodic_lengths, largest_product, where="snapshot"):
+def check_reach(kernel, dim, periodic_lengths, largest_product, where="snapshot", n_resolved=None, avg_extent=1.0):
     """Refuse, before any work, a kernel whose support reaches more than MAX_IMAGES periodic images
     (``periodic_lengths``: {axis name: length} of the periodic resolved axes), or whose peak times
     ``largest_product`` (the snapshot's largest mass x velocity^2 or force x branch) overflows."""
@@ -241,10 +240,21 @@ def check_reach(kernel, dim, periodic_lengths, largest_product, where="snapshot"
                          f"{MAX_IMAGES:g} periodic images of a particle, got {images:.3g} on the periodic box "
                          f"(lengths {lengths}); a kernel this wide is uniform along those axes: average over them "
                          f"(Grid(..., average=...)) or use a narrower kernel")
+    peak = kernel.peak_bound(dim)
+    if not 1e-300 <= avg_extent <= 1e300:
+        raise ValueError(f"grid: expected averaged axes whose extent (the product of the box lengths along them) "
+                         f"is within the floating-point range, got {avg_extent:.3g}; rescale the units")
+    if n_resolved is not None and n_resolved < dim:
+        # over averaged axes: the marginal over the resolved ones, divided by the averaged extent
+        with np.errstate(over="ignore", divide="ignore"):
+            peak = max(peak, kernel.peak_bound(n_resolved) / avg_extent, 1.0 / avg_extent)
     with np.errstate(over="ignore"):
-        top = kernel.peak_bound(dim) * largest_product
+        top = peak * max(largest_product, 1.0)
     if not top <= 1e300:
-        raise ValueError(f"{name}: the kernel's peak (up to {kernel.peak_bound(dim):.3g} for {kernel!r} in {dim}D) "
+        if not peak <= 1e300:
+            raise ValueError(f"grid: the kernel's peak over the averaged axes ({kernel!r} divided by the averaged "
+                             f"extent {avg_extent:.3g}) overflows the floating-point range; rescale the units")
+        raise ValueError(f"{name}: the kernel's peak (up to {peak:.3g} for {kernel!r} in {dim}D) "
                          f"times the {where}'s largest mass x velocity^2 or force x branch ({largest_product:.3g}) "
                          f"overflows the floating-point range; rescale the units (lengths, masses or velocities)")
 
