@@ -94,8 +94,14 @@ class Snapshot:
             if n == 0:
                 raise ValueError("box: expected a cg.Box when there are no particles, got None")
             lo, hi = self.positions.min(axis=0), self.positions.max(axis=0)
-            pad = np.maximum(hi - lo, 1.0) * 1e-9
-            box = Box(lo - pad, hi + pad)
+            with np.errstate(over="ignore"):
+                pad = np.maximum(hi - lo, 1.0) * 1e-9
+                lower, upper = lo - pad, hi + pad
+            if not (np.all(np.isfinite(upper - lower)) and np.all(upper > lower)):
+                raise ValueError(f"positions: expected positions whose bounding box (the default box) is within the "
+                                 f"floating-point range, got a spread from {lo.tolist()} to {hi.tolist()}; "
+                                 f"rescale the units or pass box")
+            box = Box(lower, upper)
         if not isinstance(box, Box):
             raise TypeError(f"box: expected a cg.Box, got {type(box).__name__}")
         if box.dim != dim:
@@ -153,7 +159,15 @@ class Snapshot:
             # |branch| <= |r_i| + |r_j or the contact point| (before the minimum image, which only shortens it)
             other = np.where(c.j >= 0, reach[np.where(c.j >= 0, c.j, 0)], np.abs(c.point).max(axis=1))
             with np.errstate(over="ignore"):
-                product = force * (reach[c.i] + other) * 2.0
+                branch = reach[c.i] + other
+                product = force * branch * 2.0
+            far = ~(branch <= LARGEST_PRODUCT)
+            if np.any(far):
+                k = int(np.flatnonzero(far)[0])
+                name = "positions" if c.j[k] >= 0 else "contacts.point"
+                raise ValueError(f"{name}: expected coordinates whose differences (the branch vectors of contacts) "
+                                 f"stay below {LARGEST_PRODUCT:g}, got a branch of up to {branch[k]:g} at contact {k} "
+                                 f"(rescale the units)")
             bad = ~(product <= LARGEST_PRODUCT)
             if np.any(bad):
                 k = int(np.flatnonzero(bad)[0])
