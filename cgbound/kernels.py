@@ -3,6 +3,11 @@
 All kernels are radial with compact support of radius ``radius``. Over averaged
 grid axes the exact marginal over those axes is used (for the Gaussian: the
 marginal of the untruncated Gaussian, cut off in the resolved subspace).
+
+Widths, cutoffs and radii must lie in LENGTH_RANGE (1e-60 to 1e60; a Gaussian's default cutoff of 5
+widths may reach 5e60): outside it the kernel's peak or normalisation leaves the floating-point range.
+Before any work, coarse graining also refuses a kernel whose peak times the snapshot's largest mass x
+velocity^2 or force x branch overflows, and one reaching more than MAX_IMAGES periodic images.
 """
 import math
 import numbers

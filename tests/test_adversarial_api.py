@@ -51,7 +51,8 @@ def test_kernels(case):
     kernel = adv.make_kernel(case)
     if kernel is not None:
         lo, hi = cg.kernels.LENGTH_RANGE
-        assert lo <= kernel.radius <= hi
+        assert lo <= kernel.radius <= hi * cg.kernels.DEFAULT_GAUSSIAN_CUTOFF   # a default cutoff is 5 widths
+        assert kernel.width is None or lo <= kernel.width <= hi
         assert 0 < kernel.peak_bound(3) < np.inf
 
 
@@ -223,3 +224,29 @@ def test_ints_beyond_float_are_named_value_errors():
         cg.Gaussian(10 ** 400)
     with pytest.raises(ValueError, match="^time: "):
         cg.Snapshot([[0.5, 0.5, 0.5]], masses=[1.0], time=10 ** 400)
+
+
+def test_extended_stress_at_zero_points_is_empty():
+    box = cg.Box([0, 0, 0], [1, 1, 1], periodic=(True, True, False))
+    snap = cg.Snapshot([[0.2, 0.2, 0.5], [0.4, 0.2, 0.5]], velocities=np.zeros((2, 3)), masses=[1.0, 1.0], box=box,
+                       contacts=cg.Contacts([0], [1], [[1.0, 0, 0]], [[0.3, 0.2, 0.5]]))
+    out = cg.coarse_grain(snap, np.zeros((0, 3)), cg.Gaussian(0.1), fields=("density", "extended_stress"))
+    assert out["extended_stress"].shape == (0, 3, 3) and out["density"].shape == (0,)
+
+
+@pytest.mark.parametrize("scale", [1e-150, 1e-60, 1e60, 1e150, 1e290])
+def test_extreme_but_representable_data_gives_finite_fields_or_a_named_error(scale):
+    """Velocities, forces and positions at extreme scales: finite fields where the density is positive, or an
+    error naming the user's argument (never the core's internal 'values:' / 'vectors:' / 'node_velocity:')."""
+    box = cg.Box([0, 0, 0], [1, 1, 1], periodic=(True, False, False))
+    pos = np.array([[0.2, 0.5, 0.5], [0.4, 0.5, 0.5], [0.6, 0.5, 0.5]])
+    contacts = cg.Contacts([0, 1], [1, -1], [[scale, 0, 0], [0, scale, 0]], [[0.3, 0.5, 0.5], [0.4, 0.5, 0.45]])
+    fields = ("density", "velocity", "stress", "extended_stress", "temperature", "interaction_force_density")
+    for velocities, masses in [(np.full((3, 3), scale), np.ones(3)), (np.ones((3, 3)), np.full(3, scale))]:
+        snap, exc = adv.call(cg.Snapshot, pos, velocities=velocities, masses=masses, box=box, contacts=contacts,
+                             body_force=[0, 0, -scale])
+        if snap is None:
+            continue
+        out, exc = adv.call(cg.coarse_grain, snap, cg.Grid(box, (4, 2, 2)), cg.Gaussian(0.2), fields=fields)
+        if out is not None:
+            adv.check_result(out, snap, None)
