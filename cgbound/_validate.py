@@ -39,7 +39,10 @@ def real_array(value, name, ndim=None, shape=None, copy=True):
         raise TypeError(f"{name}: expected real numbers, got dtype {raw.dtype}")
     try:
         arr = np.array(raw, dtype=np.float64, copy=copy, order="C")
-    except (TypeError, ValueError, OverflowError) as exc:
+    except OverflowError:
+        raise ValueError(f"{name}: expected numbers within the floating-point range (below 1.8e308), "
+                         f"got an integer too large for a double") from None
+    except (TypeError, ValueError) as exc:
         raise TypeError(f"{name}: expected an array of real numbers ({exc})") from None
     if ndim is not None and arr.ndim != ndim:
         raise ValueError(f"{name}: expected a {ndim}-dimensional array, got shape {arr.shape}")

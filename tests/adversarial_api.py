@@ -92,8 +92,19 @@ def assert_named(exc, allowed=None):
     assert "numpy" not in message.lower() or "np." in message, f"NumPy message leaked: {message!r}"
 
 
-#: calls made and named exceptions seen (tools/fuzz_api.py reports them)
+#: calls made and named exceptions seen (tools/fuzz_api.py reports them: written at exit to the file
+#: named by CGBOUND_FUZZ_COUNTS)
 COUNTS = {"calls": 0, "named_errors": 0}
+
+
+def _write_counts():
+    with open(os.environ["CGBOUND_FUZZ_COUNTS"], "w") as f:
+        f.write(f"{COUNTS['calls']} {COUNTS['named_errors']}\n")
+
+
+if os.environ.get("CGBOUND_FUZZ_COUNTS"):
+    import atexit
+    atexit.register(_write_counts)
 
 
 def call(fn, *args, **kwargs):

@@ -250,3 +250,10 @@ def test_extreme_but_representable_data_gives_finite_fields_or_a_named_error(sca
         out, exc = adv.call(cg.coarse_grain, snap, cg.Grid(box, (4, 2, 2)), cg.Gaussian(0.2), fields=fields)
         if out is not None:
             adv.check_result(out, snap, None)
+
+
+def test_huge_ints_in_arrays_are_named_value_errors():
+    with pytest.raises(ValueError, match="^positions: expected numbers within the floating-point range"):
+        cg.Snapshot([[0, 0, 10 ** 400]], masses=[1.0])
+    with pytest.raises(ValueError, match="^upper: "):
+        cg.Box([0, 0], [1, 10 ** 400])
