@@ -83,6 +83,9 @@ def _new_temporary(target, suffix):
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         except FileExistsError:
             continue
+        except PermissionError as exc:
+            raise PermissionError(exc.errno, f"path: cannot create a file in the directory of {target!r} "
+                                             f"({exc.strerror})", target) from None
         try:
             if mode is not None:
                 os.fchmod(fd, mode)

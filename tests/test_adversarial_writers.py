@@ -188,3 +188,29 @@ def test_remove_stale_temporaries_ignores_unrelated_and_malformed_names(tmp_path
     (tmp_path / ".cgbound-abc.txt").write_text("old-style")
     assert remove_stale_temporaries(target) == []
     assert len(list(tmp_path.iterdir())) == 2
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only directories")
+def test_read_only_directory_is_a_named_permission_error(tmp_path):
+    target = tmp_path / "out.txt"
+    target.write_text("old")
+    os.chmod(tmp_path, 0o500)
+    try:
+        with pytest.raises(PermissionError, match="path: cannot create a file"):
+            atomic_write(target, _write_text("new"))
+    finally:
+        os.chmod(tmp_path, 0o700)
+    assert target.read_text() == "old"
+
+
+@pytest.mark.parametrize("bad, kind", [(None, TypeError), (3, TypeError), ("", ValueError)])
+def test_bad_paths_are_named(bad, kind):
+    with pytest.raises(kind, match="^path: "):
+        atomic_write(bad, _write_text("x"))
+
+
+def test_directory_and_missing_directory_are_named(tmp_path):
+    with pytest.raises(IsADirectoryError, match="path: expected a file name"):
+        atomic_write(tmp_path, _write_text("x"))
+    with pytest.raises(FileNotFoundError, match="path: the directory"):
+        atomic_write(tmp_path / "missing" / "x.txt", _write_text("x"))
