@@ -74,7 +74,8 @@ def check_fits(name, nodes, doubles_per_node, what="the requested fields", extra
         parts = [f"{int(nodes)} nodes x {int(doubles_per_node)} doubles for {what}"] if nodes else []
         if extra_doubles:
             parts.append(f"{int(extra_doubles)} doubles of the grid itself" + ("" if nodes else f", {what}"))
-        raise MemoryError(f"{name}: expected a request that fits in memory, got one needing about {need / GB:.1f} GB "
+        size = f"{need / GB:.1f} GB" if need < 10 ** 300 else f"2**{need.bit_length()} bytes"
+        raise MemoryError(f"{name}: expected a request that fits in memory, got one needing about {size} "
                           f"({' + '.join(parts)}) on a machine with "
                           f"{have / GB:.1f} GB of physical memory; use fewer nodes, fewer fields or average over axes")
     return need

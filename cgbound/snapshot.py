@@ -152,6 +152,15 @@ class Snapshot:
                                  f"stays below {LARGEST_PRODUCT:g}, got mass {float(self.masses[k])!r} and velocity "
                                  f"{self.velocities[k].tolist()} at index {k} (rescale the units)")
             largest += [float(flux.max()), float((m * speed).max())]
+        if self.radii is not None and flow.any():
+            with np.errstate(over="ignore"):
+                volume = 4.2 * self.radii[flow] ** self.dim      # > the ball's volume in 2D and 3D
+            bad = ~(volume <= LARGEST_PRODUCT)
+            if np.any(bad):
+                k = int(np.flatnonzero(flow)[np.flatnonzero(bad)[0]])
+                raise ValueError(f"radii: expected radii whose particle volume stays below {LARGEST_PRODUCT:g}, "
+                                 f"got {float(self.radii[k])!r} at index {k} (rescale the units)")
+            largest.append(float(volume.max()))
         c = self.contacts
         if len(c):
             force = np.abs(c.force).max(axis=1)

@@ -84,7 +84,8 @@ def assert_named(exc, allowed=None):
     # "frame 3: x: ..." names the frame, then the argument
     if re.fullmatch(r"frame \d+", head):
         head = message.split(":", 2)[1].strip()
-    names = {h.strip() for h in head.split(",")}
+    # "snapshot.radii": an attribute of the user's snapshot argument
+    names = {re.sub(r"^snapshot\.", "", h.strip()) for h in head.split(",")}
     assert names and names <= (PUBLIC_NAMES if allowed is None else set(allowed) | PUBLIC_NAMES), \
         f"{type(exc).__name__} does not name a public argument: {message!r}"
     for internal in INTERNAL_NAMES:

@@ -257,3 +257,17 @@ def test_huge_ints_in_arrays_are_named_value_errors():
         cg.Snapshot([[0, 0, 10 ** 400]], masses=[1.0])
     with pytest.raises(ValueError, match="^upper: "):
         cg.Box([0, 0], [1, 10 ** 400])
+
+
+def test_fuzz_finds_fixed():
+    """Cases tools/fuzz_api.py found: a node count beyond a double, particle volumes that overflow."""
+    box = cg.Box([0, 0], [1, 1])
+    with pytest.raises(MemoryError, match="^shape: "):
+        cg.Grid(box, 10 ** 400)
+    with pytest.raises(ValueError, match="^radii: "):
+        cg.Snapshot([[0.5, 0.5]], masses=[1.0], radii=[9e298], box=box)
+    with pytest.raises(ValueError, match=r"^periodic: "):
+        cg.Box([0, 0], [1, 1], periodic=[False, []])
+    with pytest.raises(ValueError, match="^grid: expected averaged axes"):
+        snap = cg.Snapshot([[1e-301, 1e-301]], masses=[1e-300], box=cg.Box([0, 0], [1e-300, 1e-300]))
+        cg.coarse_grain(snap, cg.Grid(snap.box, 1, average=(0, 1)), cg.Lucy(1e-60), fields=("density",))
