@@ -230,7 +230,9 @@ MAX_IMAGES = 1e5
 
 def periodic_images(radius, periodic_lengths):
     """Periodic images of one particle whose support can reach a target inside the box."""
-    return math.prod(math.floor(2.0 * radius / length) + 2.0 for length in periodic_lengths.values())
+    counts = [2.0 * radius / length for length in periodic_lengths.values()]
+    # 2 R / L may overflow to inf (then refused), where math.floor would raise
+    return math.prod(math.floor(q) + 2.0 if q < 1e300 else math.inf for q in counts)
 
 
 def check_reach(kernel, dim, periodic_lengths, largest_product, where="snapshot", n_resolved=None, avg_extent=1.0):

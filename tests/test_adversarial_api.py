@@ -271,3 +271,11 @@ def test_fuzz_finds_fixed():
     with pytest.raises(ValueError, match="^grid: expected averaged axes"):
         snap = cg.Snapshot([[1e-301, 1e-301]], masses=[1e-300], box=cg.Box([0, 0], [1e-300, 1e-300]))
         cg.coarse_grain(snap, cg.Grid(snap.box, 1, average=(0, 1)), cg.Lucy(1e-60), fields=("density",))
+
+
+def test_kernel_infinitely_many_periods_wide_is_refused():
+    """Found by tools/fuzz_api.py: 2 R / L overflowing gave OverflowError from the image count."""
+    box = cg.Box([0, 0], [1e-300, 1e-300], periodic=True)
+    snap = cg.Snapshot([[0.5e-300, 0.5e-300]], masses=[1.0], box=box)
+    with pytest.raises(ValueError, match="^cutoff: expected a kernel whose support"):
+        cg.coarse_grain(snap, cg.Points([[0.5e-300, 0.5e-300]]), cg.Lucy(1e60), fields=("density",))
