@@ -28,12 +28,22 @@ def core_threads(n_objects=None):
     return threads
 
 
-def check_fits(name, nodes, doubles_per_node, what="the requested fields"):
-    """Raise MemoryError naming ``name`` if nodes x doubles_per_node doubles exceed physical memory."""
-    need = 8 * int(nodes) * int(doubles_per_node)
+def grid_doubles(shape):
+    """Doubles a regular grid of ``shape`` holds itself: each axis's node coordinates (built in place)."""
+    return sum(int(n) for n in shape)
+
+
+def check_fits(name, nodes, doubles_per_node, what="the requested fields", extra_doubles=0):
+    """Raise MemoryError naming ``name`` if nodes x doubles_per_node (+ extra_doubles) doubles exceed
+    physical memory."""
+    need = 8 * (int(nodes) * int(doubles_per_node) + int(extra_doubles))
     have = physical_memory()
     if have is not None and need > have:
-        raise MemoryError(f"{name}: expected a request that fits in memory, got one needing about {need / GB:.1f} GB "
-                          f"({int(nodes)} nodes x {int(doubles_per_node)} doubles for {what}) on a machine with "
+        parts = [f"{int(nodes)} nodes x {int(doubles_per_node)} doubles for {what}"] if nodes else []
+        if extra_doubles:
+            parts.append(f"{int(extra_doubles)} doubles of the grid itself" + ("" if nodes else f", {what}"))
+        size = f"{need / GB:.1f} GB" if need < 10 ** 300 else f"2**{need.bit_length()} bytes"
+        raise MemoryError(f"{name}: expected a request that fits in memory, got one needing about {size} "
+                          f"({' + '.join(parts)}) on a machine with "
                           f"{have / GB:.1f} GB of physical memory; use fewer nodes, fewer fields or average over axes")
     return need

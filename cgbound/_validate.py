@@ -39,7 +39,10 @@ def real_array(value, name, ndim=None, shape=None, copy=True):
         raise TypeError(f"{name}: expected real numbers, got dtype {raw.dtype}")
     try:
         arr = np.array(raw, dtype=np.float64, copy=copy, order="C")
-    except (TypeError, ValueError, OverflowError) as exc:
+    except OverflowError:
+        raise ValueError(f"{name}: expected numbers within the floating-point range (below 1.8e308), "
+                         f"got an integer too large for a double") from None
+    except (TypeError, ValueError) as exc:
         raise TypeError(f"{name}: expected an array of real numbers ({exc})") from None
     if ndim is not None and arr.ndim != ndim:
         raise ValueError(f"{name}: expected a {ndim}-dimensional array, got shape {arr.shape}")
@@ -123,12 +126,21 @@ def _scalar(value):
     return value
 
 
+def _to_float(value, name):
+    """float(value), with an int too large for a double a ValueError naming the argument."""
+    try:
+        return float(value)
+    except OverflowError:
+        raise ValueError(f"{name}: expected a number within the floating-point range (below 1.8e308), "
+                         f"got an integer of about 2**{int(value).bit_length()}") from None
+
+
 def _real_number(value, name, expected):
     """float(value) of a real, non-bool number (or a 0-d array of one); else a TypeError saying ``expected``."""
     value = _scalar(value)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name}: expected {expected}, got {value!r}")
-    return float(value)
+    return _to_float(value, name)
 
 
 def positive_number(value, name, allow_none=False):

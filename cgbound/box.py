@@ -29,13 +29,21 @@ class Box:
         if np.any(upper <= lower):
             raise ValueError(f"upper: expected upper > lower on every axis, got lower={lower.tolist()}, upper={upper.tolist()}")
         dim = lower.shape[0]
+        with np.errstate(over="ignore"):
+            if not np.all(np.isfinite(upper - lower)):
+                raise ValueError(f"upper: expected box lengths (upper - lower) within the floating-point range, "
+                                 f"got lower={lower.tolist()}, upper={upper.tolist()}")
         if isinstance(periodic, (str, bytes)) or periodic is None:
             raise TypeError(f"periodic: expected a bool or {dim} bools, got {periodic!r}")
-        if np.ndim(periodic) == 0:
+        try:
+            ndim = np.ndim(periodic)
+        except (ValueError, TypeError):      # ragged
+            raise ValueError(f"periodic: expected a bool or {dim} bools, got {periodic!r}") from None
+        if ndim == 0:
             periodic = (flag(periodic, "periodic"),) * dim
         else:
             given = periodic
-            periodic = list(np.asarray(periodic, dtype=object).ravel()) if np.ndim(periodic) == 1 else []
+            periodic = list(np.asarray(periodic, dtype=object).ravel()) if ndim == 1 else []
             if len(periodic) != dim:
                 raise ValueError(f"periodic: expected a bool or {dim} bools, got {given!r}")
             periodic = tuple(flag(p, "periodic") for p in periodic)

@@ -4,6 +4,7 @@ import numbers
 
 import numpy as np
 
+from ._memory import check_fits, grid_doubles
 from ._validate import counts_per_axis, integer, real_array
 from .box import Box
 
@@ -62,15 +63,24 @@ class Grid:
         for d in averaged:
             if shape[d] != 1:
                 raise ValueError(f"shape: expected 1 node along the averaged axis {box.axis_names[d]}, got {shape[d]}")
+        # before allocating the axes (coarse graining checks the fields, with these axes, before its work)
+        check_fits("shape", 0, 0, what=f"a grid of shape {shape!r}", extra_doubles=grid_doubles(shape))
         self.box = box
         self.shape = shape
         self.averaged = tuple(averaged)
         self.resolved = tuple(d for d in range(dim) if d not in averaged)
         spacing = box.lengths / np.array(self.shape, dtype=float)
         self.spacing = spacing
-        self.axis_coordinates = tuple(box.lower[d] + (np.arange(self.shape[d]) + 0.5) * spacing[d] for d in range(dim))
-        for c in self.axis_coordinates:
+        axes = []
+        for d in range(dim):
+            # lower + (k + 1/2) h, computed in place (one array per axis: bitwise the same as the expression)
+            c = np.arange(self.shape[d], dtype=float)
+            c += 0.5
+            c *= spacing[d]
+            c += box.lower[d]
             c.setflags(write=False)
+            axes.append(c)
+        self.axis_coordinates = tuple(axes)
 
     @property
     def dim(self):
@@ -144,3 +154,8 @@ def check_target(where, dim, name="grid"):
     if target.dim != dim:
         raise ValueError(f"{name}: expected a {dim}D grid or points like the snapshot, got a {target.dim}D {type(target).__name__}")
     return target
+
+
+def periodic_resolved_lengths(box, target):
+    """{axis name: period} of the target's resolved axes that are periodic in ``box``."""
+    return {box.axis_names[d]: float(box.lengths[d]) for d in target.resolved if box.periodic[d]}

@@ -3,7 +3,13 @@
 All kernels are radial with compact support of radius ``radius``. Over averaged
 grid axes the exact marginal over those axes is used (for the Gaussian: the
 marginal of the untruncated Gaussian, cut off in the resolved subspace).
+
+Widths, cutoffs and radii must lie in LENGTH_RANGE (1e-60 to 1e60; a Gaussian's default cutoff of 5
+widths may reach 5e60): outside it the kernel's peak or normalisation leaves the floating-point range.
+Before any work, coarse graining also refuses a kernel whose peak times the snapshot's largest mass x
+velocity^2 or force x branch overflows, and one reaching more than MAX_IMAGES periodic images.
 """
+import math
 import numbers
 
 import numpy as np
@@ -30,6 +36,24 @@ MAX_LINE_POINTS = 16
 AUTO_LINE_POINTS = -1
 #: "auto" uses at most this many points, and the exact form beyond (the study's rule)
 AUTO_MAX_LINE_POINTS = 8
+
+
+#: widths, cutoffs and radii accepted: the kernel's peak (~ L^-D), its gradient (~ L^-(D+1)) and its
+#: normalisation (~ L^D) stay within 1e+-240 for D = 2 and 3, which leaves 1e68 of the double range for
+#: masses, velocities and forces (outside it the peak or the line rule overflows or underflows: inf or 0
+#: densities, NaN velocities)
+LENGTH_RANGE = (1e-60, 1e60)
+
+
+def kernel_length(value, name):
+    """A positive finite length within LENGTH_RANGE (ValueError naming ``name`` otherwise)."""
+    value = positive_number(value, name)
+    lo, hi = LENGTH_RANGE
+    if not lo <= value <= hi:
+        raise ValueError(f"{name}: expected a length between {lo:g} and {hi:g} (the kernel's peak ~ {name}^-D and "
+                         f"its normalisation must stay within the floating-point range; rescale your units), "
+                         f"got {value!r}")
+    return value
 
 
 def check_line_quadrature(value, name="line_quadrature"):
@@ -107,6 +131,17 @@ class Kernel:
         """Whether the kernel has a useful gradient (needed by momentum_balance_residual)."""
         return True
 
+    def peak_bound(self, dim):
+        """An upper bound of the kernel's largest value in ``dim`` dimensions (3 L^-D with L the smaller of
+        width and radius; every kernel here peaks below that)."""
+        length = min(self.radius, self.width if self.width is not None else self.radius)
+        return 3.0 * length ** -float(dim)
+
+    @property
+    def length_name(self):
+        """The constructor argument that sets the kernel's scale (for messages)."""
+        return "width" if self.width is not None else ("radius" if isinstance(self, Heaviside) else "cutoff")
+
 
 class Gaussian(Kernel):
     """Gaussian W = (2 pi w^2)^(-D/2) exp(-r^2 / 2 w^2), zero beyond ``cutoff``.
@@ -136,10 +171,9 @@ class Gaussian(Kernel):
     _type = GAUSSIAN
 
     def __init__(self, width, cutoff=None, normalize="full", line_quadrature=DEFAULT_LINE_QUADRATURE):
-        self.width = positive_number(width, "width")
-        if cutoff is None:
-            cutoff = DEFAULT_GAUSSIAN_CUTOFF * self.width
-        self.radius = positive_number(cutoff, "cutoff")
+        self.width = kernel_length(width, "width")
+        # the default cutoff (5 widths) is not range-checked: it follows a checked width
+        self.radius = (DEFAULT_GAUSSIAN_CUTOFF * self.width if cutoff is None else kernel_length(cutoff, "cutoff"))
         if not isinstance(normalize, str):
             raise TypeError(f"normalize: expected 'full' or 'truncated', got {normalize!r}")
         if normalize not in ("full", "truncated"):
@@ -164,7 +198,7 @@ class Lucy(Kernel):
     _type = LUCY
 
     def __init__(self, cutoff):
-        self.radius = positive_number(cutoff, "cutoff")
+        self.radius = kernel_length(cutoff, "cutoff")
 
     @property
     def cutoff(self):
@@ -180,7 +214,7 @@ class Heaviside(Kernel):
     _type = HEAVISIDE
 
     def __init__(self, radius):
-        self.radius = positive_number(radius, "radius")
+        self.radius = kernel_length(radius, "radius")
 
     @property
     def differentiable(self):
@@ -188,6 +222,52 @@ class Heaviside(Kernel):
 
     def __repr__(self):
         return f"Heaviside(radius={self.radius:g})"
+
+
+#: periodic images of one particle the core may sum: it visits them one by one (~ (2 cutoff / L + 2) per
+#: periodic resolved axis, multiplied over the axes), and a kernel that wide is uniform along those axes
+#: to many digits, which averaging the axes gives exactly and cheaply. 1e5 allows a cutoff of 50 box
+#: lengths on two periodic axes (~1e4 images) and refuses a Gaussian 40 box lengths wide on three
+#: (~6e7 images, tens of seconds per particle)
+MAX_IMAGES = 1e5
+
+
+def periodic_images(radius, periodic_lengths):
+    """Periodic images of one particle whose support can reach a target inside the box."""
+    counts = [2.0 * radius / length for length in periodic_lengths.values()]
+    # 2 R / L may overflow to inf (then refused), where math.floor would raise
+    return math.prod(math.floor(q) + 2.0 if q < 1e300 else math.inf for q in counts)
+
+
+def check_reach(kernel, dim, periodic_lengths, largest_product, where="snapshot", n_resolved=None, avg_extent=1.0):
+    """Refuse, before any work, a kernel whose support reaches more than MAX_IMAGES periodic images
+    (``periodic_lengths``: {axis name: length} of the periodic resolved axes), or whose peak times
+    ``largest_product`` (the snapshot's largest mass x velocity^2 or force x branch) overflows."""
+    name = kernel.length_name
+    images = periodic_images(kernel.radius, periodic_lengths)
+    if images > MAX_IMAGES:
+        lengths = ", ".join(f"{axis} {length:g}" for axis, length in periodic_lengths.items())
+        raise ValueError(f"{name}: expected a kernel whose support (radius {kernel.radius:g}) reaches at most "
+                         f"{MAX_IMAGES:g} periodic images of a particle, got {images:.3g} on the periodic box "
+                         f"(lengths {lengths}); a kernel this wide is uniform along those axes: average over them "
+                         f"(Grid(..., average=...)) or use a narrower kernel")
+    peak = kernel.peak_bound(dim)
+    if not 1e-300 <= avg_extent <= 1e300:
+        raise ValueError(f"grid: expected averaged axes whose extent (the product of the box lengths along them) "
+                         f"is within the floating-point range, got {avg_extent:.3g}; rescale the units")
+    if n_resolved is not None and n_resolved < dim:
+        # over averaged axes: the marginal over the resolved ones, divided by the averaged extent
+        with np.errstate(over="ignore", divide="ignore"):
+            peak = max(peak, kernel.peak_bound(n_resolved) / avg_extent, 1.0 / avg_extent)
+    with np.errstate(over="ignore"):
+        top = peak * max(largest_product, 1.0)
+    if not top <= 1e300:
+        if not peak <= 1e300:
+            raise ValueError(f"grid: the kernel's peak over the averaged axes ({kernel!r} divided by the averaged "
+                             f"extent {avg_extent:.3g}) overflows the floating-point range; rescale the units")
+        raise ValueError(f"{name}: the kernel's peak (up to {peak:.3g} for {kernel!r} in {dim}D) "
+                         f"times the {where}'s largest mass x velocity^2 or force x branch ({largest_product:.3g}) "
+                         f"overflows the floating-point range; rescale the units (lengths, masses or velocities)")
 
 
 def check_kernel(kernel, name="kernel"):

@@ -8,11 +8,11 @@ Time averages (:mod:`cgbound.averaging`) reuse :func:`prepare` and :func:`whole_
 """
 from typing import NamedTuple, Optional
 
-from ._memory import check_fits, core_threads
+from ._memory import check_fits, core_threads, grid_doubles
 from ._validate import integer
 from .fields import check_convention, check_fields, derive, field_rank, needed_primaries
-from .grid import check_target
-from .kernels import check_kernel
+from .grid import Grid, check_target, periodic_resolved_lengths
+from .kernels import check_kernel, check_reach
 from .primaries import PARTICLES, PRIMARIES, check_computable, compute_primaries, reference_velocity
 from .result import Result
 from .snapshot import Snapshot
@@ -42,6 +42,8 @@ def check_arguments(snapshot, grid, kernel, fields, convention, species):
     species = integer(species, "species", allow_none=True)
     if species is not None:
         snapshot = snapshot.species_view(species)
+    check_reach(kernel, snapshot.dim, periodic_resolved_lengths(snapshot.box, target), snapshot.largest_product,
+                n_resolved=len(target.resolved), avg_extent=target.avg_extent)
     return snapshot, target, kernel, fields, convention
 
 
@@ -85,8 +87,10 @@ def check_memory(target, fields, dim, threads, frames=1, time_average="mean", n_
     """Raise MemoryError naming the grid if the fields (and the core's scratch) cannot fit."""
     needed = needed_primaries(fields)
     doubles = per_node_doubles(needed, fields, dim, threads, frames, time_average, n_times)
+    # the grid's own node coordinates, or the points' positions, are held beside the fields
+    own = grid_doubles(target.shape) if isinstance(target, Grid) else target.size * dim
     check_fits("grid", target.size, doubles, what=f"fields {', '.join(fields)}"
-               + (f" over {frames} frames" if frames > 1 else ""))
+               + (f" over {frames} frames" if frames > 1 else ""), extra_doubles=own)
 
 
 def shape_fields(flat, target, dim, leading=()):

@@ -5,8 +5,8 @@ from ._engine import core_kernel, core_target, point_target, scatter_points, sca
 from ._threads import get_num_threads
 from ._memory import check_fits, core_threads
 from .primaries import longest_branch, outer
-from .grid import Points, check_target
-from .kernels import check_kernel
+from .grid import Points, check_target, periodic_resolved_lengths
+from .kernels import check_kernel, check_reach
 from .snapshot import Snapshot
 from ._validate import real_array
 
@@ -73,6 +73,8 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
         forces = snapshot.particle_forces()
     else:
         forces = real_array(forces, "forces", ndim=2, shape=(snapshot.n_particles, dim))
+    check_reach(kernel, dim, periodic_resolved_lengths(snapshot.box, target),
+                max(snapshot.largest_product, float(np.abs(forces).max(initial=0.0))), where="snapshot (or forces)")
     # the gradient scatter has D^3 doubles per node (and per thread); the terms D each
     threads = core_threads(max(snapshot.n_particles, len(snapshot.contacts)))
     check_fits("points", P, threads * dim ** 3 + 8 * dim, what="the momentum balance terms")

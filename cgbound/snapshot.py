@@ -14,6 +14,12 @@ def _read_only(array):
     return view
 
 
+#: the largest product of a snapshot's values (mass x velocity^2, force x branch) accepted: the kernel's
+#: peak (at most 3 x 1e180 for the narrowest kernel, kernels.LENGTH_RANGE) times it must stay finite; the
+#: pipeline checks the product with the actual kernel
+LARGEST_PRODUCT = 1e300
+
+
 class Contacts:
     """Contact list: ``force[c]`` acts ON particle ``i[c]`` FROM ``j[c]`` at ``point[c]``.
 
@@ -88,8 +94,14 @@ class Snapshot:
             if n == 0:
                 raise ValueError("box: expected a cg.Box when there are no particles, got None")
             lo, hi = self.positions.min(axis=0), self.positions.max(axis=0)
-            pad = np.maximum(hi - lo, 1.0) * 1e-9
-            box = Box(lo - pad, hi + pad)
+            with np.errstate(over="ignore"):
+                pad = np.maximum(hi - lo, 1.0) * 1e-9
+                lower, upper = lo - pad, hi + pad
+            if not (np.all(np.isfinite(upper - lower)) and np.all(upper > lower)):
+                raise ValueError(f"positions: expected positions whose bounding box (the default box) is within the "
+                                 f"floating-point range, got a spread from {lo.tolist()} to {hi.tolist()}; "
+                                 f"rescale the units or pass box")
+            box = Box(lower, upper)
         if not isinstance(box, Box):
             raise TypeError(f"box: expected a cg.Box, got {type(box).__name__}")
         if box.dim != dim:
@@ -118,6 +130,62 @@ class Snapshot:
             raise TypeError(f"contacts: expected a cg.Contacts, got {type(contacts).__name__}")
         self.contacts = contacts
         self._check_contacts()
+        self._check_products()
+
+    def _check_products(self):
+        """Masses x velocities x velocities (the momentum flux) and forces x branches (the contact stress)
+        must be finite doubles; else the fields would be inf or NaN without a word."""
+        flow = ~self.fixed
+        largest = [np.abs(self.masses[flow]).max(initial=0.0)]
+        if self.body_force is not None and flow.any():
+            with np.errstate(over="ignore"):
+                largest.append(float((self.masses[flow] * np.abs(self.body_force[flow]).max(axis=1)).max()))
+        if self.velocities is not None and flow.any():
+            m = self.masses[flow]
+            speed = np.abs(self.velocities[flow]).max(axis=1)
+            with np.errstate(over="ignore"):
+                flux = m * speed * speed
+            bad = ~(flux <= LARGEST_PRODUCT)
+            if np.any(bad):
+                k = int(np.flatnonzero(flow)[np.flatnonzero(bad)[0]])
+                raise ValueError(f"velocities: expected velocities whose momentum flux (masses x velocity x velocity) "
+                                 f"stays below {LARGEST_PRODUCT:g}, got mass {float(self.masses[k])!r} and velocity "
+                                 f"{self.velocities[k].tolist()} at index {k} (rescale the units)")
+            largest += [float(flux.max()), float((m * speed).max())]
+        if self.radii is not None and flow.any():
+            with np.errstate(over="ignore"):
+                volume = 4.2 * self.radii[flow] ** self.dim      # > the ball's volume in 2D and 3D
+            bad = ~(volume <= LARGEST_PRODUCT)
+            if np.any(bad):
+                k = int(np.flatnonzero(flow)[np.flatnonzero(bad)[0]])
+                raise ValueError(f"radii: expected radii whose particle volume stays below {LARGEST_PRODUCT:g}, "
+                                 f"got {float(self.radii[k])!r} at index {k} (rescale the units)")
+            largest.append(float(volume.max()))
+        c = self.contacts
+        if len(c):
+            force = np.abs(c.force).max(axis=1)
+            reach = np.abs(self.positions).max(axis=1)
+            # |branch| <= |r_i| + |r_j or the contact point| (before the minimum image, which only shortens it)
+            other = np.where(c.j >= 0, reach[np.where(c.j >= 0, c.j, 0)], np.abs(c.point).max(axis=1))
+            with np.errstate(over="ignore"):
+                branch = reach[c.i] + other
+                product = force * branch * 2.0
+            far = ~(branch <= LARGEST_PRODUCT)
+            if np.any(far):
+                k = int(np.flatnonzero(far)[0])
+                name = "positions" if c.j[k] >= 0 else "contacts.point"
+                raise ValueError(f"{name}: expected coordinates whose differences (the branch vectors of contacts) "
+                                 f"stay below {LARGEST_PRODUCT:g}, got a branch of up to {branch[k]:g} at contact {k} "
+                                 f"(rescale the units)")
+            bad = ~(product <= LARGEST_PRODUCT)
+            if np.any(bad):
+                k = int(np.flatnonzero(bad)[0])
+                raise ValueError(f"contacts.force: expected forces whose product with the branch vectors (contact "
+                                 f"stress) stays below {LARGEST_PRODUCT:g}, got force {c.force[k].tolist()} on a "
+                                 f"branch of up to {reach[c.i[k]] + other[k]:g} at contact {k} (rescale the units)")
+            largest += [float(product.max()), float(force.max())]
+        #: a bound of the largest value the kernel's peak multiplies (checked against it before coarse graining)
+        self.largest_product = max(largest)
 
     # ------------------------------------------------------------------
     @property
@@ -168,6 +236,7 @@ class Snapshot:
         out = object.__new__(Snapshot)
         out.__dict__.update(self.__dict__)
         out.fixed = bool_array(fixed, "fixed", self.n_particles)
+        out._check_products()
         return out
 
     def species_view(self, species):

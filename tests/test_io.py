@@ -139,7 +139,7 @@ def test_a_failed_write_leaves_the_existing_file_untouched(tmp_path, monkeypatch
 
 
 def test_atomic_write_gives_ordinary_file_permissions(tmp_path):
-    """The temporary file is private while written; the result gets the mode of a plain open()."""
+    """A new file gets the mode of a plain open() (the umask default)."""
     from cgbound._atomic import atomic_write
     target = tmp_path / "out.txt"
     atomic_write(target, lambda p: open(p, "w").write("x"))
