@@ -126,10 +126,13 @@ class Kernel:
         fixed.line_quadrature = fixed._line_points or "exact"
         return fixed
 
+    #: whether the kernel has a useful gradient (needed by momentum_balance_residual)
+    differentiable = True
+
     @property
-    def differentiable(self):
-        """Whether the kernel has a useful gradient (needed by momentum_balance_residual)."""
-        return True
+    def cutoff(self):
+        """The support radius: no particle farther than this from a node contributes to it."""
+        return self.radius
 
     def peak_bound(self, dim):
         """An upper bound of the kernel's largest value in ``dim`` dimensions (3 L^-D with L the smaller of
@@ -140,7 +143,10 @@ class Kernel:
     @property
     def length_name(self):
         """The constructor argument that sets the kernel's scale (for messages)."""
-        return "width" if self.width is not None else ("radius" if isinstance(self, Heaviside) else "cutoff")
+        return self._length_name
+
+    def __repr__(self):
+        return f"{type(self).__name__}({self._length_name}={self.radius:g})"
 
 
 class Gaussian(Kernel):
@@ -169,6 +175,7 @@ class Gaussian(Kernel):
     """
 
     _type = GAUSSIAN
+    _length_name = "width"
 
     def __init__(self, width, cutoff=None, normalize="full", line_quadrature=DEFAULT_LINE_QUADRATURE):
         self.width = kernel_length(width, "width")
@@ -183,10 +190,6 @@ class Gaussian(Kernel):
         self._line_points = check_line_quadrature(line_quadrature)
         self.line_quadrature = {0: "exact", AUTO_LINE_POINTS: "auto"}.get(self._line_points, self._line_points)
 
-    @property
-    def cutoff(self):
-        return self.radius
-
     def __repr__(self):
         return (f"Gaussian(width={self.width:g}, cutoff={self.radius:g}, normalize={self.normalize!r}, "
                 f"line_quadrature={self.line_quadrature!r})")
@@ -196,32 +199,23 @@ class Lucy(Kernel):
     """Lucy polynomial W = C (1 + 3x)(1 - x)^3, x = r / cutoff < 1 (C^2 at the edge, no truncation error)."""
 
     _type = LUCY
+    _length_name = "cutoff"
 
     def __init__(self, cutoff):
         self.radius = kernel_length(cutoff, "cutoff")
-
-    @property
-    def cutoff(self):
-        return self.radius
-
-    def __repr__(self):
-        return f"Lucy(cutoff={self.radius:g})"
 
 
 class Heaviside(Kernel):
     """Uniform ball of the given radius (for comparison with binning tools); its gradient is zero."""
 
     _type = HEAVISIDE
+    _length_name = "radius"
 
     def __init__(self, radius):
         self.radius = kernel_length(radius, "radius")
 
-    @property
-    def differentiable(self):
-        return False
+    differentiable = False   # its gradient is zero away from the sphere and undefined on it
 
-    def __repr__(self):
-        return f"Heaviside(radius={self.radius:g})"
 
 
 #: periodic images of one particle the core may sum: it visits them one by one (~ (2 cutoff / L + 2) per
