@@ -426,7 +426,7 @@ def run(args):
         write_stat(args.output, out)
     else:
         out.to_vtk(args.output, frame=None if args.time_average == "mean" else 0)
-    print(f"cgbound: {analysis.n_frames} frames of {first.n_particles} particles -> {', '.join(args.fields)} on "
+    print(f"cgbound: {analysis.n_frames} frames -> {', '.join(args.fields)} on "
           f"{grid!r} with {kernel!r} in {elapsed:.2f} s; wrote {args.output}")
     if args.figure:
         from .figures import fields_figure
