@@ -141,6 +141,7 @@ typedef struct job {
     double spacing[3];
     int separable;             /* use cg_visit_separable (Gaussian on a grid) */
     int lucy_rows;             /* use cg_visit_lucy (Lucy's segments on a grid) */
+    int ball_rows;             /* use cg_visit_ball_points (Lucy's, Heaviside's points on a grid) */
     int wide;                  /* ... its AVX-512 build */
     int line_points;           /* the kernel's rule for finite segments (0: round-off) */
 } job;
@@ -198,6 +199,11 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
    numbers as the node-by-node path, bit for bit. Returns 1 when it visited the
    object, 0 when the caller should use the node-by-node path (zero length). */
 int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale);
+
+/* Points of Lucy and Heaviside on grids (values and fluctuations): each row
+   of the stencil narrowed to the support ball, the node-by-node numbers bit
+   for bit. Returns 1 (it visited the object). */
+int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double *x);
 
 /* An AVX-512 build of the separable path (cg_separable_wide.c) exists on
    x86-64 with GCC; cg_separable_wide_available() says whether this CPU runs it

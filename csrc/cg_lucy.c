@@ -197,3 +197,74 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
     }
     return 1;
 }
+
+/* Points of Lucy and Heaviside on grids: the node-by-node path's stencil box,
+   each row narrowed to the nodes the support ball can reach (rho^2 < R^2 with
+   a margin, widened by a node each way); each node's value is computed as
+   the node-by-node path computes it (the same rho^2, cg_kernel_value). */
+int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double *x)
+{
+    const cg_target *t = jb->target;
+    const int nr = t->n_resolved;
+    const double R = jb->kernel->radius;
+    double bmin[3], bmax[3];
+    for (int a = 0; a < nr; ++a) {
+        bmin[a] = x[a] - R;
+        bmax[a] = x[a] + R;
+        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return 1;
+    }
+    cg_index first[3] = {0, 0, 0}, last[3] = {0, 0, 0}, stride[3] = {1, 1, 1};
+    for (int a = 0; a < nr; ++a) {
+        const double c0 = t->coords[a][0], h = jb->spacing[a];
+        const cg_index m = t->shape[a];
+        if (m == 1 || h == 0.0) { first[a] = 0; last[a] = m - 1; continue; }
+        double fl = floor((bmin[a] - c0) / h), l = ceil((bmax[a] - c0) / h);
+        if (fl < 0.0) fl = 0.0;
+        if (l > (double)(m - 1)) l = (double)(m - 1);
+        if (fl > l) return 1;
+        first[a] = (cg_index)fl;
+        last[a] = (cg_index)l;
+    }
+    for (int a = nr - 2; a >= 0; --a) stride[a] = stride[a + 1] * t->shape[a + 1];
+    const int row = nr - 1;
+    const double *zc = t->coords[row];
+    const double h = jb->spacing[row];
+    const double bound = R * R * (1.0 + 1e-6);
+    cg_index idx[3] = {first[0], first[1], first[2]};
+    double q[3];
+    for (;;) {
+        cg_index base = 0;
+        double p2 = 0.0;
+        for (int a = 0; a < row; ++a) {
+            q[a] = t->coords[a][idx[a]] - x[a];
+            p2 += q[a] * q[a];
+            base += idx[a] * stride[a];
+        }
+        cg_index k0 = first[row], k1 = last[row];
+        if (h > 0.0) {
+            if (!(p2 < bound)) k1 = k0 - 1;
+            else {
+                const double half = sqrt(bound - p2);
+                const double klo = floor((x[row] - half - zc[0]) / h) - 1.0;
+                const double khi = ceil((x[row] + half - zc[0]) / h) + 1.0;
+                if (klo > (double)k0) k0 = (cg_index)klo;
+                if (khi < (double)k1) k1 = (cg_index)khi;
+            }
+        }
+        for (cg_index k = k0; k <= k1; ++k) {
+            q[row] = zc[k] - x[row];
+            double rho2 = 0.0;
+            for (int a = 0; a < nr; ++a) rho2 += q[a] * q[a];
+            const double w = cg_kernel_value(jb->kernel, rho2);
+            if (w != 0.0) cg_accumulate(jb, out, obj, base + k, w, NULL);
+        }
+        int a = row - 1;
+        while (a >= 0) {
+            if (++idx[a] <= last[a]) break;
+            idx[a] = first[a];
+            --a;
+        }
+        if (a < 0) break;
+    }
+    return 1;
+}

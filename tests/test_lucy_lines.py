@@ -204,27 +204,32 @@ def test_contact_fields_match_the_twin(average):
 
 @pytest.mark.parametrize("periodic", [(False, False, False), (True, True, False), (True, True, True)])
 def test_rows_equal_node_by_node_bit_for_bit(periodic):
-    """The row path on grids (cg_visit_lucy) computes each node's value as the node-by-node path does."""
+    """The row paths on grids (cg_visit_lucy for Lucy's segments, cg_visit_ball_points for Lucy's and
+    Heaviside's points, values and fluctuations) compute each node's value as the node-by-node path does."""
     for dim, seed in ((3, 5), (2, 6)):
-        fields = ("contact_stress", "boundary_stress", "stress")
-        if not all(periodic[:dim]):
-            fields += ("extended_stress",)   # rays: infinite when every resolved axis is periodic
         snap = random_snapshot(seed, dim=dim, periodic=periodic[:dim], outside=True)
-        shape = (9, 8, 11)[:dim]
-        for R in (0.4, 1.5, 4.0):
-            fast_kernel, slow_kernel = cg.Lucy(R), cg.Lucy(R)
-            slow_kernel._per_node = True
-            grid = cg.Grid(snap.box, shape)
-            fast = cg.coarse_grain(snap, grid, fast_kernel, fields=fields)
-            slow = cg.coarse_grain(snap, grid, slow_kernel, fields=fields)
-            previous = _core.set_wide_vectors(False)
-            try:
-                narrow = cg.coarse_grain(snap, grid, fast_kernel, fields=fields)
-            finally:
-                _core.set_wide_vectors(previous)
-            for name in fields:
-                assert np.array_equal(fast[name], slow[name]), f"{name} dim {dim} R {R}"
-                assert np.array_equal(narrow[name], fast[name]), f"{name} dim {dim} R {R} narrow"
+        names = snap.box.axis_names
+        for average in ((), names[:1]):
+            fields = ("density", "momentum", "kinetic_stress", "contact_stress", "boundary_stress", "stress")
+            if not all(p for p, n in zip(periodic[:dim], names) if n not in average):
+                fields += ("extended_stress",)   # rays: infinite when every resolved axis is periodic
+            grid = cg.Grid(snap.box, tuple(1 if n in average else s for n, s in zip(names, (9, 8, 11))),
+                           average=average)
+            for R in (0.4, 1.5, 4.0):
+                for make in (cg.Lucy, cg.Heaviside):
+                    fast_kernel, slow_kernel = make(R), make(R)
+                    slow_kernel._per_node = True
+                    fast = cg.coarse_grain(snap, grid, fast_kernel, fields=fields)
+                    slow = cg.coarse_grain(snap, grid, slow_kernel, fields=fields)
+                    previous = _core.set_wide_vectors(False)
+                    try:
+                        narrow = cg.coarse_grain(snap, grid, fast_kernel, fields=fields)
+                    finally:
+                        _core.set_wide_vectors(previous)
+                    for name in fields:
+                        what = f"{name} dim {dim} R {R} {make.__name__} averaged {average}"
+                        assert np.array_equal(fast[name], slow[name]), what
+                        assert np.array_equal(narrow[name], fast[name]), what + " narrow"
 
 
 @pytest.mark.skipif(not cg.have_openmp(), reason="serial build")
