@@ -114,10 +114,16 @@ static int row_candidates(int nr, const segment_axis *ax, const double *q, doubl
     }
     const double A = 1.0 - nz * nz;
     const double rounding = 1e-12 * reach * reach; /* >> the rounding of a^2 at any node of the box */
-    if (!(A > 1e-3) || !(rounding < 1e-8 * R * R)) return 1;
+    if (!(rounding < 1e-8 * R * R)) return 1;
     const double bound = R * R * (1.0 + 1e-6) + rounding;
     /* A z^2 - 2 c nz z + (p2 - c^2) <= bound */
     const double B = c * nz, C = p2 - c * c - bound;
+    /* the row misses the cylinder if the quadratic's least value over the box's nodes is above the bound */
+    const double zfirst = z0 + (double)*k0 * h - x_row, zlast = z0 + (double)*k1 * h - x_row;
+    double zmin = A > 0.0 ? B / A : zfirst;
+    zmin = zmin < zfirst ? zfirst : (zmin > zlast ? zlast : zmin);
+    if (A * zmin * zmin - 2.0 * B * zmin + C > 0.0) return 0;
+    if (!(A > 1e-3)) return 1; /* nearly parallel to the row: the roots are ill-conditioned */
     const double disc = B * B - A * C;
     if (!(disc > 0.0)) return 0;
     const double root = sqrt(disc);
