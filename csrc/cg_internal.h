@@ -1,7 +1,9 @@
 /*
  * cg_internal.h -- what cg_scatter.c (loops over objects, images, threads)
- * shares with cg_separable.c (the Gaussian on grids as outer products) and
- * cg_kernels.c. Not part of the public interface (cg.h).
+ * shares with cg_separable.c (the Gaussian on grids as outer products),
+ * cg_lucy.c (Lucy's closed-form line integrals, rows of Lucy's and
+ * Heaviside's stencils) and cg_kernels.c. Not part of the public interface
+ * (cg.h).
  */
 #ifndef CGBOUND_CG_INTERNAL_H
 #define CGBOUND_CG_INTERNAL_H
