@@ -28,8 +28,10 @@
  *              n-point Gauss-Legendre rule (line_points = n). On grids the
  *              kernel is evaluated as outer products of 1-D weights.
  *   Lucy       W = C (1 + 3x)(1 - x)^3, x = r/R < 1. Exact marginals over
- *              averaged axes; line integrals by graded Gauss-Legendre
- *              quadrature converged to round-off.
+ *              averaged axes. Line integrals of the full kernel in closed
+ *              form (cg_lucy.c); of the marginal over two axes by an exact
+ *              Gauss-Legendre rule; of the marginal over one axis by graded
+ *              Gauss-Legendre quadrature converged to round-off.
  *   Heaviside  uniform ball of radius R. Exact marginals and line integrals.
  *
  * Periodic resolved axes: every object is summed over all kernel images that

@@ -1,13 +1,16 @@
 /*
  * cg_internal.h -- what cg_scatter.c (loops over objects, images, threads)
- * shares with cg_separable.c (the Gaussian on grids as outer products) and
- * cg_kernels.c. Not part of the public interface (cg.h).
+ * shares with cg_separable.c (the Gaussian on grids as outer products),
+ * cg_lucy.c (Lucy's closed-form line integrals, rows of Lucy's and
+ * Heaviside's stencils) and cg_kernels.c. Not part of the public interface
+ * (cg.h).
  */
 #ifndef CGBOUND_CG_INTERNAL_H
 #define CGBOUND_CG_INTERNAL_H
 
 #include "cg.h"
 
+#include <math.h>
 #include <stddef.h>
 
 /* the n-point Gauss-Legendre rule on [0, 1]: nodes x (increasing), weights w */
@@ -18,6 +21,102 @@ void cg_gauss_legendre01(int n, double *x, double *w);
    (Gaussian only; other kernels are always evaluated to round-off) */
 double cg_kernel_line_rule(const cg_kernel *kernel, const double *q, const double *e, double *grad,
                            int n_points);
+
+/* ------------------------------------------------------------------ */
+/* A segment seen from a node (cg_kernels.c, cg_lucy.c). With L = |e|, unit
+   vector n = e/L, u = q.n and q_perp = q - u n (component-wise, which keeps
+   |q_perp| accurate when q is nearly parallel to e), the point of the segment
+   at parameter s is at signed distance t(s) = u - s L along n from the node's
+   foot. */
+
+typedef struct segment_axis {
+    double L;        /* |e| */
+    double unit[3];  /* n = e / L */
+} segment_axis;
+
+typedef struct segment_frame {
+    int n;
+    double L;        /* |e| */
+    double u;        /* q . n */
+    double t_far;    /* (q - e) . n, = u - L but without its cancellation */
+    double a2;       /* |q_perp|^2 */
+    double qperp[3];
+    double unit[3];  /* n */
+} segment_frame;
+
+/* L and n of a segment e (n components) of non-zero length */
+static inline void segment_axis_of(int n, const double *e, segment_axis *ax)
+{
+    double L2 = 0.0;
+    for (int d = 0; d < n; ++d) L2 += e[d] * e[d];
+    ax->L = sqrt(L2);
+    for (int d = 0; d < n; ++d) ax->unit[d] = e[d] / ax->L;
+}
+
+/* the frame of node offset q (node minus segment start) */
+static inline void node_frame(int n, const segment_axis *ax, const double *q, const double *e, segment_frame *f)
+{
+    f->n = n;
+    f->L = ax->L;
+    double u = 0.0, t_far = 0.0;
+    for (int d = 0; d < n; ++d) {
+        f->unit[d] = ax->unit[d];
+        u += q[d] * f->unit[d];
+        t_far += (q[d] - e[d]) * f->unit[d];
+    }
+    double a2 = 0.0;
+    for (int d = 0; d < n; ++d) {
+        f->qperp[d] = q[d] - u * f->unit[d];
+        a2 += f->qperp[d] * f->qperp[d];
+    }
+    f->u = u;
+    f->t_far = t_far;
+    f->a2 = a2;
+}
+
+static inline void make_frame(int n, const double *q, const double *e, segment_frame *f)
+{
+    segment_axis ax;
+    segment_axis_of(n, e, &ax);
+    node_frame(n, &ax, q, e, f);
+}
+
+/* t at parameter s, taking the accurate end values at s = 0 and s = 1 */
+static inline double t_at(const segment_frame *f, double s)
+{
+    if (s == 0.0) return f->u;
+    if (s == 1.0) return f->t_far;
+    return f->u - s * f->L;
+}
+
+/* Clip [0, 1] to the support |t(s)| <= b, b = sqrt(R^2 - a^2). Returns 0 if empty. */
+static inline int clip_to_support(const segment_frame *f, double R, double *s0, double *s1, double *b)
+{
+    const double b2 = R * R - f->a2;
+    if (!(b2 > 0.0)) return 0;
+    *b = sqrt(b2);
+    double lo = 0.0, hi = 1.0;
+    if (f->u > *b) lo = (f->u - *b) / f->L;          /* t <= b */
+    if (f->t_far < -*b) hi = (f->u + *b) / f->L;     /* t >= -b */
+    if (lo > 1.0 || hi < 0.0 || !(lo < hi)) return 0;
+    *s0 = lo;
+    *s1 = hi;
+    return 1;
+}
+
+/* Lucy's line integral psi = int_0^1 W(|q - s e|) ds of the full-dimensional
+   kernel (D_avg = 0) at one node, in closed form (cg_lucy.c); the segment has
+   non-zero length. With grad != NULL also its gradient. */
+double cg_lucy_segment(const cg_kernel *kernel, const segment_axis *ax, const double *q, const double *e,
+                       double *grad);
+
+/* Lucy's line integral in closed form (cg_lucy.c), in units of R: over the
+   part t1 <= t <= t0 of a line at distance sqrt(a2) from the node (span =
+   t0 - t1, given accurately), acc[0] = int P(x) dt/R with P = (1 + 3x)(1 - x)^3,
+   x = sqrt(a2 + t^2)/R; with want_grad also acc[1] = int (1 - x)^2 dt/R and
+   acc[2] = int (t/R)(1 - x)^2 dt/R (else 0). Needs |t0|, |t1| and a2 inside
+   the support (the caller clips). */
+void cg_lucy_line(double a2, double t0, double t1, double span, double R, int want_grad, double *acc);
 
 /* Order of a Gauss-Legendre rule that integrates the Gaussian (width w) over a
    segment of length L exactly to round-off, or 0 if the segment is too long. */
@@ -43,6 +142,8 @@ typedef struct job {
     double lo[3], hi[3];       /* extent of the nodes along each resolved axis */
     double spacing[3];
     int separable;             /* use cg_visit_separable (Gaussian on a grid) */
+    int lucy_rows;             /* use cg_visit_lucy (Lucy's segments on a grid) */
+    int ball_rows;             /* use cg_visit_ball_points (Lucy's, Heaviside's points on a grid) */
     int wide;                  /* ... its AVX-512 build */
     int line_points;           /* the kernel's rule for finite segments (0: round-off) */
 } job;
@@ -94,6 +195,17 @@ static inline void cg_accumulate(const job *jb, double *out, cg_index obj, cg_in
    exact) and returns 1, or -1 if scratch memory could not be had. */
 int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
                        double scale);
+
+/* Lucy's segments on grids (full-dimensional kernel, values): the nodes of
+   each row of the stencil with the segment's axis computed once; the same
+   numbers as the node-by-node path, bit for bit. Returns 1 when it visited the
+   object, 0 when the caller should use the node-by-node path (zero length). */
+int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale);
+
+/* Points of Lucy and Heaviside on grids (values and fluctuations): each row
+   of the stencil narrowed to the support ball, the node-by-node numbers bit
+   for bit. Returns 1 (it visited the object). */
+int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double *x);
 
 /* An AVX-512 build of the separable path (cg_separable_wide.c) exists on
    x86-64 with GCC; cg_separable_wide_available() says whether this CPU runs it

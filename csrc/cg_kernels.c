@@ -2,12 +2,12 @@
  * cg_kernels.c -- kernel values, marginals over averaged axes, line integrals
  * along contact branches and their gradients. See cg.h for the definitions.
  *
- * Line integrals are written in the frame of the segment: with L = |e|,
- * unit vector n = e/L, u = q.n and q_perp = q - u n (component-wise, which
- * keeps |q_perp| accurate when q is nearly parallel to e), the point of the
- * segment at parameter s is at signed distance t(s) = u - s L along n from
- * the node's foot, and psi = int_s0^s1 M(a^2 + t(s)^2) ds where [s0, s1] is
- * [0, 1] clipped to the support ball of radius R.
+ * Line integrals are written in the frame of the segment (segment_frame,
+ * cg_internal.h): psi = int_s0^s1 M(a^2 + t(s)^2) ds where [s0, s1] is [0, 1]
+ * clipped to the support ball of radius R. Lucy's full-dimensional kernel is
+ * integrated in closed form (cg_lucy.c); the polynomial marginals over two
+ * axes by Gauss-Legendre rules that are exact for them; Lucy's marginal over
+ * one axis by graded Gauss-Legendre panels converged to round-off.
  */
 #include "cg.h"
 #include "cg_internal.h"
@@ -335,61 +335,6 @@ int cg_gaussian_roundoff_points(double L, double w)
 /* ------------------------------------------------------------------ */
 /* line integrals                                                        */
 
-typedef struct segment_frame {
-    int n;
-    double L;        /* |e| */
-    double u;        /* q . n */
-    double t_far;    /* (q - e) . n, = u - L but without its cancellation */
-    double a2;       /* |q_perp|^2 */
-    double qperp[3];
-    double unit[3];  /* n */
-} segment_frame;
-
-static void make_frame(int n, const double *q, const double *e, segment_frame *f)
-{
-    double L2 = 0.0;
-    for (int d = 0; d < n; ++d) L2 += e[d] * e[d];
-    f->n = n;
-    f->L = sqrt(L2);
-    double u = 0.0, t_far = 0.0;
-    for (int d = 0; d < n; ++d) {
-        f->unit[d] = e[d] / f->L;
-        u += q[d] * f->unit[d];
-        t_far += (q[d] - e[d]) * f->unit[d];
-    }
-    double a2 = 0.0;
-    for (int d = 0; d < n; ++d) {
-        f->qperp[d] = q[d] - u * f->unit[d];
-        a2 += f->qperp[d] * f->qperp[d];
-    }
-    f->u = u;
-    f->t_far = t_far;
-    f->a2 = a2;
-}
-
-/* t at parameter s, taking the accurate end values at s = 0 and s = 1 */
-static double t_at(const segment_frame *f, double s)
-{
-    if (s == 0.0) return f->u;
-    if (s == 1.0) return f->t_far;
-    return f->u - s * f->L;
-}
-
-/* Clip [0, 1] to the support: |t(s)| <= b. Returns 0 if empty. */
-static int clip_to_support(const segment_frame *f, double R, double *s0, double *s1, double *b)
-{
-    const double b2 = R * R - f->a2;
-    if (!(b2 > 0.0)) return 0;
-    *b = sqrt(b2);
-    double lo = 0.0, hi = 1.0;
-    if (f->u > *b) lo = (f->u - *b) / f->L;          /* t <= b */
-    if (f->t_far < -*b) hi = (f->u + *b) / f->L;     /* t >= -b */
-    if (lo > 1.0 || hi < 0.0 || !(lo < hi)) return 0;
-    *s0 = lo;
-    *s1 = hi;
-    return 1;
-}
-
 /* int_{s0}^{s1} exp(-t(s)^2 / 2w^2) ds, stable for every length and position */
 static double gaussian_segment_integral(const segment_frame *f, double w, double s0, double s1)
 {
@@ -542,6 +487,29 @@ static void quadrature_line(const cg_kernel *k, const segment_frame *f, double s
     }
 }
 
+/* One resolved axis, two averaged (D = 3): Lucy's and Heaviside's marginals
+   are polynomials in |t| of degree <= 6 on each side of t = 0, so 8-point
+   Gauss-Legendre on each side is exact; its terms have one sign (no
+   cancellation). */
+static double polynomial_line_1d(const cg_kernel *k, const segment_frame *f, double s0, double s1)
+{
+    const double t0 = t_at(f, s0), t1 = t_at(f, s1), span = (s1 - s0) * f->L;
+    double lo[2], len[2];
+    int pieces = 1;
+    if (t1 >= 0.0) { lo[0] = t1; len[0] = span; }
+    else if (t0 <= 0.0) { lo[0] = -t0; len[0] = span; }
+    else { lo[0] = lo[1] = 0.0; len[0] = t0; len[1] = -t1; pieces = 2; }
+    double sum = 0.0;
+    for (int i = 0; i < pieces; ++i) {
+        const double half = 0.5 * len[i], mid = lo[i] + half;
+        for (int j = 0; j < 4; ++j) {
+            const double ta = mid + half * GL8_X[j], tb = mid - half * GL8_X[j];
+            sum += GL8_W[j] * half * (cg_kernel_value(k, ta * ta) + cg_kernel_value(k, tb * tb));
+        }
+    }
+    return sum / f->L;
+}
+
 /* Heaviside with one averaged axis: M = 2 C sqrt(b^2 - t^2); exact. */
 static double heaviside_chord_integral(const segment_frame *f, double b, double s0, double s1)
 {
@@ -594,6 +562,12 @@ double cg_kernel_line_rule(const cg_kernel *k, const double *q, const double *e,
         for (int d = 0; d < n; ++d) rho2 += q[d] * q[d];
         return cg_kernel_value(k, rho2);
     }
+    if (k->type == CG_KERNEL_LUCY && n == k->dim) {
+        /* the full-dimensional kernel: closed form */
+        segment_axis ax;
+        segment_axis_of(n, e, &ax);
+        return cg_lucy_segment(k, &ax, q, e, grad);
+    }
     segment_frame f;
     make_frame(n, q, e, &f);
     if (grad) for (int d = 0; d < n; ++d) grad[d] = 0.0;
@@ -621,7 +595,8 @@ double cg_kernel_line_rule(const cg_kernel *k, const double *q, const double *e,
         if (n_avg == 0) return k->prefactor * (s1 - s0);
         if (n_avg == 1) return k->prefactor * heaviside_chord_integral(&f, b, s0, s1);
     }
-    /* Lucy (any marginal) and Heaviside's polynomial marginal */
+    if (n_avg == 2) return polynomial_line_1d(k, &f, s0, s1);
+    /* Lucy's marginal over one axis (an algebraic edge): quadrature */
     double acc[3] = {0.0, 0.0, 0.0};
     quadrature_line(k, &f, s0, s1, s0 > 0.0, s1 < 1.0, grad != NULL && k->type == CG_KERNEL_LUCY, acc);
     if (grad && k->type == CG_KERNEL_LUCY) {

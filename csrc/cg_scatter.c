@@ -111,6 +111,10 @@ static cg_status visit_nodes(const job *jb, double *out, scratch *sc, cg_index o
         if (done < 0) return CG_ERR_NOMEM;
         if (done > 0) return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     }
+    if (jb->ball_rows && cg_visit_ball_points(jb, out, obj, x))
+        return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
+    if (jb->lucy_rows && cg_visit_lucy(jb, out, obj, x, e, scale))
+        return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     const cg_target *t = jb->target;
     const int nr = t->n_resolved;
     const double R = jb->kernel->radius;
@@ -294,6 +298,10 @@ static cg_status prepare(job *jb)
     jb->separable = k->type == CG_KERNEL_GAUSSIAN && !k->per_node && t->is_grid && t->n_resolved > 0 &&
                     jb->mode != MODE_GRADIENT;
     jb->wide = jb->separable && cg_separable_wide_available();
+    jb->lucy_rows = k->type == CG_KERNEL_LUCY && !k->per_node && t->is_grid && t->n_resolved > 0 &&
+                    t->n_resolved == t->dim && jb->is_segment && jb->mode == MODE_VALUE;
+    jb->ball_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
+                    t->n_resolved > 0 && !jb->is_segment && jb->mode != MODE_GRADIENT;
     return CG_OK;
 }
 

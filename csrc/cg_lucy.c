@@ -1,0 +1,276 @@
+/*
+ * cg_lucy.c -- Lucy's line integral in closed form.
+ *
+ * W = C (1 + 3x)(1 - x)^3 = C (1 - 6x^2 + 8x^3 - 3x^4), x = r/R, is a
+ * polynomial in r = sqrt(a^2 + t^2) along a segment (a: distance of the node
+ * from the segment's line, t: signed position along it). The even powers
+ * integrate to polynomials in t; r^3 and r (the gradient's) to
+ *   int r^3 dt = t r^3/4 + 3a^2 t r/8 + 3a^4 asinh(t/a)/8,
+ *   int r dt   = t r/2 + a^2 asinh(t/a)/2.
+ * Written naively as F(t0) - F(t1) these cancel for short pieces (all digits
+ * for a segment 1e-10 R long). So the interval is cut at t = 0 and each
+ * piece reflected onto 0 <= p <= q; every difference is then taken in a
+ * divided form whose terms have one sign:
+ *   q^k - p^k         = (q - p) (q^(k-1) + ... + p^(k-1)),
+ *   r_q - r_p         = (q - p)(q + p) / (r_q + r_p),
+ *   asinh(q/a) - asinh(p/a) = log1p((q - p + r_q - r_p) / (p + r_p)),
+ * the last free of 1/a (so a -> 0 needs no case).
+ * What cancellation remains is that of W itself near the support's edge,
+ * an absolute error of order eps C (the field's scale), never relative to 1/L.
+ */
+#include "cg_internal.h"
+
+#include <math.h>
+
+/* one piece [p, q] (units of R, 0 <= p <= q, d = q - p given accurately),
+   added into acc: [0] += int P, [1] += int (1 - x)^2, [2] += sign int t (1 - x)^2 */
+static void lucy_piece(double a2, double p, double q, double d, double sign, int want_grad, double *acc)
+{
+    if (!(d > 0.0)) return;
+    const double p2 = p * p, q2 = q * q, qp = q * p, sum = q + p;
+    const double rp = sqrt(a2 + p2), rq = sqrt(a2 + q2);
+    const double J2 = d * (q2 + qp + p2) * (1.0 / 3.0);            /* int t^2 */
+    const double J4 = d * (q2 * q2 + qp * (q2 + p2) + qp * qp + p2 * p2) * 0.2; /* int t^4 */
+    const double Jr2 = a2 * d + J2;                                 /* int r^2 */
+    const double Jr4 = a2 * a2 * d + 2.0 * a2 * J2 + J4;            /* int r^4 */
+    const double dr = d * sum / (rq + rp);                          /* r_q - r_p */
+    const double rr = rq * rq + rq * rp + rp * rp;
+    const double D2 = d * rq + p * dr;                              /* q r_q - p r_p */
+    const double D1 = d * rq * rq * rq + p * dr * rr;               /* q r_q^3 - p r_p^3 */
+    /* asinh(q/a) - asinh(p/a) = log((q + r_q)/(p + r_p)); its factor a^2 (a^4)
+       makes it vanish with a (and p + r_p = 0 only when a = p = 0) */
+    const double D3 = a2 > 0.0 ? log1p((d + dr) / (p + rp)) : 0.0;
+    const double Jr3 = 0.25 * D1 + 0.375 * a2 * D2 + 0.375 * a2 * a2 * D3; /* int r^3 */
+    acc[0] += d - 6.0 * Jr2 + 8.0 * Jr3 - 3.0 * Jr4;
+    if (want_grad) {
+        const double Jr1 = 0.5 * D2 + 0.5 * a2 * D3;               /* int r */
+        acc[1] += d - 2.0 * Jr1 + Jr2;
+        const double T1 = 0.5 * d * sum;                            /* int t */
+        const double Tr1 = dr * rr * (1.0 / 3.0);                           /* int t r = (r_q^3 - r_p^3)/3 */
+        const double Tr2 = a2 * T1 + 0.25 * d * sum * (q2 + p2);    /* int t r^2 */
+        acc[2] += sign * (T1 - 2.0 * Tr1 + Tr2);
+    }
+}
+
+void cg_lucy_line(double a2, double t0, double t1, double span, double R, int want_grad, double *acc)
+{
+    const double inv = 1.0 / R, s2 = a2 * inv * inv;
+    acc[0] = acc[1] = acc[2] = 0.0;
+    if (t1 >= 0.0) {
+        lucy_piece(s2, t1 * inv, t0 * inv, span * inv, 1.0, want_grad, acc);
+    } else if (t0 <= 0.0) {
+        lucy_piece(s2, -t0 * inv, -t1 * inv, span * inv, -1.0, want_grad, acc);
+    } else {
+        lucy_piece(s2, 0.0, t0 * inv, t0 * inv, 1.0, want_grad, acc);
+        lucy_piece(s2, 0.0, -t1 * inv, -t1 * inv, -1.0, want_grad, acc);
+    }
+}
+
+/* psi (and its gradient) at a node given its frame */
+static inline double lucy_at_frame(const cg_kernel *k, const segment_frame *fr, double *grad)
+{
+    const segment_frame f = *fr;
+    const int n = f.n;
+    const double R = k->radius;
+    if (grad) for (int d = 0; d < n; ++d) grad[d] = 0.0;
+    double s0, s1, b;
+    if (!clip_to_support(&f, R, &s0, &s1, &b)) return 0.0;
+    double acc[3];
+    cg_lucy_line(f.a2, t_at(&f, s0), t_at(&f, s1), (s1 - s0) * f.L, R, grad != NULL, acc);
+    if (grad) {
+        /* grad W = -12 C (1 - x)^2 (r_vec) / R^2, r_vec = q_perp + t n */
+        const double factor = -12.0 * k->prefactor / (R * R);
+        const double g_perp = R / f.L * acc[1], g_along = R * R / f.L * acc[2];
+        for (int d = 0; d < n; ++d) grad[d] = factor * (f.qperp[d] * g_perp + f.unit[d] * g_along);
+    }
+    return k->prefactor * (R / f.L) * acc[0];
+}
+
+double cg_lucy_segment(const cg_kernel *k, const segment_axis *ax, const double *q, const double *e, double *grad)
+{
+    segment_frame f;
+    node_frame(k->n_resolved, ax, q, e, &f);
+    return lucy_at_frame(k, &f, grad);
+}
+
+/* Narrow the row of nodes at offsets q[0..row-1] (fixed) and q_row = z_k - x_row,
+   z_k = z0 + k h, to the nodes that can be inside the cylinder of radius R
+   around the segment's line: a^2(q_row) = |q|^2 - (q.n)^2 is a quadratic in
+   q_row, A q_row^2 - 2 B q_row + C with A = 1 - n_row^2. The interval where it
+   is below R^2 (1 + 1e-6) plus a margin for its rounding, widened by one node
+   each way, holds every node the exact test can accept; the exact test still
+   decides each node. Returns 0 when no node of the row can be inside; leaves
+   [*k0, *k1] alone when the quadratic is too flat to narrow it safely. */
+static int row_candidates(int nr, const segment_axis *ax, const double *q, double x_row, double z0, double h,
+                          double R, double reach, cg_index *k0, cg_index *k1)
+{
+    const int row = nr - 1;
+    if (!(h > 0.0)) return 1;
+    const double nz = ax->unit[row];
+    double c = 0.0, p2 = 0.0;
+    for (int a = 0; a < row; ++a) {
+        c += q[a] * ax->unit[a];
+        p2 += q[a] * q[a];
+    }
+    const double A = 1.0 - nz * nz;
+    const double rounding = 1e-12 * reach * reach; /* >> the rounding of a^2 at any node of the box */
+    if (!(rounding < 1e-8 * R * R)) return 1;
+    const double bound = R * R * (1.0 + 1e-6) + rounding;
+    /* A z^2 - 2 c nz z + (p2 - c^2) <= bound */
+    const double B = c * nz, C = p2 - c * c - bound;
+    /* the row misses the cylinder if the quadratic's least value over the box's nodes is above the bound */
+    const double zfirst = z0 + (double)*k0 * h - x_row, zlast = z0 + (double)*k1 * h - x_row;
+    double zmin = A > 0.0 ? B / A : zfirst;
+    zmin = zmin < zfirst ? zfirst : (zmin > zlast ? zlast : zmin);
+    if (A * zmin * zmin - 2.0 * B * zmin + C > 0.0) return 0;
+    if (!(A > 1e-3)) return 1; /* nearly parallel to the row: the roots are ill-conditioned */
+    const double disc = B * B - A * C;
+    if (!(disc > 0.0)) return 0;
+    const double root = sqrt(disc);
+    const double zlo = (B - root) / A, zhi = (B + root) / A;
+    const double klo = floor((x_row + zlo - z0) / h) - 1.0, khi = ceil((x_row + zhi - z0) / h) + 1.0;
+    if (klo > (double)*k0) *k0 = (cg_index)klo;
+    if (khi < (double)*k1) *k1 = (cg_index)khi;
+    return *k0 <= *k1;
+}
+
+/* The node-by-node path (cg_scatter.c, visit_nodes) over the same stencil box
+   in the same order, with the segment's axis computed once per object instead
+   of once per node, and the nodes outside the capsule rejected before the
+   closed form. */
+int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale)
+{
+    const cg_target *t = jb->target;
+    const int nr = t->n_resolved;
+    const double R = jb->kernel->radius;
+    double L2 = 0.0;
+    for (int a = 0; a < nr; ++a) L2 += e[a] * e[a];
+    if (L2 == 0.0) return 0;
+    segment_axis ax;
+    segment_axis_of(nr, e, &ax);
+    double bmin[3], bmax[3];
+    for (int a = 0; a < nr; ++a) {
+        const double end = x[a] + e[a];
+        bmin[a] = fmin(x[a], end) - R;
+        bmax[a] = fmax(x[a], end) + R;
+        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return 1;
+    }
+    cg_index first[3] = {0, 0, 0}, last[3] = {0, 0, 0}, stride[3] = {1, 1, 1};
+    for (int a = 0; a < nr; ++a) {
+        const double c0 = t->coords[a][0], h = jb->spacing[a];
+        const cg_index m = t->shape[a];
+        if (m == 1 || h == 0.0) { first[a] = 0; last[a] = m - 1; continue; }
+        double fl = floor((bmin[a] - c0) / h), l = ceil((bmax[a] - c0) / h);
+        if (fl < 0.0) fl = 0.0;
+        if (l > (double)(m - 1)) l = (double)(m - 1);
+        if (fl > l) return 1;
+        first[a] = (cg_index)fl;
+        last[a] = (cg_index)l;
+    }
+    for (int a = nr - 2; a >= 0; --a) stride[a] = stride[a + 1] * t->shape[a + 1];
+    const int row = nr - 1; /* the last resolved axis: contiguous in the output */
+    const double *zc = t->coords[row];
+    const double R2 = R * R;
+    double reach = R + ax.L; /* the stencil box's nodes are within reach (plus a spacing) of the start */
+    for (int a = 0; a < nr; ++a) reach += jb->spacing[a];
+    cg_index idx[3] = {first[0], first[1], first[2]};
+    double q[3];
+    for (;;) {
+        cg_index base = 0;
+        for (int a = 0; a < row; ++a) {
+            q[a] = t->coords[a][idx[a]] - x[a];
+            base += idx[a] * stride[a];
+        }
+        cg_index k0 = first[row], k1 = last[row];
+        if (!row_candidates(nr, &ax, q, x[row], zc[0], jb->spacing[row], R, reach, &k0, &k1)) k1 = k0 - 1;
+        for (cg_index k = k0; k <= k1; ++k) {
+            q[row] = zc[k] - x[row];
+            /* outside the cylinder: clip_to_support's first test, without its sqrt and divisions */
+            segment_frame f;
+            if (nr == 3) node_frame(3, &ax, q, e, &f);
+            else node_frame(nr, &ax, q, e, &f);
+            if (!(R2 - f.a2 > 0.0)) continue;
+            const double w = lucy_at_frame(jb->kernel, &f, NULL) * scale;
+            if (w != 0.0) cg_accumulate(jb, out, obj, base + k, w, NULL);
+        }
+        int a = row - 1;
+        while (a >= 0) {
+            if (++idx[a] <= last[a]) break;
+            idx[a] = first[a];
+            --a;
+        }
+        if (a < 0) break;
+    }
+    return 1;
+}
+
+/* Points of Lucy and Heaviside on grids: the node-by-node path's stencil box,
+   each row narrowed to the nodes the support ball can reach (rho^2 < R^2 with
+   a margin, widened by a node each way); each node's value is computed as
+   the node-by-node path computes it (the same rho^2, cg_kernel_value). */
+int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double *x)
+{
+    const cg_target *t = jb->target;
+    const int nr = t->n_resolved;
+    const double R = jb->kernel->radius;
+    double bmin[3], bmax[3];
+    for (int a = 0; a < nr; ++a) {
+        bmin[a] = x[a] - R;
+        bmax[a] = x[a] + R;
+        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return 1;
+    }
+    cg_index first[3] = {0, 0, 0}, last[3] = {0, 0, 0}, stride[3] = {1, 1, 1};
+    for (int a = 0; a < nr; ++a) {
+        const double c0 = t->coords[a][0], h = jb->spacing[a];
+        const cg_index m = t->shape[a];
+        if (m == 1 || h == 0.0) { first[a] = 0; last[a] = m - 1; continue; }
+        double fl = floor((bmin[a] - c0) / h), l = ceil((bmax[a] - c0) / h);
+        if (fl < 0.0) fl = 0.0;
+        if (l > (double)(m - 1)) l = (double)(m - 1);
+        if (fl > l) return 1;
+        first[a] = (cg_index)fl;
+        last[a] = (cg_index)l;
+    }
+    for (int a = nr - 2; a >= 0; --a) stride[a] = stride[a + 1] * t->shape[a + 1];
+    const int row = nr - 1;
+    const double *zc = t->coords[row];
+    const double h = jb->spacing[row];
+    const double bound = R * R * (1.0 + 1e-6);
+    cg_index idx[3] = {first[0], first[1], first[2]};
+    double q[3];
+    for (;;) {
+        cg_index base = 0;
+        double p2 = 0.0;
+        for (int a = 0; a < row; ++a) {
+            q[a] = t->coords[a][idx[a]] - x[a];
+            p2 += q[a] * q[a];
+            base += idx[a] * stride[a];
+        }
+        cg_index k0 = first[row], k1 = last[row];
+        if (h > 0.0) {
+            if (!(p2 < bound)) k1 = k0 - 1;
+            else {
+                const double half = sqrt(bound - p2);
+                const double klo = floor((x[row] - half - zc[0]) / h) - 1.0;
+                const double khi = ceil((x[row] + half - zc[0]) / h) + 1.0;
+                if (klo > (double)k0) k0 = (cg_index)klo;
+                if (khi < (double)k1) k1 = (cg_index)khi;
+            }
+        }
+        for (cg_index k = k0; k <= k1; ++k) {
+            q[row] = zc[k] - x[row];
+            double rho2 = 0.0;
+            for (int a = 0; a < nr; ++a) rho2 += q[a] * q[a];
+            const double w = cg_kernel_value(jb->kernel, rho2);
+            if (w != 0.0) cg_accumulate(jb, out, obj, base + k, w, NULL);
+        }
+        int a = row - 1;
+        while (a >= 0) {
+            if (++idx[a] <= last[a]) break;
+            idx[a] = first[a];
+            --a;
+        }
+        if (a < 0) break;
+    }
+    return 1;
+}
