@@ -158,8 +158,10 @@ def test_sigkill_mid_write_keeps_the_target_and_next_write_cleans_up(tmp_path, k
     out = cg.coarse_grain(snap, cg.Grid(box, (2, 2, 2)), cg.Lucy(0.5), fields=("density",))
     (out.to_hdf5 if kind == "hdf5" else out.to_npz)(target)
     before = target.read_bytes()
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.getcwd()] + sys.path))
-    child = subprocess.Popen([sys.executable, "-c", _CHILD, str(target)], stdout=subprocess.PIPE, env=env)
+    # the child imports the cgbound this test imported (the installed one in CI, not the uncompiled checkout)
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(os.path.abspath(cg.__file__))))
+    child = subprocess.Popen([sys.executable, "-c", _CHILD, str(target)], stdout=subprocess.PIPE, env=env,
+                             cwd=tmp_path)
     try:
         assert child.stdout.readline().strip() == b"writing"
         assert len(_temporaries(tmp_path)) == 1
