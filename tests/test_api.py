@@ -260,9 +260,9 @@ def test_the_gil_is_released_during_core_work():
 
     rng = np.random.default_rng(0)
     box = cg.Box([0, 0, 0], [10, 10, 10])
-    snap = cg.Snapshot(rng.uniform(0, 10, (2500, 3)), None, np.ones(2500), box=box)
+    snap = cg.Snapshot(rng.uniform(0, 10, (10000, 3)), None, np.ones(10000), box=box)
     grid = cg.Grid(box, (40, 40, 40))
-    kernel = cg.Lucy(4.0)  # node by node: the separable Gaussian is too fast to tell
+    kernel = cg.Lucy(4.0)  # a wide Lucy: long enough to tell (the separable Gaussian is too fast)
     start = time.perf_counter()
     cg.coarse_grain(snap, grid, kernel, fields=("density",))
     single = time.perf_counter() - start
