@@ -27,4 +27,6 @@ def test_a_bare_figure_repr_fails_and_an_image_passes(tmp_path):
 
 def test_cells_without_figures_need_no_image_and_unexecuted_notebooks_fail(tmp_path):
     assert check.main([notebook(tmp_path, "x = 1", [])]) == 0
+    # plot.norm computes a value: no figure expected
+    assert check.main([notebook(tmp_path, "t = plot.norm(out, 'stress')", [])]) == 0
     assert check.main([notebook(tmp_path, "x = 1", [], executed=False)]) == 1

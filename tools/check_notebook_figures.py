@@ -10,7 +10,7 @@ import re
 import sys
 
 #: source that makes a figure
-MAKES_FIGURE = re.compile(r"plt\.(subplots|figure|show)\(|\bplot\.\w+\(|\.plot\(")
+MAKES_FIGURE = re.compile(r"plt\.(subplots|figure|show)\(|\bplot\.(profile|field_map|particles)\(|\.plot\(")
 IMAGE_TYPES = ("image/png", "image/svg+xml", "image/jpeg")
 
 
