@@ -3,7 +3,7 @@ of docs/theory.md ("Identities the tests check") and never produce NaN or Inf (v
 where the density is zero)."""
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import assume, HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import cgbound as cg
@@ -100,7 +100,13 @@ def test_mass_and_virial_on_the_averaged_grid(snap, kernel):
 @given(snap=snapshots(), kernel=kernels)
 def test_fields_are_finite_on_resolved_grids(snap, kernel):
     grid = cg.Grid(snap.box, tuple([5] * snap.dim))
-    out = cg.coarse_grain(snap, grid, kernel, fields=FIELDS)
+    try:
+        out = cg.coarse_grain(snap, grid, kernel, fields=FIELDS)
+    except ValueError as exc:
+        # a kernel reaching over 1e5 periodic images is refused before work, by design (docs: numerical
+        # stability); such an example is outside what this property is about
+        assume("periodic images" not in str(exc))
+        raise
     empty = out.density == 0
     for name in FIELDS:
         value = out[name]
