@@ -188,6 +188,33 @@ static inline void cg_accumulate(const job *jb, double *out, cg_index obj, cg_in
     }
 }
 
+/* The grid nodes of an object's box [bmin, bmax] (resolved coordinates):
+   index range first..last along each resolved axis and the row-major
+   strides. Returns 0 when no node is in the box. */
+static inline int stencil_range(const job *jb, const double *bmin, const double *bmax, cg_index *first,
+                                cg_index *last, cg_index *stride)
+{
+    const cg_target *t = jb->target;
+    const int nr = t->n_resolved;
+    for (int a = 0; a < 3; ++a) {
+        first[a] = last[a] = 0;
+        stride[a] = 1;
+    }
+    for (int a = 0; a < nr; ++a) {
+        const double c0 = t->coords[a][0], h = jb->spacing[a];
+        const cg_index n = t->shape[a];
+        if (n == 1 || h == 0.0) { first[a] = 0; last[a] = n - 1; continue; }
+        double f = floor((bmin[a] - c0) / h), l = ceil((bmax[a] - c0) / h);
+        if (f < 0.0) f = 0.0;
+        if (l > (double)(n - 1)) l = (double)(n - 1);
+        if (f > l) return 0;
+        first[a] = (cg_index)f;
+        last[a] = (cg_index)l;
+    }
+    for (int a = nr - 2; a >= 0; --a) stride[a] = stride[a + 1] * t->shape[a + 1];
+    return 1;
+}
+
 /* Whether the separable path can take this object: returns 0 when the caller
    should use the node-by-node path instead. Otherwise visits every node of
    the object's stencil (one image at resolved position x, segment vector e,

@@ -155,19 +155,8 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
         bmax[a] = fmax(x[a], end) + R;
         if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return 1;
     }
-    cg_index first[3] = {0, 0, 0}, last[3] = {0, 0, 0}, stride[3] = {1, 1, 1};
-    for (int a = 0; a < nr; ++a) {
-        const double c0 = t->coords[a][0], h = jb->spacing[a];
-        const cg_index m = t->shape[a];
-        if (m == 1 || h == 0.0) { first[a] = 0; last[a] = m - 1; continue; }
-        double fl = floor((bmin[a] - c0) / h), l = ceil((bmax[a] - c0) / h);
-        if (fl < 0.0) fl = 0.0;
-        if (l > (double)(m - 1)) l = (double)(m - 1);
-        if (fl > l) return 1;
-        first[a] = (cg_index)fl;
-        last[a] = (cg_index)l;
-    }
-    for (int a = nr - 2; a >= 0; --a) stride[a] = stride[a + 1] * t->shape[a + 1];
+    cg_index first[3], last[3], stride[3];
+    if (!stencil_range(jb, bmin, bmax, first, last, stride)) return 1;
     const int row = nr - 1; /* the last resolved axis: contiguous in the output */
     const double *zc = t->coords[row];
     const double R2 = R * R;
@@ -219,19 +208,8 @@ int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double 
         bmax[a] = x[a] + R;
         if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return 1;
     }
-    cg_index first[3] = {0, 0, 0}, last[3] = {0, 0, 0}, stride[3] = {1, 1, 1};
-    for (int a = 0; a < nr; ++a) {
-        const double c0 = t->coords[a][0], h = jb->spacing[a];
-        const cg_index m = t->shape[a];
-        if (m == 1 || h == 0.0) { first[a] = 0; last[a] = m - 1; continue; }
-        double fl = floor((bmin[a] - c0) / h), l = ceil((bmax[a] - c0) / h);
-        if (fl < 0.0) fl = 0.0;
-        if (l > (double)(m - 1)) l = (double)(m - 1);
-        if (fl > l) return 1;
-        first[a] = (cg_index)fl;
-        last[a] = (cg_index)l;
-    }
-    for (int a = nr - 2; a >= 0; --a) stride[a] = stride[a + 1] * t->shape[a + 1];
+    cg_index first[3], last[3], stride[3];
+    if (!stencil_range(jb, bmin, bmax, first, last, stride)) return 1;
     const int row = nr - 1;
     const double *zc = t->coords[row];
     const double h = jb->spacing[row];

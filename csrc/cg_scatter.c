@@ -142,19 +142,8 @@ static cg_status visit_nodes(const job *jb, double *out, scratch *sc, cg_index o
         return CG_OK;
     }
     /* grid: index range of the stencil along each resolved axis */
-    cg_index first[3] = {0, 0, 0}, last[3] = {0, 0, 0}, stride[3] = {1, 1, 1};
-    for (int a = 0; a < nr; ++a) {
-        const double c0 = t->coords[a][0], h = jb->spacing[a];
-        const cg_index n = t->shape[a];
-        if (n == 1 || h == 0.0) { first[a] = 0; last[a] = n - 1; continue; }
-        double f = floor((bmin[a] - c0) / h), l = ceil((bmax[a] - c0) / h);
-        if (f < 0.0) f = 0.0;
-        if (l > (double)(n - 1)) l = (double)(n - 1);
-        if (f > l) return CG_OK;
-        first[a] = (cg_index)f;
-        last[a] = (cg_index)l;
-    }
-    for (int a = nr - 2; a >= 0; --a) stride[a] = stride[a + 1] * t->shape[a + 1];
+    cg_index first[3], last[3], stride[3];
+    if (!stencil_range(jb, bmin, bmax, first, last, stride)) return CG_OK;
     cg_index idx[3] = {first[0], first[1], first[2]};
     for (;;) {
         if (++*count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
