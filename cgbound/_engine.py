@@ -30,6 +30,7 @@ class CoreKernel(NamedTuple):
     avg_extent: float                 # product of the averaged axes' lengths (1 without)
     line_points: int = 0              # Gauss-Legendre points along segments, 0 = exact
     per_node: int = 0                 # benchmarks only: no separable fast path
+    lower_dimensional: int = 0        # 1: over averaged axes the D_res-dimensional kernel (MercuryCG's)
 
 
 def core_target(target, box):
@@ -59,7 +60,7 @@ def core_kernel(kernel, avg_extent, longest_branch=None):
     points = kernel.line_points_for(longest_branch)
     return CoreKernel(kernel.kind, float(kernel.width if kernel.width is not None else kernel.radius),
                       float(kernel.radius), int(kernel.truncated), float(avg_extent), int(points),
-                      int(kernel.per_node))
+                      int(kernel.per_node), int(kernel.lower_dimensional))
 
 
 def scatter_points(target, kernel, positions, values, gradient=False, n_threads=0):

@@ -2,7 +2,9 @@
 
 All kernels are radial with compact support of radius ``radius``. Over averaged
 grid axes the exact marginal over those axes is used (for the Gaussian: the
-marginal of the untruncated Gaussian, cut off in the resolved subspace).
+marginal of the untruncated Gaussian, cut off in the resolved subspace), or with
+``averaged_axes="lower-dimensional"`` MercuryCG's convention: the kernel of the
+resolved dimension itself (for a Z profile the 1-D Lucy), divided by the averaged extent.
 
 Widths, cutoffs and radii must lie in LENGTH_RANGE (1e-60 to 1e60; a Gaussian's default cutoff of 5
 widths may reach 5e60): outside it the kernel's peak or normalisation leaves the floating-point range.
@@ -75,6 +77,20 @@ def check_line_quadrature(value, name="line_quadrature"):
     return int(value)
 
 
+#: what a kernel is over the axes a Grid averages: "marginal" (the exact marginal of the D-dimensional kernel)
+#: or "lower-dimensional" (MercuryCG's: the kernel of the resolved dimension, e.g. the 1-D Lucy for a Z profile)
+AVERAGED_AXES = ("marginal", "lower-dimensional")
+
+
+def check_averaged_axes(value, name="averaged_axes"):
+    """"marginal" or "lower-dimensional"; returns whether it is the lower-dimensional kernel."""
+    if not isinstance(value, str) or value not in AVERAGED_AXES:
+        raise (ValueError if isinstance(value, str) else TypeError)(
+            f"{name}: expected 'marginal' (the exact marginal of the D-dimensional kernel over the averaged axes) "
+            f"or 'lower-dimensional' (MercuryCG's: the kernel of the resolved dimension), got {value!r}")
+    return value == "lower-dimensional"
+
+
 def auto_line_points(longest_branch, width):
     """The accuracy-vs-time study's rule: n = ceil(2 L / w + 2) Gauss-Legendre points for branches up to
     L long keep the stress and the momentum-balance residual at the 5w cutoff's level (~1e-5); more than
@@ -94,6 +110,20 @@ class Kernel:
     truncated = False
     _line_points = 0      # Gauss-Legendre points along segments, 0 = exact (Gaussian only)
     _per_node = False     # benchmarks only: evaluate node by node, without the separable fast path
+    #: over a Grid's averaged axes: "marginal" (default) or "lower-dimensional" (MercuryCG's convention)
+    averaged_axes = "marginal"
+
+    @property
+    def lower_dimensional(self):
+        """Whether the kernel over averaged axes is the lower-dimensional one (MercuryCG's convention)."""
+        return self.averaged_axes == "lower-dimensional"
+
+    def _set_averaged_axes(self, value):
+        check_averaged_axes(value)
+        self.averaged_axes = value
+
+    def _averaged_repr(self):
+        return "" if self.averaged_axes == "marginal" else f", averaged_axes={self.averaged_axes!r}"
 
     @property
     def kind(self):
@@ -146,7 +176,7 @@ class Kernel:
         return self._length_name
 
     def __repr__(self):
-        return f"{type(self).__name__}({self._length_name}={self.radius:g})"
+        return f"{type(self).__name__}({self._length_name}={self.radius:g}{self._averaged_repr()})"
 
 
 class Gaussian(Kernel):
@@ -172,12 +202,17 @@ class Gaussian(Kernel):
         study's rule n = ceil(2 L / w + 2) for the longest branch L, exact beyond 8
         points (errors at the 5w cutoff's ~1e-5 level, 2-3x faster contact stress).
         Rays (extended_stress) are always exact.
+    averaged_axes : {"marginal", "lower-dimensional"}
+        The kernel over the axes a Grid averages. For the Gaussian both are the same kernel
+        (the marginal of a Gaussian is the lower-dimensional Gaussian, cut off at ``cutoff`` in
+        the resolved axes); accepted so that every kernel takes it (see :class:`Lucy`).
     """
 
     _type = GAUSSIAN
     _length_name = "width"
 
-    def __init__(self, width, cutoff=None, normalize="full", line_quadrature=DEFAULT_LINE_QUADRATURE):
+    def __init__(self, width, cutoff=None, normalize="full", line_quadrature=DEFAULT_LINE_QUADRATURE,
+                 averaged_axes="marginal"):
         self.width = kernel_length(width, "width")
         # the default cutoff (5 widths) is not range-checked: it follows a checked width
         self.radius = (DEFAULT_GAUSSIAN_CUTOFF * self.width if cutoff is None else kernel_length(cutoff, "cutoff"))
@@ -189,30 +224,54 @@ class Gaussian(Kernel):
         self.truncated = normalize == "truncated"
         self._line_points = check_line_quadrature(line_quadrature)
         self.line_quadrature = {0: "exact", AUTO_LINE_POINTS: "auto"}.get(self._line_points, self._line_points)
+        self._set_averaged_axes(averaged_axes)
 
     def __repr__(self):
         return (f"Gaussian(width={self.width:g}, cutoff={self.radius:g}, normalize={self.normalize!r}, "
-                f"line_quadrature={self.line_quadrature!r})")
+                f"line_quadrature={self.line_quadrature!r}{self._averaged_repr()})")
 
 
 class Lucy(Kernel):
-    """Lucy polynomial W = C (1 + 3x)(1 - x)^3, x = r / cutoff < 1 (C^2 at the edge, no truncation error)."""
+    """Lucy polynomial W = C_D (1 + 3x)(1 - x)^3, x = r / cutoff < 1 (C^2 at the edge, no truncation error).
+
+    C_D = 105 / (16 pi R^3) in 3-D, 5 / (pi R^2) in 2-D, 5 / (4 R) in 1-D (R = cutoff).
+
+    Parameters
+    ----------
+    cutoff : float
+        Support radius R (MercuryCG's Lucy ``width``).
+    averaged_axes : {"marginal", "lower-dimensional"}
+        The kernel over the axes a Grid averages. "marginal" (default): the exact marginal of
+        the D-dimensional Lucy over them, so that a profile is the average of the D-dimensional
+        field over the averaged extent. "lower-dimensional": MercuryCG's convention, the
+        D_res-dimensional Lucy itself (for a Z profile C_1 (1 + 3x)(1 - x)^3 with x = |z - z_i| / R),
+        divided by the averaged extent; it reproduces MercuryCG's X/Y/Z/XY/XZ/YZ ``.stat`` files.
+        Both integrate to the same mass; the profiles differ by a few per cent where they vary
+        on the scale of R.
+    """
 
     _type = LUCY
     _length_name = "cutoff"
 
-    def __init__(self, cutoff):
+    def __init__(self, cutoff, averaged_axes="marginal"):
         self.radius = kernel_length(cutoff, "cutoff")
+        self._set_averaged_axes(averaged_axes)
 
 
 class Heaviside(Kernel):
-    """Uniform ball of the given radius (for comparison with binning tools); its gradient is zero."""
+    """Uniform ball of the given radius (for comparison with binning tools); its gradient is zero.
+
+    ``averaged_axes``: "marginal" (default; over averaged axes the marginal of the D-dimensional ball,
+    e.g. pi (R^2 - z^2) / (4/3 pi R^3) for a Z profile in 3-D) or "lower-dimensional" (MercuryCG's:
+    the uniform D_res-dimensional ball, 1 / (2R) for a Z profile), divided by the averaged extent.
+    """
 
     _type = HEAVISIDE
     _length_name = "radius"
 
-    def __init__(self, radius):
+    def __init__(self, radius, averaged_axes="marginal"):
         self.radius = kernel_length(radius, "radius")
+        self._set_averaged_axes(averaged_axes)
 
     differentiable = False   # its gradient is zero away from the sphere and undefined on it
 

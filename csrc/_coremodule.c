@@ -344,17 +344,17 @@ typedef struct kernel_arg {
     cg_kernel kernel;
 } kernel_arg;
 
-/* kernel = (type, width, radius, truncated, avg_extent[, line_points[, per_node]]) */
+/* kernel = (type, width, radius, truncated, avg_extent[, line_points[, per_node[, lower_dimensional]]]) */
 static int kernel_converter(PyObject *obj, void *address)
 {
     kernel_arg *ka = (kernel_arg *)address;
     cg_kernel *k = &ka->kernel;
     memset(k, 0, sizeof *k);
     if (!PyTuple_Check(obj) ||
-        !PyArg_ParseTuple(obj, "iddid|ii", &k->type, &k->width, &k->radius, &k->truncated_norm, &k->avg_extent,
-                          &k->line_points, &k->per_node)) {
-        PyErr_SetString(PyExc_TypeError,
-                        "kernel: expected (type, width, radius, truncated, avg_extent[, line_points[, per_node]])");
+        !PyArg_ParseTuple(obj, "iddid|iii", &k->type, &k->width, &k->radius, &k->truncated_norm, &k->avg_extent,
+                          &k->line_points, &k->per_node, &k->lower_dimensional)) {
+        PyErr_SetString(PyExc_TypeError, "kernel: expected (type, width, radius, truncated, avg_extent[, line_points"
+                                         "[, per_node[, lower_dimensional]]])");
         return 0;
     }
     if (k->line_points < 0 || k->line_points > CG_MAX_LINE_POINTS) {
@@ -366,7 +366,8 @@ static int kernel_converter(PyObject *obj, void *address)
     k->n_resolved = ka->target->target.n_resolved;
     if (cg_kernel_init(k) != CG_OK) {
         PyErr_SetString(PyExc_ValueError,
-                        "kernel: type must be 0, 1 or 2 and width, radius, avg_extent positive and finite");
+                        "kernel: type must be 0, 1 or 2, width, radius, avg_extent positive and finite, "
+                        "lower_dimensional 0 or 1");
         return 0;
     }
     return 1;

@@ -11,7 +11,9 @@
  *   resolved axes   the data axes the evaluation nodes vary along (D_res of
  *            them, 0..D). The other D_avg = D - D_res axes are averaged: the
  *            kernel used is the marginal of the D-dimensional kernel over them,
- *            divided by avg_extent (the product of the averaged extents).
+ *            divided by avg_extent (the product of the averaged extents);
+ *            or, with lower_dimensional, the D_res-dimensional kernel itself
+ *            (MercuryCG's convention), divided by avg_extent.
  *   target   where fields are evaluated: a regular grid (tensor product of
  *            1-D node coordinates with uniform spacing) or a list of points.
  *   object   what is smeared by the kernel: a point (particle, contact point)
@@ -105,6 +107,11 @@ typedef struct cg_kernel {
                              along each finite segment (rays stay exact) */
     int per_node;         /* internal, for benchmarks: 1 = skip the separable fast
                              path and evaluate the kernel node by node */
+    int lower_dimensional; /* over averaged axes: 0 = the marginal of the D-dimensional
+                             kernel; 1 = MercuryCG's convention, the D_res-dimensional
+                             kernel itself (e.g. the 1-D Lucy for one resolved axis),
+                             divided by avg_extent. The Gaussian is the same either way
+                             (its marginal is the lower-dimensional Gaussian). */
     /* filled by cg_kernel_init */
     double prefactor;
 } cg_kernel;

@@ -13,6 +13,13 @@
 #include <math.h>
 #include <stddef.h>
 
+/* How many axes the kernel integrates out (its marginal over them): D - D_res,
+   or 0 when the kernel is the D_res-dimensional one (lower_dimensional). */
+static inline int cg_kernel_marginal_axes(const cg_kernel *k)
+{
+    return k->lower_dimensional ? 0 : k->dim - k->n_resolved;
+}
+
 /* the n-point Gauss-Legendre rule on [0, 1]: nodes x (increasing), weights w */
 void cg_gauss_legendre01(int n, double *x, double *w);
 

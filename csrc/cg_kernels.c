@@ -80,7 +80,9 @@ cg_status cg_kernel_init(cg_kernel *k)
     if (k->type == CG_KERNEL_GAUSSIAN && (!(k->width > 0.0) || !isfinite(k->width)))
         return CG_ERR_ARGUMENT;
     if (k->line_points < 0 || k->line_points > CG_MAX_LINE_POINTS) return CG_ERR_ARGUMENT;
-    const int n_avg = k->dim - k->n_resolved;
+    if (k->lower_dimensional != 0 && k->lower_dimensional != 1) return CG_ERR_ARGUMENT;
+    const int n_avg = cg_kernel_marginal_axes(k);
+    const int kernel_dim = k->lower_dimensional ? k->n_resolved : k->dim; /* the kernel's own dimension */
     const double R = k->radius;
     if (k->n_resolved == 0) {
         /* everything averaged: each object contributes 1 / volume */
@@ -100,15 +102,15 @@ cg_status cg_kernel_init(cg_kernel *k)
         return CG_OK;
     }
     case CG_KERNEL_LUCY: {
-        /* marginal over n_avg axes of the D-dimensional kernel, in units of R */
-        double C = lucy_constant(k->dim, R);
+        /* marginal over n_avg axes of the kernel_dim-dimensional kernel, in units of R */
+        double C = lucy_constant(kernel_dim, R);
         if (n_avg == 1) C *= R;                 /* M = C R m1(rho/R) */
         else if (n_avg == 2) C *= 2.0 * M_PI * R * R; /* M = 2 pi C R^2 g2(|z|/R) */
         k->prefactor = C / k->avg_extent;
         return CG_OK;
     }
     case CG_KERNEL_HEAVISIDE:
-        k->prefactor = 1.0 / (ball_volume(k->dim, R) * k->avg_extent);
+        k->prefactor = 1.0 / (ball_volume(kernel_dim, R) * k->avg_extent);
         return CG_OK;
     default:
         return CG_ERR_ARGUMENT;
@@ -167,7 +169,7 @@ double cg_kernel_value(const cg_kernel *k, double rho2)
     const double R = k->radius;
     if (k->n_resolved == 0) return k->prefactor;
     if (!(rho2 < R * R)) return 0.0;
-    const int n_avg = k->dim - k->n_resolved;
+    const int n_avg = cg_kernel_marginal_axes(k);
     switch (k->type) {
     case CG_KERNEL_GAUSSIAN:
         return k->prefactor * exp(-0.5 * rho2 / (k->width * k->width));
@@ -453,7 +455,7 @@ static void quadrature_line(const cg_kernel *k, const segment_frame *f, double s
                             int clipped0, int clipped1, int want_grad, double *acc)
 {
     const integrand_ctx c = {k, f, want_grad};
-    const int n_avg = k->dim - k->n_resolved;
+    const int n_avg = cg_kernel_marginal_axes(k);
     const double R = k->radius;
     const int smooth_kink = (k->type == CG_KERNEL_HEAVISIDE); /* polynomial in t on each side */
     const double scale = fmax(sqrt(f->a2), 1e-5 * R);
@@ -562,8 +564,8 @@ double cg_kernel_line_rule(const cg_kernel *k, const double *q, const double *e,
         for (int d = 0; d < n; ++d) rho2 += q[d] * q[d];
         return cg_kernel_value(k, rho2);
     }
-    if (k->type == CG_KERNEL_LUCY && n == k->dim) {
-        /* the full-dimensional kernel: closed form */
+    if (k->type == CG_KERNEL_LUCY && cg_kernel_marginal_axes(k) == 0) {
+        /* the full-dimensional (or lower-dimensional) kernel: closed form */
         segment_axis ax;
         segment_axis_of(n, e, &ax);
         return cg_lucy_segment(k, &ax, q, e, grad);
@@ -574,7 +576,7 @@ double cg_kernel_line_rule(const cg_kernel *k, const double *q, const double *e,
     double s0, s1, b;
     const double R = k->radius;
     if (!clip_to_support(&f, R, &s0, &s1, &b)) return 0.0;
-    const int n_avg = k->dim - n;
+    const int n_avg = cg_kernel_marginal_axes(k);
 
     if (k->type == CG_KERNEL_GAUSSIAN) {
         const double w = k->width;

@@ -280,7 +280,7 @@ static cg_status prepare(job *jb)
     }
     const cg_kernel *k = jb->kernel;
     if (jb->mode == MODE_GRADIENT) {
-        if (k->type != CG_KERNEL_GAUSSIAN && k->dim != k->n_resolved) return CG_ERR_UNSUPPORTED;
+        if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) != 0) return CG_ERR_UNSUPPORTED;
     }
     if (k->line_points < 0 || k->line_points > CG_MAX_LINE_POINTS) return CG_ERR_ARGUMENT;
     jb->line_points = k->type == CG_KERNEL_GAUSSIAN ? k->line_points : 0;
@@ -288,7 +288,7 @@ static cg_status prepare(job *jb)
                     jb->mode != MODE_GRADIENT;
     jb->wide = jb->separable && cg_separable_wide_available();
     jb->lucy_rows = k->type == CG_KERNEL_LUCY && !k->per_node && t->is_grid && t->n_resolved > 0 &&
-                    t->n_resolved == t->dim && jb->is_segment && jb->mode == MODE_VALUE;
+                    cg_kernel_marginal_axes(k) == 0 && jb->is_segment && jb->mode == MODE_VALUE;
     jb->ball_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
                     t->n_resolved > 0 && !jb->is_segment && jb->mode != MODE_GRADIENT;
     return CG_OK;
