@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .box import Box
 from .grid import Grid
 from .kernels import Gaussian, Heaviside, Lucy
 
@@ -95,19 +96,33 @@ class StatFile:
     def resolved(self):
         return "" if self.coordinates == "O" else self.coordinates
 
-    def kernel(self):
-        """The cgbound kernel equal to MercuryCG's (see :func:`stat_kernel`)."""
-        return stat_kernel(self.function, self.width, self.cutoff)
+    def kernel(self, averaged_axes="lower-dimensional"):
+        """The cgbound kernel equal to MercuryCG's (see :func:`stat_kernel`); ``averaged_axes="marginal"``
+        gives cgbound's default kernel over averaged axes instead, to see the difference."""
+        return stat_kernel(self.function, self.width, self.cutoff, averaged_axes=averaged_axes)
+
+    def grid(self, periodic=False):
+        """The cgbound :class:`~cgbound.grid.Grid` of this file's nodes (``periodic``: the data's periodic
+        axes, a bool or one per axis). With :meth:`kernel`, ``cg.coarse_grain(snapshot, stat.grid(
+        snapshot.box.periodic), stat.kernel(), fields, convention="compression")`` reproduces the file."""
+        averaged = tuple(a.lower() for a in AXES if a not in self.resolved)
+        return Grid(Box(self.lower, self.upper, periodic=periodic), tuple(int(k) for k in self.n), average=averaged)
 
 
-def stat_kernel(function, width, cutoff=None):
-    """cgbound's kernel for MercuryCG's ``function`` and ``width``."""
+def stat_kernel(function, width, cutoff=None, averaged_axes="lower-dimensional"):
+    """cgbound's kernel for MercuryCG's ``function`` and ``width``.
+
+    Over averaged axes MercuryCG uses the kernel of the resolved dimension itself (the 1-D Lucy for a Z
+    profile), hence ``averaged_axes="lower-dimensional"``; "marginal" gives cgbound's default (the exact
+    marginal of the 3-D kernel) with the same width and cutoff.
+    """
     if function == "Lucy":
-        return Lucy(width)
+        return Lucy(width, averaged_axes=averaged_axes)
     if function == "Gauss":
-        return Gaussian(width, cutoff=3 * width if cutoff is None else cutoff, normalize="truncated")
+        return Gaussian(width, cutoff=3 * width if cutoff is None else cutoff, normalize="truncated",
+                        averaged_axes=averaged_axes)
     if function == "Heaviside":
-        return Heaviside(width)
+        return Heaviside(width, averaged_axes=averaged_axes)
     raise ValueError(f"function: expected Lucy, Gauss or Heaviside (MercuryCG's names), got {function!r}")
 
 

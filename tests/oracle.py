@@ -6,7 +6,7 @@ Each twin is named after what it mirrors: ``oracle_scatter_points``,
 ``oracle_split_contacts`` mirrors ``Snapshot.split_contacts``;
 ``oracle_coarse_grain`` mirrors ``cgbound.coarse_grain`` (the whole pipeline);
 ``OracleKernel`` mirrors the core's kernels (cg_kernel_value, cg_kernel_line,
-cg_kernel_gradient) and ``oracle_target`` the nodes of a Grid or Points target.
+cg_kernel_gradient; with ``lower_dimensional``, MercuryCG's kernel over averaged axes) and ``oracle_target`` the nodes of a Grid or Points target.
 
 It shares no numerics with the C core: marginals over averaged axes are
 integrated numerically from the D-dimensional kernel, line integrals use the
@@ -56,9 +56,11 @@ def _graded_panels(lo, hi, scale):
 class OracleKernel:
     """Kernel from its textbook definition in D dimensions (twin of the core's cg_kernel_*)."""
 
-    def __init__(self, kind, dim, width, radius, truncated=False, line_points=0):
+    def __init__(self, kind, dim, width, radius, truncated=False, line_points=0, lower_dimensional=False):
         self.kind, self.dim, self.w, self.R, self.truncated = kind, dim, width, radius, truncated
         self.line_points = line_points if kind == "gaussian" else 0   # n-point Gauss-Legendre along segments
+        # MercuryCG's convention over averaged axes: the n_res-dimensional kernel itself, not the marginal
+        self.lower_dimensional = lower_dimensional
         self._norms = {}
 
     # full D-dimensional kernel (for Lucy/Heaviside), as a function of r
@@ -101,7 +103,10 @@ class OracleKernel:
             val = np.exp(-rho2 / (2 * self.w**2)) / self.gaussian_norm(n_res)
             return np.where(inside, val, 0.0) / avg_extent
         rho = np.sqrt(np.minimum(rho2, R * R))
-        if n_avg == 0:
+        if self.lower_dimensional:
+            # the textbook kernel of the resolved dimension (normalised in n_res dimensions)
+            val = self.full(rho, dim=n_res)
+        elif n_avg == 0:
             val = self.full(rho)
         elif n_avg == 1:
             # int over y in [-h, h] of W(sqrt(rho^2 + y^2)); y = rho sinh(tau) smooths small rho
@@ -161,30 +166,31 @@ class OracleKernel:
             out[p] = total / L
         return out
 
-    def radial_derivative(self, r):
-        """dW/dr of the full-dimensional kernel, from its textbook form."""
+    def radial_derivative(self, r, dim=None):
+        """dW/dr of the full-dimensional kernel (or of the ``dim``-dimensional one), from its textbook form."""
         R = self.R
+        dim = dim or self.dim
         if self.kind == "gaussian":
-            return np.where(r < R, -r / self.w**2 * np.exp(-r**2 / (2 * self.w**2)) / self.gaussian_norm(self.dim), 0.0)
+            return np.where(r < R, -r / self.w**2 * np.exp(-r**2 / (2 * self.w**2)) / self.gaussian_norm(dim), 0.0)
         if self.kind == "lucy":
-            C = {2: 5 / (math.pi * R**2), 3: 105 / (16 * math.pi * R**3)}[self.dim]
+            C = {1: 5 / (4 * R), 2: 5 / (math.pi * R**2), 3: 105 / (16 * math.pi * R**3)}[dim]
             x = r / R
             # d/dr [C (1 + 3x)(1 - x)^3] = C [3 (1 - x)^3 - 3 (1 + 3x)(1 - x)^2] / R
             return np.where(x < 1, C * (3 * (1 - x) ** 3 - 3 * (1 + 3 * x) * (1 - x) ** 2) / R, 0.0)
         return np.zeros_like(r)
 
     def gradient(self, x):
-        """Gradient of W at offsets x (P x D)."""
+        """Gradient of W at offsets x (P x D; with fewer columns, of the kernel of that dimension)."""
         r = np.sqrt((x * x).sum(axis=1))
         safe = np.where(r > 0, r, 1.0)
-        return (self.radial_derivative(r) / safe)[:, None] * x
+        return (self.radial_derivative(r, dim=x.shape[1]) / safe)[:, None] * x
 
     def marginal_gradient(self, q, n_res=None, avg_extent=1.0):
         """grad_q M(|q|^2) at offsets q (P x n_res), as cg_kernel_gradient: the full kernel's gradient when
         nothing is averaged; the Gaussian's marginal is Gaussian in the resolved axes."""
         q = np.atleast_2d(q)
         n_res = self.dim if n_res is None else n_res
-        if n_res == self.dim:
+        if n_res == self.dim or (self.lower_dimensional and self.kind != "gaussian"):
             return self.gradient(q) / avg_extent
         if self.kind == "gaussian":
             return -q / self.w**2 * self.marginal((q * q).sum(axis=1), n_res, avg_extent)[:, None]
@@ -400,7 +406,8 @@ def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
     kind = {cg.Gaussian: "gaussian", cg.Lucy: "lucy", cg.Heaviside: "heaviside"}[type(kernel_obj)]
     line = getattr(kernel_obj, "line_quadrature", "exact")
     kernel = OracleKernel(kind, snap.dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
-                       truncated=getattr(kernel_obj, "truncated", False), line_points=0 if line == "exact" else line)
+                       truncated=getattr(kernel_obj, "truncated", False), line_points=0 if line == "exact" else line,
+                       lower_dimensional=kernel_obj.averaged_axes == "lower-dimensional")
     box = snap.box
     tgt = oracle_target(where, box)
     D = snap.dim
