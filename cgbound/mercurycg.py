@@ -33,7 +33,13 @@ There is no kinetic-stress column: the kinetic stress is ``MomentumFlux - Moment
 (compression-positive). Kernels: MercuryCG's Lucy ``width`` is the cutoff radius, i.e.
 ``cgbound.Lucy(cutoff=width)``; MercuryCG's Gauss ``width`` is the standard deviation, cut off at
 ``3 width`` and renormalised over the truncated ball, i.e. ``cgbound.Gaussian(width, cutoff=3 * width,
-normalize="truncated")``.
+normalize="truncated")``. Over averaged axes (X, Y, Z, XY, XZ, YZ files) MercuryCG uses the kernel of the
+resolved dimension itself (for a Z profile with Lucy the 1-D Lucy 5/(4R) (1 + 3x)(1 - x)^3, divided by the
+averaged area), where cgbound's default is the exact marginal of the 3-D kernel (1-5 % apart for Lucy);
+``averaged_axes="lower-dimensional"`` on the kernel gives MercuryCG's, and :meth:`StatFile.kernel` returns
+it. To reproduce a file: ``cg.coarse_grain(snapshot, stat.grid(snapshot.box.periodic), stat.kernel(),
+fields, convention="compression")``. Writing refuses a Lucy or Heaviside result on a grid with averaged and
+resolved axes that used the marginal, since the header would name MercuryCG's kernel.
 """
 import os
 from dataclasses import dataclass, field
@@ -301,7 +307,13 @@ def to_fields(stat, convention="tension"):
 
 
 # ----------------------------------------------------------------------------------------------
-def _kernel_header(kernel):
+def _kernel_header(kernel, grid):
+    if grid.averaged and grid.resolved and isinstance(kernel, (Lucy, Heaviside)) and not kernel.lower_dimensional:
+        # MercuryCG's header names its kernel, which over averaged axes is the lower-dimensional one
+        raise ValueError(f"result: a MercuryCG .stat file of a {''.join(AXES[d] for d in grid.resolved)} grid holds "
+                         f"MercuryCG's lower-dimensional {type(kernel).__name__} over the averaged axes; this result "
+                         f"used the marginal of the 3-D kernel ({kernel!r}). Coarse grain with "
+                         f"cg.{type(kernel).__name__}({kernel.radius:g}, averaged_axes='lower-dimensional')")
     if isinstance(kernel, Lucy):
         return f"width {kernel.cutoff:g} Lucy cutoff {kernel.cutoff:g}"
     if isinstance(kernel, Gaussian):
@@ -365,7 +377,7 @@ def write_stat(path, result, *, time=None, time_min=None, time_max=None, digits=
         raise ValueError(f"result: no MercuryCG column can be written from the fields {list(result.fields)}; "
                          "expected some of density, volume_fraction, momentum, momentum_flux, contact_stress + "
                          "boundary_stress, interaction_force_density")
-    kernel_text = _kernel_header(result.kernel)
+    kernel_text = _kernel_header(result.kernel, grid)
     resolved = "".join(AXES[d] for d in grid.resolved)
     coords = resolved or "O"
     shape = tuple(grid.shape[d] for d in grid.resolved)

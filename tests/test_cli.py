@@ -389,11 +389,15 @@ def test_stat_output_is_mercurycg_format_and_its_kernel_is_checked_before_work(t
     status, err = run_error(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,20", "--average", "x,y", "-o", str(out)],
                             capsys)
     assert status == 2 and "--output: a MercuryCG .stat file holds MercuryCG's Gauss" in err and not out.exists()
-    assert main(["run", ATOMS] + LAMMPS_ARGS + ["--kernel", "lucy", "--cutoff", "1", "--grid", "1,1,20", "--average",
-                 "x,y", "--fields", "density,momentum", "-o", str(out), "-q"]) == 0
+    lucy = ["--kernel", "lucy", "--cutoff", "1", "--grid", "1,1,20", "--average", "x,y", "--fields", "density,momentum",
+            "-o", str(out), "-q"]
+    status, err = run_error(["run", ATOMS] + LAMMPS_ARGS + lucy, capsys)
+    assert status == 2 and "--output: a MercuryCG .stat file holds MercuryCG's lower-dimensional lucy" in err
+    assert "--averaged-kernel lower-dimensional" in err and not out.exists()
+    assert main(["run", ATOMS] + LAMMPS_ARGS + lucy + ["--averaged-kernel", "lower-dimensional"]) == 0
     stat = read_stat(out)
     frames = cg.readers.LammpsReader(ATOMS, PAIRS, pair_values=GRAN.split(","), fixed_types=[2], walls=["w"],
                                      body_force=[0, 0, -1])
-    expected = cg.CoarseGrain(frames, cg.Grid(frames[0].box, (1, 1, 20), average=("x", "y")), cg.Lucy(1.0),
-                              fields=("density",)).run().results
+    expected = cg.CoarseGrain(frames, cg.Grid(frames[0].box, (1, 1, 20), average=("x", "y")),
+                              cg.Lucy(1.0, averaged_axes="lower-dimensional"), fields=("density",)).run().results
     np.testing.assert_allclose(stat.columns["Density"].ravel(), expected.density.ravel(), rtol=5e-6)

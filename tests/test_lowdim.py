@@ -26,6 +26,9 @@ from test_core_sweep import (LENGTHS, ORACLE_KIND, PERIODICITY, RTOL, case_id, d
 GAUSSIAN, LUCY, HEAVISIDE = 0, 1, 2
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "mercurycg")
 CHUTE = os.path.join(DATA, "ChutePeriodicDemo_t15")
+#: the whole run (frames t = 0, 2.5, ..., 20) with its .restart and MercuryCG's files (tests/data/mercurydpm/README.md)
+RUN = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "mercurydpm", "ChutePeriodicDemo",
+                   "ChutePeriodicDemo")
 
 #: name: (core type, width, cutoff radius) of kernels tried with lower_dimensional = 1
 KERNELS = {"lucy": (LUCY, 1.1, 1.1), "lucy-wide": (LUCY, 2.2, 2.2), "heaviside": (HEAVISIDE, 0.9, 0.9)}
@@ -337,13 +340,18 @@ def relative_difference(ours, theirs):
     return float(np.max(np.abs(ours - theirs)) / np.max(np.abs(theirs)))
 
 
-@pytest.mark.parametrize("name", ["Z_Lucy_w1", "Z_Heaviside_w1", "XZ_Lucy_w1_interior", "Z_Gauss_w0.5"])
+STAT_FILES = {"Z_Lucy_w1": RUN + ".Z_Lucy_w1.stat", "Z_Heaviside_w1": CHUTE + ".Z_Heaviside_w1.stat",
+              "XZ_Lucy_w1_interior": CHUTE + ".XZ_Lucy_w1_interior.stat", "Z_Gauss_w0.5": CHUTE + ".Z_Gauss_w0.5.stat"}
+
+
+@pytest.mark.parametrize("name", sorted(STAT_FILES))
 def test_reproduces_mercurycg_profiles(chute, name):
     """With the kernel MercuryCG's header names (StatFile.kernel(): lower-dimensional over averaged axes),
     every column agrees to MercuryCG's 6 printed digits, ContactStress included (for the Gauss profile
     ContactStress is left out: MercuryCG's Gauss line integral is an approximation). With the marginal,
     Lucy differs by 1.5-4.5 % and Heaviside by 11-45 %."""
-    stat = read_stat(f"{CHUTE}.{name}.stat")
+    stat = read_stat(STAT_FILES[name])
+    assert stat.times[0] == chute.time
     grid = stat.grid(periodic=chute.box.periodic)
     fields = [c[0] for c in COLUMNS] + ["contact_stress", "boundary_stress"]
     res = cg.coarse_grain(chute, grid, stat.kernel(), fields=fields, convention="compression")
@@ -368,3 +376,23 @@ def test_stat_kernel_is_lower_dimensional():
     assert not stat_kernel("Lucy", 1.0, averaged_axes="marginal").lower_dimensional
     with pytest.raises(ValueError, match="averaged_axes"):
         stat_kernel("Lucy", 1.0, averaged_axes="1d")
+
+
+def test_cli_reproduces_mercurycg_z_profile(tmp_path, capsys):
+    """cgbound run on the MercuryDPM files with --averaged-kernel lower-dimensional writes MercuryCG's Z profile
+    (both files printed to 6 digits: within twice the rounding); without the flag a Lucy .stat is refused."""
+    from cgbound.cli import main
+    out = tmp_path / "z.stat"
+    fields = "density,momentum,momentum_flux,contact_stress,boundary_stress,interaction_force_density,volume_fraction"
+    theta = np.radians(24)
+    args = ["run", RUN + ".data", "--gravity", f"{float(np.sin(theta))!r},0,{float(-np.cos(theta))!r}", "--kernel", "lucy",
+            "--cutoff", "1", "--grid", "1,1,140", "--average", "x,y", "--lower", ",,-2", "--upper", ",,12",
+            "--fields", fields, "--start", "6", "--stop", "7", "-o", str(out), "-q"]
+    assert main(args) == 2
+    assert "--averaged-kernel lower-dimensional" in capsys.readouterr().err and not out.exists()
+    assert main(args + ["--averaged-kernel", "lower-dimensional"]) == 0
+    ours, theirs = read_stat(out), read_stat(RUN + ".Z_Lucy_w1.stat")
+    assert ours.times[0] == theirs.times[0] == 15
+    for col in ("VolumeFraction", "Density", "Momentum", "MomentumFlux", "ContactStress", "InteractionForce"):
+        a, b = ours.columns[col][0], theirs.columns[col][0]
+        assert np.all(np.abs(a - b) <= 1e-5 * np.abs(b) + 1e-12 * np.abs(b).max()), col

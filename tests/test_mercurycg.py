@@ -83,7 +83,8 @@ def small_snapshot():
 
 
 @pytest.mark.parametrize("average,shape", [((), (4, 3, 2)), (("x", "y"), (1, 1, 7)), (("x", "y", "z"), (1, 1, 1))])
-@pytest.mark.parametrize("kernel", [cg.Lucy(0.8), cg.Gaussian(0.3, cutoff=0.9, normalize="truncated")])
+@pytest.mark.parametrize("kernel", [cg.Lucy(0.8, averaged_axes="lower-dimensional"),
+                                    cg.Gaussian(0.3, cutoff=0.9, normalize="truncated")])
 def test_round_trip(tmp_path, average, shape, kernel):
     snap = small_snapshot()
     grid = cg.Grid(snap.box, shape, average=average)
@@ -153,6 +154,15 @@ def test_write_errors(tmp_path):
     res = cg.coarse_grain(snap, np.array([[1.0, 1.0, 1.0]]), cg.Lucy(0.5), fields=["density"])
     with pytest.raises(ValueError, match="cg.Grid"):
         write_stat(tmp_path / "a.stat", res)
+    # a Z profile's header names MercuryCG's (lower-dimensional) Lucy: the marginal is refused
+    for kernel in (cg.Lucy(0.5), cg.Heaviside(0.5)):
+        res = cg.coarse_grain(snap, cg.Grid(snap.box, (1, 1, 4), average=("x", "y")), kernel, fields=["density"])
+        with pytest.raises(ValueError, match="averaged_axes='lower-dimensional'"):
+            write_stat(tmp_path / "a.stat", res)
+    # the marginal and the lower-dimensional kernel are the same without averaged or without resolved axes
+    for shape, average in (((2, 2, 2), ()), ((1, 1, 1), ("x", "y", "z"))):
+        res = cg.coarse_grain(snap, cg.Grid(snap.box, shape, average=average), cg.Lucy(0.5), fields=["density"])
+        write_stat(tmp_path / "a.stat", res)
 
 
 def test_read_errors(tmp_path):
@@ -216,7 +226,8 @@ def test_time_axis_result(tmp_path):
     for k, s in enumerate(snaps):
         s.time = 1.0 + k
     grid = cg.Grid(snaps[0].box, (1, 1, 5), average=("x", "y"))
-    run = cg.CoarseGrain(snaps, grid, cg.Lucy(0.7), fields=["density", "momentum"], time_average="none").run()
+    run = cg.CoarseGrain(snaps, grid, cg.Lucy(0.7, averaged_axes="lower-dimensional"), fields=["density", "momentum"],
+                         time_average="none").run()
     res = run.results
     write_stat(tmp_path / "t.stat", res)
     back = read_stat(tmp_path / "t.stat")

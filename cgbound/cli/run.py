@@ -48,8 +48,9 @@ examples, one per format:
         -o profile.h5
   Yade (a directory of exports written by cgbound.readers.yade_export inside Yade):
     cgbound run yade_frames/ --grid 1,1,50 --average x,y --fields density,stress -o yade.h5
-  MercuryCG's .stat format out (Lucy: MercuryCG's width is the cutoff):
-    cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1 --grid 1,1,140 --average x,y -o chute.stat
+  MercuryCG's .stat format out (Lucy: MercuryCG's width is the cutoff; its 1-D kernel over averaged axes):
+    cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1 --grid 1,1,140 --average x,y \
+        --averaged-kernel lower-dimensional -o chute.stat
   MDAnalysis (topology and trajectory):
     cgbound run topol.tpr traj.xtc --format mdanalysis --grid 40,40,40 --fields density -o density.npz
 
@@ -106,6 +107,10 @@ def add_parser(sub):
     k.add_argument("--normalize", choices=["full", "truncated"], default="full", help="Gaussian normalisation (default full)")
     k.add_argument("--grid", default="20,20,20", help="nodes per axis, e.g. 1,1,400 (averaged axes take 1; default 20,20,20)")
     k.add_argument("--average", default="", help="averaged axes, e.g. x,y")
+    k.add_argument("--averaged-kernel", choices=["marginal", "lower-dimensional"], default="marginal",
+                   help="the kernel over averaged axes: marginal (default; the exact marginal of the 3-D kernel) "
+                        "or lower-dimensional (MercuryCG's: for a Z profile the 1-D Lucy; needed to write a "
+                        "Lucy or Heaviside profile as .stat)")
     k.add_argument("--lower", default=None, metavar="VECTOR",
                    help="the grid's lower corner (default the data's box; empty entries keep the box: ,,0)")
     k.add_argument("--upper", default=None, metavar="VECTOR", help="the grid's upper corner (as --lower)")
@@ -202,12 +207,16 @@ def variables(items):
 
 
 def stat_kernel_check(args):
-    """MercuryCG's Gauss is cut off at 3 widths and renormalised over the ball: a .stat says so, so the
-    kernel must be that one (checked before the run, not after it)."""
+    """MercuryCG's Gauss is cut off at 3 widths and renormalised over the ball, and over averaged axes its
+    kernels are the lower-dimensional ones: a .stat says so, so the kernel must be that one (checked before
+    the run, not after it)."""
     if args.kernel == "gaussian" and not (args.normalize == "truncated" and args.cutoff is not None
                                           and abs(args.cutoff - 3 * args.width) <= 1e-12 * args.cutoff):
         raise UsageError("--output", f"a MercuryCG .stat file holds MercuryCG's Gauss (cut off at 3 w and "
                                      f"renormalised): add --cutoff {3 * args.width:g} --normalize truncated")
+    if args.kernel != "gaussian" and 0 < len(set(args.average)) < 3 and args.averaged_kernel != "lower-dimensional":
+        raise UsageError("--output", f"a MercuryCG .stat file holds MercuryCG's lower-dimensional {args.kernel} "
+                                     f"kernel over the averaged axes: add --averaged-kernel lower-dimensional")
 
 
 # --- opening the dataset -----------------------------------------------------------------------------
@@ -386,10 +395,11 @@ def make_kernel(args):
     flag = "--cutoff" if args.cutoff is not None else "--width"
     with as_usage(flag):
         if args.kernel == "gaussian":
-            return Gaussian(args.width, cutoff=args.cutoff, normalize=args.normalize)
+            return Gaussian(args.width, cutoff=args.cutoff, normalize=args.normalize,
+                            averaged_axes=args.averaged_kernel)
         if args.kernel == "lucy":
-            return Lucy(args.cutoff if args.cutoff is not None else 3 * args.width)
-        return Heaviside(args.cutoff if args.cutoff is not None else args.width)
+            return Lucy(args.cutoff if args.cutoff is not None else 3 * args.width, averaged_axes=args.averaged_kernel)
+        return Heaviside(args.cutoff if args.cutoff is not None else args.width, averaged_axes=args.averaged_kernel)
 
 
 def check_figure(args, grid):
