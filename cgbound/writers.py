@@ -23,6 +23,7 @@ def _metadata(result):
         "cutoff": float(k.radius),
         "normalize": getattr(k, "normalize", ""),
         "line_quadrature": str(getattr(k, "line_quadrature", "")),
+        "averaged_axes": k.averaged_axes,
         "convention": result.convention,
         "times": [float(t) for t in np.atleast_1d(result.times)],
         "box_lower": result.box.lower.tolist(),

@@ -24,7 +24,7 @@ INTERNAL_NAMES = ("values", "vectors", "target", "node_velocity", "starts", "ker
 PUBLIC_NAMES = {
     "lower", "upper", "periodic", "positions", "velocities", "masses", "box", "contacts", "fixed", "species",
     "body_force", "radii", "time", "contacts.i", "contacts.j", "contacts.force", "contacts.point", "i", "j",
-    "force", "point", "shape", "average", "width", "cutoff", "normalize", "line_quadrature", "radius",
+    "force", "point", "shape", "average", "width", "cutoff", "normalize", "line_quadrature", "radius", "averaged_axes",
     "snapshot", "snapshots", "grid", "points", "kernel", "fields", "convention", "forces", "path", "frame",
     "result", "time_average", "times", "provenance",
 }
@@ -215,8 +215,11 @@ def kernel_case(draw):
             kw["normalize"] = draw(st.sampled_from(["full", "truncated", "FULL", None, 1]))
         if draw(st.booleans()):
             kw["line_quadrature"] = draw(st.sampled_from(["exact", "auto", 0, 1, 8, 16, 17, -1, 2.0, None, "x"]))
-        return kind, kw
-    return kind, {("cutoff" if kind == "Lucy" else "radius"): length}
+    else:
+        kw = {("cutoff" if kind == "Lucy" else "radius"): length}
+    if draw(st.booleans()):
+        kw["averaged_axes"] = draw(st.sampled_from(["marginal", "lower-dimensional", "Marginal", "1d", None, 1, True]))
+    return kind, kw
 
 
 def make_kernel(case):

@@ -95,8 +95,8 @@ def test_z_profile_of_one_particle_is_the_1d_lucy(mode):
         # the marginal of the 3-D Lucy over a plane: 2 pi int_|z|^R W3(r) r dr = 2 pi C3 R^2 g(|z|/R),
         # g(u) = (1 - u)^4 (1 + 4u + 5u^2) / 10 (integrated by hand from (1 + 3r)(1 - r)^3 r)
         u = np.minimum(np.abs(z - z0) / R, 1.0)
-        expected = m * 2 * math.pi * 105 / (16 * math.pi * R ** 3) * R ** 2 * (1 - u) ** 4 * (1 + 4 * u + 5 * u * u) / 10
-        expected /= 3.0 * 2.0
+        c3 = 105 / (16 * math.pi * R ** 3)
+        expected = m * 2 * math.pi * c3 * R ** 2 * (1 - u) ** 4 * (1 + 4 * u + 5 * u * u) / 10 / (3.0 * 2.0)
     np.testing.assert_allclose(rho, expected, rtol=1e-13, atol=1e-15 * expected.max())
     # the two differ: at the particle the 1-D Lucy peaks at 5/(4R), the marginal at 21/(16R)
     if mode == "lower-dimensional":
@@ -265,6 +265,31 @@ def test_pipeline_matches_oracle(dim, average, kernel):
         assert_fields_close(res[name].reshape(ref[name].shape), ref[name], 1e-11, name)
 
 
+def test_tiles_and_saved_metadata(tmp_path):
+    """The option travels with the kernel: tiles give the untiled numbers, and a saved result says which kernel."""
+    pytest.importorskip("h5py")
+    import h5py
+    rng = np.random.default_rng(11)
+    box = cg.Box([0, 0, 0], [4.0, 2.0, 3.0], periodic=(True, True, False))
+    n = 40
+    pos = rng.uniform([0, 0, 0.5], [4, 2, 2.5], (n, 3))
+    i, j = np.arange(n - 1), np.arange(1, n)
+    contacts = cg.Contacts(i=i, j=j, force=rng.normal(size=(n - 1, 3)), point=0.5 * (pos[i] + pos[j]))
+    snap = cg.Snapshot(positions=pos, masses=np.ones(n), radii=np.full(n, 0.2), velocities=rng.normal(size=(n, 3)),
+                       box=box, contacts=contacts)
+    grid = cg.Grid(box, (8, 1, 12), average="y")
+    kernel = cg.Lucy(0.7, averaged_axes="lower-dimensional")
+    fields = ("density", "stress")
+    whole = cg.coarse_grain(snap, grid, kernel, fields=fields)
+    tiled = cg.coarse_grain_tiled(snap, grid, kernel, fields=fields, tiles=(2, 1, 3), backend="serial")
+    for name in fields:
+        assert_fields_close(tiled[name], whole[name], 1e-13, name)
+    assert tiled.kernel.lower_dimensional
+    whole.to_hdf5(tmp_path / "r.h5")
+    with h5py.File(tmp_path / "r.h5") as f:
+        assert f.attrs["averaged_axes"] == "lower-dimensional"
+
+
 # ----------------------------------------------------------------------
 # identities under the option
 
@@ -385,8 +410,8 @@ def test_cli_reproduces_mercurycg_z_profile(tmp_path, capsys):
     out = tmp_path / "z.stat"
     fields = "density,momentum,momentum_flux,contact_stress,boundary_stress,interaction_force_density,volume_fraction"
     theta = np.radians(24)
-    args = ["run", RUN + ".data", "--gravity", f"{float(np.sin(theta))!r},0,{float(-np.cos(theta))!r}", "--kernel", "lucy",
-            "--cutoff", "1", "--grid", "1,1,140", "--average", "x,y", "--lower", ",,-2", "--upper", ",,12",
+    gravity = f"{float(np.sin(theta))!r},0,{float(-np.cos(theta))!r}"
+    args = ["run", RUN + ".data", "--gravity", gravity, "--kernel", "lucy", "--cutoff", "1", "--grid", "1,1,140", "--average", "x,y", "--lower", ",,-2", "--upper", ",,12",
             "--fields", fields, "--start", "6", "--stop", "7", "-o", str(out), "-q"]
     assert main(args) == 2
     assert "--averaged-kernel lower-dimensional" in capsys.readouterr().err and not out.exists()
