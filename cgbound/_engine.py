@@ -31,6 +31,7 @@ class CoreKernel(NamedTuple):
     line_points: int = 0              # Gauss-Legendre points along segments, 0 = exact
     per_node: int = 0                 # benchmarks only: no separable fast path
     lower_dimensional: int = 0        # 1: over averaged axes the D_res-dimensional kernel (MercuryCG's)
+    mercurycg_line: int = 0           # 1: MercuryCG's approximate Gauss line integral (one resolved axis)
 
 
 def core_target(target, box):
@@ -57,10 +58,11 @@ def point_target(origin):
 def core_kernel(kernel, avg_extent, longest_branch=None):
     """The core's description of ``kernel``; ``longest_branch`` resolves line_quadrature="auto"
     (exact without it)."""
-    points = kernel.line_points_for(longest_branch)
+    mercurycg = kernel.mercurycg_line
+    points = 0 if mercurycg else kernel.line_points_for(longest_branch)
     return CoreKernel(kernel.kind, float(kernel.width if kernel.width is not None else kernel.radius),
                       float(kernel.radius), int(kernel.truncated), float(avg_extent), int(points),
-                      int(kernel.per_node), int(kernel.lower_dimensional))
+                      int(kernel.per_node), int(kernel.lower_dimensional), int(mercurycg))
 
 
 def scatter_points(target, kernel, positions, values, gradient=False, n_threads=0):

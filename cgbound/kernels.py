@@ -36,6 +36,8 @@ MAX_LINE_POINTS = 16
 
 #: line_points value meaning "auto": chosen per call from the longest branch (see auto_line_points)
 AUTO_LINE_POINTS = -1
+#: line_points value meaning "mercurycg": MercuryCG's approximate Gauss line integral along one resolved axis
+MERCURYCG_LINE_POINTS = -2
 #: "auto" uses at most this many points, and the exact form beyond (the study's rule)
 AUTO_MAX_LINE_POINTS = 8
 
@@ -59,14 +61,16 @@ def kernel_length(value, name):
 
 
 def check_line_quadrature(value, name="line_quadrature"):
-    """"exact", "auto", or an int n in 1..MAX_LINE_POINTS; returns the core's line_points
-    (0 for exact, AUTO_LINE_POINTS for auto)."""
+    """"exact", "auto", "mercurycg", or an int n in 1..MAX_LINE_POINTS; returns the core's line_points
+    (0 for exact, AUTO_LINE_POINTS for auto, MERCURYCG_LINE_POINTS for mercurycg)."""
     if isinstance(value, str):
         if value == "exact":
             return 0
         if value == "auto":
             return AUTO_LINE_POINTS
-        raise ValueError(f"{name}: expected 'exact', 'auto' or a number of Gauss-Legendre points "
+        if value == "mercurycg":
+            return MERCURYCG_LINE_POINTS
+        raise ValueError(f"{name}: expected 'exact', 'auto', 'mercurycg' or a number of Gauss-Legendre points "
                          f"1..{MAX_LINE_POINTS}, got {value!r}")
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise TypeError(f"{name}: expected 'exact', 'auto' or an int number of Gauss-Legendre points "
@@ -142,6 +146,11 @@ class Kernel:
         return 0 if longest_branch is None else auto_line_points(longest_branch, self.width)
 
     @property
+    def mercurycg_line(self):
+        """Whether segments use MercuryCG's approximate Gauss line integral (line_quadrature="mercurycg")."""
+        return self._line_points == MERCURYCG_LINE_POINTS
+
+    @property
     def resolves_from_branch(self):
         """Whether the core's arguments depend on the longest contact branch (line_quadrature="auto")."""
         return self._line_points == AUTO_LINE_POINTS
@@ -200,8 +209,11 @@ class Gaussian(Kernel):
         rule along each branch (faster, with an error that falls quickly with n when
         branches are shorter than a few widths), or "auto": per computation, the
         study's rule n = ceil(2 L / w + 2) for the longest branch L, exact beyond 8
-        points (errors at the 5w cutoff's ~1e-5 level, 2-3x faster contact stress).
-        Rays (extended_stress) are always exact.
+        points (errors at the 5w cutoff's ~1e-5 level, 2-3x faster contact stress), or
+        "mercurycg": MercuryCG's approximation of the line integral on X, Y and Z profiles
+        (an erf difference with a prefactor set by the branch's extent, 1e-3 to 1e-2 from the
+        exact integral near the cutoff; only on grids resolving one axis), to reproduce
+        MercuryCG's ContactStress exactly. Rays (extended_stress) are always exact.
     averaged_axes : {"marginal", "lower-dimensional"}
         The kernel over the axes a Grid averages. For the Gaussian both are the same kernel
         (the marginal of a Gaussian is the lower-dimensional Gaussian, cut off at ``cutoff`` in
@@ -223,7 +235,8 @@ class Gaussian(Kernel):
         self.normalize = normalize
         self.truncated = normalize == "truncated"
         self._line_points = check_line_quadrature(line_quadrature)
-        self.line_quadrature = {0: "exact", AUTO_LINE_POINTS: "auto"}.get(self._line_points, self._line_points)
+        self.line_quadrature = {0: "exact", AUTO_LINE_POINTS: "auto",
+                                MERCURYCG_LINE_POINTS: "mercurycg"}.get(self._line_points, self._line_points)
         self._set_averaged_axes(averaged_axes)
 
     def __repr__(self):
@@ -297,6 +310,10 @@ def check_reach(kernel, dim, periodic_lengths, largest_product, where="snapshot"
     (``periodic_lengths``: {axis name: length} of the periodic resolved axes), or whose peak times
     ``largest_product`` (the snapshot's largest mass x velocity^2 or force x branch) overflows."""
     name = kernel.length_name
+    if kernel.mercurycg_line and n_resolved != 1:
+        raise ValueError(f"line_quadrature: 'mercurycg' is MercuryCG's line integral along one resolved axis "
+                         f"(X, Y or Z profiles); expected a grid resolving one axis, got "
+                         f"{'points (all axes resolved)' if n_resolved is None else f'a target resolving {n_resolved}'}")
     images = periodic_images(kernel.radius, periodic_lengths)
     if images > MAX_IMAGES:
         lengths = ", ".join(f"{axis} {length:g}" for axis, length in periodic_lengths.items())

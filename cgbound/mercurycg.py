@@ -39,7 +39,9 @@ averaged area), where cgbound's default is the exact marginal of the 3-D kernel 
 ``averaged_axes="lower-dimensional"`` on the kernel gives MercuryCG's, and :meth:`StatFile.kernel` returns
 it. To reproduce a file: ``cg.coarse_grain(snapshot, stat.grid(snapshot.box.periodic), stat.kernel(),
 fields, convention="compression")``. Writing refuses a Lucy or Heaviside result on a grid with averaged and
-resolved axes that used the marginal, since the header would name MercuryCG's kernel.
+resolved axes that used the marginal, since the header would name MercuryCG's kernel. MercuryCG's Gauss
+contact-stress line integral is an approximation; on X, Y and Z profiles ``line_quadrature="mercurycg"``
+applies it (``StatFile.kernel()`` does), elsewhere cgbound's exact integral is used (1e-3 to 1e-2 apart).
 """
 import os
 from dataclasses import dataclass, field
@@ -102,10 +104,15 @@ class StatFile:
     def resolved(self):
         return "" if self.coordinates == "O" else self.coordinates
 
-    def kernel(self, averaged_axes="lower-dimensional"):
+    def kernel(self, averaged_axes="lower-dimensional", line_quadrature=None):
         """The cgbound kernel equal to MercuryCG's (see :func:`stat_kernel`); ``averaged_axes="marginal"``
-        gives cgbound's default kernel over averaged axes instead, to see the difference."""
-        return stat_kernel(self.function, self.width, self.cutoff, averaged_axes=averaged_axes)
+        gives cgbound's default kernel over averaged axes instead, to see the difference.
+        ``line_quadrature`` (Gauss only): None gives MercuryCG's approximate line integral ("mercurycg")
+        on X, Y and Z profiles, where it is reproduced exactly, and the exact integral elsewhere."""
+        if line_quadrature is None:
+            line_quadrature = "mercurycg" if self.function == "Gauss" and len(self.resolved) == 1 else "exact"
+        return stat_kernel(self.function, self.width, self.cutoff, averaged_axes=averaged_axes,
+                           line_quadrature=line_quadrature)
 
     def grid(self, periodic=False):
         """The cgbound :class:`~cgbound.grid.Grid` of this file's nodes (``periodic``: the data's periodic
@@ -115,18 +122,20 @@ class StatFile:
         return Grid(Box(self.lower, self.upper, periodic=periodic), tuple(int(k) for k in self.n), average=averaged)
 
 
-def stat_kernel(function, width, cutoff=None, averaged_axes="lower-dimensional"):
+def stat_kernel(function, width, cutoff=None, averaged_axes="lower-dimensional", line_quadrature="exact"):
     """cgbound's kernel for MercuryCG's ``function`` and ``width``.
 
     Over averaged axes MercuryCG uses the kernel of the resolved dimension itself (the 1-D Lucy for a Z
     profile), hence ``averaged_axes="lower-dimensional"``; "marginal" gives cgbound's default (the exact
-    marginal of the 3-D kernel) with the same width and cutoff.
+    marginal of the 3-D kernel) with the same width and cutoff. ``line_quadrature`` (Gauss only):
+    "mercurycg" for MercuryCG's approximate line integral on X, Y and Z profiles (see
+    :class:`~cgbound.kernels.Gaussian`).
     """
     if function == "Lucy":
         return Lucy(width, averaged_axes=averaged_axes)
     if function == "Gauss":
         return Gaussian(width, cutoff=3 * width if cutoff is None else cutoff, normalize="truncated",
-                        averaged_axes=averaged_axes)
+                        averaged_axes=averaged_axes, line_quadrature=line_quadrature)
     if function == "Heaviside":
         return Heaviside(width, averaged_axes=averaged_axes)
     raise ValueError(f"function: expected Lucy, Gauss or Heaviside (MercuryCG's names), got {function!r}")

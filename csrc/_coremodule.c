@@ -344,17 +344,18 @@ typedef struct kernel_arg {
     cg_kernel kernel;
 } kernel_arg;
 
-/* kernel = (type, width, radius, truncated, avg_extent[, line_points[, per_node[, lower_dimensional]]]) */
+/* kernel = (type, width, radius, truncated, avg_extent[, line_points[, per_node[, lower_dimensional
+              [, mercurycg_line]]]]) */
 static int kernel_converter(PyObject *obj, void *address)
 {
     kernel_arg *ka = (kernel_arg *)address;
     cg_kernel *k = &ka->kernel;
     memset(k, 0, sizeof *k);
     if (!PyTuple_Check(obj) ||
-        !PyArg_ParseTuple(obj, "iddid|iii", &k->type, &k->width, &k->radius, &k->truncated_norm, &k->avg_extent,
-                          &k->line_points, &k->per_node, &k->lower_dimensional)) {
+        !PyArg_ParseTuple(obj, "iddid|iiii", &k->type, &k->width, &k->radius, &k->truncated_norm, &k->avg_extent,
+                          &k->line_points, &k->per_node, &k->lower_dimensional, &k->mercurycg_line)) {
         PyErr_SetString(PyExc_TypeError, "kernel: expected (type, width, radius, truncated, avg_extent[, line_points"
-                                         "[, per_node[, lower_dimensional]]])");
+                                         "[, per_node[, lower_dimensional[, mercurycg_line]]]])");
         return 0;
     }
     if (k->line_points < 0 || k->line_points > CG_MAX_LINE_POINTS) {
@@ -367,7 +368,7 @@ static int kernel_converter(PyObject *obj, void *address)
     if (cg_kernel_init(k) != CG_OK) {
         PyErr_SetString(PyExc_ValueError,
                         "kernel: type must be 0, 1 or 2, width, radius, avg_extent positive and finite, "
-                        "lower_dimensional 0 or 1");
+                        "lower_dimensional 0 or 1, mercurycg_line 0 or 1 (a Gaussian, one resolved axis)");
         return 0;
     }
     return 1;

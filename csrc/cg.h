@@ -27,8 +27,10 @@
  *              truncated_norm != 0 renormalises over the truncated support
  *              (MercuryCG's convention). Line integrals: exact (erf forms,
  *              or Gauss-Legendre where it is exact to round-off), or an
- *              n-point Gauss-Legendre rule (line_points = n). On grids the
- *              kernel is evaluated as outer products of 1-D weights.
+ *              n-point Gauss-Legendre rule (line_points = n), or with one
+ *              resolved axis MercuryCG's approximation (mercurycg_line,
+ *              cg_lowdim.c). On grids the kernel is evaluated as outer
+ *              products of 1-D weights.
  *   Lucy       W = C (1 + 3x)(1 - x)^3, x = r/R < 1. Exact marginals over
  *              averaged axes. Line integrals of the full kernel in closed
  *              form (cg_lucy.c); of the marginal over two axes by an exact
@@ -107,6 +109,10 @@ typedef struct cg_kernel {
                              along each finite segment (rays stay exact) */
     int per_node;         /* internal, for benchmarks: 1 = skip the separable fast
                              path and evaluate the kernel node by node */
+    int mercurycg_line;   /* Gaussian with D_res = 1 only: 1 = finite segments use
+                             MercuryCG's approximate line integral (cg_lowdim.c) instead
+                             of the exact one, to reproduce its X/Y/Z ContactStress;
+                             rays stay exact; no gradient (CG_ERR_UNSUPPORTED) */
     int lower_dimensional; /* over averaged axes: 0 = the marginal of the D-dimensional
                              kernel; 1 = MercuryCG's convention, the D_res-dimensional
                              kernel itself (e.g. the 1-D Lucy for one resolved axis),

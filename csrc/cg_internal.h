@@ -20,12 +20,21 @@ static inline int cg_kernel_marginal_axes(const cg_kernel *k)
     return k->lower_dimensional ? 0 : k->dim - k->n_resolved;
 }
 
+/* a segment rule (job.line_points, cg_kernel_line_rule's n_points): MercuryCG's
+   approximate Gauss line integral along one resolved axis (cg_lowdim.c) */
+#define CG_LINE_MERCURYCG (-2)
+
+/* MercuryCG's line integral of its Gauss kernel over the segment from the
+   node offset -q to e - q along the one resolved axis (cg_lowdim.c) */
+double cg_mercurycg_gauss_line(const cg_kernel *kernel, double q, double e);
+
 /* the n-point Gauss-Legendre rule on [0, 1]: nodes x (increasing), weights w */
 void cg_gauss_legendre01(int n, double *x, double *w);
 
 /* cg_kernel_line with an explicit rule: n_points = 0 evaluates the integral
-   to round-off, n_points > 0 applies the n-point Gauss-Legendre rule
-   (Gaussian only; other kernels are always evaluated to round-off) */
+   to round-off, n_points > 0 applies the n-point Gauss-Legendre rule,
+   CG_LINE_MERCURYCG MercuryCG's approximation (Gaussian only; other kernels
+   are always evaluated to round-off) */
 double cg_kernel_line_rule(const cg_kernel *kernel, const double *q, const double *e, double *grad,
                            int n_points);
 

@@ -81,6 +81,9 @@ cg_status cg_kernel_init(cg_kernel *k)
         return CG_ERR_ARGUMENT;
     if (k->line_points < 0 || k->line_points > CG_MAX_LINE_POINTS) return CG_ERR_ARGUMENT;
     if (k->lower_dimensional != 0 && k->lower_dimensional != 1) return CG_ERR_ARGUMENT;
+    if (k->mercurycg_line != 0 &&
+        (k->mercurycg_line != 1 || k->type != CG_KERNEL_GAUSSIAN || k->n_resolved != 1))
+        return CG_ERR_ARGUMENT;
     const int n_avg = cg_kernel_marginal_axes(k);
     const int kernel_dim = k->lower_dimensional ? k->n_resolved : k->dim; /* the kernel's own dimension */
     const double R = k->radius;
@@ -547,7 +550,8 @@ static double gauss_legendre_line(const cg_kernel *k, const double *q, const dou
 
 double cg_kernel_line(const cg_kernel *k, const double *q, const double *e, double *grad)
 {
-    return cg_kernel_line_rule(k, q, e, grad, k->type == CG_KERNEL_GAUSSIAN ? k->line_points : 0);
+    const int rule = k->type != CG_KERNEL_GAUSSIAN ? 0 : k->mercurycg_line ? CG_LINE_MERCURYCG : k->line_points;
+    return cg_kernel_line_rule(k, q, e, grad, rule);
 }
 
 double cg_kernel_line_rule(const cg_kernel *k, const double *q, const double *e, double *grad, int n_points)
@@ -555,6 +559,8 @@ double cg_kernel_line_rule(const cg_kernel *k, const double *q, const double *e,
     const int n = k->n_resolved;
     if (n == 0) return k->prefactor;
     if (n_points > 0 && k->type == CG_KERNEL_GAUSSIAN) return gauss_legendre_line(k, q, e, grad, n_points);
+    if (n_points == CG_LINE_MERCURYCG && k->type == CG_KERNEL_GAUSSIAN && n == 1 && !grad)
+        return cg_mercurycg_gauss_line(k, q[0], e[0]);
     double L2 = 0.0;
     for (int d = 0; d < n; ++d) L2 += e[d] * e[d];
     if (L2 == 0.0) {

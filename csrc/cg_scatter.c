@@ -281,11 +281,12 @@ static cg_status prepare(job *jb)
     const cg_kernel *k = jb->kernel;
     if (jb->mode == MODE_GRADIENT) {
         if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) != 0) return CG_ERR_UNSUPPORTED;
+        if (k->mercurycg_line && jb->is_segment) return CG_ERR_UNSUPPORTED;
     }
     if (k->line_points < 0 || k->line_points > CG_MAX_LINE_POINTS) return CG_ERR_ARGUMENT;
-    jb->line_points = k->type == CG_KERNEL_GAUSSIAN ? k->line_points : 0;
+    jb->line_points = k->type != CG_KERNEL_GAUSSIAN ? 0 : k->mercurycg_line ? CG_LINE_MERCURYCG : k->line_points;
     jb->separable = k->type == CG_KERNEL_GAUSSIAN && !k->per_node && t->is_grid && t->n_resolved > 0 &&
-                    jb->mode != MODE_GRADIENT;
+                    jb->mode != MODE_GRADIENT && !(k->mercurycg_line && jb->is_segment);
     jb->wide = jb->separable && cg_separable_wide_available();
     jb->lucy_rows = k->type == CG_KERNEL_LUCY && !k->per_node && t->is_grid && t->n_resolved > 0 &&
                     cg_kernel_marginal_axes(k) == 0 && jb->is_segment && jb->mode == MODE_VALUE;

@@ -6,7 +6,8 @@ Each twin is named after what it mirrors: ``oracle_scatter_points``,
 ``oracle_split_contacts`` mirrors ``Snapshot.split_contacts``;
 ``oracle_coarse_grain`` mirrors ``cgbound.coarse_grain`` (the whole pipeline);
 ``OracleKernel`` mirrors the core's kernels (cg_kernel_value, cg_kernel_line,
-cg_kernel_gradient; with ``lower_dimensional``, MercuryCG's kernel over averaged axes) and ``oracle_target`` the nodes of a Grid or Points target.
+cg_kernel_gradient; with ``lower_dimensional``, MercuryCG's kernel over averaged axes; with
+``line_points="mercurycg"``, MercuryCG's approximate Gauss line integral, its normalisation by quadrature) and ``oracle_target`` the nodes of a Grid or Points target.
 
 It shares no numerics with the C core: marginals over averaged axes are
 integrated numerically from the D-dimensional kernel, line integrals use the
@@ -58,6 +59,9 @@ class OracleKernel:
 
     def __init__(self, kind, dim, width, radius, truncated=False, line_points=0, lower_dimensional=False):
         self.kind, self.dim, self.w, self.R, self.truncated = kind, dim, width, radius, truncated
+        # "mercurycg": MercuryCG's approximate Gauss line integral along one resolved axis (mercurycg_line)
+        self.mercurycg = kind == "gaussian" and line_points == "mercurycg"
+        line_points = 0 if self.mercurycg else line_points
         self.line_points = line_points if kind == "gaussian" else 0   # n-point Gauss-Legendre along segments
         # MercuryCG's convention over averaged axes: the n_res-dimensional kernel itself, not the marginal
         self.lower_dimensional = lower_dimensional
@@ -135,6 +139,8 @@ class OracleKernel:
             if ray:
                 raise ValueError("ray with no resolved axis")
             return np.full(q.shape[0], 1.0 / avg_extent)
+        if self.mercurycg and not ray:
+            return self.mercurycg_line(q[:, 0], float(np.asarray(e, float)[0]), avg_extent)
         if self.line_points and not ray:
             # the rule applied to the cut-off kernel: sum_g w_g M(|q - s_g e|^2), s_g, w_g on [0, 1]
             x, w = np.polynomial.legendre.leggauss(self.line_points)
@@ -165,6 +171,23 @@ class OracleKernel:
                 total += float(_gl(f, x0, x1))
             out[p] = total / L
         return out
+
+    def mercurycg_line(self, q, e, avg_extent):
+        """MercuryCG's Gauss "line integral" along one axis (Gauss::evaluateCGIntegral1D): psi = P(d) [erf(hi/s)
+        - erf(lo/s)] for the branch's ends at lo <= hi from the node (d = hi - lo, s = sqrt(2) w), 0 beyond the
+        cutoff c; P(d) normalises psi to 1 over the nodes it reaches: 1 / (2 int_{-c}^{c+d} erf(x/s) dx), here by
+        quadrature (MercuryCG has the antiderivative)."""
+        s, c = math.sqrt(2) * self.w, self.R
+        ends = np.stack([-q, e - q], axis=1)
+        lo, hi = ends.min(axis=1), ends.max(axis=1)
+        d = abs(e)
+        if not d > 1e-10 * c:
+            return self.marginal(q * q, 1, avg_extent)
+        verf = np.vectorize(math.erf)
+        edges = np.linspace(-c, c + d, 17)
+        area = sum(float(_gl(lambda x: verf(x / s), a, b, GL40_X, GL40_W)) for a, b in zip(edges[:-1], edges[1:]))
+        psi = (verf(hi / s) - verf(lo / s)) / (2 * area)
+        return np.where((hi < -c) | (lo > c), 0.0, psi) / avg_extent
 
     def radial_derivative(self, r, dim=None):
         """dW/dr of the full-dimensional kernel (or of the ``dim``-dimensional one), from its textbook form."""
@@ -404,7 +427,7 @@ def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
     import cgbound as cg
 
     kind = {cg.Gaussian: "gaussian", cg.Lucy: "lucy", cg.Heaviside: "heaviside"}[type(kernel_obj)]
-    line = getattr(kernel_obj, "line_quadrature", "exact")
+    line = getattr(kernel_obj, "line_quadrature", "exact")   # "exact", "mercurycg" or n
     kernel = OracleKernel(kind, snap.dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
                        truncated=getattr(kernel_obj, "truncated", False), line_points=0 if line == "exact" else line,
                        lower_dimensional=kernel_obj.averaged_axes == "lower-dimensional")

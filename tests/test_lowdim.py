@@ -239,6 +239,16 @@ def test_segments_match_oracle(case, kernel, ray):
                                     cg.Heaviside(0.7, averaged_axes="lower-dimensional")], ids=repr)
 def test_pipeline_matches_oracle(dim, average, kernel):
     """Every field, contacts in the bulk and with the boundary (contact, boundary and extended stress, IFD)."""
+    pipeline_against_oracle(dim, average, kernel)
+
+
+@pytest.mark.parametrize("dim, average", [(3, ("x", "y")), (2, ("x",))])
+def test_pipeline_with_mercurycg_gauss_line_matches_oracle(dim, average):
+    pipeline_against_oracle(dim, average, cg.Gaussian(0.3, cutoff=0.9, normalize="truncated",
+                                                      line_quadrature="mercurycg", averaged_axes="lower-dimensional"))
+
+
+def pipeline_against_oracle(dim, average, kernel):
     rng = np.random.default_rng(dim + len(average))
     lengths = np.array([2.5, 2.0, 3.0])[:dim] if dim == 3 else np.array([2.5, 3.0])
     box = cg.Box(np.zeros(dim), lengths, periodic=[True] * (dim - 1) + [False])
@@ -371,10 +381,10 @@ STAT_FILES = {"Z_Lucy_w1": RUN + ".Z_Lucy_w1.stat", "Z_Heaviside_w1": CHUTE + ".
 
 @pytest.mark.parametrize("name", sorted(STAT_FILES))
 def test_reproduces_mercurycg_profiles(chute, name):
-    """With the kernel MercuryCG's header names (StatFile.kernel(): lower-dimensional over averaged axes),
-    every column agrees to MercuryCG's 6 printed digits, ContactStress included (for the Gauss profile
-    ContactStress is left out: MercuryCG's Gauss line integral is an approximation). With the marginal,
-    Lucy differs by 1.5-4.5 % and Heaviside by 11-45 %."""
+    """With the kernel MercuryCG's header names (StatFile.kernel(): lower-dimensional over averaged axes, and
+    for the Gauss Z profile MercuryCG's approximate line integral), every column agrees to MercuryCG's 6
+    printed digits, ContactStress included. With the marginal, Lucy differs by 1.5-4.5 % and Heaviside by
+    11-45 %."""
     stat = read_stat(STAT_FILES[name])
     assert stat.times[0] == chute.time
     grid = stat.grid(periodic=chute.box.periodic)
@@ -385,20 +395,106 @@ def test_reproduces_mercurycg_profiles(chute, name):
         assert np.all(agree_to_printed_digits(res[ours].reshape(shape + res[ours].shape[3:]),
                                               stat.columns[theirs][0])), ours
     contact = (res["contact_stress"] + res["boundary_stress"]).reshape(shape + (3, 3))
-    if stat.function != "Gauss":
-        assert np.all(agree_to_printed_digits(contact, stat.columns["ContactStress"][0]))
+    assert np.all(agree_to_printed_digits(contact, stat.columns["ContactStress"][0]))
     marginal = cg.coarse_grain(chute, grid, stat.kernel(averaged_axes="marginal"), fields=["density"])
     diff = relative_difference(marginal["density"].reshape(shape), stat.columns["Density"][0])
     if stat.function == "Gauss":
         assert diff < 5e-6
+        # the exact line integral of the cut-off Gaussian is 1.5e-3 from MercuryCG's approximation
+        exact = cg.coarse_grain(chute, grid, stat.kernel(line_quadrature="exact"),
+                                fields=["contact_stress", "boundary_stress"], convention="compression")
+        contact = (exact["contact_stress"] + exact["boundary_stress"]).reshape(shape + (3, 3))
+        assert relative_difference(contact, stat.columns["ContactStress"][0]) > 1e-4
     else:
         assert diff > 1e-2
+
+
+def test_mercurycg_gauss_line_of_one_contact():
+    """MercuryCG's Gauss "line integral" on a Z profile (Gauss::evaluateCGIntegral1D), written out here:
+    psi = P(d) [erf(hi/s) - erf(lo/s)], P(d) = 1 / (2 [G(c + d) - G(-c)]), G(x) = x erf(x/s) + s/sqrt(pi)
+    exp(-x^2/s^2), s = sqrt(2) w, c = 3 w, lo <= hi the branch ends' offsets from the node, d = hi - lo."""
+    w = 0.4
+    c, s = 3 * w, math.sqrt(2) * w
+    box = cg.Box([0, 0, 0], [3.0, 2.0, 5.0])
+    xi, xj = np.array([1.0, 1.0, 2.1]), np.array([1.4, 0.8, 2.95])
+    force = np.array([0.3, -0.2, 1.7])
+    contacts = cg.Contacts(i=[0], j=[1], force=[force], point=[0.5 * (xi + xj)])
+    snap = cg.Snapshot(positions=[xi, xj], masses=[1.0, 1.0], radii=[0.5, 0.5], box=box, contacts=contacts)
+    grid = cg.Grid(box, (1, 1, 50), average=("x", "y"))
+    kernel = cg.Gaussian(w, cutoff=c, normalize="truncated", line_quadrature="mercurycg")
+    assert kernel.mercurycg_line and "mercurycg" in repr(kernel)
+    sigma = cg.coarse_grain(snap, grid, kernel, fields=["contact_stress"])["contact_stress"].reshape(50, 3, 3)
+
+    def G(x):
+        return x * math.erf(x / s) + s / math.sqrt(math.pi) * math.exp(-(x / s) ** 2)
+
+    d = xj[2] - xi[2]
+    psi = []
+    for z in grid.axis_coordinates[2]:
+        lo, hi = xi[2] - z, xj[2] - z
+        psi.append(0.0 if hi < -c or lo > c else (math.erf(hi / s) - math.erf(lo / s)) / (2 * (G(c + d) - G(-c))))
+    expected = -np.einsum("a,b,p->pab", force, xi - xj, np.array(psi)) / (3.0 * 2.0)
+    np.testing.assert_allclose(sigma, expected, rtol=1e-12, atol=1e-14 * np.abs(expected).max())
+    # it is not the exact integral of the cut-off kernel (1e-3..1e-2 apart near the cutoff)
+    exact = cg.coarse_grain(snap, grid, cg.Gaussian(w, cutoff=c, normalize="truncated"),
+                            fields=["contact_stress"])["contact_stress"].reshape(50, 3, 3)
+    assert 1e-3 < relative_difference(exact, expected) < 1e-1
+
+
+MERCURYCG_GAUSS = (GAUSSIAN, 0.45, 1.35, 1, 1.0, 0, 0, 1, 1)
+
+
+@pytest.mark.parametrize("ray", [False, True], ids=["segment", "ray"])
+@pytest.mark.parametrize("case", [c for c in averaged_cases() if len(c[1][1]) == c[0] - 1], ids=case_id)
+def test_mercurycg_gauss_line_matches_oracle(case, ray):
+    dim, layout, which = case
+    periodic = periodic_flags(dim, which)
+    target, tgt = make_target(dim, layout, periodic, seed_of(case))
+    core_kernel = MERCURYCG_GAUSS[:4] + (tgt[4],) + MERCURYCG_GAUSS[5:]
+    ref_kernel = OracleKernel("gaussian", dim, 0.45, 1.35, truncated=True, line_points="mercurycg")
+    starts, vectors, values = objects(dim, 3, seed_of(case, ray, "mercurycg"), periodic)
+    if ray and diverges(periodic, tgt[1]):
+        with pytest.raises(ValueError):
+            _core.scatter_segments(target, core_kernel, starts, vectors, values, ray=True)
+        return
+    if ray:
+        steer_rays(vectors, periodic, tgt[1])   # rays stay exact
+    else:
+        vectors[0] = 0.0   # no extent: the point value
+    out = _core.scatter_segments(target, core_kernel, starts, vectors, values, ray=ray)
+    ref = oracle_scatter_segments(ref_kernel, tgt, starts, vectors, values, ray=ray)
+    assert_fields_close(out, ref, RTOL, "scatter_segments")
+    with pytest.raises(NotImplementedError):
+        _core.scatter_segments(target, core_kernel, starts, vectors, values, gradient=True)
+
+
+def test_mercurycg_gauss_line_refused_where_it_is_not_mercurycg():
+    rng = np.random.default_rng(2)
+    box = cg.Box([0, 0, 0], [3.0, 2.0, 4.0])
+    snap = cg.Snapshot(positions=rng.uniform(0.5, 1.5, (3, 3)), masses=np.ones(3), radii=np.full(3, 0.2), box=box,
+                       contacts=cg.Contacts(i=[0], j=[1], force=[[0, 0, 1.0]], point=[[1, 1, 1.0]]))
+    kernel = cg.Gaussian(0.3, cutoff=0.9, normalize="truncated", line_quadrature="mercurycg")
+    for where in (cg.Grid(box, (2, 2, 2)), cg.Grid(box, (2, 1, 3), average="y"), np.ones((2, 3))):
+        with pytest.raises(ValueError, match="line_quadrature: 'mercurycg' is MercuryCG's line integral along one"):
+            cg.coarse_grain(snap, where, kernel, fields=["contact_stress"])
+    with pytest.raises(ValueError, match="line_quadrature: 'mercurycg'"):
+        cg.momentum_balance_residual(snap, np.ones((2, 3)), kernel)
+    with pytest.raises(ValueError, match="line_quadrature: expected 'exact', 'auto', 'mercurycg'"):
+        cg.Gaussian(0.3, line_quadrature="MercuryCG")
+    # the core refuses it too (a Lucy kernel, two resolved axes)
+    target = (3, (0, 2), [np.array([0.5, 1.5]), np.array([1.0, 2.0])], None, [False, False], [3.0, 4.0])
+    for bad in ((LUCY, 1.0, 1.0, 0, 2.0, 0, 0, 0, 1), (GAUSSIAN, 0.3, 0.9, 1, 2.0, 0, 0, 0, 1)):
+        with pytest.raises(ValueError, match="mercurycg_line"):
+            _core.scatter_points(target, bad, np.ones((1, 3)), np.ones((1, 1)))
 
 
 def test_stat_kernel_is_lower_dimensional():
     assert stat_kernel("Lucy", 1.0).lower_dimensional
     assert stat_kernel("Heaviside", 1.0).lower_dimensional
     assert not stat_kernel("Lucy", 1.0, averaged_axes="marginal").lower_dimensional
+    z = read_stat(STAT_FILES["Z_Gauss_w0.5"])
+    assert z.kernel().line_quadrature == "mercurycg" and z.kernel(line_quadrature="exact").line_quadrature == "exact"
+    assert read_stat(STAT_FILES["XZ_Lucy_w1_interior"]).kernel().lower_dimensional
     with pytest.raises(ValueError, match="averaged_axes"):
         stat_kernel("Lucy", 1.0, averaged_axes="1d")
 
