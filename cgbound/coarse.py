@@ -64,7 +64,7 @@ class CoarseGrain:
 
     Use ``run(start, stop, step, verbose)``, which returns self; the fields are in ``results``.
     ``run(..., backend="dask", client=...)`` spreads blocks of frames over a dask.distributed
-    cluster with the same result (see the README, "Scaling out").
+    cluster with the same result (see docs/guide/scaling.md).
     """
 
     def __init__(self, snapshots, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None,
