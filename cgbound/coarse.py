@@ -62,9 +62,11 @@ class CoarseGrain:
     times : array_like, optional
         Output times for Gaussian time smoothing.
 
+    Notes
+    -----
     Use ``run(start, stop, step, verbose)``, which returns self; the fields are in ``results``.
     ``run(..., backend="dask", client=...)`` spreads blocks of frames over a dask.distributed
-    cluster with the same result (see the README, "Scaling out").
+    cluster with the same result (see docs/guide/scaling.md).
     """
 
     def __init__(self, snapshots, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None,
@@ -123,6 +125,12 @@ class CoarseGrain:
     def run(self, start=None, stop=None, step=None, verbose=False, *, backend="serial", client=None, n_workers=None):
         """Coarse-grain frames ``start:stop:step``; returns self, with the fields in ``results``.
 
+        Parameters
+        ----------
+        start, stop, step : int, optional
+            The frames to use, as in ``frames[start:stop:step]``.
+        verbose : bool
+            Show a progress bar.
         backend : "serial" (this process) or "dask" (blocks of frames on a dask.distributed cluster;
             the snapshots must be a list or a reader, which workers read themselves)
         client : dask.distributed.Client, optional

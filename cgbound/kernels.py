@@ -20,14 +20,14 @@ from ._validate import positive_number
 
 GAUSSIAN, LUCY, HEAVISIDE = 0, 1, 2
 
-#: default Gaussian cutoff in widths, from the accuracy-vs-time study (README): every error measure sits
+#: default Gaussian cutoff in widths, from the accuracy-vs-time study (docs/studies/accuracy-vs-time.md): every error measure sits
 #: at the neglected tail Q(D/2, c^2/2), 1.5e-5 in 3D at 5w (below DEM statistical noise) for 1/2.8 of
 #: the time of 8w; gaussian_cutoff_for(rtol) picks another
 DEFAULT_GAUSSIAN_CUTOFF = 5.0
 
 #: default line-integral method of the Gaussian along contact branches: "exact" (to round-off) or an
-#: int n (n-point Gauss-Legendre rule). The study's rule for n depends on branch length / w (README,
-#: "Accuracy versus time"), so the default stays exact; "auto" applies that rule (~1e-5 for 2-3x speed)
+#: int n (n-point Gauss-Legendre rule). The study's rule for n depends on branch length / w
+#: (docs/studies/accuracy-vs-time.md), so the default stays exact; "auto" applies that rule (~1e-5 for 2-3x speed)
 DEFAULT_LINE_QUADRATURE = "exact"
 
 #: the largest n of an n-point Gauss-Legendre line rule (CG_MAX_LINE_POINTS in csrc/cg.h)

@@ -19,8 +19,8 @@ def _pyplot():
 
 
 def norm(result, name):
-    """Scalar view of a field: the value, |v| for vectors, and for tensors the paper's
-    |sigma| = max_{|x|=1} |sigma x| (the largest singular value; the largest |eigenvalue| when
+    """Scalar view of a field: the value, ``|v|`` for vectors, and for tensors the paper's
+    ``|sigma| = max_{|x|=1} |sigma x|`` (the largest singular value; the largest ``|eigenvalue|`` when
     sigma is symmetric; frictional contacts make the contact stress asymmetric)."""
     value = result[name]
     rank = FIELDS[name][0]

@@ -21,7 +21,7 @@ class MomentumBalance:
 
     Attributes: residual, forcing, div_contact_stress, div_boundary_stress,
     interaction_force_density, body_force_density (all (P, D)), scale and
-    relative (|residual| / scale, (P,)). The scale is the largest magnitude a term
+    relative (``|residual| / scale``, (P,)). The scale is the largest magnitude a term
     can reach: the peak kernel value times the largest particle or contact force
     (or a larger term actually seen), so points out of everyone's reach, where all
     terms vanish, do not turn round-off into a relative error of 1.

@@ -46,7 +46,7 @@ def gaussian_cutoff_for(rtol, dim=3):
 
     Use it as ``cg.Gaussian(w, cutoff=cg.gaussian_cutoff_for(1e-6) * w)``. With the default full
     normalisation the relative errors of the contact stress, of the integral identities and of the
-    momentum balance are about ``rtol`` (see the README's "Accuracy versus time"); the work per particle
+    momentum balance are about ``rtol`` (see docs/studies/accuracy-vs-time.md); the work per particle
     and per contact grows like the cutoff to the power ``dim``.
 
     Parameters

@@ -257,7 +257,7 @@ def check_result(out, snap, target):
     for name in out.fields:
         value = np.asarray(out[name])
         if name in ("velocity", "temperature"):
-            # documented (README, Numerical stability): NaN where the density is 0; finite elsewhere
+            # documented (docs/getting-started.md, Fields): NaN where the density is 0; finite elsewhere
             rho = np.asarray(out["density"]) if "density" in out.fields else None
             if rho is not None:
                 where = rho > 0

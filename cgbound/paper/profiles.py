@@ -58,11 +58,11 @@ class DepthProfiles:
         frames (0: no estimate). Instantaneous contact forces of a collisional flow scatter widely
         from frame to frame; the paper samples every t_c / 2 for that reason.
 
-    Results (after ``run``)
-    -----------------------
-    z, density, stress_zz (sigma_zz without the boundary correction), ifd_z (t_z),
+    Notes
+    -----
+    Results (after ``run``): z, density, stress_zz (sigma_zz without the boundary correction), ifd_z (t_z),
     extended_stress_zz (sigma'_zz from eq. 27), weight (-int_z^inf rho g_z dz, the weight of the
-    flow above z per unit area), bed, surface, lithostatic_error (max |sigma'_zz - weight| between bed
+    flow above z per unit area), bed, surface, lithostatic_error (max ``|sigma'_zz - weight|`` between bed
     and surface, relative to the weight of the whole flow), lithostatic_standard_error (its sampling
     error from block averages, same units), lithostatic_ok, ray_extended_stress_zz (if rays),
     result (the underlying cgbound Result).

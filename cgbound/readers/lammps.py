@@ -219,7 +219,7 @@ class LammpsReader(FrameReader):
     pairs : path, optional
         ``dump local`` of ``compute property/local patom1 patom2`` and ``compute pair/local``.
     pair_style : "gran", "granular" or "total"
-        "gran" (pair gran/*) and "granular" (pair granular): force = fx fy fz + p1 p2 p3.
+        "gran" (``pair gran/*``) and "granular" (pair granular): force = fx fy fz + p1 p2 p3.
         "total": fx fy fz is the whole force (non-granular pair styles).
     pair_compute, pair_values, property_compute, property_values :
         IDs and keywords of the two computes, used to name the columns (see :func:`pair_local_columns`).
@@ -348,7 +348,7 @@ class LammpsReader(FrameReader):
         return [file_name(self.atoms_path), file_name(self.pairs_path)], [f"{self.dimension}D"]
 
     def force_mismatch(self, index, fixed=False):
-        """Max |sum of contact forces + m g - dumped force| over particles, relative to the typical
+        """Max ``|sum of contact forces + m g - dumped force|`` over particles, relative to the typical
         (RMS) contact force: the force-balance mismatch of frame ``index`` (see LammpsFrame.force_balance)."""
         return self.frame(index).force_balance(fixed=fixed)["relative"]
 

@@ -128,6 +128,8 @@ class LiggghtsReader(LammpsReader):
         As for :class:`LammpsReader` (every frame's force balance is checked by default; with ``input``
         the compute's ID and keywords come from the script's ``compute pair/gran/local`` line).
 
+    Notes
+    -----
     The number of ``c_ID[k]`` columns in the dump must be what ``pair_values`` (and ``history``)
     give: keywords other than the compute's are an error, not a shifted reading.
     """

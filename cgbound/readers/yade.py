@@ -180,7 +180,7 @@ class YadeReader(FrameReader):
             return int(data["iter"])
 
     def force_mismatch(self, index):
-        """Max |summed contact forces - O.forces.f| over particles relative to the RMS contact force."""
+        """Max ``|summed contact forces - O.forces.f|`` over particles relative to the RMS contact force."""
         return self.frame(index).force_balance()["relative"]
 
     def _describe(self):
