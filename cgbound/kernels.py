@@ -257,7 +257,7 @@ class Lucy(Kernel):
         The kernel over the axes a Grid averages. "marginal" (default): the exact marginal of
         the D-dimensional Lucy over them, so that a profile is the average of the D-dimensional
         field over the averaged extent. "lower-dimensional": MercuryCG's convention, the
-        D_res-dimensional Lucy itself (for a Z profile C_1 (1 + 3x)(1 - x)^3 with x = |z - z_i| / R),
+        D_res-dimensional Lucy itself (for a Z profile ``C_1 (1 + 3x)(1 - x)^3`` with ``x = |z - z_i| / R``),
         divided by the averaged extent; it reproduces MercuryCG's X/Y/Z/XY/XZ/YZ ``.stat`` files.
         Both integrate to the same mass; the profiles differ by a few per cent where they vary
         on the scale of R.
