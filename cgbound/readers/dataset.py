@@ -47,7 +47,11 @@ def open_dataset(paths, format=None, **options):
             raise ValueError(f"{contact_key}: expected one contact file per particle file ({len(files)}), got "
                              f"{len(contacts)}: {', '.join(os.path.basename(c) for c in contacts[:4])}")
     readers = [_reader(fmt, path, contact_key, contact, options) for path, contact in zip(files, contacts)]
-    return readers[0] if len(readers) == 1 else ConcatenatedFrames(readers, "paths")
+    if len(readers) == 1:
+        return readers[0]
+    frames = ConcatenatedFrames(readers, "paths")
+    frames.units = readers[0].units
+    return frames
 
 
 def _reader(fmt, path, contact_key, contact, options):
