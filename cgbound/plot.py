@@ -13,7 +13,7 @@ import numpy as np
 
 from .fields import FIELDS, STRESS_FIELDS
 from .grid import Grid
-from .units import SIMULATION_UNITS, label_units
+from .units import label_units
 
 #: field -> (mathtext symbol, whether a subscript needs parentheses around it)
 SYMBOLS = {
@@ -65,10 +65,7 @@ def field_label(result, name, component=None):
 
 def length_label(result, axis):
     """Label of a coordinate axis: its name and the length unit (``"z [d]"``, ``"x (simulation units)"``)."""
-    units = result.units
-    if units is None:
-        return f"{axis} ({SIMULATION_UNITS})"
-    return f"{axis} [{units.symbols[0] if units.symbols else units.length}]"
+    return f"{axis} {label_units('length', result.units, result.box.dim)}"
 
 
 def norm(result, name):

@@ -80,8 +80,17 @@ class Snapshot:
         is converted; the fields coarse-grained from the snapshot name their units from it. None: not known.
     """
 
-    #: the units of the numbers (a cgbound.Units), None when not known
-    units = None
+    _units = None
+
+    @property
+    def units(self):
+        """The units of the numbers (a :class:`cgbound.Units`), None when not known; settable with anything
+        ``units=`` takes."""
+        return self._units
+
+    @units.setter
+    def units(self, value):
+        self._units = as_units(value)
 
     def __init__(self, positions, velocities=None, masses=None, box=None, contacts=None, fixed=None,
                  species=None, body_force=None, radii=None, time=0.0, units=None):

@@ -130,6 +130,9 @@ DIMENSIONS = {
     "temperature": Dimension(0, 2, -2, False, "kinetic"),   # mass-weighted velocity variance (no k_B)
 }
 
+#: quantities that are not fields but have units too (coordinates, times, masses)
+QUANTITIES = {"length": Dimension(0, 1, 0), "mass": Dimension(1, 0, 0), "time": Dimension(0, 0, 1)}
+
 #: what labels say when the units are not known
 SIMULATION_UNITS = "simulation units"
 
@@ -177,13 +180,17 @@ def as_units(units, name="units"):
 
 def dimension(field, dim=3):
     """Exponents (mass, length, time) of ``field`` in ``dim`` dimensions (densities are per D-volume)."""
-    try:
-        d = DIMENSIONS[field]
-    except KeyError:
-        raise ValueError(f"field: no dimension known for {field!r}; known: {', '.join(DIMENSIONS)}") from None
+    d = DIMENSIONS.get(field) or QUANTITIES.get(field)
+    if d is None:
+        raise ValueError(f"field: no dimension known for {field!r}; known: {', '.join(DIMENSIONS)}, "
+                         f"{', '.join(QUANTITIES)}")
     if dim not in (2, 3):
         raise ValueError(f"dim: expected 2 or 3, got {dim!r}")
     return d.mass, d.length - (dim if d.per_volume else 0), d.time
+
+
+def _made_of(field):
+    return DIMENSIONS[field].made_of if field in DIMENSIONS else ""
 
 
 def check_fields(units, fields, name="fields"):
@@ -248,7 +255,7 @@ def unit(field, units, dim=3, pretty=False):
     m, length, t = dimension(field, dim)
     names = units.symbols if (pretty and units.symbols) else (units.length, units.mass, units.time)
     sym_l, sym_m, sym_t = names
-    made_of = DIMENSIONS[field].made_of
+    made_of = _made_of(field)
     if not units.consistent and made_of in ("force", "mixed"):
         if made_of == "mixed":
             check_fields(units, (field,), "field")
@@ -267,7 +274,7 @@ def to_si(field, units, dim=3):
     if units is None or units.length_si is None or units.mass_si is None or units.time_si is None:
         return None
     m, length, t = dimension(field, dim)
-    made_of = DIMENSIONS[field].made_of
+    made_of = _made_of(field)
     if not units.consistent and made_of in ("force", "mixed"):
         if made_of == "mixed":
             check_fields(units, (field,), "field")

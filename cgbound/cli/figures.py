@@ -33,39 +33,19 @@ def save_figure(fig, path, fmt):
 
 
 def fields_figure(result, fields):
-    """One panel per field: profiles (every component as a line) on a grid with one resolved axis,
-    maps (the field, |vector| or the largest singular value of a tensor) with two."""
+    """One panel per field, drawn by :meth:`cgbound.Result.plot`: profiles (every component a line named in
+    the legend) on a grid with one resolved axis, maps (the field, |vector| or the largest singular value
+    of a tensor, equal aspect, labelled colorbar) with two. Labels carry units or "(simulation units)"."""
     import matplotlib
     if matplotlib.get_backend().lower() not in ("agg", "pdf", "svg", "cairo") and not os.environ.get("DISPLAY"):
         matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .. import plot
-    from ..fields import FIELDS
-    resolved = result.grid.resolved
     n = len(fields)
-    if len(resolved) == 1:
+    if len(result.grid.resolved) == 1:
         fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 4.4), sharey=True, squeeze=False, constrained_layout=True)
-        names = result.box.axis_names
-        dim = result.grid.dim
-        for ax, name in zip(axes[0], fields):
-            rank = FIELDS[name][0]
-            if rank == 0:
-                plot.profile(result, name, ax=ax, label=name)
-            elif rank == 1:
-                for a in range(dim):
-                    plot.profile(result, name, component=names[a], ax=ax, label=f"{name}_{names[a]}")
-            else:
-                for a in range(dim):
-                    for b in range(a, dim):
-                        plot.profile(result, name, component=names[a] + names[b], ax=ax,
-                                     label=f"{name}_{names[a]}{names[b]}")
-            ax.set_xlabel(f"{name} (simulation units)")
-            if rank:
-                ax.legend(fontsize=7)
-        return fig
-    fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.2), squeeze=False, constrained_layout=True)
+    else:
+        fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.2), squeeze=False, constrained_layout=True)
     for ax, name in zip(axes[0], fields):
-        plot.field_map(result, name, ax=ax)
-        ax.set_aspect("equal")
+        result.plot(name, ax=ax)
     return fig
