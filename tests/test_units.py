@@ -136,6 +136,8 @@ def test_units_travel_from_snapshot_to_result_and_time_averages_count_frames():
     assert "mean over 3 frames" in mean._repr_html_()
     stacked = cg.CoarseGrain(frames, grid, cg.Gaussian(0.5), fields=("density",), time_average="none").run().results
     assert stacked.n_frames == 3 and "3 frames, one per leading index" in repr(stacked)
+    smooth = cg.CoarseGrain(frames, grid, cg.Gaussian(0.5), fields=("density",), time_average=0.5).run().results
+    assert smooth.n_frames == 3 and "Gaussian time smoothing (width 0.5) of 3 frames at 3 time(s)" in repr(smooth)
     frames[2].units = "cgs"
     with pytest.raises(ValueError, match="frame 2.*units of the first frame"):
         cg.CoarseGrain(frames, grid, cg.Gaussian(0.5), fields=("density",)).run()
@@ -148,7 +150,7 @@ def test_without_units_results_say_simulation_units():
     assert "simulation units" in repr(out)
 
 
-def test_readers_carry_units_and_the_lammps_input_script_names_them():
+def test_readers_carry_units_and_the_lammps_input_script_names_them(tmp_path):
     from cgbound.readers import LammpsReader, read_input
     base = os.path.join(DATA, "lammps")
     atoms, pairs = os.path.join(base, "hooke3d", "atoms.dump"), os.path.join(base, "hooke3d", "pairs.dump")
@@ -164,6 +166,11 @@ def test_readers_carry_units_and_the_lammps_input_script_names_them():
     assert plain.units is None and plain[0].units is None
     with pytest.raises(ValueError, match="units: expected one of"):
         LammpsReader(atoms, pairs, units="imperial")
+    # a style cgbound has no table for leaves the units unknown (labels: "simulation units")
+    script = tmp_path / "in.electron"
+    script.write_text(open(os.path.join(base, "in.hooke3d")).read().replace("units           lj", "units electron"))
+    assert read_input(str(script)).units == "electron"
+    assert LammpsReader(atoms, pairs, input=str(script)).units is None
     liggghts = os.path.join(DATA, "liggghts")
     from cgbound.readers import LiggghtsReader
     settle = LiggghtsReader(os.path.join(liggghts, "atoms.dump"), os.path.join(liggghts, "pairs.dump"),

@@ -22,7 +22,7 @@ def open_dataset(paths, format=None, **options):
         Default: told from the first file (HDF5 signature, ``ITEM: TIMESTEP``, MercuryDPM's ``.data``);
         LIGGGHTS dumps look like LAMMPS dumps and need ``format="liggghts"``.
     **options
-        The reader's keywords. The contact file (``pairs=`` for LAMMPS/LIGGGHTS, ``fstat_path=`` for
+        The reader's keywords; every reader takes ``units=`` (:mod:`cgbound.units`: ``"si"``, ``"lj"``, ...). The contact file (``pairs=`` for LAMMPS/LIGGGHTS, ``fstat_path=`` for
         MercuryDPM) may be a pattern or a sequence too: one per particle file, in the same order.
     """
     if format is not None and format not in FORMATS:

@@ -275,7 +275,7 @@ class LammpsReader(FrameReader):
         if input is not None:
             from .lammps_input import read_input
             script = self.input_script = read_input(input, variables)
-            if units is None and script.units is not None:
+            if units is None:
                 self.units = _script_units(script)
             if pairs is not None and pair_values is None and pair_columns is None:
                 pair_columns = script.pair_columns(pairs)
@@ -570,9 +570,7 @@ def _joined_contacts(parts, dim):
 
 
 def _script_units(script):
-    """The units named by the input script's ``units`` command (LAMMPS' electron units are not known here)."""
+    """The units named by the input script's ``units`` command; None (not known: labels then say
+    "simulation units") for a style cgbound has no table for (LAMMPS' ``electron``)."""
     from ..units import SYSTEMS
-    if script.units not in SYSTEMS or script.units == "mercury":
-        raise ValueError(f"input: {script.path}: the script's units {script.units!r} are not among cgbound's "
-                         f"systems ({', '.join(s for s in SYSTEMS if s != 'mercury')}); pass units= to say what they are")
-    return script.units
+    return script.units if script.units in SYSTEMS and script.units != "mercury" else None
