@@ -202,9 +202,10 @@ def thumbnail_png(result, size=(3.6, 2.6), dpi=80):
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     plot(result, result.fields[0], ax=ax)
-    for text in [ax.xaxis.label, ax.yaxis.label, ax.title]:
-        text.set_fontsize(7)
-    ax.tick_params(labelsize=6)
+    for axes in fig.axes:                 # the plot and its colorbar, if any
+        for text in [axes.xaxis.label, axes.yaxis.label, axes.title]:
+            text.set_fontsize(7)
+        axes.tick_params(labelsize=6)
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png")
     return buffer.getvalue()
