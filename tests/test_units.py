@@ -240,3 +240,17 @@ def test_npz_and_vtk_carry_the_units(si_result, tmp_path):
     meshio = pytest.importorskip("meshio")
     mesh = meshio.read(str(tmp_path / "f.vtk"))
     assert "stress" in mesh.point_data
+
+
+def test_depth_profiles_keep_their_units_in_their_file(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    from cgbound.paper.datasets import chute_steady
+    from cgbound.paper.profiles import DepthProfiles
+    profiles = DepthProfiles(width=0.5).run(chute_steady()[:3])
+    assert profiles.units.name == "mercury" and profiles.dim == 3
+    path = profiles.to_hdf5(str(tmp_path / "p.h5"))
+    with h5py.File(path, "r") as f:
+        assert f["stress_zz"].attrs["units"] == "m g d^-2" and f["z"].attrs["units"] == "d"
+        assert f["density"].attrs["units"] == "m d^-3"
+    back = DepthProfiles.from_hdf5(path)
+    assert back.units == profiles.units and back.dim == 3

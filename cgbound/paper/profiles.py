@@ -137,7 +137,7 @@ class DepthProfiles:
         grid = self._grid(snapshots[frames[0]])
         r, self.stress_zz, self.ifd_z, self.body_z = self._average(snapshots, grid, start, stop, step, verbose, self.rays)
         self.result, self.grid, self.n_frames = r, grid, len(frames)
-        self.units = r.units
+        self.units, self.dim = r.units, grid.dim
         self.z = grid.axis_coordinates[-1]
         self.density = r.density.reshape(-1)
         if self.rays:
@@ -173,6 +173,7 @@ class DepthProfiles:
             self.provenance = f.attrs.get("provenance", "")
             units = f.attrs.get("units_system", "")
             self.units = as_units(json.loads(units)) if units else None
+            self.dim = int(f.attrs.get("dim", 3))
         self._derive()
         return self
 
@@ -186,8 +187,8 @@ class DepthProfiles:
                 f"lithostatic error {100 * self.lithostatic_error:.2f} % (sampling error "
                 f"{100 * self.lithostatic_standard_error:.2f} %) of the weight of the flow ({self.total_weight:.4g} per unit area)")
 
-    #: the units of the frames (a cgbound.Units), None when not known
-    units = None
+    #: the units of the frames (a cgbound.Units), None when not known; the frames' dimension
+    units, dim = None, 3
 
     STORED = ("z", "density", "stress_zz", "ifd_z", "body_z")
     #: the field whose unit each profile has (a weight per area is a stress)
@@ -210,11 +211,12 @@ class DepthProfiles:
                     f.attrs[name] = getattr(self, name)
                 f.attrs["kernel"] = repr(self.kernel)
                 f.attrs["provenance"] = provenance
+                f.attrs["dim"] = self.dim
                 if self.units is not None:
                     f.attrs["units_system"] = json.dumps(self.units.as_dict())
                 for name in self.PROFILES:
                     data = f.create_dataset(name, data=getattr(self, name))
-                    text = unit(self.UNIT_OF[name], self.units, 3)
+                    text = unit(self.UNIT_OF[name], self.units, self.dim)
                     if text is not None:
                         data.attrs["units"] = text
         return atomic_write(path, write)
@@ -231,8 +233,9 @@ class DepthProfiles:
         ax.plot(self.weight, self.z, "r:", lw=2, label=r"$-\int_z^\infty \rho g_z\,dz'$ (weight above z)")
         ax.axhline(self.bed, color="0.6", lw=1, ls="-", label=f"bed (z = {self.bed:.2f})")
         ax.axhline(self.surface, color="0.6", lw=1, ls="-.", label=f"surface (z = {self.surface:.2f})")
-        ax.set_xlabel(r"downward normal stress $-\sigma_{zz}$ (compression) " + label_units("stress", self.units))
-        length = label_units("length", self.units)
+        ax.set_xlabel(r"downward normal stress $-\sigma_{zz}$ (compression) "
+                      + label_units("stress", self.units, self.dim))
+        length = label_units("length", self.units, self.dim)
         ax.set_ylabel(f"z {length}")
         ax.legend(loc="upper right", fontsize=7)
         return ax
