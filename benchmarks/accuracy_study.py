@@ -382,8 +382,6 @@ def plot(rows, path=None, config=FULL, title=""):
     ax.legend(fontsize=8)
     fig.tight_layout()
     if path is not None:
-        fmt = {".png": "png", ".pdf": "pdf", ".svg": "svg"}.get(os.path.splitext(path)[1].lower())
-        if fmt is None:
-            raise ValueError(f"path: expected a file name ending in .png, .pdf or .svg, got {path!r}")
-        fig.savefig(path, format=fmt, **({"dpi": 150} if fmt == "png" else {}))
+        from cgbound.plot import save_figure
+        save_figure(fig, path)       # the format of the extension (PNG, PDF, SVG), atomically
     return fig

@@ -81,13 +81,7 @@ def save_plot(path, title, xlabel, ylabel, series, logx=False, logy=False):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    ext = os.path.splitext(path)[1].lower()
-    fmt = {".png": "png", ".pdf": "pdf", ".svg": "svg"}.get(ext)
-    if fmt is None:
-        raise ValueError(f"path: expected a file name ending in .png, .pdf or .svg (the format follows the "
-                         f"extension), got {path!r}")
-    tmp = path + ".tmp" + ext
-    fig.savefig(tmp, format=fmt, **({"dpi": 150} if fmt == "png" else {}))
+    from cgbound.plot import save_figure
+    save_figure(fig, path)  # the format of the extension (PNG, PDF, SVG), atomically
     plt.close(fig)
-    os.replace(tmp, path)  # atomic: a reader never sees half a file
     print(f"# plot written to {path}")

@@ -4,13 +4,17 @@
 * :func:`profile` -- depth profiles like the paper's Fig. 3 (any component of any field).
 * :func:`field_map` -- 2-D maps like Fig. 1: |t| for vectors, the largest singular value for tensors.
 * :func:`particles` -- discs of a 2-D snapshot drawn over a map, fixed ones marked with a cross.
+* :func:`save_figure` -- write a figure in the format of the file's extension (PNG, PDF, SVG), atomically.
 * :func:`field_label` -- a field's axis label: symbol, sign convention and unit, e.g.
   "$-\\sigma_{zz}$ (compression) [m g / d²]", or "(simulation units)" when the units are not known.
 
 Every function draws into ``ax`` when given (a panel of a grid of subplots) and returns the Axes.
 """
+import os
+
 import numpy as np
 
+from ._atomic import atomic_write
 from .fields import FIELDS, STRESS_FIELDS
 from .grid import Grid
 from .units import label_units
@@ -32,6 +36,28 @@ SYMBOLS = {
     "pressure": ("p", False),
     "temperature": ("T", False),
 }
+
+
+#: figure formats by file extension: vector formats stay vector
+FIGURE_FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
+
+
+def figure_format(path, name="path"):
+    """The matplotlib format of ``path`` from its extension (``.png``, ``.pdf``, ``.svg``), else ValueError."""
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext not in FIGURE_FORMATS:
+        raise ValueError(f"{name}: expected a file name ending in {', '.join(FIGURE_FORMATS)} (the format follows "
+                         f"the extension), got {os.fspath(path)!r}")
+    return FIGURE_FORMATS[ext]
+
+
+def save_figure(fig, path, dpi=150):
+    """Write ``fig`` to ``path`` in the format of its extension (PNG at ``dpi``; PDF and SVG as vectors),
+    through a temporary file, so an existing file is replaced only by a complete one. Returns the path."""
+    fmt = figure_format(path)
+    options = {"dpi": dpi} if fmt == "png" else {}
+    return atomic_write(os.fspath(path), lambda tmp: fig.savefig(tmp, format=fmt, **options),
+                        suffix=os.path.splitext(os.fspath(path))[1])
 
 
 def _pyplot():

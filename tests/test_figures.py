@@ -147,3 +147,14 @@ def test_demo_figure_is_a_real_pdf(tmp_path):
     proc = run_cli("demo", "-q", "--output", "d.h5", "--figure", "demo.pdf", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "demo.pdf").read_bytes().startswith(MAGIC["pdf"])
+
+
+def test_save_figure_writes_the_format_of_the_extension(tmp_path, chute_profile):
+    from cgbound.plot import save_figure
+    ax = chute_profile.plot("density")
+    for ext in MAGIC:
+        path = save_figure(ax.figure, tmp_path / f"f.{ext.upper()}")
+        assert open(path, "rb").read(8).startswith(MAGIC[ext]), ext
+    with pytest.raises(ValueError, match=r"path: expected a file name ending in \.png, \.pdf, \.svg"):
+        save_figure(ax.figure, tmp_path / "f.jpg")
+    assert not (tmp_path / "f.jpg").exists()

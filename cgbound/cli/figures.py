@@ -3,19 +3,18 @@ import os
 
 from .errors import UsageError
 
-FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
-
 
 def figure_format(path, flag):
     """The matplotlib format of ``path`` from its extension, checked before any work."""
-    ext = os.path.splitext(path)[1].lower()
-    if ext not in FORMATS:
-        raise UsageError(flag, f"expected a file name ending in {', '.join(FORMATS)} (the format follows the "
-                               f"extension), got {path!r}")
+    from ..plot import figure_format as format_of
+    try:
+        fmt = format_of(path)
+    except ValueError as exc:
+        raise UsageError(flag, str(exc).split(": ", 1)[1]) from None
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         raise UsageError(flag, f"directory {directory!r} does not exist")
-    return FORMATS[ext]
+    return fmt
 
 
 def check_matplotlib(flag):
@@ -26,10 +25,9 @@ def check_matplotlib(flag):
 
 
 def save_figure(fig, path, fmt):
-    """Write ``fig`` to ``path`` atomically in format ``fmt`` (vector formats stay vector)."""
-    from .._atomic import atomic_write
-    options = {"dpi": 150} if fmt == "png" else {}
-    atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt, **options), suffix=os.path.splitext(path)[1])
+    """Write ``fig`` to ``path`` atomically in the format of its extension (``fmt``, checked before the work)."""
+    from ..plot import save_figure as save
+    save(fig, path)
 
 
 def fields_figure(result, fields):
