@@ -382,5 +382,6 @@ def plot(rows, path=None, config=FULL, title=""):
     ax.legend(fontsize=8)
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=120)
+        from cgbound.plot import save_figure
+        save_figure(fig, path)       # the format of the extension (PNG, PDF, SVG), atomically
     return fig

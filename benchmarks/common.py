@@ -81,8 +81,7 @@ def save_plot(path, title, xlabel, ylabel, series, logx=False, logy=False):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=120)
+    from cgbound.plot import save_figure
+    save_figure(fig, path)  # the format of the extension (PNG, PDF, SVG), atomically
     plt.close(fig)
-    os.replace(tmp, path)  # atomic: a reader never sees half a file
     print(f"# plot written to {path}")

@@ -17,6 +17,7 @@ from .snapshot import Contacts, Snapshot
 from ._threads import get_num_threads, set_num_threads, threads
 from .tiled import coarse_grain_tiled
 from .truncation import gaussian_cutoff_for, gaussian_tail_fraction
+from .units import Units
 
 from ._version import __version__
 
@@ -25,4 +26,4 @@ FIELD_NAMES = tuple(FIELDS)
 __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", "Heaviside", "Lucy",
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
-           "gaussian_cutoff_for", "gaussian_tail_fraction"]
+           "gaussian_cutoff_for", "gaussian_tail_fraction", "Units"]

@@ -148,6 +148,7 @@ class Partial:
         n_out = {"mean": 1, "smooth": 0 if plan.out_times is None else len(plan.out_times)}.get(plan.mode, 0)
         self.averages = [PrimaryAverage(plan.needed) for _ in range(n_out)]
         self.target = self.kernel = self.box = None
+        self.units = None           # the first frame's (cgbound.units.Units or None)
         self.species_seen = set()   # the species of the frames read, when partial fields are asked for
 
     def add(self, index, snapshot):
@@ -173,6 +174,9 @@ class Partial:
         prim = whole_target_sums(job, self.u_ref)
         if self.target is None:
             self.target, self.kernel, self.box = target, kernel, snap.box
+            self.units = snap.units
+        elif snap.units != self.units:
+            raise ValueError(f"snapshot: expected the units of the first frame ({self.units}), got {snap.units}")
         self._add_primaries(snap.time, prim)
 
     def _add_primaries(self, time, prim):
@@ -191,8 +195,10 @@ class Partial:
     def merge(self, other):
         """Append the partial of the next block (in frame order); returns self."""
         if self.target is None:
-            self.target, self.kernel, self.box = other.target, other.kernel, other.box
+            self.target, self.kernel, self.box, self.units = other.target, other.kernel, other.box, other.units
             self.u_ref, self.dim = other.u_ref, other.dim
+        elif other.target is not None and other.units != self.units:
+            raise ValueError(f"snapshot: expected the units of the first frame ({self.units}), got {other.units}")
         self.indices += other.indices
         self.species_seen |= other.species_seen
         self.times += other.times
@@ -205,7 +211,7 @@ class Partial:
         """From stored primaries ("store"): the smoothing sums at ``out_times`` over this block's frames."""
         out = Partial(self.plan.smoothing_at(out_times))
         out.u_ref, out.dim = self.u_ref, self.dim
-        out.target, out.kernel, out.box = self.target, self.kernel, self.box
+        out.target, out.kernel, out.box, out.units = self.target, self.kernel, self.box, self.units
         for time, prim in zip(self.times, self.frames):
             out._add_primaries(time, prim)
         out.indices, out.times = list(self.indices), list(self.times)

@@ -171,8 +171,10 @@ class CoarseGrain:
         flat, out_times = partial.finish()
         leading = () if self.time_average == "mean" else (len(out_times),)
         shaped = shape_fields(flat, partial.target, partial.dim, leading)
-        self.results = Result(shaped, partial.target, partial.kernel, self.convention, out_times, partial.box)
         self.n_frames = len(partial.times)
+        self.results = Result(shaped, partial.target, partial.kernel, self.convention, out_times, partial.box,
+                              units=partial.units, n_frames=self.n_frames,
+                              time_average=self.time_average if self.time_average != "smooth" else self.time_width)
         self.frame_times = np.asarray(partial.times)
         return self
 

@@ -16,6 +16,7 @@ from .kernels import check_kernel, check_reach
 from .primaries import PARTICLES, PRIMARIES, check_computable, compute_primaries, reference_velocity
 from .result import Result
 from .snapshot import Snapshot
+from .units import check_fields as check_units_fields
 
 DEFAULT_FIELDS = ("density", "velocity", "stress")
 
@@ -40,6 +41,7 @@ def check_arguments(snapshot, grid, kernel, fields, convention, species):
     fields = check_fields(fields)
     convention = check_convention(convention)
     species = integer(species, "species", allow_none=True)
+    check_units_fields(snapshot.units, fields)
     if species is not None:
         snapshot = snapshot.species_view(species)
     check_reach(kernel, snapshot.dim, periodic_resolved_lengths(snapshot.box, target), snapshot.largest_product,
@@ -111,4 +113,4 @@ def run_snapshot(job, sums=whole_target_sums):
     u_ref = reference_velocity(snap)
     flat = derive(sums(job, u_ref), job.fields, u_ref, snap.dim, job.convention)
     return Result(shape_fields(flat, job.target, snap.dim), job.target, job.kernel, job.convention, [snap.time],
-                  snap.box)
+                  snap.box, units=snap.units, n_frames=1)

@@ -5,6 +5,7 @@ import numpy as np
 from ._engine import minimum_image as core_minimum_image
 from ._validate import bool_array, finite_number, index_array, real_array
 from .box import Box
+from .units import as_units
 
 
 def _read_only(array):
@@ -73,10 +74,27 @@ class Snapshot:
     radii : (N,), optional
         Needed for the volume fraction.
     time : float
+    units : Units, str or mapping, optional
+        The units of these numbers (:mod:`cgbound.units`): a system name such as ``"si"`` or ``"lj"``,
+        a mapping ``{"length": "m", "mass": "kg", "time": "s"}``, or a :class:`cgbound.Units`. Nothing
+        is converted; the fields coarse-grained from the snapshot name their units from it. None: not known.
     """
 
+    _units = None
+
+    @property
+    def units(self):
+        """The units of the numbers (a :class:`cgbound.Units`), None when not known; settable with anything
+        ``units=`` takes."""
+        return self._units
+
+    @units.setter
+    def units(self, value):
+        self._units = as_units(value)
+
     def __init__(self, positions, velocities=None, masses=None, box=None, contacts=None, fixed=None,
-                 species=None, body_force=None, radii=None, time=0.0):
+                 species=None, body_force=None, radii=None, time=0.0, units=None):
+        self.units = as_units(units)
         self.positions = real_array(positions, "positions", ndim=2)
         n, dim = self.positions.shape
         if dim not in (2, 3):

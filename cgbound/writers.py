@@ -2,6 +2,10 @@
 
 Every writer goes through a temporary file and a rename, so an existing file is
 replaced only by a complete new one.
+
+Units (when the result knows them, :mod:`cgbound.units`): CF-style ``units`` attributes on every field
+and coordinate in HDF5 and xarray, the system in the metadata (``units_system``, JSON), and in VTK the
+header line (legacy VTK has no attributes): ``cgbound fields; units <system>; <field> [<unit>]; ...``.
 """
 import json
 
@@ -10,6 +14,7 @@ import numpy as np
 from ._atomic import atomic_write
 from .fields import FIELDS
 from .grid import Grid
+from .units import unit
 
 
 def _metadata(result):
@@ -30,6 +35,10 @@ def _metadata(result):
         "box_upper": result.box.upper.tolist(),
         "periodic": list(result.box.periodic),
     }
+    if result.units is not None:
+        meta["units_system"] = json.dumps(result.units.as_dict())
+    if getattr(result, "n_frames", None) is not None:
+        meta["n_frames"] = int(result.n_frames)
     g = result.grid
     if isinstance(g, Grid):
         meta.update(grid_shape=list(g.shape), averaged=[g.box.axis_names[d] for d in g.averaged])
@@ -48,14 +57,21 @@ def write_hdf5(result, path, provenance=None):
             for key, value in meta.items():
                 f.attrs[key] = value if not isinstance(value, list) or value else np.array([])
             f.attrs["provenance"] = provenance if isinstance(provenance, str) else json.dumps(provenance or {})
-            f.create_dataset("coordinates", data=result.coordinates)
+            length = unit("length", result.units, result.box.dim)
+            coordinates = f.create_dataset("coordinates", data=result.coordinates)
+            if length is not None:
+                coordinates.attrs["units"] = length
             if isinstance(result.grid, Grid):
                 for name, axis in zip(result.box.axis_names, result.grid.axis_coordinates):
-                    f.create_dataset(f"axes/{name}", data=axis)
+                    data = f.create_dataset(f"axes/{name}", data=axis)
+                    if length is not None:
+                        data.attrs["units"] = length
             fields = f.create_group("fields")
             for name in result.fields:
-                fields.create_dataset(name, data=result[name], chunks=True if result[name].size > 1 else None,
-                                      compression="gzip" if result[name].size > 1 else None)
+                data = fields.create_dataset(name, data=result[name], chunks=True if result[name].size > 1 else None,
+                                             compression="gzip" if result[name].size > 1 else None)
+                if result.units is not None:
+                    data.attrs["units"] = result.unit(name)
     return atomic_write(path, write, suffix=".h5")
 
 
@@ -94,7 +110,7 @@ def write_vtk(result, path, frame=None):
 
     def write(tmp):
         with open(tmp, "wb") as f:
-            f.write(b"# vtk DataFile Version 3.0\ncgbound fields\nBINARY\nDATASET RECTILINEAR_GRID\n")
+            f.write(b"# vtk DataFile Version 3.0\n" + _vtk_title(result).encode() + b"\nBINARY\nDATASET RECTILINEAR_GRID\n")
             f.write(f"DIMENSIONS {shape3[0]} {shape3[1]} {shape3[2]}\n".encode())
             for label, axis in zip("XYZ", axes3):
                 f.write(f"{label}_COORDINATES {axis.size} double\n".encode())
@@ -118,6 +134,17 @@ def write_vtk(result, path, frame=None):
                     data = value if dim == 3 else _pad_tensor(value)
                 f.write(np.ascontiguousarray(np.nan_to_num(data, nan=np.nan), ">f8").tobytes() + b"\n")
     return atomic_write(path, write, suffix=".vtk")
+
+
+def _vtk_title(result):
+    """The legacy VTK header line (at most 255 characters): the units of the fields when known."""
+    if result.units is None:
+        return "cgbound fields"
+    title = f"cgbound fields; units {result.units.name or 'custom'}"
+    full = title + "".join(f"; {name} [{result.unit(name)}]" for name in result.fields)
+    title = full if len(full) <= 255 else title + f" (length {result.units.length}, mass {result.units.mass}, " \
+        f"time {result.units.time})"
+    return title.replace("\n", " ")[:255]
 
 
 def _pad_tensor(t):
@@ -152,16 +179,19 @@ def to_xarray(result):
         n_lead = value.ndim - len(space) - rank
         leading_dims = ("time",) * n_lead
         dims = leading_dims + space + (("component",) if rank >= 1 else ()) + (("component2",) if rank == 2 else ())
-        data_vars[name] = (dims, value)
+        data_vars[name] = (dims, value, {"units": result.unit(name)} if result.units is not None else {})
+    length = unit("length", result.units, result.box.dim)
+    length_attrs = {"units": length} if length is not None else {}
     if isinstance(grid, Grid):
         for name, axis in zip(names, grid.axis_coordinates):
-            coords[name] = axis
+            coords[name] = (name, axis, length_attrs)
     else:
         for d, name in enumerate(names):
-            coords[name] = ("point", grid.positions[:, d])
+            coords[name] = ("point", grid.positions[:, d], length_attrs)
     coords["component"] = comp
     coords["component2"] = comp
     if leading_dims:
-        coords["time"] = times
+        time_unit = unit("time", result.units, result.box.dim)
+        coords["time"] = ("time", times, {"units": time_unit} if time_unit is not None else {})
     attrs = {k: (json.dumps(v) if isinstance(v, list) else v) for k, v in _metadata(result).items()}
     return xr.Dataset(data_vars, coords=coords, attrs=attrs)

@@ -93,6 +93,18 @@ def test_reader_on_dask_equals_serial(client, tmp_path, average):
 
 
 @needs_dask
+def test_units_and_frame_count_on_dask_equal_serial(client, tmp_path):
+    snaps = frames(5, dim=2)
+    path = tmp_path / "frames.h5"
+    write_snapshots(path, snaps)
+    reader = HDF5Snapshots(path, units="cgs")
+    grid = cg.Grid(snaps[0].box, (1, 9), average="x")
+    serial, dask = run_both(reader, client, grid, cg.Lucy(1.1))
+    assert serial.units.name == dask.units.name == "cgs" and serial.n_frames == dask.n_frames == 5
+    assert dask.unit("stress") == "g s^-2"                                 # 2-D: a force per length
+
+
+@needs_dask
 def test_species_and_points_on_dask(client):
     snaps = frames(5)
     for s in snaps:

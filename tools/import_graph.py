@@ -32,8 +32,8 @@ LAYER_NAMES = {
     2: ("kernels", "coarse-graining kernels and the Gaussian's truncation"),
     3: ("targets", "where fields are evaluated: grids and point sets"),
     4: ("fields", "the primary sums, the derived fields, the momentum-balance check"),
-    5: ("pipeline", "the per-snapshot pipeline, entry points, tiles, executors, the Result they return and its writers"),
-    6: ("I/O", "readers, plots, MercuryCG files"),
+    5: ("pipeline", "the per-snapshot pipeline, entry points, tiles, executors, the Result they return, its writers and plots"),
+    6: ("I/O", "readers, MercuryCG files"),
     7: ("front ends", "the package root, the command line, the paper-reproduction wing"),
 }
 
@@ -43,6 +43,7 @@ LAYER_NAMES = {
 LAYERS = {
     "_core": 0, "_engine": 0, "_version": 0, "_validate": 0, "_threads": 0, "_memory": 0, "_atomic": 0, "progress": 0,
     "box": 1, "snapshot": 1,
+    "units": 1,                                                   # units of particle data and of every field
     "kernels": 2, "truncation": 2,
     "grid": 3,
     "primaries": 4, "fields": 4, "residual": 4,
@@ -51,7 +52,8 @@ LAYERS = {
     "pipeline": 5, "coarse": 5, "tiled": 5, "executors": 5, "result": 5, "writers": 5,
     "averaging": 5,                                               # time averages over blocks of frames
     "_partial": 5, "_dask": 5,                                    # today
-    "readers": 6, "plot": 6, "mercurycg": 6,
+    "plot": 5,                                                    # Result.plot and _repr_png_ draw through it
+    "readers": 6, "mercurycg": 6,
     "__init__": 7, "__main__": 7, "cli": 7, "paper": 7,
     "scenes": 7, "profiles": 7, "datasets": 7, "blobs": 7,        # today (the paper wing, before cgbound/paper/)
 }

@@ -100,6 +100,10 @@ def add_parser(sub):
     g.add_argument("--restart", metavar="PATH", help="mercury: the .restart file (fixed particles, densities, "
                                                      "periodic axes)")
     g.add_argument("--density", metavar="RHO", help="mercury: particle material density (masses from radii)")
+    g.add_argument("--units", metavar="SYSTEM", default=None,
+                   help="the units of the data, for labels and the files' units attributes: lj, si, cgs, real, "
+                        "metal, micro, nano (LAMMPS) or mercury (d = m = g = 1); default: the --input script's "
+                        "units command, else '(simulation units)'")
     k = r.add_argument_group("kernel and grid")
     k.add_argument("--kernel", choices=KERNELS, default="gaussian", help="coarse-graining kernel (default gaussian)")
     k.add_argument("--width", default="0.25", help="Gaussian width w, also the default scale of the others (default 0.25)")
@@ -143,6 +147,10 @@ def check(args):
     if ext not in OUTPUTS:
         raise UsageError("--output", f"expected a file name ending in {', '.join(OUTPUTS)}, got {args.output!r}")
     output_directory_exists(args.output, "--output")
+    if args.units is not None:
+        from ..units import as_units
+        with as_usage("--units"):
+            args.units = as_units(args.units)
     args.fields = split_list(args.fields)
     if not args.fields:
         raise UsageError("--fields", "expected at least one field name")
@@ -412,9 +420,14 @@ def check_figure(args, grid):
 
 def run(args):
     from ..coarse import CoarseGrain
+    from ..units import check_fields as check_units_fields
     data, fmt, paths = open_data(args)
+    if args.units is not None:
+        data.units = args.units
     with as_usage():                 # the reader checks the first frame: a selection of nothing names its flag
         first = data[0]
+    with as_usage("--fields"):
+        check_units_fields(first.units, args.fields)
     grid = make_grid(args, first)
     kernel = make_kernel(args)
     check_figure(args, grid)

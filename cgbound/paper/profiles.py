@@ -3,6 +3,8 @@
 Averaging over the two horizontal axes is analytic (exact kernel marginals) and over time is the
 mean over the frames. Stresses here are compression-positive, as in the paper's Fig. 3.
 """
+import json
+
 import numpy as np
 
 from .._validate import positive_number
@@ -10,6 +12,7 @@ from ..box import Box
 from ..coarse import CoarseGrain
 from ..grid import Grid
 from ..kernels import Gaussian, check_kernel
+from ..units import as_units, label_units, unit
 
 PROFILE_FIELDS = ("density", "stress", "interaction_force_density", "body_force_density")
 
@@ -134,6 +137,7 @@ class DepthProfiles:
         grid = self._grid(snapshots[frames[0]])
         r, self.stress_zz, self.ifd_z, self.body_z = self._average(snapshots, grid, start, stop, step, verbose, self.rays)
         self.result, self.grid, self.n_frames = r, grid, len(frames)
+        self.units, self.dim = r.units, grid.dim
         self.z = grid.axis_coordinates[-1]
         self.density = r.density.reshape(-1)
         if self.rays:
@@ -167,6 +171,9 @@ class DepthProfiles:
             self.lithostatic_standard_error = float(f.attrs["lithostatic_standard_error"])
             self.n_frames = int(f.attrs["n_frames"])
             self.provenance = f.attrs.get("provenance", "")
+            units = f.attrs.get("units_system", "")
+            self.units = as_units(json.loads(units)) if units else None
+            self.dim = int(f.attrs.get("dim", 3))
         self._derive()
         return self
 
@@ -180,7 +187,13 @@ class DepthProfiles:
                 f"lithostatic error {100 * self.lithostatic_error:.2f} % (sampling error "
                 f"{100 * self.lithostatic_standard_error:.2f} %) of the weight of the flow ({self.total_weight:.4g} per unit area)")
 
+    #: the units of the frames (a cgbound.Units), None when not known; the frames' dimension
+    units, dim = None, 3
+
     STORED = ("z", "density", "stress_zz", "ifd_z", "body_z")
+    #: the field whose unit each profile has (a weight per area is a stress)
+    UNIT_OF = {"z": "length", "density": "density", "stress_zz": "stress", "ifd_z": "interaction_force_density",
+               "body_z": "body_force_density", "extended_stress_zz": "stress", "weight": "stress"}
     PROFILES = STORED + ("extended_stress_zz", "weight")
     SCALARS = ("bed", "surface", "lithostatic_error", "lithostatic_standard_error", "total_weight", "width",
                "spacing", "threshold", "n_frames")
@@ -198,21 +211,31 @@ class DepthProfiles:
                     f.attrs[name] = getattr(self, name)
                 f.attrs["kernel"] = repr(self.kernel)
                 f.attrs["provenance"] = provenance
+                f.attrs["dim"] = self.dim
+                if self.units is not None:
+                    f.attrs["units_system"] = json.dumps(self.units.as_dict())
                 for name in self.PROFILES:
-                    f.create_dataset(name, data=getattr(self, name))
+                    data = f.create_dataset(name, data=getattr(self, name))
+                    text = unit(self.UNIT_OF[name], self.units, self.dim)
+                    if text is not None:
+                        data.attrs["units"] = text
         return atomic_write(path, write)
 
     def plot(self, ax=None):
-        """Fig. 3: sigma_zz without (dashed) and with (solid) the IFD correction, and the weight (red dotted)."""
+        """Fig. 3: -sigma_zz (compression positive) without (dashed) and with (solid) the IFD correction,
+        the weight of the flow above z (red dotted), and the bed and surface heights (grey); every line is
+        in the legend and the axes carry the units (or "(simulation units)"). Returns the Axes."""
         import matplotlib.pyplot as plt
         if ax is None:
-            _, ax = plt.subplots(figsize=(4.5, 4.5))
-        ax.plot(self.stress_zz, self.z, "k--", label=r"$\sigma_{zz}$")
-        ax.plot(self.extended_stress_zz, self.z, "k-", label=r"$\sigma'_{zz}$ (eq. 27)")
-        ax.plot(self.weight, self.z, "r:", lw=2, label=r"$-\int_z^\infty \rho g_z\,dz'$")
-        for level in (self.bed, self.surface):
-            ax.axhline(level, color="0.6", lw=1)
-        ax.set_xlabel("downward normal stress")
-        ax.set_ylabel("z")
-        ax.legend(loc="upper right", fontsize=8)
+            _, ax = plt.subplots(figsize=(4.5, 4.5), constrained_layout=True)
+        ax.plot(self.stress_zz, self.z, "k--", label=r"$-\sigma_{zz}$ (no correction)")
+        ax.plot(self.extended_stress_zz, self.z, "k-", label=r"$-\sigma'_{zz}$ (eq. 27)")
+        ax.plot(self.weight, self.z, "r:", lw=2, label=r"$-\int_z^\infty \rho g_z\,dz'$ (weight above z)")
+        ax.axhline(self.bed, color="0.6", lw=1, ls="-", label=f"bed (z = {self.bed:.2f})")
+        ax.axhline(self.surface, color="0.6", lw=1, ls="-.", label=f"surface (z = {self.surface:.2f})")
+        ax.set_xlabel(r"downward normal stress $-\sigma_{zz}$ (compression) "
+                      + label_units("stress", self.units, self.dim))
+        length = label_units("length", self.units, self.dim)
+        ax.set_ylabel(f"z {length}")
+        ax.legend(loc="upper right", fontsize=7)
         return ax

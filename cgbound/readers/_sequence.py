@@ -5,6 +5,8 @@ import os
 
 import numpy as np
 
+from ..units import as_units
+
 
 def file_name(path):
     """A path's base name as the repr shows it (``None`` when there is no file)."""
@@ -23,6 +25,23 @@ class FrameSequence:
 
     _frames = ()
     _cache = None
+    _units = None
+
+    @property
+    def units(self):
+        """The units of the frames (a :class:`cgbound.Units`, see :mod:`cgbound.units`), or None when not
+        known. Setting it (a system name such as ``"si"``, a mapping of length, mass and time, or a Units)
+        gives every snapshot read afterwards these units; a reader made with ``units=`` sets it."""
+        return self._units
+
+    @units.setter
+    def units(self, value):
+        self._units = as_units(value)
+
+    def _with_units(self, snapshot):
+        if self._units is not None:
+            snapshot.units = self._units
+        return snapshot
 
     def __len__(self):
         return len(self._frames)
@@ -42,7 +61,7 @@ class FrameSequence:
     def __getitem__(self, index):
         if isinstance(index, slice):
             return self._restricted(list(self._frames)[index])
-        return self._snapshot(self._position(index))
+        return self._with_units(self._snapshot(self._position(index)))
 
     def take(self, indices):
         """A copy of the reader restricted to the frames at ``indices`` (in that order).
@@ -60,7 +79,7 @@ class FrameSequence:
 
     def __iter__(self):
         for k in range(len(self)):
-            yield self._snapshot(k)
+            yield self._with_units(self._snapshot(k))
 
     def __getstate__(self):
         state = dict(self.__dict__)
@@ -69,7 +88,8 @@ class FrameSequence:
 
     def __repr__(self):
         sources, details = self._describe()
-        return f"{type(self).__name__}({', '.join([*sources, f'{len(self)} frames', *details])})"
+        units = [f"units={self._units.name or self._units.as_dict()!r}"] if self._units is not None else []
+        return f"{type(self).__name__}({', '.join([*sources, f'{len(self)} frames', *details, *units])})"
 
     def _describe(self):  # pragma: no cover - abstract
         """Two lists of strings for the repr: where the frames come from, and details after the frame count."""
@@ -106,6 +126,7 @@ class FrameReader(FrameSequence):
         if self._cache is not None and self._cache[0] == k:
             return self._cache[1]
         result = self._build(*self._frames[k])
+        self._with_units(result.snapshot)
         self._cache = (k, result)
         return result
 

@@ -22,7 +22,7 @@ def open_dataset(paths, format=None, **options):
         Default: told from the first file (HDF5 signature, ``ITEM: TIMESTEP``, MercuryDPM's ``.data``);
         LIGGGHTS dumps look like LAMMPS dumps and need ``format="liggghts"``.
     **options
-        The reader's keywords. The contact file (``pairs=`` for LAMMPS/LIGGGHTS, ``fstat_path=`` for
+        The reader's keywords; every reader takes ``units=`` (:mod:`cgbound.units`: ``"si"``, ``"lj"``, ...). The contact file (``pairs=`` for LAMMPS/LIGGGHTS, ``fstat_path=`` for
         MercuryDPM) may be a pattern or a sequence too: one per particle file, in the same order.
     """
     if format is not None and format not in FORMATS:
@@ -47,7 +47,11 @@ def open_dataset(paths, format=None, **options):
             raise ValueError(f"{contact_key}: expected one contact file per particle file ({len(files)}), got "
                              f"{len(contacts)}: {', '.join(os.path.basename(c) for c in contacts[:4])}")
     readers = [_reader(fmt, path, contact_key, contact, options) for path, contact in zip(files, contacts)]
-    return readers[0] if len(readers) == 1 else ConcatenatedFrames(readers, "paths")
+    if len(readers) == 1:
+        return readers[0]
+    frames = ConcatenatedFrames(readers, "paths")
+    frames.units = readers[0].units
+    return frames
 
 
 def _reader(fmt, path, contact_key, contact, options):

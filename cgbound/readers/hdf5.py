@@ -109,7 +109,8 @@ class HDF5Snapshots(FrameSequence):
     file, so it is safe to hand to worker processes.
     """
 
-    def __init__(self, path, frames=None):
+    def __init__(self, path, frames=None, units=None):
+        self.units = units
         self.path = os.fspath(path)
         h5py = _h5py()
         with h5py.File(self.path, "r") as f:

@@ -255,6 +255,9 @@ class LammpsReader(FrameReader):
         ``fix gravity`` unless given here.
     variables : dict, optional
         Values of the script's variables, as ``-var NAME value`` gave them to LAMMPS.
+    units : str, mapping or cgbound.Units, optional
+        The units of the dumps (:mod:`cgbound.units`; e.g. ``"lj"``, ``"si"``). Default: the input
+        script's ``units`` command when ``input`` is given, else not known.
     check_forces : bool
         With a contact dump and ``fx fy fz`` in the atoms dump, every frame read is checked: the
         contact forces plus the body forces must reproduce the dumped force of every flowing
@@ -266,11 +269,14 @@ class LammpsReader(FrameReader):
     def __init__(self, atoms, pairs=None, *, pair_style="gran", pair_compute="pl", pair_values=None,
                  property_compute="pp", property_values=("patom1", "patom2"), pair_columns=None,
                  walls=(), fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=3,
-                 dt=None, wrap=True, drop_inactive=True, input=None, variables=None, check_forces=True):
+                 dt=None, wrap=True, drop_inactive=True, input=None, variables=None, check_forces=True, units=None):
+        self.units = units
         self.input_script = None
         if input is not None:
             from .lammps_input import read_input
             script = self.input_script = read_input(input, variables)
+            if units is None:
+                self.units = _script_units(script)
             if pairs is not None and pair_values is None and pair_columns is None:
                 pair_columns = script.pair_columns(pairs)
             if not len(fixed_types) and not len(fixed_ids):
@@ -561,3 +567,10 @@ def _joined_contacts(parts, dim):
         return Contacts.empty(dim), np.zeros((0, 2), np.int64), np.zeros(0)
     i, j, force, point, ids, overlap = (np.concatenate(column) for column in zip(*parts))
     return Contacts(i, j, force.reshape(-1, dim), point.reshape(-1, dim)), ids.reshape(-1, 2), overlap
+
+
+def _script_units(script):
+    """The units named by the input script's ``units`` command; None (not known: labels then say
+    "simulation units") for a style cgbound has no table for (LAMMPS' ``electron``)."""
+    from ..units import SYSTEMS
+    return script.units if script.units in SYSTEMS and script.units != "mercury" else None

@@ -102,6 +102,7 @@ class DumpSpec:
 class InputScript:
     path: str
     dimension: int = 3
+    units: str = None              # the ``units`` command's style (lj, si, real, ...), None without one
     pair_style: str = None
     computes: dict = field(default_factory=dict)
     dumps: list = field(default_factory=list)
@@ -322,6 +323,10 @@ class _Parser:
             self.variable(w)
         elif cmd == "dimension":
             self.result.dimension = self.integer(w, 1, "dimension")
+        elif cmd == "units":
+            if len(w) != 2:
+                self.fail("units: expected one style (lj, real, metal, si, cgs, electron, micro, nano)")
+            self.result.units = w[1]
         elif cmd == "create_box":
             self.ntypes = self.integer(w, 1, "create_box")
         elif cmd == "pair_style":

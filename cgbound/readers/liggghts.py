@@ -136,7 +136,7 @@ class LiggghtsReader(LammpsReader):
 
     def __init__(self, atoms, pairs=None, *, pair_compute="pgl", pair_values=None, history=0,
                  pair_columns=None, fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=3,
-                 dt=None, wrap=True, input=None, variables=None, check_forces=True):
+                 dt=None, wrap=True, input=None, variables=None, check_forces=True, units=None):
         if input is not None and pairs is not None and pair_values is None and pair_columns is None:
             from .lammps_input import read_input
             spec = read_input(input, variables).compute_for(pairs)
@@ -164,7 +164,7 @@ class LiggghtsReader(LammpsReader):
         super().__init__(atoms, pairs, pair_style="total", pair_columns=pair_columns, fixed_types=fixed_types,
                          fixed_ids=fixed_ids, body_force=body_force, masses=masses, dimension=dimension,
                          dt=dt, wrap=wrap, drop_inactive=False, input=input, variables=variables,
-                         check_forces=check_forces)
+                         check_forces=check_forces, units=units)
 
     def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
         path = self.pairs_path

@@ -106,7 +106,8 @@ class MDAnalysisReader(FrameSequence):
     """
 
     def __init__(self, universe_or_args, select="all", fixed=None, contacts=None, body_force=None, dimension=3,
-                 wrap=True):
+                 wrap=True, units=None):
+        self.units = units
         mda = _mda()
         if isinstance(dimension, bool) or dimension not in (2, 3):
             raise ValueError(f"dimension: expected 2 or 3, got {dimension!r}")

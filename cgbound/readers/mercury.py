@@ -152,7 +152,8 @@ class MercuryReader(FrameReader):
     """
 
     def __init__(self, data_path, fstat_path=None, *, restart_path=None, fixed=None, body_force=None, dim=None,
-                 density=None, particle_dim=None, periodic=None, rtol=1e-9):
+                 density=None, particle_dim=None, periodic=None, rtol=1e-9, units=None):
+        self.units = units
         if dim is not None and dim not in (2, 3):
             raise ValueError(f"dim: expected 2 or 3, got {dim!r}")
         self.data_path = os.path.abspath(os.fspath(data_path))

@@ -145,7 +145,9 @@ class YadeReader(FrameReader):
         Overrides the NewtonIntegrator's gravity (per unit mass).
     """
 
-    def __init__(self, paths, *, check_forces=True, tolerance=DEFAULT_TOLERANCE, fixed_ids=(), body_force=None):
+    def __init__(self, paths, *, check_forces=True, tolerance=DEFAULT_TOLERANCE, fixed_ids=(), body_force=None,
+                 units=None):
+        self.units = units
         files = _expand(paths)
         if not (isinstance(tolerance, (int, float)) and not isinstance(tolerance, bool) and tolerance > 0):
             raise ValueError(f"tolerance: expected a positive number, got {tolerance!r}")

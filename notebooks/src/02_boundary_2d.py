@@ -24,6 +24,7 @@ else:
     from cgbound.paper.datasets import boundary_2d
     snap = boundary_2d()
     print("LAMMPS not installed: using the shipped relaxed frame")
+snap.units = "mercury"            # the paper's units: diameter d = mass m = gravity g = 1 (labels say so)
 snap
 
 # %% [markdown]

@@ -38,7 +38,8 @@ assert abs(blocks[-1] - np.mean(blocks[:-1])) < 3 * scatter
 fig, ax = plt.subplots(figsize=(7, 3), constrained_layout=True)
 ax.plot(time, kinetic, lw=0.6)
 ax.axvspan(frames[0].time, frames[len(frames) - 1].time, color="C1", alpha=0.3, label="averaging window")
-ax.set_xlabel("t"); ax.set_ylabel("kinetic energy of the flow"); ax.legend()
+ax.plot([], [], lw=0.6, color="C0", label="kinetic energy (LAMMPS thermo)")
+ax.set_xlabel("t [√(d/g)]"); ax.set_ylabel("kinetic energy of the flow [m g d]"); ax.legend()
 plt.show()
 
 # %% [markdown]
@@ -48,12 +49,15 @@ plt.show()
 snap = frames[len(frames) - 1]
 flow = snap.flowing
 speed = np.linalg.norm(snap.velocities[flow], axis=1)
-fig = plt.figure(figsize=(7, 4))
+fig = plt.figure(figsize=(8, 4.5))
 ax = fig.add_subplot(projection="3d")
-ax.scatter(*snap.positions[snap.fixed].T, s=30, c="0.3")
-p = ax.scatter(*snap.positions[flow].T, s=8, c=speed, cmap="gray")
-fig.colorbar(p, label="speed", shrink=0.6)
+ax.scatter(*snap.positions[snap.fixed].T, s=30, c="0.3", label="fixed base particles")
+p = ax.scatter(*snap.positions[flow].T, s=8, c=speed, cmap="gray", label="flowing particles")
+ax.set_xlabel("x [d]"); ax.set_ylabel("y [d]"); ax.set_zlabel("z [d]")
 ax.set_box_aspect((20, 10, 8))
+# the colorbar sits clear of the z tick labels (pad), with its own label
+fig.colorbar(p, ax=ax, label="speed |v| [√(g d)]", shrink=0.6, pad=0.12)
+ax.legend(loc="upper left", fontsize=8)
 plt.show()
 
 # %% [markdown]
