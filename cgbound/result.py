@@ -41,7 +41,7 @@ class Result:
         returns the matplotlib Axes, drawn into ``ax`` if given, e.g. one panel of a grid of subplots).
 
         ``component``: axis letters (``"z"``, ``"zz"``); None plots every component of a profile as a
-        labelled line, and the norm on a map (|v|, or the largest singular value of a tensor). Labels
+        labelled line, and the norm on a map (``|v|``, or the largest singular value of a tensor). Labels
         carry the field's symbol, sign convention and unit (or "(simulation units)").
         """
         from . import plot
