@@ -81,7 +81,7 @@ def _header(buf, start, stop, kind, path, line, timestep=None):
 
     lines = _Lines(buf, start, stop, line, where)
     raw, number = lines.next("its start")
-    if not raw.startswith(b"ITEM: TIMESTEP"):
+    if raw.rstrip() != b"ITEM: TIMESTEP":
         raise ValueError(f"{where(number)}: expected 'ITEM: TIMESTEP', found {_show(raw)}; not a LAMMPS dump")
     raw, number = lines.next("'ITEM: TIMESTEP'")
     words = raw.split()
@@ -104,6 +104,7 @@ def _header(buf, start, stop, kind, path, line, timestep=None):
             raise ValueError(f"{where(number)}: a new frame starts before this one's "
                              f"'{table_item.decode()}' line; the frame is truncated")
         if raw.startswith(b"ITEM: TIME"):
+            _exact(raw, b"ITEM: TIME", number, where)
             value, number = lines.next("'ITEM: TIME'")
             head["time"] = _number(value, number, "the time (one number) after 'ITEM: TIME'", where)
         elif raw.startswith(b"ITEM: NUMBER OF"):
@@ -111,6 +112,7 @@ def _header(buf, start, stop, kind, path, line, timestep=None):
                 other = "dump local" if kind == "atoms" else "dump custom (atoms)"
                 raise ValueError(f"{path}: found {raw.decode(errors='replace').strip()!r}; this looks like a "
                                  f"{other} file")
+            _exact(raw, count_item, number, where)
             value, number = lines.next(f"'{count_item.decode()}'")
             words = value.split()
             if len(words) != 1 or not _INTEGER.fullmatch(words[0]) or int(words[0]) < 0:
@@ -165,6 +167,12 @@ def _header(buf, start, stop, kind, path, line, timestep=None):
         raise ValueError(f"{path}: no '{count_item.decode()}' in the frame at timestep {timestep}")
     head["rows"], head["rows_line"] = lines.pos, lines.line
     return head
+
+
+def _exact(raw, item, number, where):
+    if raw.rstrip() != item:
+        raise ValueError(f"{where(number)}: expected the line {item.decode()!r}, found {_show(raw)}; the file is "
+                         f"damaged (its value belongs on the next line)")
 
 
 def _number(raw, number, what, where):
@@ -256,8 +264,14 @@ class DumpIndex:
                 self._checkpoints = _text.gzip_checkpoints(self.path)
             buf = _text.read_range(self.path, offset, stop, self._checkpoints)
             return _read_frame(buf, 0, len(buf), self.kind, self.path, line, int_columns)
-        with open(self.path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
-            return _read_frame(mm, offset, stop, self.kind, self.path, line, int_columns)
+        with open(self.path, "rb") as f:  # one frame's text in memory (an mmap could not be closed while an
+            f.seek(offset)                # error's traceback still views it)
+            buf = bytearray(stop - offset)
+            got = f.readinto(buf)
+        if got != len(buf):
+            raise ValueError(f"{self.path}: the file changed since it was scanned (the frame at timestep "
+                             f"{dict(self.frames)[offset]} ends early); open the reader again")
+        return _read_frame(buf, 0, len(buf), self.kind, self.path, line, int_columns)
 
 
 def _read_frame(buf, start, stop, kind, path, line, int_columns):
@@ -284,7 +298,9 @@ def _hint(message, columns, ints):
     if any(f"({columns[k]!r})" in message for k in ints) and ("integer" in message or "number" in message):
         return ("; LAMMPS writes this column as integers: a '%g'-style float format (dump_modify format) loses "
                 "large IDs, or the file is damaged")
-    return "; the file is damaged (or the column holds text: dump numeric columns only)"
+    if "not a number" in message:
+        return "; the file is damaged (or the column holds text: dump numeric columns only)"
+    return "; the file is damaged: dump the frame again"
 
 
 def _text_columns(buf, head, end, path, ints):
@@ -318,21 +334,50 @@ def scan_dump(path, kind):
     if _text._is_gzip(path):
         checkpoints = []
         chunks = _text.iter_chunks(path, checkpoints=checkpoints)
-        frames, offset = [], 0
+        frames, offset, last = [], 0, b""
         for piece, line in _text.iter_frames(path, b"ITEM: TIMESTEP", chunks=chunks):
             frames += _scan_frames(piece, [0] if piece.startswith(b"ITEM: TIMESTEP") else [], len(piece), kind,
                                    path, line, offset)
             offset += len(piece)
+            last = piece[-1:] or last
         _check_any(frames, offset, path)
+        _check_final_newline(last, frames, path)
         return DumpIndex(path, kind, frames, True, checkpoints)
     size = os.path.getsize(path)
     if size == 0:
         _check_any([], 0, path)
-    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+    with open(path, "rb") as f:
+        mm = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+    try:
         starts = [int(s) for s in _text.find_lines(mm, b"ITEM: TIMESTEP")]
         frames = _scan_frames(mm, starts, size, kind, path, 1, 0)
+        last = mm[size - 1:size]
+    finally:
+        try:
+            mm.close()
+        except BufferError:  # an error's traceback still views it: it is freed with the traceback
+            pass
     _check_any(frames, size, path)
+    _check_final_newline(last, frames, path)
     return DumpIndex(path, kind, frames, False, None)
+
+
+def _check_final_newline(last, frames, path):
+    """LAMMPS ends every line; a file whose last line has no line end was cut (and its last value may
+    still parse, '2.5' cut to '2.'), so it is refused."""
+    if last != b"\n":
+        _, timestep, _, _ = frames[-1]
+        raise ValueError(f"{path} (timestep {timestep}), line {_last_line(path)}: the last line has no line end: "
+                         f"the file is truncated (a run stopped while writing, or a copy was cut); LAMMPS ends "
+                         f"every line. Dump the frame again, or remove the incomplete last line")
+
+
+def _last_line(path):
+    count, ends = 0, True
+    for chunk in _text.iter_chunks(path):
+        count += chunk.count(b"\n")
+        ends = chunk.endswith(b"\n")
+    return count + (0 if ends else 1)
 
 
 def _check_any(frames, size, path):
