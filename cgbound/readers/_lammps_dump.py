@@ -14,6 +14,7 @@ import re
 import numpy as np
 
 from . import _text
+from .files import is_gzip
 
 __all__ = ["DumpIndex", "Table", "scan_dump"]
 
@@ -331,7 +332,7 @@ def _text_columns(buf, head, end, path, ints):
 def scan_dump(path, kind):
     """The frames of a LAMMPS text dump (plain or gzip), their structure checked: a :class:`DumpIndex`."""
     path = os.fspath(path)
-    if _text._is_gzip(path):
+    if is_gzip(path):
         checkpoints = []
         chunks = _text.iter_chunks(path, checkpoints=checkpoints)
         frames, offset, last = [], 0, b""
