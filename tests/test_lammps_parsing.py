@@ -305,3 +305,79 @@ def test_gzip_ranges_resume_at_checkpoints(tmp_path):
     assert list(plain) == list(packed) and len(plain) == 10
     for offset, _ in packed:
         assert same_bits(plain.read(offset)["data"].values, packed.read(offset)["data"].values)
+
+
+def test_paths_that_are_not_files_are_os_errors(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nowhere.dump: no such file"):
+        LammpsReader(str(tmp_path / "nowhere.dump"))
+    with pytest.raises(IsADirectoryError, match="a directory"):
+        LammpsReader(str(tmp_path))
+
+
+def test_text_columns_are_read_apart(tmp_path):
+    global COLUMNS
+    saved, COLUMNS = COLUMNS, ["id", "type", "element", "x", "y", "z"]
+    try:
+        rows = ["1 1 Si 0.5 0.25 1e-3", "2 2 O 1.5 -0 7"]
+        index = scan_dump(write(tmp_path, dump_text(rows)), "atoms")
+        table = index.read(index.frames[0][0])["data"]
+        assert same_bits(table["z"], np.array([1e-3, 7.0])) and same_bits(table["y"], np.array([0.25, -0.0]))
+        assert np.array_equal(table.integers("type"), [1, 2])
+        bad = write(tmp_path, dump_text(["1 1 Si 0.5 0.25 1e-3", "2 x O 1.5 -0 7"]), "bad.dump")
+        with pytest.raises(ValueError, match=r"bad.dump \(timestep 0\), line 11, column 1 \('type'\)"):
+            scan_dump(bad, "atoms").read(0)
+    finally:
+        COLUMNS = saved
+
+
+def corruptions(text, rng, count):
+    """Damaged copies of a dump: truncations, bytes replaced by a non-digit, lines deleted or repeated,
+    values replaced by text, nan/inf/overflow or (in the ID columns, the first two) a fraction.
+    (A digit turned into another digit, or a number into another number, is still a valid dump.)"""
+    lines = text.split(b"\n")
+    for _ in range(count):
+        kind = rng.integers(5)
+        if kind == 0:
+            yield bytes(text[:int(rng.integers(0, len(text)))])
+        elif kind == 1:
+            b = bytearray(text)
+            b[int(rng.integers(len(b)))] = int(rng.choice([c for c in range(256) if not 48 <= c <= 57]))
+            yield bytes(b)
+        elif kind == 2:
+            k = int(rng.integers(len(lines) - 1))
+            yield b"\n".join(lines[:k] + lines[k + 1:])
+        elif kind == 3:
+            k = int(rng.integers(len(lines) - 1))
+            yield b"\n".join(lines[:k + 1] + lines[k:])
+        else:
+            k = int(rng.integers(len(lines) - 1))
+            words = lines[k].split(b" ")
+            at = int(rng.integers(len(words)))
+            words[at] = [b"nan", b"inf", b"x", b"", b"1e999"][int(rng.integers(5))] if at > 1 else b"1.5"
+            yield b"\n".join(lines[:k] + [b" ".join(words)] + lines[k + 1:])
+
+
+@pytest.mark.parametrize("name", ["atoms.dump", "pairs.dump"])
+def test_corrupted_dumps_read_the_same_or_fail_naming_the_file(name, tmp_path):
+    """A small corruption fuzz: every damaged copy reads exactly as the original (the damage did not
+    matter, e.g. a duplicated blank) or raises a ValueError naming the file; never another exception."""
+    source = os.path.join(DATA, "lammps", "hooke3d", name)
+    text = open(source, "rb").read()
+    kind = kind_of(source)
+    ints = ("index", "c_pp[1]", "c_pp[2]")  # the IDs, as LammpsReader reads them
+    original = scan_dump(source, kind)
+    want = [original.read(offset, ints)["data"].values for offset, _ in original]
+    rng = np.random.default_rng(15)
+    outcomes = {"same": 0, "error": 0}
+    for k, damaged in enumerate(corruptions(text, rng, 150)):
+        path = write(tmp_path, damaged, f"c{k}.dump")
+        try:
+            index = scan_dump(path, kind)
+            got = [index.read(offset, ints)["data"].values for offset, _ in index]
+        except ValueError as exc:
+            assert path in str(exc), str(exc)
+            outcomes["error"] += 1
+            continue
+        assert len(got) == len(want) and all(same_bits(a, b) for a, b in zip(got, want))
+        outcomes["same"] += 1
+    assert outcomes["error"] > 100

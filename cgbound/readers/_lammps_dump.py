@@ -332,6 +332,10 @@ def _text_columns(buf, head, end, path, ints):
 def scan_dump(path, kind):
     """The frames of a LAMMPS text dump (plain or gzip), their structure checked: a :class:`DumpIndex`."""
     path = os.fspath(path)
+    if os.path.isdir(path):
+        raise IsADirectoryError(f"{path}: a directory; expected a LAMMPS dump file")
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"{path}: no such file; expected a LAMMPS dump")
     if is_gzip(path):
         checkpoints = []
         chunks = _text.iter_chunks(path, checkpoints=checkpoints)
