@@ -330,9 +330,9 @@ def test_text_columns_are_read_apart(tmp_path):
         COLUMNS = saved
 
 
-def corruptions(text, rng, count):
+def corruptions(text, rng, count, id_columns):
     """Damaged copies of a dump: truncations, bytes replaced by a non-digit, lines deleted or repeated,
-    values replaced by text, nan/inf/overflow or (in the ID columns, the first two) a fraction.
+    values replaced by text, nan/inf/overflow or (in the ID columns, the first id_columns) a fraction.
     (A digit turned into another digit, or a number into another number, is still a valid dump.)"""
     lines = text.split(b"\n")
     for _ in range(count):
@@ -353,7 +353,7 @@ def corruptions(text, rng, count):
             k = int(rng.integers(len(lines) - 1))
             words = lines[k].split(b" ")
             at = int(rng.integers(len(words)))
-            words[at] = [b"nan", b"inf", b"x", b"", b"1e999"][int(rng.integers(5))] if at > 1 else b"1.5"
+            words[at] = [b"nan", b"inf", b"x", b"", b"1e999"][int(rng.integers(5))] if at >= id_columns else b"1.5"
             yield b"\n".join(lines[:k] + [b" ".join(words)] + lines[k + 1:])
 
 
@@ -364,16 +364,16 @@ def test_corrupted_dumps_read_the_same_or_fail_naming_the_file(name, tmp_path):
     source = os.path.join(DATA, "lammps", "hooke3d", name)
     text = open(source, "rb").read()
     kind = kind_of(source)
-    ints = ("index", "c_pp[1]", "c_pp[2]")  # the IDs, as LammpsReader reads them
+    ints, ids = ("index",), ("c_pp[1]", "c_pp[2]")  # as LammpsReader reads them
     original = scan_dump(source, kind)
-    want = [original.read(offset, ints)["data"].values for offset, _ in original]
+    want = [original.read(offset, ints, ids)["data"].values for offset, _ in original]
     rng = np.random.default_rng(15)
     outcomes = {"same": 0, "error": 0}
-    for k, damaged in enumerate(corruptions(text, rng, 150)):
+    for k, damaged in enumerate(corruptions(text, rng, 150, 2 if kind == "atoms" else 3)):
         path = write(tmp_path, damaged, f"c{k}.dump")
         try:
             index = scan_dump(path, kind)
-            got = [index.read(offset, ints)["data"].values for offset, _ in index]
+            got = [index.read(offset, ints, ids)["data"].values for offset, _ in index]
         except ValueError as exc:
             assert path in str(exc), str(exc)
             outcomes["error"] += 1
@@ -381,3 +381,25 @@ def test_corrupted_dumps_read_the_same_or_fail_naming_the_file(name, tmp_path):
         assert len(got) == len(want) and all(same_bits(a, b) for a, b in zip(got, want))
         outcomes["same"] += 1
     assert outcomes["error"] > 100
+
+
+@pytest.mark.parametrize("written, ok", [("15", True), ("15.000000", True), ("1.5e+01", True), ("15.5", False),
+                                          ("9007199254740993", False)])
+def test_contact_ids_are_whole_numbers_in_any_float_format(written, ok, tmp_path):
+    """The atom IDs of a dump local come from double-valued computes and follow the float format."""
+    base = os.path.join(DATA, "lammps", "hooke3d")
+    lines = open(os.path.join(base, "pairs.dump")).read().split("\n")
+    row = lines[9].split()
+    other = row[2]
+    row[2] = written if written != "15" else other
+    lines[9] = " ".join(row)
+    path = write(tmp_path, "\n".join(lines), "pairs.dump")
+    index = scan_dump(path, "local")
+    if ok:
+        table = index.read(0, ("index",), ("c_pp[1]", "c_pp[2]"))["data"]
+        assert table.integers("c_pp[2]")[0] == (15 if written != "15" else int(other))
+        assert table.integers("c_pp[2]").dtype == np.int64
+    else:
+        with pytest.raises(ValueError, match=r"pairs.dump \(timestep 4500\), line 10, column 3 \('c_pp\[2\]'\): "
+                                             r"expected an atom ID"):
+            index.read(0, ("index",), ("c_pp[1]", "c_pp[2]"))

@@ -35,8 +35,7 @@ class Table:
     def __init__(self, values, columns, ints=None, int_columns=()):
         self.values = values
         self.index = {c: k for k, c in enumerate(columns)}
-        self.ints = ints
-        self.int_index = {c: k for k, c in enumerate(int_columns)}
+        self.integer_columns = {c: ints[:, k] for k, c in enumerate(int_columns)}
 
     def __contains__(self, name):
         return name in self.index
@@ -46,7 +45,7 @@ class Table:
 
     def integers(self, name):
         """An integer column as int64, exactly as written (only the columns read as integers)."""
-        return self.ints[:, self.int_index[name]]
+        return self.integer_columns[name]
 
 
 def _show(raw):
@@ -255,16 +254,18 @@ class DumpIndex:
         state["_checkpoints"] = None
         return state
 
-    def read(self, offset, int_columns=()):
+    def read(self, offset, int_columns=(), integral_columns=()):
         """The frame at ``offset``: dict with timestep, time (or None), box bounds/flags, column names,
         n (rows) and data (a :class:`Table`; the columns named in ``int_columns`` and the atom ID/type
-        columns as int64 too)."""
+        columns as int64 too). ``integral_columns``: columns of whole numbers that LAMMPS may write in
+        its float format (the atom IDs of a dump local come from double-valued computes: '15' or
+        '15.000000'): read as numbers, then each must be a whole number (exact in a double), as int64."""
         stop, line = self.extent[offset]
         if self.compressed:
             if self._checkpoints is None:
                 self._checkpoints = _text.gzip_checkpoints(self.path)
             buf = _text.read_range(self.path, offset, stop, self._checkpoints)
-            return _read_frame(buf, 0, len(buf), self.kind, self.path, line, int_columns)
+            return _read_frame(buf, 0, len(buf), self.kind, self.path, line, int_columns, integral_columns)
         with open(self.path, "rb") as f:  # one frame's text in memory (an mmap could not be closed while an
             f.seek(offset)                # error's traceback still views it)
             buf = bytearray(stop - offset)
@@ -272,10 +273,10 @@ class DumpIndex:
         if got != len(buf):
             raise ValueError(f"{self.path}: the file changed since it was scanned (the frame at timestep "
                              f"{dict(self.frames)[offset]} ends early); open the reader again")
-        return _read_frame(buf, 0, len(buf), self.kind, self.path, line, int_columns)
+        return _read_frame(buf, 0, len(buf), self.kind, self.path, line, int_columns, integral_columns)
 
 
-def _read_frame(buf, start, stop, kind, path, line, int_columns):
+def _read_frame(buf, start, stop, kind, path, line, int_columns, integral_columns=()):
     head = _header(buf, start, stop, kind, path, line)
     columns, n, ts = head["columns"], head["n"], head["timestep"]
     end, _ = _check_rows(buf, head, stop, path)
@@ -291,8 +292,23 @@ def _read_frame(buf, start, stop, kind, path, line, int_columns):
         except ValueError as exc:
             raise ValueError(f"{exc}{_hint(str(exc), columns, ints)}") from None
         head["data"] = Table(table.values, columns, table.ints, [columns[k] for k in ints])
+    for name in integral_columns:
+        if name in head["data"] and name not in head["data"].integer_columns:
+            head["data"].integer_columns[name] = _whole_numbers(head["data"][name], name, head, path)
     del head["rows"], head["rows_line"]  # offsets in buf are not part of the frame's description
     return head
+
+
+def _whole_numbers(column, name, head, path):
+    """A float column of whole numbers as int64; a fraction or a value from 2**53 on (maybe rounded) is an error."""
+    bad = np.flatnonzero((column != np.floor(column)) | (np.abs(column) >= 2.0 ** 53))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(f"{path} (timestep {head['timestep']}), line {head['rows_line'] + k}, column "
+                         f"{head['columns'].index(name) + 1} ({name!r}): expected an atom ID (a whole number), "
+                         f"found {column[k]!r}; the column is not the one named (check pair_values / "
+                         f"pair_columns) or the file is damaged")
+    return column.astype(np.int64)
 
 
 def _hint(message, columns, ints):

@@ -496,16 +496,16 @@ class LammpsReader(FrameReader):
 
     def _pair_contacts(self, offset, timestep, ids, pos, radii, box):
         """The contacts of the pairs dump's frame at ``offset``: (i, j, force, point, contact IDs, overlap)."""
-        fr = self._pairs_dump.read(offset, self._pair_int_columns())
+        fr = self._pairs_dump.read(offset, ("index",), self._pair_id_columns())
         if fr["n"] == 0:
             dim = self.dimension
             return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)),
                     np.zeros((0, 2), np.int64), np.zeros(0))
         return self._pairs_from_table(fr["data"], fr["n"], timestep, ids, pos, radii, box)
 
-    def _pair_int_columns(self):
-        """The contact dump's columns that LAMMPS writes as integers (the atom IDs), read as int64."""
-        return (self.pair_columns["id1"], self.pair_columns["id2"], "index")
+    def _pair_id_columns(self):
+        """The contact dump's atom-ID columns: whole numbers (in the dump's float format), read as int64."""
+        return (self.pair_columns["id1"], self.pair_columns["id2"])
 
     def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
         path = self.pairs_path

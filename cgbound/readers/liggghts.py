@@ -164,7 +164,7 @@ class LiggghtsReader(LammpsReader):
                          dt=dt, wrap=wrap, drop_inactive=False, input=input, variables=variables,
                          check_forces=check_forces)
 
-    def _pair_int_columns(self):
+    def _pair_id_columns(self):
         return self.pair_columns["id"][:2]
 
     def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
