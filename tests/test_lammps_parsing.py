@@ -15,7 +15,8 @@ from cgbound.readers import LammpsReader, LiggghtsReader
 from cgbound.readers._lammps_dump import scan_dump
 
 DATA = os.path.join(os.path.dirname(__file__), "data")
-GENUINE = sorted(glob.glob(os.path.join(DATA, "lammps", "*", "*.dump")) + glob.glob(os.path.join(DATA, "liggghts", "*.dump"))
+GENUINE = sorted(glob.glob(os.path.join(DATA, "lammps", "*", "*.dump"))
+                 + glob.glob(os.path.join(DATA, "liggghts", "*.dump"))
                  + glob.glob(os.path.join(DATA, "lammps_input", "*.dump")))
 GRAN_VALUES = ("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4")
 
@@ -291,7 +292,8 @@ def test_a_truncated_gzip_file_is_an_error(tmp_path):
 def test_gzip_ranges_resume_at_checkpoints(tmp_path):
     """Two gzip members, checkpoints every 8 kB: any byte range read by resuming equals the plain text."""
     from cgbound.readers import _text
-    text = dump_text([f"{k} 1 {k * 0.1!r} {k * 1e-7!r} 3.5" for k in range(1, 3001)], steps=range(0, 1000, 100)).encode()
+    rows = [f"{k} 1 {k * 0.1!r} {k * 1e-7!r} 3.5" for k in range(1, 3001)]
+    text = dump_text(rows, steps=range(0, 1000, 100)).encode()
     half = len(text) // 2
     path = write(tmp_path, gzip.compress(text[:half]) + gzip.compress(text[half:]), "multi.dump.gz")
     checkpoints = []

@@ -72,12 +72,12 @@ class _Lines:
         return raw, number
 
 
-def _header(buf, start, stop, kind, path, line, timestep=None):
+def _header(buf, start, stop, kind, path, line):
     """Parse the ITEM lines of the frame at buf[start:stop] (start: its 'ITEM: TIMESTEP' line, the
     file's line ``line``). Returns a dict: timestep, time, n, bounds, flags, triclinic, columns,
     rows (offset in buf of the first row) and rows_line (its line number)."""
-    def where(number, ts=timestep):
-        return f"{path} ({'the frame at ' if ts is None else ''}timestep {ts if ts is not None else '?'}), line {number}"
+    def where(number):  # before its timestep is read, a frame is named by its first line
+        return f"{path} (the frame starting at line {line}), line {number}"
 
     lines = _Lines(buf, start, stop, line, where)
     raw, number = lines.next("its start")
@@ -92,8 +92,8 @@ def _header(buf, start, stop, kind, path, line, timestep=None):
             "triclinic": False}
     timestep = head["timestep"]
 
-    def where(number, ts=timestep):  # noqa: F811 - from here on the timestep is known
-        return f"{path} (timestep {ts}), line {number}"
+    def where(number):  # noqa: F811 - from here on the timestep is known
+        return f"{path} (timestep {timestep}), line {number}"
 
     lines.where = where
     count_item = b"ITEM: NUMBER OF ATOMS" if kind == "atoms" else b"ITEM: NUMBER OF ENTRIES"
