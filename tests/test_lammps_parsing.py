@@ -405,3 +405,17 @@ def test_contact_ids_are_whole_numbers_in_any_float_format(written, ok, tmp_path
         with pytest.raises(ValueError, match=r"pairs.dump \(timestep 4500\), line 10, column 3 \('c_pp\[2\]'\): "
                                              r"expected an atom ID"):
             index.read(0, ("index",), ("c_pp[1]", "c_pp[2]"))
+
+
+def test_a_file_changed_after_the_scan_is_an_error_when_read(tmp_path):
+    text = dump_text(GOOD, steps=(0, 100))
+    path = write(tmp_path, text)
+    index = scan_dump(path, "atoms")
+    write(tmp_path, text[:-16])  # the last row gone
+    with pytest.raises(ValueError, match=r"changed since it was scanned"):
+        index.read(index.frames[1][0])
+    lines = text.split("\n")
+    lines[22] = " " * len(lines[22])  # same length, a row blanked
+    write(tmp_path, "\n".join(lines))
+    with pytest.raises(ValueError, match=r"atoms.dump \(timestep 100\), line 23: expected 5 values, found no values"):
+        index.read(index.frames[1][0])

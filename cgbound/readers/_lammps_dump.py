@@ -268,9 +268,8 @@ class DumpIndex:
             return _read_frame(buf, 0, len(buf), self.kind, self.path, line, int_columns, integral_columns)
         with open(self.path, "rb") as f:  # one frame's text in memory (an mmap could not be closed while an
             f.seek(offset)                # error's traceback still views it)
-            buf = bytearray(stop - offset)
-            got = f.readinto(buf)
-        if got != len(buf):
+            buf = f.read(stop - offset)
+        if len(buf) != stop - offset:
             raise ValueError(f"{self.path}: the file changed since it was scanned (the frame at timestep "
                              f"{dict(self.frames)[offset]} ends early); open the reader again")
         return _read_frame(buf, 0, len(buf), self.kind, self.path, line, int_columns, integral_columns)
@@ -279,7 +278,8 @@ class DumpIndex:
 def _read_frame(buf, start, stop, kind, path, line, int_columns, integral_columns=()):
     head = _header(buf, start, stop, kind, path, line)
     columns, n, ts = head["columns"], head["n"], head["timestep"]
-    end, _ = _check_rows(buf, head, stop, path)
+    # the scan checked the row count; parse_table checks it again (nrows), so the file may not have changed
+    end = _content_end(buf, head["rows"], stop)
     wanted = set(int_columns) | (set(ATOM_INT_COLUMNS) if kind == "atoms" else set())
     ints = [k for k, c in enumerate(columns) if c in wanted]
     if any(c in TEXT_COLUMNS for c in columns):
