@@ -11,6 +11,9 @@ Methods, each over the whole file (both frames), file in the page cache:
   cg_text      mmap + find_lines (frame starts) + parse_table of every frame's rows, int columns as int64
   fromstring   what the LAMMPS reader does per frame: readline the rows, b"".join, np.fromstring(sep=" ")
   per-line     what the MercuryDPM reader does: readline, split, float() per word, np.array at the end
+  reader       LAMMPS dumps only: the LAMMPS/LIGGGHTS reader's own parsing (readers/_lammps_dump.py):
+               scan_dump (frame offsets, structure checks) + DumpIndex.read of every frame
+  reader gz    the same on a gzipped copy (zlib stream into the same parser; with --gzip)
   wc -l        the same bytes through `wc -l` (a lower bound for any line-oriented reader)
 MB/s = file size / median wall time; the C parser runs on one thread (CPU time printed too).
 """
@@ -32,6 +35,7 @@ from common import header, timed  # noqa: E402
 from workloads import lattice  # noqa: E402
 
 from cgbound.readers import _text  # noqa: E402
+from cgbound.readers._lammps_dump import scan_dump  # noqa: E402
 
 
 def write_rows(fh, table, fmt):
@@ -65,7 +69,7 @@ def write_files(directory, fmt):
     with open(paths["atoms.dump"], "w") as fh:
         for step in (0, 1000):
             fh.write(f"ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n{n}\nITEM: BOX BOUNDS ff ff ff\n")
-            fh.write("".join(f"{lo!r} {hi!r}\n" for lo, hi in zip(snap.box.lower, snap.box.upper)))
+            fh.write("".join(f"{float(lo)!r} {float(hi)!r}\n" for lo, hi in zip(snap.box.lower, snap.box.upper)))
             fh.write("ITEM: ATOMS id type x y z vx vy vz fx fy fz radius mass\n")
             head = np.stack([np.arange(1, n + 1), np.ones(n, np.int64)], axis=1)
             body = np.concatenate([pos, vel, frc, rad[:, None], snap.masses[:, None]], axis=1)
@@ -76,7 +80,7 @@ def write_files(directory, fmt):
     with open(paths["pairs.dump"], "w") as fh:
         for step in (0, 1000):
             fh.write(f"ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ENTRIES\n{len(ii)}\nITEM: BOX BOUNDS ff ff ff\n")
-            fh.write("".join(f"{lo!r} {hi!r}\n" for lo, hi in zip(snap.box.lower, snap.box.upper)))
+            fh.write("".join(f"{float(lo)!r} {float(hi)!r}\n" for lo, hi in zip(snap.box.lower, snap.box.upper)))
             fh.write("ITEM: ENTRIES c_pl[1] c_pl[2] c_pl[3] c_pl[4] c_pl[5] c_pp[1] c_pp[2] c_pp[3] c_pp[4]\n")
             rowfmt = "%d %d " + " ".join([fmt] * 7) + "\n"
             body = np.concatenate([ff, pp, delta[:, None]], axis=1)
@@ -156,6 +160,22 @@ def parse_cg_text(path, kind):
         return total
 
 
+def read_with_reader(path, kind):
+    """The LAMMPS reader's parsing: one scan, then every frame parsed (IDs and types as int64)."""
+    index = scan_dump(path, kind)
+    ints = ("c_pl[1]", "c_pl[2]") if kind == "local" else ()
+    return sum(index.read(offset, ints)["n"] for offset, _ in index)
+
+
+def gzipped_copy(path):
+    out = path + ".gz"
+    if not os.path.exists(out):
+        import gzip
+        with open(path, "rb") as a, gzip.open(out, "wb", compresslevel=6) as b:
+            shutil.copyfileobj(a, b, 1 << 22)
+    return out
+
+
 def parse_fromstring(path, kind):
     """The LAMMPS reader's way (per frame: readline rows, join, np.fromstring)."""
     total = 0
@@ -209,7 +229,9 @@ def main(argv=None):
     ap.add_argument("--dir", default="/tmp/cgbound-bench-parse")
     ap.add_argument("--format", default="%.17g", help="printf format of the floats in the files")
     ap.add_argument("--slow-repeat", type=int, default=1, help="repeats of the per-line Python parser")
-    ap.add_argument("--skip-slow", action="store_true", help="time only cg_text and wc -l")
+    ap.add_argument("--skip-slow", action="store_true", help="time only cg_text, the reader and wc -l")
+    ap.add_argument("--gzip", action="store_true", help="also time the LAMMPS reader on gzipped copies")
+    ap.add_argument("--only", nargs="*", help="only these files (e.g. atoms.dump pairs.dump)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     paths = write_files(args.dir, args.format)
@@ -222,6 +244,8 @@ def main(argv=None):
           f"{'MB/s cpu':>9} {'x wc -l':>8} {'cpu x wc':>9}")
     kinds = {"atoms.dump": "lammps", "pairs.dump": "lammps", "w1.data": "data", "w1.fstat": "fstat"}
     for name, path in paths.items():
+        if args.only and name not in args.only:
+            continue
         kind = kinds[name]
         size = os.path.getsize(path) / 1e6
         wc, wc_cpu = timed_wc(path, args.repeat) if have_wc else (float("nan"), float("nan"))
@@ -230,12 +254,23 @@ def main(argv=None):
         methods = [("cg_text", lambda: parse_cg_text(path, kind), args.repeat),
                    ("fromstring", lambda: parse_fromstring(path, kind), args.repeat),
                    ("per-line", lambda: parse_per_line(path, kind), args.slow_repeat)]
+        if kind == "lammps":
+            dump_kind = "atoms" if name == "atoms.dump" else "local"
+            assert read_with_reader(path, dump_kind) == rows, name
+            methods.insert(1, ("reader", lambda: read_with_reader(path, dump_kind), args.repeat))
+            if args.gzip:
+                packed = gzipped_copy(path)
+                methods.insert(2, ("reader gz", lambda: read_with_reader(packed, dump_kind), args.repeat))
         if args.skip_slow:
-            methods = methods[:1]
+            methods = [m for m in methods if m[0] in ("cg_text", "reader", "reader gz")]
         for label, fn, repeat in methods:
             med, best, cpu = timed(fn, repeat, warmup=0, cpu=True)
             print(f"{name:<11} {size:6.1f} {label:<11} {med:9.3f} {best:8.3f} {cpu:7.3f} {size / med:8.1f} "
                   f"{size / cpu:9.1f} {med / wc:8.2f} {cpu / max(wc_cpu, 1e-9):9.2f}")
+            if label.startswith("reader"):
+                frames = len(scan_dump(path, "atoms" if name == "atoms.dump" else "local"))
+                print(f"#   {label}: {frames} frames, {med / frames:.3f} s per frame (median wall), "
+                      f"{cpu / frames:.3f} s CPU per frame")
         print(f"{name:<11} {size:6.1f} {'wc -l':<11} {wc:9.3f} {'':>8} {wc_cpu:7.3f} {size / wc:8.1f} "
               f"{size / max(wc_cpu, 1e-9):9.1f} {1.0:8.2f} {1.0:9.2f}")
         sys.stdout.flush()

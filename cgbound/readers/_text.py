@@ -60,7 +60,8 @@ def _where(name, frame, line):
 
 
 def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=None, skip_blank=False,
-                stop_after_rows=False, allow_nonfinite=False, name="<data>", frame=None, first_line=None):
+                stop_after_rows=False, allow_nonfinite=False, name="<data>", frame=None, first_line=None,
+                column_names=None):
     """Parse ``data[start:stop]`` as rows of exactly ``ncols`` whitespace-separated numbers.
 
     int_columns: column indices that must hold integers (exact int64; '1.0', 'nan' or values
@@ -70,7 +71,8 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
     the next frame starts); fewer rows are still an error. skip_blank: blank lines are skipped instead of being an
     error. allow_nonfinite: nan/inf values are returned instead of being an error. name, frame:
     how the file and the frame are called in messages. first_line: the 1-based line number of
-    ``start`` in the file, if the caller knows it (otherwise counted, on errors only).
+    ``start`` in the file, if the caller knows it (otherwise counted, on errors only). column_names:
+    the columns' names, quoted beside their numbers in messages.
 
     Returns a ``Table`` (values, ints).
     """
@@ -97,6 +99,11 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
                                                                            max_rows, flags)
     status, message, line, column, offset, length = error
 
+    def column_label(column):
+        if column_names is not None and 0 <= column < len(column_names):
+            return f"column {column + 1} ({column_names[column]!r})"
+        return f"column {column + 1}"
+
     def line_number(relative_line):
         base = first_line if first_line is not None else _line_of(data, start)
         return base + relative_line
@@ -113,14 +120,14 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
         if status == _ROWS:
             raise ValueError(f"{where}: the table should end after {nrows} rows (the declared count), "
                              f"but it continues: {_quote(raw)}")
-        raise ValueError(f"{where}, column {column + 1}: {message}: {_quote(raw)}")
+        raise ValueError(f"{where}, {column_label(column)}: {message}: {_quote(raw)}")
     if nrows is not None and found != nrows:
         raise ValueError(f"{_where(name, frame, line_number(_lines_in(data, start, stop)))}: expected "
                          f"{nrows} rows (the declared count), found {found}: the table is truncated")
     count, line, column, offset, length = nonfinite
     if count and not allow_nonfinite:
         raw = memoryview(data)[start + offset:start + offset + length]
-        raise ValueError(f"{_where(name, frame, line_number(line))}, column {column + 1}: non-finite value "
+        raise ValueError(f"{_where(name, frame, line_number(line))}, {column_label(column)}: non-finite value "
                          f"{_quote(raw)} ({count} nan/inf values in the table); expected finite numbers")
     if found < len(values):
         values, ints = values[:found].copy(), ints[:found].copy()
@@ -147,23 +154,40 @@ def _is_gzip(path):
         return f.read(2) == b"\x1f\x8b"
 
 
-def iter_chunks(path, chunk_size=1 << 22):
-    """The bytes of the file, decompressed as a stream if it is gzip (by its magic number), in chunks."""
+def iter_chunks(path, chunk_size=1 << 22, checkpoints=None, spacing=1 << 24, resume=None):
+    """The bytes of the file, decompressed as a stream if it is gzip (by its magic number), in chunks.
+
+    checkpoints: a list to which, for gzip input, ``(decompressed offset, compressed offset, zlib
+    state)`` is appended about every ``spacing`` decompressed bytes, so that :func:`read_range` can
+    resume there instead of decompressing from the start. resume: one such checkpoint to start from
+    (the chunks then begin at its decompressed offset).
+    """
     if not _is_gzip(path):
         with open(path, "rb") as f:
+            if resume is not None:
+                f.seek(resume[0])
             while chunk := f.read(chunk_size):
                 yield chunk
         return
     with open(path, "rb") as f:
-        inflate = zlib.decompressobj(wbits=47)
-        in_member = False
+        produced, inflate = 0, zlib.decompressobj(wbits=47)
+        if resume is not None:
+            produced, consumed, state = resume
+            f.seek(consumed)
+            inflate = state.copy()
+        in_member = resume is not None
+        last = None
         try:
             while raw := f.read(chunk_size):
                 data = raw
                 while data:
+                    if checkpoints is not None and (last is None or produced - last >= spacing):
+                        checkpoints.append((produced, f.tell() - len(data), inflate.copy()))
+                        last = produced
                     in_member = True
                     out = inflate.decompress(data, chunk_size)  # bounded output: one chunk at a time
                     if out:
+                        produced += len(out)
                         yield out
                     if inflate.eof:  # a member ended; another may follow (concatenated gzip files)
                         data = inflate.unused_data
@@ -176,16 +200,55 @@ def iter_chunks(path, chunk_size=1 << 22):
                 if out:
                     yield out
         except zlib.error as exc:
-            raise ValueError(f"{os.fspath(path)}: damaged gzip data ({exc})") from None
+            raise ValueError(f"{os.fspath(path)}: damaged gzip data ({exc}); the file is corrupt: "
+                             f"compress it again from the original") from None
         if in_member and not inflate.eof:
-            raise ValueError(f"{os.fspath(path)}: the gzip data ends early (a truncated file)")
+            raise ValueError(f"{os.fspath(path)}: the gzip data ends early (a truncated file); copy or "
+                             f"compress it again from the original") from None
 
 
-def iter_frames(path, prefix, chunk_size=1 << 22):
+def gzip_checkpoints(path, spacing=1 << 24):
+    """One pass over a gzip file collecting the checkpoints of :func:`iter_chunks` (output discarded)."""
+    checkpoints = []
+    for _ in iter_chunks(path, checkpoints=checkpoints, spacing=spacing):
+        pass
+    return checkpoints
+
+
+def read_range(path, start, stop, checkpoints=None):
+    """Bytes [start, stop) of the file's (decompressed, if gzip) content, as a bytearray.
+
+    For gzip input, decompression resumes at the last of ``checkpoints`` (from :func:`iter_chunks`)
+    at or before ``start``; without them it starts at the beginning. Memory: the range plus a chunk.
+    """
+    if not _is_gzip(path):
+        with open(path, "rb") as f:
+            f.seek(start)
+            return bytearray(f.read(stop - start))
+    resume = None
+    for point in checkpoints or ():
+        if point[0] <= start:
+            resume = point
+        else:
+            break
+    out = bytearray()
+    position = resume[0] if resume is not None else 0
+    for chunk in iter_chunks(path, resume=resume):
+        end = position + len(chunk)
+        if end > start:
+            out += chunk[max(start - position, 0):stop - position]
+        position = end
+        if position >= stop:
+            break
+    return out
+
+
+def iter_frames(path, prefix, chunk_size=1 << 22, chunks=None):
     """Stream a plain or gzipped file as frames: yields (frame bytes, 1-based line of its first line).
 
     A frame runs from a line starting with ``prefix`` to the next one (or the end). Text before the
     first such line is yielded as its own piece if there is any. Memory: one frame plus one chunk.
+    chunks: the file's bytes as an iterable of chunks (default :func:`iter_chunks` of path).
     """
     if isinstance(prefix, str):
         prefix = prefix.encode()
@@ -193,7 +256,7 @@ def iter_frames(path, prefix, chunk_size=1 << 22):
     scan_from = 0  # a line start up to which buf has been searched
     starts = []  # frame starts found in buf
     line = 1
-    for chunk in iter_chunks(path, chunk_size):
+    for chunk in iter_chunks(path, chunk_size) if chunks is None else chunks:
         buf += chunk
         found = find_lines(buf, prefix, scan_from, len(buf))
         starts.extend(int(s) for s in found if not starts or s != starts[-1])

@@ -91,7 +91,7 @@ import numpy as np
 from .._validate import flag, index_array, positive_number
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
-from ._lammps_dump import read_dump_frame, scan_dump
+from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
 from .checks import (FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, dump_local_header, force_balance,
                      generic_columns)
@@ -318,8 +318,9 @@ class LammpsReader(FrameReader):
             warnings.warn(f"{self.atoms_path}: walls or fixed particles but no contact dump (pairs=): the contacts "
                           f"between particles are missing, so the bulk contact stress is zero and only wall "
                           f"contacts reach the boundary stress and the IFD", stacklevel=2)
-        atom_frames = scan_dump(self.atoms_path, "atoms")
-        self._frames = self._match(atom_frames)
+        self._atoms_dump = scan_dump(self.atoms_path, "atoms")
+        self._pairs_dump = None if self.pairs_path is None else scan_dump(self.pairs_path, "local")
+        self._frames = self._match(list(self._atoms_dump))
         self._cache = None
 
     def _match(self, atom_frames):
@@ -327,7 +328,7 @@ class LammpsReader(FrameReader):
         if self.pairs_path is None:
             return [(off, ts, None) for off, ts in atom_frames]
         by_step = {}
-        for off, ts in scan_dump(self.pairs_path, "local"):
+        for off, ts in self._pairs_dump:
             by_step.setdefault(ts, []).append(off)
         used = {}
         out = []
@@ -372,7 +373,7 @@ class LammpsReader(FrameReader):
         return (0, 1) if self.dimension == 2 else (0, 1, 2)
 
     def _build(self, atoms_offset, timestep, pairs_offset):
-        fr = read_dump_frame(self.atoms_path, atoms_offset)
+        fr = self._atoms_dump.read(atoms_offset)
         box = self._box(fr, timestep)
         atoms = self._atoms(fr["data"], box, timestep)
         parts = []
@@ -425,7 +426,7 @@ class LammpsReader(FrameReader):
         path = self.atoms_path
         if "id" not in tab:
             raise ValueError(f"{path}: the atoms dump needs an 'id' column (has {list(tab.index)})")
-        ids_raw = tab["id"].astype(np.int64)
+        ids_raw = tab.integers("id")
         order = np.argsort(ids_raw, kind="stable")
         ids = ids_raw[order]
         if np.any(np.diff(ids) == 0):
@@ -448,7 +449,7 @@ class LammpsReader(FrameReader):
             raise ValueError(f"{path}: no position columns (x y z, xu yu zu, xs ys zs or xsu ysu zsu)")
         if self.wrap:
             pos = box.wrap(pos)
-        types = tab["type"][order].astype(np.int64) if "type" in tab else np.ones(n, np.int64)
+        types = tab.integers("type")[order] if "type" in tab else np.ones(n, np.int64)
         vel = cols(("vx", "vy", "vz"), "velocities") if "vx" in tab else None
         forces = cols(("fx", "fy", "fz"), "forces") if "fx" in tab else None
         masses = self._masses(tab, order, types)
@@ -501,12 +502,16 @@ class LammpsReader(FrameReader):
 
     def _pair_contacts(self, offset, timestep, ids, pos, radii, box):
         """The contacts of the pairs dump's frame at ``offset``: (i, j, force, point, contact IDs, overlap)."""
-        fr = read_dump_frame(self.pairs_path, offset)
+        fr = self._pairs_dump.read(offset, ("index",), self._pair_id_columns())
         if fr["n"] == 0:
             dim = self.dimension
             return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)),
                     np.zeros((0, 2), np.int64), np.zeros(0))
         return self._pairs_from_table(fr["data"], fr["n"], timestep, ids, pos, radii, box)
+
+    def _pair_id_columns(self):
+        """The contact dump's atom-ID columns: whole numbers (in the dump's float format), read as int64."""
+        return (self.pair_columns["id1"], self.pair_columns["id2"])
 
     def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
         path = self.pairs_path
@@ -520,8 +525,8 @@ class LammpsReader(FrameReader):
             raise ValueError(f"{path}: expected columns {missing} in the dump local (has "
                              f"{list(tab.index)}); set pair_compute/pair_values/property_compute "
                              "or pair_columns to match your computes")
-        id1 = tab[names["id1"]].astype(np.int64)
-        id2 = tab[names["id2"]].astype(np.int64)
+        id1 = tab.integers(names["id1"])
+        id2 = tab.integers(names["id2"])
         i, j = contact_indices(ids, id1, id2, path, timestep)
         force = self._vectors(tab, names["force"])
         if names.get("tangential"):

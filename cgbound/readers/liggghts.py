@@ -166,6 +166,9 @@ class LiggghtsReader(LammpsReader):
                          dt=dt, wrap=wrap, drop_inactive=False, input=input, variables=variables,
                          check_forces=check_forces, units=units)
 
+    def _pair_id_columns(self):
+        return self.pair_columns["id"][:2]
+
     def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
         path = self.pairs_path
         names = self.pair_columns
@@ -175,8 +178,8 @@ class LiggghtsReader(LammpsReader):
             raise ValueError(f"{path}: expected columns {missing} in the dump local (has {list(tab.index)}); "
                              "set pair_compute/pair_values (the keywords of compute pair/gran/local) or "
                              "pair_columns to match the dump")
-        id1 = np.rint(tab[names["id"][0]]).astype(np.int64)
-        id2 = np.rint(tab[names["id"][1]]).astype(np.int64)
+        id1 = tab.integers(names["id"][0])
+        id2 = tab.integers(names["id"][1])
         i, j = contact_indices(ids, id1, id2, path, timestep)
         if "force" in names:
             force = self._vectors(tab, names["force"])
