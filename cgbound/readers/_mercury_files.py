@@ -36,8 +36,14 @@ def file_bytes(path):
         if os.fstat(fh.fileno()).st_size == 0:
             yield b""
             return
-        with mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+        mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
+        try:
             yield mm
+        finally:
+            try:
+                mm.close()
+            except BufferError:   # an error's traceback still holds a view of it: freed with the traceback
+                pass
 
 
 def read_range(path, start, stop):
