@@ -80,6 +80,18 @@ frame is refused. Template particles inside boundary lines (``ChuteInsertionBoun
 particles; a ``Particles N`` section with fewer lines is a truncated file and an error. Periodic axes: ``periodic=`` (per cgbound axis), else from
 ``PeriodicBoundary ... normal nx ny nz`` lines of the ``.restart``.
 
+Reading and structure checks
+----------------------------
+Frames are found by one scan of each file (the C text layer's line finder) and parsed lazily, one C pass
+per frame (``species``, ``i``, ``j`` read as exact int64); gzipped files are decompressed as a zlib stream
+(the scan holds one decompressed copy of the file at a time; a frame read streams from the start). Refused,
+with the file, the frame's time and the line: a ``.data`` frame with fewer particle lines than its header
+declares, a particle line with a value more or less than the frame's first (the columns would shift), a
+``.fstat`` block of ``#`` lines that is not 3 per frame (a header line lost, or a blank line inserted), an
+interaction line whose time is not its frame's, a last ``.fstat`` frame cut off after its header while
+earlier frames have contacts, a ``.restart`` without a complete ``Particles N`` section, empty or
+whitespace-only files, nan/inf, non-numbers and bytes that are not text.
+
 Unverified / not supported
 --------------------------
 * No file produced by a MercuryDPM run was available: the layouts follow the source only.
