@@ -10,6 +10,7 @@ ValueErrors naming the file, the frame (time) and the 1-based line, with the lik
 import contextlib
 import mmap
 import os
+import re
 
 import numpy as np
 
@@ -24,6 +25,7 @@ DATA_SPECIES = {3: 13, 2: 7}     # the species column of a .data particle line
 FSTAT_COLUMNS = 16
 FSTAT_HEADER_LINES = 3
 _TIME_RTOL = 1e-9                # a line's time against its frame's (both written by the same stream)
+_TEXT = re.compile(rb"\S")       # the first byte that is not whitespace
 
 
 @contextlib.contextmanager
@@ -177,7 +179,7 @@ def scan_fstat(path):
                     (heads[f + FSTAT_HEADER_LINES] if f + FSTAT_HEADER_LINES < b else size)
                 frames.append((heads[f], lines[f], float(head[0]), marker, rows_start, rows_stop, lines[last] + 1))
         last = frames[-1]
-        if not bytes(data[last[4]:last[5]]).strip() and any(f[5] > f[4] for f in frames[:-1]):
+        if not _TEXT.search(data, last[4], last[5]) and any(f[5] > f[4] for f in frames[:-1]):
             raise ValueError(f"{path}:{last[1]}: the last frame (t = {last[2]:g}) has no interaction lines while "
                              f"earlier frames have some: the file is truncated (cut off while being written or "
                              f"copied); write it again, or delete that frame's three header lines if the run "
@@ -284,14 +286,14 @@ def read_fstat_rows(path, time, rows_start, rows_stop, first_line):
     """The interaction lines of a .fstat frame: an (M, FSTAT_COLUMNS) table, the (M, 2) int64 indices
     i, j, and a function giving the 1-based line number of row k; None, None, None if M = 0."""
     data = read_range(path, rows_start, rows_stop)
-    body = data.lstrip()
-    if not body:
+    text = _TEXT.search(data)
+    if not text:
         return None, None, None
-    eol = body.find(b"\n")
-    width = len(body[:None if eol < 0 else eol].split())
+    eol = data.find(b"\n", text.start())
+    width = len(data[text.start():None if eol < 0 else eol].split())
     what = "an .fstat line 'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz'"
     if width < FSTAT_COLUMNS:
-        line = first_line + data[:len(data) - len(body)].count(b"\n")
+        line = first_line + data.count(b"\n", 0, text.start())
         raise ValueError(f"{path}:{line}: expected {FSTAT_COLUMNS} columns "
                          f"'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz', got {width}")
     try:
