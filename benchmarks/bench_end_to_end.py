@@ -53,7 +53,7 @@ def write_lammps(snap, directory, fmt="%.17g"):
     """atoms.dump and pairs.dump (dump local, each pair once, the force on patom1) of the two frames."""
     n, c = snap.n_particles, snap.contacts
     lo, hi = snap.box.lower, snap.box.upper
-    bounds = "".join(f"{a!r} {b!r}\n" for a, b in zip(lo, hi))
+    bounds = "".join(f"{float(a)!r} {float(b)!r}\n" for a, b in zip(lo, hi))
     with open(os.path.join(directory, "atoms.dump"), "w") as fh:
         for step, _ in enumerate(TIMES):
             fh.write(f"ITEM: TIMESTEP\n{step * 1000}\nITEM: NUMBER OF ATOMS\n{n}\nITEM: BOX BOUNDS ff ff ff\n"
@@ -105,11 +105,12 @@ def main():
     directory = args.workdir or tempfile.mkdtemp(prefix="cgbound_e2e_")
     os.makedirs(directory, exist_ok=True)
     try:
-        write_frames(snap, directory)
-        if "lammps" in formats:
+        stamp = os.path.join(directory, "written")   # a --workdir written before is reused
+        if not os.path.exists(stamp):
+            write_frames(snap, directory)
             write_lammps(snap, directory)
-        if "hdf5" in formats:
             write_snapshots(os.path.join(directory, "w1.h5"), frames_of(snap))
+            open(stamp, "w").close()
         sizes = {"mercury": (NAME + ".data", NAME + ".fstat"), "lammps": ("atoms.dump", "pairs.dump"),
                  "hdf5": ("w1.h5",)}
         megabytes = {f: sum(os.path.getsize(os.path.join(directory, p)) for p in sizes[f]) / 1e6 for f in formats}

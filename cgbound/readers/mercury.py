@@ -345,10 +345,10 @@ class MercuryReader(FrameReader):
         if rows is None:
             return Contacts.empty(self.dim), np.zeros(0, np.int64), np.zeros(0)
         i, jraw = self._partners(ints, line_of, pos.shape[0])
-        axes = [0, 1] if self.dim == 2 else [0, 1, 2]
-        point = rows[:, 3:6][:, axes]
+        d = self.dim    # cgbound's axes are MercuryDPM's first d components
+        point = np.ascontiguousarray(rows[:, 3:3 + d])
         overlap = rows[:, 6]
-        force = self._forces_on_i(rows, line_of, axes, box.minimum_image(pos[i] - point))
+        force = self._forces_on_i(rows, line_of, d, box.minimum_image(pos[i] - point))
         wall = jraw < 0
         keep = wall | self._one_listing_per_pair(i, jraw, force, point, radii, line_of)
         sel = np.flatnonzero(keep)
@@ -374,11 +374,11 @@ class MercuryReader(FrameReader):
             raise ValueError(f"{self.fstat_path}:{line_of(k)}: particle {i[k]} in contact with itself")
         return i, jraw
 
-    def _forces_on_i(self, rows, line_of, axes, arm):
+    def _forces_on_i(self, rows, line_of, d, arm):
         """The force on particle i of each line: s (fn n + ft t), s = sign(n . arm), arm = x_i - c
         (minimum image; see the module docstring)."""
-        fn, ft = rows[:, 8], rows[:, 9]
-        normal, tang = rows[:, 10:13][:, axes], rows[:, 13:16][:, axes]
+        fn, ft = rows[:, 8].copy(), rows[:, 9].copy()
+        normal, tang = np.ascontiguousarray(rows[:, 10:10 + d]), np.ascontiguousarray(rows[:, 13:13 + d])
         proj = np.sum(normal * arm, axis=1)
         nonzero_force = (fn != 0) | (ft != 0)
         flat = (np.abs(proj) <= 1e-12 * np.maximum(np.linalg.norm(arm, axis=1), 1e-300)) & nonzero_force
