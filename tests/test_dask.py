@@ -155,7 +155,7 @@ def test_corrupt_hdf5_frame_is_named(request, tmp_path, backend):
     reader = broken_hdf5(tmp_path, bad=3)
     options = {"client": request.getfixturevalue("client")} if backend == "dask" else {}
     grid = cg.Grid(reader[0].box, (2, 2, 3))
-    with pytest.raises(KeyError, match="frame 3: .*positions"):
+    with pytest.raises(ValueError, match="frame 3: .*positions"):
         cg.CoarseGrain(reader, grid, cg.Lucy(1.0)).run(backend=backend, **options)
 
 

@@ -1,83 +1,189 @@
 """MercuryDPM text files (layouts in cgbound/readers/mercury.py): frames of ``.data`` and ``.fstat``
-found by a scan, one frame read at a time; the keys of a ``.restart``."""
+found by one fast scan (the C text layer's line finder), each frame parsed in one C pass when it is
+read; the keys of a ``.restart``.
+
+Structure is checked as the files are scanned and read: a ``.data`` frame holds the particle lines
+its header declares, each with the same number of values; a ``.fstat`` frame has exactly three
+``#`` header lines, its lines carry the frame's time, and the last frame is not cut off. Errors are
+ValueErrors naming the file, the frame (time) and the 1-based line, with the likely cause.
+"""
+import contextlib
+import mmap
+import os
+import re
+
 import numpy as np
 
-from .files import open_input
+from ._text import find_lines, iter_chunks, parse_table
+from .files import is_gzip
 
 __all__ = ["DATA_COLUMNS", "FSTAT_COLUMNS", "read_fstat_rows", "read_particles", "read_restart", "scan_data",
            "scan_fstat"]
 
 DATA_COLUMNS = {3: 14, 2: 8}
+DATA_SPECIES = {3: 13, 2: 7}     # the species column of a .data particle line
 FSTAT_COLUMNS = 16
+FSTAT_HEADER_LINES = 3
+_TIME_RTOL = 1e-9                # a line's time against its frame's (both written by the same stream)
+_TEXT = re.compile(rb"\S")       # the first byte that is not whitespace
 
 
-def parse_floats(words, path, lineno):
-    try:
-        return [float(w) for w in words]
-    except ValueError:
-        raise ValueError(f"{path}:{lineno}: expected numbers, got {' '.join(words)[:80]!r}") from None
-
-
-def _numbered_lines(fh, lineno=0):
-    """(byte offset, line number, line) of each line of a binary file from its current position;
-    the first line gets ``lineno + 1``."""
-    while True:
-        offset = fh.tell()
-        line = fh.readline()
-        if not line:
+@contextlib.contextmanager
+def file_bytes(path):
+    """The whole file's bytes: memory-mapped if plain, decompressed as a zlib stream if gzip."""
+    if is_gzip(path):
+        yield b"".join(iter_chunks(path))
+        return
+    with open(path, "rb") as fh:
+        if os.fstat(fh.fileno()).st_size == 0:
+            yield b""
             return
-        lineno += 1
-        yield offset, lineno, line
+        mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
+        try:
+            yield mm
+        finally:
+            try:
+                mm.close()
+            except BufferError:   # an error's traceback still holds a view of it: freed with the traceback
+                pass
+
+
+def read_range(path, start, stop):
+    """Bytes [start, stop) of the file (decompressed bytes if gzip, streamed up to stop)."""
+    if not is_gzip(path):
+        with open(path, "rb") as fh:
+            fh.seek(start)
+            return fh.read(stop - start)
+    out, position = [], 0
+    for chunk in iter_chunks(path):
+        end = position + len(chunk)
+        if end > start:
+            out.append(chunk[max(start - position, 0):stop - position])
+        position = end
+        if position >= stop:
+            break
+    return b"".join(out)
+
+
+def _empty_file_error(path, what):
+    return ValueError(f"{path}: the file is empty or holds only whitespace; expected {what} (a file cut off or "
+                      f"not yet written? write it again)")
+
+
+def _line_numbers(data, offsets):
+    """1-based line number of each byte offset (increasing) of data: newlines counted between them."""
+    view = np.frombuffer(data, dtype=np.uint8)
+    out, line, last = [], 1, 0
+    for off in offsets:
+        line += int(np.count_nonzero(view[last:off] == 10))
+        last = off
+        out.append(line)
+    del view
+    return out
+
+
+def _words(data, start, stop):
+    return bytes(data[start:stop]).split()
 
 
 def scan_data(path, dim):
-    """Frames of a .data file: list of (byte offset of the header, line number, n, time, dim)."""
+    """Frames of a .data file: list of (header offset, header line number, n, time, dim, header values,
+    first particle line's offset, end of the frame's lines)."""
     frames = []
-    with open_input(path) as fh:
-        lines = _numbered_lines(fh)
-        for offset, lineno, line in lines:
-            words = line.split()
+    with file_bytes(path) as data:
+        size = len(data)
+        starts = find_lines(data, b"")
+        nlines = len(starts)
+        k = 0
+        while k < nlines:
+            a = int(starts[k])
+            b = int(starts[k + 1]) if k + 1 < nlines else size
+            words = _words(data, a, b)
             if not words or words[0].startswith(b"#"):
+                k += 1
                 continue
-            head = parse_floats([w.decode() for w in words], path, lineno)
-            if len(head) not in (6, 8):
+            lineno = k + 1
+            if len(words) not in (6, 8):
                 raise ValueError(f"{path}:{lineno}: expected a header 'N time xmin ymin [zmin] xmax ymax [zmax]' "
-                                 f"(6 values in 2D, 8 in 3D), got {len(head)} values")
-            d = 3 if len(head) == 8 else 2
+                                 f"(6 values in 2D, 8 in 3D), got {len(words)} values")
+            head = parse_table(data, a, b, len(words), int_columns=(0,), name=path, frame="a frame header",
+                               first_line=lineno)
+            d = 3 if len(words) == 8 else 2
             if dim is not None and d != dim:
                 raise ValueError(f"{path}:{lineno}: a {d}D header, but dim={dim} was given")
-            n = head[0]
-            if n != int(n) or n < 0:
+            n, time = int(head.ints[0, 0]), float(head.values[0, 1])
+            if n < 0:
                 raise ValueError(f"{path}:{lineno}: expected a particle count, got {words[0].decode()!r}")
-            n = int(n)
-            frames.append((offset, lineno, n, head[1], d))
-            for _ in range(n):
-                row = next(lines, (None, None, b""))[2]
-                if not row.endswith(b"\n") and not row.strip():
-                    raise ValueError(f"{path}: truncated frame at t = {head[1]}: expected {n} particle lines")
+            if k + n >= nlines:
+                raise ValueError(f"{path}:{lineno}: the frame at t = {time:g} declares {n} particles but only "
+                                 f"{nlines - k - 1} lines follow: the file is truncated (cut off while being "
+                                 f"written or copied); write it again or drop its last frame")
+            rows_start = int(starts[k + 1]) if n else b
+            rows_stop = int(starts[k + n + 1]) if k + n + 1 < nlines else size
+            frames.append((a, lineno, n, time, d, tuple(head.values[0].tolist()), rows_start, rows_stop))
+            k += n + 1
+        del starts
+        if not frames:   # only blank and '#' lines
+            if not bytes(data).strip():
+                raise _empty_file_error(path, "MercuryDPM .data frames ('N time xmin ...' headers)")
+            raise ValueError(f"{path}: no frame header 'N time xmin ymin [zmin] xmax ymax [zmax]', only comment "
+                             f"lines; expected a MercuryDPM .data file")
     return frames
 
 
 def scan_fstat(path):
-    """Frames of a .fstat file: list of (byte offset of the first header line, line number, time, marker)."""
-    frames = []
-    with open_input(path) as fh:
-        in_header = 0   # header lines seen in the current block (3 per frame)
-        for offset, lineno, line in _numbered_lines(fh):
-            if line.startswith(b"#"):
-                if in_header in (0, 3):
-                    words = line[1:].split()
-                    vals = parse_floats([w.decode() for w in words[:2]], path, lineno)
-                    if not vals:
-                        raise ValueError(f"{path}:{lineno}: expected '# time marker', got {line[:60]!r}")
-                    marker = int(vals[1]) if len(vals) > 1 else 0
-                    frames.append((offset, lineno, vals[0], marker))
-                    in_header = 0
-                in_header += 1
-                continue
-            in_header = 0
-            if line.strip() and not frames:
-                raise ValueError(f"{path}:{lineno}: contact line before the first '# time' header")
+    """Frames of a .fstat file: list of (offset of the first header line, its line number, time, marker,
+    offset of the frame's first interaction line, end of its lines, line number of that offset)."""
+    with file_bytes(path) as data:
+        size = len(data)
+        heads = [int(h) for h in find_lines(data, b"#")]
+        if not heads:
+            if not bytes(data).strip():
+                raise _empty_file_error(path, "MercuryDPM .fstat frames ('# time marker' headers)")
+            raise ValueError(f"{path}:1: contact line before the first '# time' header")
+        if bytes(data[:heads[0]]).strip():
+            line = _line_numbers(data, [heads[0]])[0]
+            first = next(k for k, w in enumerate(bytes(data[:heads[0]]).split(b"\n")) if w.strip())
+            raise ValueError(f"{path}:{first + 1}: contact line before the first '# time' header "
+                             f"(the first header is on line {line})")
+        ends = []
+        for h in heads:
+            e = data.find(b"\n", h)
+            ends.append(size if e < 0 else e + 1)
+        lines = _line_numbers(data, heads)
+        # runs of consecutive header lines: 3 per frame (a frame without contacts is followed at once by the next)
+        runs, k = [], 0
+        while k < len(heads):
+            m = k
+            while m + 1 < len(heads) and heads[m + 1] == ends[m]:
+                m += 1
+            runs.append((k, m + 1))
+            k = m + 1
+        frames = []
+        for r, (a, b) in enumerate(runs):
+            if (b - a) % FSTAT_HEADER_LINES:
+                raise ValueError(f"{path}:{lines[a]}: {b - a} '#' header line{'s' if b - a > 1 else ''} in a row "
+                                 f"where .fstat frames have {FSTAT_HEADER_LINES} ('# time marker', '# xmin ymin zmin "
+                                 f"xmax ymax zmax', '# rmin rmax ...'): a header line is missing, or a line was "
+                                 f"inserted into a header (a damaged file; write it again)")
+            for f in range(a, b, FSTAT_HEADER_LINES):
+                words = _words(data, heads[f] + 1, ends[f])
+                if not words:
+                    raise ValueError(f"{path}:{lines[f]}: expected '# time marker', got an empty header line")
+                head = parse_table(data, heads[f] + 1, ends[f], len(words), name=path, frame="a frame header",
+                                   first_line=lines[f]).values[0]
+                marker = int(head[1]) if len(head) > 1 else 0
+                last = f + FSTAT_HEADER_LINES - 1
+                rows_start = ends[last]
+                rows_stop = heads[runs[r + 1][0]] if f + FSTAT_HEADER_LINES == b and r + 1 < len(runs) else \
+                    (heads[f + FSTAT_HEADER_LINES] if f + FSTAT_HEADER_LINES < b else size)
+                frames.append((heads[f], lines[f], float(head[0]), marker, rows_start, rows_stop, lines[last] + 1))
+        last = frames[-1]
+        if not _TEXT.search(data, last[4], last[5]) and any(f[5] > f[4] for f in frames[:-1]):
+            raise ValueError(f"{path}:{last[1]}: the last frame (t = {last[2]:g}) has no interaction lines while "
+                             f"earlier frames have some: the file is truncated (cut off while being written or "
+                             f"copied); write it again, or delete that frame's three header lines if the run "
+                             f"really ended without contacts")
     return frames
 
 
@@ -88,39 +194,48 @@ def read_restart(path):
     Particles are the lines of the ``Particles N`` section whose first word names a particle class
     (``BaseParticle``, ``SphericalParticle``, ...); other lines with particle keys, such as the
     template particle embedded in an insertion boundary's line, are not particles. A section with
-    fewer than N particle lines (a truncated file) is an error.
+    fewer than N particle lines (a truncated file), or a file without one, is an error.
     """
     density, normals, particle_dim = {}, [], None
     inv_mass, positions = [], []
     declared, declared_line = None, None
-    with open_input(path, text=True) as fh:
-        for lineno, line in enumerate(fh, 1):
-            words = line.split()
-            if not words:
-                continue
-            keys = {w: k for k, w in reversed(list(enumerate(words)))}
+    text = b"".join(iter_chunks(path))
+    if not text.strip():
+        raise _empty_file_error(path, "a MercuryDPM .restart")
+    for lineno, raw in enumerate(text.split(b"\n"), 1):
+        words = raw.decode("utf-8", errors="replace").split()
+        if not words:
+            continue
+        keys = {w: k for k, w in reversed(list(enumerate(words)))}
 
-            def val(key, n=1):
-                k = keys[key]
-                return [float(x) for x in words[k + 1:k + 1 + n]]
+        def val(key, n=1):
+            k = keys[key]
+            out = [float(x) for x in words[k + 1:k + 1 + n]]
+            if len(out) != n or not all(np.isfinite(out)):
+                raise ValueError
+            return out
 
-            if words[0] == "Particles" and len(words) == 2 and words[1].isdigit():
-                declared, declared_line = int(words[1]), lineno
-                continue
-            try:
-                if "particleDimensions" in keys:
-                    particle_dim = int(val("particleDimensions")[0])
-                if "density" in keys and "id" in keys and words[0].endswith("Species"):
-                    density[int(val("id")[0])] = val("density")[0]
-                elif words[0].endswith("Particle") and "invMass" in keys and "position" in keys:
-                    inv_mass.append(val("invMass")[0])
-                    positions.append(val("position", 3))
-                elif words[0] == "PeriodicBoundary" and "normal" in keys:
-                    normals.append(val("normal", 3))
-            except (ValueError, IndexError):
-                raise ValueError(f"{path}:{lineno}: cannot read the values of this {words[0]} line "
-                                 f"(a damaged .restart?)") from None
-    if declared is not None and len(inv_mass) != declared:
+        if words[0] == "Particles" and len(words) == 2 and words[1].isdigit():
+            declared, declared_line = int(words[1]), lineno
+            continue
+        try:
+            if "particleDimensions" in keys:
+                particle_dim = int(val("particleDimensions")[0])
+            if "density" in keys and "id" in keys and words[0].endswith("Species"):
+                density[int(val("id")[0])] = val("density")[0]
+            elif words[0].endswith("Particle") and "invMass" in keys and "position" in keys:
+                inv_mass.append(val("invMass")[0])
+                positions.append(val("position", 3))
+            elif words[0] == "PeriodicBoundary" and "normal" in keys:
+                normals.append(val("normal", 3))
+        except (ValueError, IndexError, OverflowError):
+            raise ValueError(f"{path}:{lineno}: cannot read the values of this {words[0]} line "
+                             f"(a damaged .restart?)") from None
+    if declared is None:
+        raise ValueError(f"{path}: no 'Particles N' line: a truncated or damaged .restart (MercuryDPM writes the "
+                         f"particle section after the species, walls and boundaries); write it again, or pass "
+                         f"fixed=, density= and periodic= instead")
+    if len(inv_mass) != declared:
         raise ValueError(f"{path}:{declared_line}: 'Particles {declared}' but {len(inv_mass)} particle lines follow "
                          f"(a truncated or damaged .restart); write it again, or pass fixed= instead")
     # the file's order is the particle handler's, which is the order of the .data rows
@@ -129,50 +244,76 @@ def read_restart(path):
             "particle_dim": particle_dim}
 
 
-def read_particles(path, offset, first_line, n, dim):
-    """The .data frame whose header is at ``offset`` (line ``first_line``): (time, lower, upper, table)
-    with the (n, DATA_COLUMNS[dim]) particle table (extra trailing columns dropped)."""
+def _row_length_error(path, data, first_line, ncols, what, time, exc):
+    """The first line of data whose number of values differs from ncols, as a ValueError in the
+    'file:line: expected N columns' form; the parser's own error when every line has ncols values."""
+    for k, line in enumerate(bytes(data).split(b"\n")):
+        words = line.split()
+        if words and len(words) != ncols:
+            return ValueError(f"{path}:{first_line + k}: expected {ncols} columns for {what}, got {len(words)} "
+                              f"(frame t = {time:g}): a value is missing or extra, so the columns would shift "
+                              f"(a damaged file; write it again)")
+    return exc
+
+
+def read_particles(path, header, n, dim, rows_start, rows_stop):
+    """The particles of a .data frame: (time, lower, upper, table, species) with the (n, DATA_COLUMNS[dim])
+    particle table (extra trailing columns dropped) and the species column as int64.
+
+    header: (line number, time, header values) from scan_data."""
+    first_line, time, head = header
     ncol = DATA_COLUMNS[dim]
-    with open_input(path) as fh:
-        fh.seek(offset)
-        head = fh.readline().split()
-        rows = [fh.readline() for _ in range(n)]
-    time = float(head[1])
-    hv = [float(w) for w in head[2:]]
-    lower, upper = np.array(hv[:dim]), np.array(hv[dim:2 * dim])
-    table = np.zeros((n, ncol))
-    for k, row in enumerate(rows):
-        words = row.split()
-        if len(words) < ncol:
-            raise ValueError(f"{path}:{first_line + 1 + k}: expected {ncol} columns for a {dim}D .data "
-                             f"particle line, got {len(words)}")
-        table[k] = parse_floats([w.decode() for w in words[:ncol]], path, first_line + 1 + k)
-    return time, lower, upper, table
+    lower, upper = np.array(head[2:2 + dim]), np.array(head[2 + dim:2 + 2 * dim])
+    if n == 0:
+        return time, lower, upper, np.zeros((0, ncol)), np.zeros(0, np.int64)
+    data = read_range(path, rows_start, rows_stop)
+    eol = data.find(b"\n")
+    width = len(data[:None if eol < 0 else eol].split())
+    what = f"a {dim}D .data particle line"
+    if width < ncol:
+        raise ValueError(f"{path}:{first_line + 1}: expected {ncol} columns for {what}, got {width} "
+                         f"(frame t = {time:g})")
+    try:
+        table = parse_table(data, 0, len(data), width, int_columns=(DATA_SPECIES[dim],), nrows=n, name=path,
+                            frame=f"t = {time:g}", first_line=first_line + 1)
+    except ValueError as exc:
+        raise _row_length_error(path, data, first_line + 1, width, what, time, exc) from None
+    values = table.values if width == ncol else np.ascontiguousarray(table.values[:, :ncol])
+    return time, lower, upper, values, table.ints[:, 0]
 
 
-def read_fstat_rows(path, offset, first_line):
-    """The interaction lines of the .fstat frame whose first header line is at ``offset`` (line
-    ``first_line``): an (M, FSTAT_COLUMNS) table and the line number of each row; None, None if M = 0."""
-    rows, numbers = [], []
-    with open_input(path) as fh:
-        fh.seek(offset)
-        seen_data, headers = False, 0
-        for _, lineno, line in _numbered_lines(fh, first_line - 1):
-            if line.startswith(b"#"):
-                headers += 1
-                if seen_data or headers > 3:
-                    break
-                continue
-            if not line.strip():
-                continue
-            seen_data = True
-            words = line.split()
-            if len(words) < FSTAT_COLUMNS:
-                raise ValueError(f"{path}:{lineno}: expected {FSTAT_COLUMNS} columns "
-                                 "'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz', got "
-                                 f"{len(words)}")
-            rows.append(parse_floats([w.decode() for w in words[:FSTAT_COLUMNS]], path, lineno))
-            numbers.append(lineno)
-    if not rows:
-        return None, None
-    return np.array(rows), np.array(numbers)
+def read_fstat_rows(path, time, rows_start, rows_stop, first_line):
+    """The interaction lines of a .fstat frame: an (M, FSTAT_COLUMNS) table, the (M, 2) int64 indices
+    i, j, and a function giving the 1-based line number of row k; None, None, None if M = 0."""
+    data = read_range(path, rows_start, rows_stop)
+    text = _TEXT.search(data)
+    if not text:
+        return None, None, None
+    eol = data.find(b"\n", text.start())
+    width = len(data[text.start():None if eol < 0 else eol].split())
+    what = "an .fstat line 'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz'"
+    if width < FSTAT_COLUMNS:
+        line = first_line + data.count(b"\n", 0, text.start())
+        raise ValueError(f"{path}:{line}: expected {FSTAT_COLUMNS} columns "
+                         f"'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz', got {width}")
+    try:
+        table = parse_table(data, 0, len(data), width, int_columns=(1, 2), skip_blank=True, name=path,
+                            frame=f"t = {time:g}", first_line=first_line)
+    except ValueError as exc:
+        raise _row_length_error(path, data, first_line, width, what, time, exc) from None
+    rows = table.values if width == FSTAT_COLUMNS else np.ascontiguousarray(table.values[:, :FSTAT_COLUMNS])
+
+    numbered = []
+
+    def line_of(k):
+        if not numbered:   # blank lines may sit between rows: number the non-blank lines once, on demand
+            numbered.extend(first_line + j for j, line in enumerate(data.split(b"\n")) if line.strip())
+        return numbered[k]
+
+    off = np.abs(rows[:, 0] - time) > _TIME_RTOL * max(1.0, abs(time))
+    if np.any(off):
+        k = int(np.flatnonzero(off)[0])
+        raise ValueError(f"{path}:{line_of(k)}: an interaction line of time {rows[k, 0]:g} in the frame of time "
+                         f"{time:g}: the frame holds another frame's lines (a header line lost or inserted?); "
+                         f"a damaged file, write it again")
+    return rows, table.ints, line_of

@@ -106,37 +106,99 @@ class HDF5Snapshots(FrameSequence):
     """Lazy sequence of the Snapshots in a cgbound HDF5 file: ``len()``, indexing, slicing.
 
     Cheap to pickle (holds the path and frame indices, not arrays); each access opens the
-    file, so it is safe to hand to worker processes.
+    file, so it is safe to hand to worker processes. The schema's attributes are type-checked;
+    h5py's errors on a damaged or truncated file come as OSError naming the path, a missing
+    group or dataset as ValueError naming the path and the frame.
     """
 
     def __init__(self, path, frames=None, units=None):
         self.units = units
         self.path = os.fspath(path)
-        h5py = _h5py()
-        with h5py.File(self.path, "r") as f:
-            if f.attrs.get("format") != FORMAT:
+        with self._open() as f:
+            fmt = f.attrs.get("format")
+            if isinstance(fmt, bytes):
+                fmt = fmt.decode("utf-8", errors="replace")
+            if fmt != FORMAT:
                 raise ValueError(f"path: {self.path!r} is not a cgbound snapshot file (format attribute missing)")
-            if int(f.attrs.get("schema_version", 0)) > SCHEMA_VERSION:
-                raise ValueError(f"path: schema version {f.attrs['schema_version']} is newer than this cgbound reads")
-            n = len(f["frames"])
+            version = _attr(f, "schema_version", self.path, kind="integer")
+            if version > SCHEMA_VERSION:
+                raise ValueError(f"path: schema version {version} of {self.path!r} is newer than this cgbound reads")
+            n = len(self._member(f, "frames", "the file"))
             self.provenance = f.attrs.get("provenance", "")
         self._frames = list(range(n)) if frames is None else list(frames)
+
+    def _open(self):
+        h5py = _h5py()
+        try:
+            return h5py.File(self.path, "r")
+        except (FileNotFoundError, IsADirectoryError, PermissionError):
+            raise
+        except OSError as exc:
+            raise OSError(f"{self.path}: cannot open it as HDF5 ({exc}); the file is damaged, truncated or not "
+                          f"HDF5: write it again") from None
+
+    def _member(self, group, name, where):
+        try:
+            return group[name]
+        except KeyError:
+            raise ValueError(f"{self.path}: {where} has no {name!r} (a damaged file or another schema; expected "
+                             f"the cgbound-snapshots layout, see cgbound/readers/hdf5.py)") from None
 
     def _snapshot(self, position):
         return self._read(self._frames[position])
 
     def _read(self, frame):
-        h5py = _h5py()
-        with h5py.File(self.path, "r") as f:
-            g = f["frames"][f"{frame:06d}"]
-            src = g if "lower" in g.attrs else f["box"]
-            box = Box(src.attrs["lower"], src.attrs["upper"], periodic=tuple(bool(p) for p in src.attrs["periodic"]))
-            data = {name: g[name][()] for name in _OPTIONAL if name in g}
-            c = g["contacts"]
-            contacts = Contacts(c["i"][()], c["j"][()], c["force"][()], c["point"][()])
-            return Snapshot(g["positions"][()], data.get("velocities"), g["masses"][()], box=box, contacts=contacts,
-                            fixed=data.get("fixed"), species=data.get("species"), body_force=data.get("body_force"),
-                            radii=data.get("radii"), time=float(g.attrs["time"]))
+        where = f"frame {frame:06d}"
+        with self._open() as f:
+            try:
+                return self._read_frame(f, frame, where)
+            except (OSError, RuntimeError) as exc:
+                raise OSError(f"{self.path}: cannot read {where} ({exc}); the file is damaged or truncated: "
+                              f"write it again") from None
+
+    def _read_frame(self, f, frame, where):
+        g = self._member(self._member(f, "frames", "the file"), f"{frame:06d}", "/frames")
+        src = g if "lower" in g.attrs else self._member(f, "box", "the file")
+        label = f"{where}: the box" if src is g else "/box"
+        lower = _attr(src, "lower", self.path, label)
+        upper = _attr(src, "upper", self.path, label)
+        periodic = _attr(src, "periodic", self.path, label, kind="bool")
+        box = Box(lower, upper, periodic=tuple(bool(p) for p in periodic))
+        data = {name: g[name][()] for name in _OPTIONAL if name in g}
+        c = self._member(g, "contacts", where)
+        contacts = Contacts(*(self._member(c, name, f"{where}/contacts")[()] for name in ("i", "j", "force", "point")))
+        time = float(_attr(g, "time", self.path, where, kind="scalar"))
+        return Snapshot(self._member(g, "positions", where)[()], data.get("velocities"),
+                        self._member(g, "masses", where)[()], box=box, contacts=contacts, fixed=data.get("fixed"),
+                        species=data.get("species"), body_force=data.get("body_force"), radii=data.get("radii"),
+                        time=time)
 
     def _describe(self):
         return [repr(self.path)], []
+
+
+def _attr(obj, name, path, where="the file", kind="floats"):
+    """An attribute of the schema, type-checked: "floats" a 1-D array of finite numbers, "bool" a 1-D
+    array of booleans (0/1 integers accepted), "scalar" one finite number, "integer" one integer."""
+    if name not in obj.attrs:
+        raise ValueError(f"{path}: {where} has no {name!r} attribute (a damaged file or another schema)")
+    value = np.asarray(obj.attrs[name])
+    expected = {"floats": "finite numbers", "bool": "booleans", "scalar": "a finite number",
+                "integer": "an integer"}[kind]
+    ok = value.dtype.kind in "biuf"
+    if kind in ("floats", "bool"):
+        ok = ok and value.ndim == 1
+    else:
+        ok = ok and value.ndim == 0
+    if ok and kind == "bool":
+        ok = value.dtype.kind == "b" or (value.dtype.kind in "iu" and np.all((value == 0) | (value == 1)))
+    if ok and kind == "integer":
+        ok = value.dtype.kind in "biu"
+    if ok and kind in ("floats", "scalar"):
+        ok = bool(np.all(np.isfinite(value)))
+    if not ok:
+        shown = value.tolist() if value.size <= 8 else f"{value.dtype} array of shape {value.shape}"
+        raise ValueError(f"{path}: {where}: attribute {name!r} should hold {expected}, got {shown!r} "
+                         f"(dtype {value.dtype}); the file was not written by cgbound's write_snapshots, or was "
+                         f"edited: write it again")
+    return value

@@ -80,6 +80,18 @@ frame is refused. Template particles inside boundary lines (``ChuteInsertionBoun
 particles; a ``Particles N`` section with fewer lines is a truncated file and an error. Periodic axes: ``periodic=`` (per cgbound axis), else from
 ``PeriodicBoundary ... normal nx ny nz`` lines of the ``.restart``.
 
+Reading and structure checks
+----------------------------
+Frames are found by one scan of each file (the C text layer's line finder) and parsed lazily, one C pass
+per frame (``species``, ``i``, ``j`` read as exact int64); gzipped files are decompressed as a zlib stream
+(the scan holds one decompressed copy of the file at a time; a frame read streams from the start). Refused,
+with the file, the frame's time and the line: a ``.data`` frame with fewer particle lines than its header
+declares, a particle line with a value more or less than the frame's first (the columns would shift), a
+``.fstat`` block of ``#`` lines that is not 3 per frame (a header line lost, or a blank line inserted), an
+interaction line whose time is not its frame's, a last ``.fstat`` frame cut off after its header while
+earlier frames have contacts, a ``.restart`` without a complete ``Particles N`` section, empty or
+whitespace-only files, nan/inf, non-numbers and bytes that are not text.
+
 Unverified / not supported
 --------------------------
 * No file produced by a MercuryDPM run was available: the layouts follow the source only.
@@ -205,17 +217,20 @@ class MercuryReader(FrameReader):
         return tuple(flags)
 
     def _match(self, data_frames):
+        """One locator per .data frame: ((header line, time, header values), n, particle lines' byte range,
+        the .fstat frame's (time, byte range of its lines, first line, header line) or None)."""
+        particles = [((d[1], d[3], d[5]), d[2], d[6], d[7]) for d in data_frames]
         if self.fstat_path is None:
-            return [(d[0], d[1], d[2], None, None, None) for d in data_frames]
+            return [(*p, None) for p in particles]
         fst = scan_fstat(self.fstat_path)
         times = np.array([f[2] for f in fst])
         out, missing = [], []
-        for off, line, n, t, _ in data_frames:
-            if times.size:
-                k = int(np.argmin(np.abs(times - t)))
-                if abs(times[k] - t) <= 1e-9 * max(1.0, abs(t)):
-                    out.append((off, line, n, fst[k][0], fst[k][1], fst[k][3]))
-                    continue
+        for p, (_, _, _, t, *_) in zip(particles, data_frames):
+            k = int(np.argmin(np.abs(times - t)))
+            if abs(times[k] - t) <= 1e-9 * max(1.0, abs(t)):
+                f = fst[k]
+                out.append((*p, (f[2], f[4], f[5], f[6], f[1])))
+                continue
             missing.append(t)
         if missing:
             raise ValueError(f"{self.fstat_path}: no .fstat frame for time(s) {missing[:10]} of {self.data_path}")
@@ -227,29 +242,32 @@ class MercuryReader(FrameReader):
     # ------------------------------------------------------------------------------------------
     # one frame: particles, fixed, masses, contacts
 
-    def _build(self, data_offset, data_line, n, fstat_offset, fstat_line, marker):
-        time, lower, upper, table = read_particles(self.data_path, data_offset, data_line, n, self.dim)
-        pos, vel, radii, species = self._particle_columns(table, data_line)
+    def _build(self, header, n, rows_start, rows_stop, fstat):
+        time, lower, upper, table, species = read_particles(self.data_path, header, n, self.dim, rows_start,
+                                                            rows_stop)
+        data_line = header[0]
+        pos, vel, radii, species = self._particle_columns(table, species, data_line)
         box = Box(np.minimum(lower, upper), np.maximum(lower, upper), self.periodic)
         fixed = self._fixed(radii, species, n, pos, time)
         masses = self._masses(radii, species, fixed)
-        if fstat_offset is not None:
-            contacts, wall_index, overlap = self._contacts(fstat_offset, fstat_line, pos, radii, box)
+        if fstat is not None:
+            contacts, wall_index, overlap = self._contacts(fstat, pos, radii, box)
         else:
             contacts, wall_index, overlap = Contacts.empty(self.dim), np.zeros(0, np.int64), np.zeros(0)
         snap = Snapshot(pos, velocities=vel, masses=masses, box=box, contacts=contacts, fixed=fixed,
                         species=species, body_force=self.body_force, radii=radii, time=time)
-        return MercuryFrame(snap, wall_index, overlap, data_line, fstat_line)
+        return MercuryFrame(snap, wall_index, overlap, data_line, None if fstat is None else fstat[4])
 
-    def _particle_columns(self, table, data_line):
-        """Positions, velocities, radii and species from a .data particle table."""
+    def _particle_columns(self, table, species, data_line):
+        """Positions, velocities and radii from a .data particle table, and the species (integers)."""
         if self.dim == 3:
-            pos, vel, radii, species = table[:, 0:3], table[:, 3:6], table[:, 6], table[:, 13]
+            pos, vel, radii = table[:, 0:3], table[:, 3:6], table[:, 6]
         else:
-            pos, vel, radii, species = table[:, 0:2], table[:, 2:4], table[:, 4], table[:, 7]
-        if np.any(species != np.round(species)) or np.any(species < 0):
-            raise ValueError(f"{self.data_path}: frame at line {data_line}: the species column holds non-integers")
-        return pos, vel, radii, species.astype(np.int64)
+            pos, vel, radii = table[:, 0:2], table[:, 2:4], table[:, 4]
+        if np.any(species < 0):
+            raise ValueError(f"{self.data_path}: frame at line {data_line}: the species column holds negative "
+                             f"values")
+        return pos, vel, radii, species
 
     def _fixed(self, radii, species, n, positions, time):
         f = self.fixed
@@ -322,85 +340,95 @@ class MercuryReader(FrameReader):
         m = rho * vol
         return np.where(fixed & ~(m > 0), 1.0, m)
 
-    def _contacts(self, offset, first_line, pos, radii, box):
-        """The contacts of the .fstat frame at ``offset``: (Contacts, wall index, overlap)."""
-        rows, lnum = read_fstat_rows(self.fstat_path, offset, first_line)
+    def _contacts(self, fstat, pos, radii, box):
+        """The contacts of a .fstat frame: (Contacts, wall index, overlap)."""
+        rows, ints, line_of = read_fstat_rows(self.fstat_path, *fstat[:4])
         if rows is None:
             return Contacts.empty(self.dim), np.zeros(0, np.int64), np.zeros(0)
-        i, jraw = self._partners(rows, lnum, pos.shape[0])
-        axes = [0, 1] if self.dim == 2 else [0, 1, 2]
-        point = rows[:, 3:6][:, axes]
+        i, jraw = self._partners(ints, line_of, pos.shape[0])
+        d = self.dim    # cgbound's axes are MercuryDPM's first d components
+        point = np.ascontiguousarray(rows[:, 3:3 + d])
         overlap = rows[:, 6]
-        force = self._forces_on_i(rows, lnum, axes, box.minimum_image(pos[i] - point))
+        force = self._forces_on_i(rows, line_of, d, box.minimum_image(pos[i] - point))
         wall = jraw < 0
-        keep = wall | self._one_listing_per_pair(i, jraw, force, point, radii, lnum)
+        keep = wall | self._one_listing_per_pair(i, jraw, force, point, radii, line_of)
         sel = np.flatnonzero(keep)
         j = np.where(wall, -1, jraw)[sel]
         wall_index = np.where(wall, -1 - jraw, -1)[sel]
         return Contacts(i[sel], j, force[sel], point[sel]), wall_index, overlap[sel]
 
-    def _partners(self, rows, lnum, n):
+    def _partners(self, ints, line_of, n):
         """The particle index i and the partner index j (a wall when < 0) of each .fstat line, checked."""
         path = self.fstat_path
-        i = rows[:, 1].astype(np.int64)
-        jraw = rows[:, 2].astype(np.int64)
-        if np.any(rows[:, 1] != i) or np.any(rows[:, 2] != jraw):
-            k = int(np.flatnonzero((rows[:, 1] != i) | (rows[:, 2] != jraw))[0])
-            raise ValueError(f"{path}:{lnum[k]}: particle indices must be integers")
+        i, jraw = ints[:, 0].copy(), ints[:, 1].copy()
         bad = (i < 0) | (i >= n)
         if np.any(bad):
             k = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"{path}:{lnum[k]}: particle index {i[k]} not in the .data frame ({n} particles)")
+            raise ValueError(f"{path}:{line_of(k)}: particle index {i[k]} not in the .data frame ({n} particles)")
         bad = jraw >= n
         if np.any(bad):
             k = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"{path}:{lnum[k]}: partner index {jraw[k]} >= {n} particles in the .data frame: "
+            raise ValueError(f"{path}:{line_of(k)}: partner index {jraw[k]} >= {n} particles in the .data frame: "
                              "an interaction with a periodic ghost particle, which this reader does not support")
         if np.any(jraw == i):
             k = int(np.flatnonzero(jraw == i)[0])
-            raise ValueError(f"{self.fstat_path}:{lnum[k]}: particle {i[k]} in contact with itself")
+            raise ValueError(f"{self.fstat_path}:{line_of(k)}: particle {i[k]} in contact with itself")
         return i, jraw
 
-    def _forces_on_i(self, rows, lnum, axes, arm):
+    def _forces_on_i(self, rows, line_of, d, arm):
         """The force on particle i of each line: s (fn n + ft t), s = sign(n . arm), arm = x_i - c
         (minimum image; see the module docstring)."""
-        fn, ft = rows[:, 8], rows[:, 9]
-        normal, tang = rows[:, 10:13][:, axes], rows[:, 13:16][:, axes]
+        fn, ft = rows[:, 8].copy(), rows[:, 9].copy()
+        normal, tang = np.ascontiguousarray(rows[:, 10:10 + d]), np.ascontiguousarray(rows[:, 13:13 + d])
         proj = np.sum(normal * arm, axis=1)
         nonzero_force = (fn != 0) | (ft != 0)
         flat = (np.abs(proj) <= 1e-12 * np.maximum(np.linalg.norm(arm, axis=1), 1e-300)) & nonzero_force
         if np.any(flat):
             k = int(np.flatnonzero(flat)[0])
-            raise ValueError(f"{self.fstat_path}:{lnum[k]}: the normal is perpendicular to (particle centre - "
+            raise ValueError(f"{self.fstat_path}:{line_of(k)}: the normal is perpendicular to (particle centre - "
                              "contact point); cannot tell its orientation")
         sign = np.where(proj < 0, -1.0, 1.0)
         return sign[:, None] * (fn[:, None] * normal + ft[:, None] * tang)
 
-    def _one_listing_per_pair(self, i, jraw, force, point, radii, lnum):
+    def _one_listing_per_pair(self, i, jraw, force, point, radii, line_of):
         """Which pair lines to keep: a pair listed once is kept; one listed from both sides (opposite
-        forces, the same contact point within rtol) is kept once, oriented i < j; anything else raises."""
+        forces, the same contact point within rtol) is kept once, oriented i < j; anything else raises
+        (the pair whose first line comes first is reported). Vectorised: lines grouped by a sort on the
+        pair's key."""
         path = self.fstat_path
         keep = np.zeros(i.shape, bool)
         scale = float(np.max(np.linalg.norm(force, axis=1))) if len(force) else 0.0
         lscale = 2.0 * float(np.max(radii)) if radii.size else 1.0
-        lo, hi = np.minimum(i, jraw), np.maximum(i, jraw)
-        groups = {}
-        for k in np.flatnonzero(jraw >= 0):
-            groups.setdefault((int(lo[k]), int(hi[k])), []).append(int(k))
-        for (a, b), ks in groups.items():
-            if len(ks) == 1:
-                keep[ks[0]] = True
-                continue
-            if len(ks) > 2 or i[ks[0]] == i[ks[1]]:
-                raise ValueError(f"{path}: the pair ({a}, {b}) is listed {len(ks)} times (lines "
-                                 f"{', '.join(str(lnum[k]) for k in ks)}); expected once from each side at most")
-            k1, k2 = ks
-            df = np.linalg.norm(force[k1] + force[k2])
-            dc = np.linalg.norm(point[k1] - point[k2])
-            if df > self.rtol * max(scale, 1e-300) or dc > self.rtol * lscale:
-                raise ValueError(f"{path}: lines {lnum[k1]} and {lnum[k2]} list the pair ({a}, {b}) inconsistently: "
-                                 f"forces {force[k1].tolist()} and {force[k2].tolist()} are not opposite or the "
-                                 f"contact points {point[k1].tolist()} and {point[k2].tolist()} differ (|f1 + f2| = {df:.3g}, "
-                                 f"|c1 - c2| = {dc:.3g}, rtol = {self.rtol:g})")
-            keep[k1 if i[k1] < i[k2] else k2] = True
+        lines = np.flatnonzero(jraw >= 0)
+        if not lines.size:
+            return keep
+        lo, hi = np.minimum(i, jraw)[lines], np.maximum(i, jraw)[lines]
+        key = lo * (int(hi.max()) + 1) + hi
+        order = np.argsort(key, kind="stable")       # equal keys keep their line order
+        skey, sline = key[order], lines[order]
+        first = np.flatnonzero(np.r_[True, skey[1:] != skey[:-1]])
+        count = np.diff(np.r_[first, skey.size])
+        k1 = sline[first]
+        keep[k1[count == 1]] = True
+        two = count == 2
+        k2 = np.where(two, sline[np.minimum(first + 1, skey.size - 1)], k1)
+        too_many = (count > 2) | (two & (i[k1] == i[k2]))
+        df = np.linalg.norm(force[k1] + force[k2], axis=1)
+        dc = np.linalg.norm(point[k1] - point[k2], axis=1)
+        inconsistent = two & ~too_many & ((df > self.rtol * max(scale, 1e-300)) | (dc > self.rtol * lscale))
+        bad = np.flatnonzero(too_many | inconsistent)
+        if bad.size:
+            g = int(bad[np.argmin(k1[bad])])
+            a, b = int(lo[order][first[g]]), int(hi[order][first[g]])
+            if too_many[g]:
+                ks = sline[first[g]:first[g] + count[g]]
+                raise ValueError(f"{path}: the pair ({a}, {b}) is listed {count[g]} times (lines "
+                                 f"{', '.join(str(line_of(k)) for k in ks)}); expected once from each side at most")
+            p, q = int(k1[g]), int(k2[g])
+            raise ValueError(f"{path}: lines {line_of(p)} and {line_of(q)} list the pair ({a}, {b}) inconsistently: "
+                             f"forces {force[p].tolist()} and {force[q].tolist()} are not opposite or the "
+                             f"contact points {point[p].tolist()} and {point[q].tolist()} differ (|f1 + f2| = "
+                             f"{df[g]:.3g}, |c1 - c2| = {dc[g]:.3g}, rtol = {self.rtol:g})")
+        p, q = k1[two], k2[two]
+        keep[np.where(i[p] < i[q], p, q)] = True
         return keep
