@@ -6,6 +6,7 @@ tension-positive sign unless ``convention="compression"`` is asked for.
 """
 from . import readers
 from ._engine import have_openmp
+from .block_errors import CorrelatedBlocksWarning
 from .box import Box
 from .coarse import CoarseGrain, coarse_grain
 from .fields import FIELDS
@@ -25,4 +26,4 @@ FIELD_NAMES = tuple(FIELDS)
 __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", "Heaviside", "Lucy",
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
-           "gaussian_cutoff_for", "gaussian_tail_fraction"]
+           "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning"]
