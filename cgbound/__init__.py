@@ -14,6 +14,7 @@ from .grid import Grid, Points
 from .kernels import Gaussian, Heaviside, Lucy
 from .residual import MomentumBalance, momentum_balance_residual
 from .result import Result
+from .scale_separation import WidthScan, width_scan
 from .snapshot import Contacts, Snapshot
 from ._threads import get_num_threads, set_num_threads, threads
 from .tiled import coarse_grain_tiled
@@ -26,4 +27,5 @@ FIELD_NAMES = tuple(FIELDS)
 __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", "Heaviside", "Lucy",
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
-           "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning"]
+           "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning",
+           "WidthScan", "width_scan"]
