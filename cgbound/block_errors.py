@@ -19,7 +19,9 @@ import warnings
 
 import numpy as np
 
-from .fields import derive
+from ._memory import check_fits
+from .fields import derive, field_rank, needed_primaries
+from .primaries import PRIMARIES
 
 #: the lag-1 correlation of consecutive block means, in units of 1/sqrt(n_blocks), above which a warning is given
 CORRELATION_THRESHOLD = 2.0
@@ -33,6 +35,14 @@ def block_assignment(indices, n_blocks):
     """{frame index: block number} cutting ``indices`` (in run order) into ``n_blocks`` consecutive blocks."""
     return {int(index): block for block, chunk in enumerate(np.array_split(np.asarray(indices), n_blocks))
             for index in chunk}
+
+
+def check_block_memory(target, fields, dim, n_blocks):
+    """Raise MemoryError naming ``n_blocks`` if the blocks' running sums and fields cannot fit (before any work)."""
+    needed = needed_primaries(fields)
+    per_block = (sum(dim ** PRIMARIES[p].rank for p in needed) + (dim * dim if "sk" in needed else 0)
+                 + sum(dim ** field_rank(f) for f in fields))
+    check_fits("n_blocks", target.size, n_blocks * per_block, what=f"the running sums and fields of {n_blocks} blocks")
 
 
 def block_fields(partial):

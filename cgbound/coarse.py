@@ -6,7 +6,7 @@ import numpy as np
 from ._memory import core_threads
 from ._validate import flag, integer, positive_number, real_array
 from .averaging import FramePlan, fill_partial, read_frame, run_blocks
-from .block_errors import block_assignment, block_errors
+from .block_errors import block_assignment, block_errors, check_block_memory
 from .executors import check_backend, executor
 from .fields import check_convention, check_fields
 from .grid import Grid, Points
@@ -171,6 +171,7 @@ class CoarseGrain:
             if total < self.n_blocks:
                 raise ValueError(f"n_blocks: expected at most the number of frames selected ({total}), "
                                  f"got {self.n_blocks}")
+            check_block_memory(self._target, self.fields, self._target.dim, self.n_blocks)
             plan.block_of = block_assignment(range(*slice(start, stop, step).indices(len(self.snapshots))),
                                              self.n_blocks)
         if backend == "dask":

@@ -103,3 +103,12 @@ def test_more_blocks_than_frames_and_unsized_frames_are_refused_before_work():
         cg.CoarseGrain(frames, cg.Grid(box, 2), cg.Gaussian(0.6), errors="blocks", n_blocks=4).run()
     with pytest.raises(TypeError, match="snapshots"):
         cg.CoarseGrain(iter(frames), cg.Grid(box, 2), cg.Gaussian(0.6), errors="blocks", n_blocks=2).run()
+
+
+def test_blocks_that_cannot_fit_are_refused_naming_n_blocks():
+    from cgbound.block_errors import check_block_memory
+    box = cg.Box([0, 0, 0], [1, 1, 1])
+    huge = cg.Grid(box, (2000, 2000, 2000))
+    with pytest.raises(MemoryError, match="n_blocks"):
+        check_block_memory(huge, ("stress",), 3, 10)
+    check_block_memory(cg.Grid(box, (4, 4, 4)), ("stress",), 3, 10)
