@@ -134,6 +134,9 @@ def derive(primaries, fields, u_ref, dim, convention):
     return out
 
 
+#: averages per particle: NaN where the number density is zero, as the velocity is where the density is
+PER_PARTICLE_FIELDS = ("coordination_number", "mean_radius", "radius_spread", "radius_skewness")
+
 #: the structure fields (docs/theory.md, "Structure"), derived by structure_field
 STRUCTURE_FIELDS = ("number_density", "fabric", "coordination_number", "mean_radius", "radius_spread",
                     "radius_skewness") + tuple(f"size_moment_{k}" for k in range(6))

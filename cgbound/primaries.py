@@ -137,9 +137,10 @@ def check_computable(snapshot, needed, split=None):
     for name, part in (("fb", split[0]), ("fw", boundary)):
         if name in needed and part["i"].size and np.any(np.all(part["branch"] == 0.0, axis=1)):
             k = int(np.flatnonzero(np.all(part["branch"] == 0.0, axis=1))[0])
-            raise ValueError(f"contacts: expected {'branch vectors' if name == 'fb' else 'boundary contact points away from the particle centre'} "
-                             f"of non-zero length for the fabric (the contact normal is undefined), got a zero one at "
-                             f"particle {int(part['i'][k])}")
+            what = ("bulk contacts between particles at distinct centres" if name == "fb" else
+                    "boundary contact points away from the particle centre")
+            raise ValueError(f"contacts: expected {what} for 'fabric' and 'coordination_number' (the contact normal "
+                             f"is the unit branch vector), got a zero branch at particle {int(part['i'][k])}")
     if "sx" in needed and boundary["i"].size:
         at_centre = np.all(boundary["branch"] == 0.0, axis=1)
         if np.any(at_centre):

@@ -441,8 +441,11 @@ def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
     else:
         b = np.zeros((P, D))
     sign = -1.0 if convention == "compression" else 1.0
-    out = {}
+    structure = [name for name in fields if name in STRUCTURE_FIELD_NAMES]
+    out = oracle_structure(snap, where, kernel_obj, structure) if structure else {}
     for name in fields:
+        if name in structure:
+            continue
         out[name] = {
             "density": lambda: rho,
             "momentum": lambda: p,
@@ -466,6 +469,10 @@ def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
 
 # ----------------------------------------------------------------------
 # structure (docs/theory.md, "Structure")
+
+
+STRUCTURE_FIELD_NAMES = ("number_density", "fabric", "coordination_number", "mean_radius", "radius_spread",
+                         "radius_skewness") + tuple(f"size_moment_{k}" for k in range(6))
 
 
 def oracle_structure(snap, where, kernel_obj, fields):
