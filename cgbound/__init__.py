@@ -6,6 +6,7 @@ tension-positive sign unless ``convention="compression"`` is asked for.
 """
 from . import readers
 from ._engine import have_openmp
+from .block_errors import CorrelatedBlocksWarning
 from .box import Box
 from .coarse import CoarseGrain, coarse_grain
 from .fields import FIELDS
@@ -13,6 +14,7 @@ from .grid import Grid, Points
 from .kernels import Gaussian, Heaviside, Lucy
 from .residual import MomentumBalance, momentum_balance_residual
 from .result import Result
+from .scale_separation import WidthScan, width_scan
 from .snapshot import Contacts, Snapshot
 from ._threads import get_num_threads, set_num_threads, threads
 from .tiled import coarse_grain_tiled
@@ -26,4 +28,5 @@ FIELD_NAMES = tuple(FIELDS)
 __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", "Heaviside", "Lucy",
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
-           "gaussian_cutoff_for", "gaussian_tail_fraction", "Units"]
+           "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning",
+           "WidthScan", "width_scan", "Units"]

@@ -113,6 +113,7 @@ class FramePlan:
         self.mode, self.width = mode, width
         self.out_times = None if out_times is None else np.asarray(out_times, dtype=float)
         self.u_ref, self.dim = u_ref, dim
+        self.block_of = None   # {frame index: error block} for errors="blocks" (cgbound.block_errors)
 
     def smoothing_at(self, out_times):
         plan = FramePlan(self.grid, self.kernel, self.fields, self.convention, self.species, "smooth",
@@ -150,9 +151,12 @@ class Partial:
         self.target = self.kernel = self.box = None
         self.units = None           # the first frame's (cgbound.units.Units or None)
         self.species_seen = set()   # the species of the frames read, when partial fields are asked for
+        self.block_averages = {}    # error block -> PrimaryAverage of its frames (plan.block_of)
+        self.block = None           # the error block of the frame being added
 
     def add(self, index, snapshot):
         """Coarse-grain frame ``index`` into the sums; any error names the frame."""
+        self.block = None if self.plan.block_of is None else self.plan.block_of[index]
         try:
             self._add(snapshot)
         except Exception as exc:
@@ -184,6 +188,8 @@ class Partial:
         self.times.append(time)
         if plan.mode == "mean":
             self.averages[0].add(prim)
+            if plan.block_of is not None:
+                self.block_averages.setdefault(self.block, PrimaryAverage(plan.needed)).add(prim)
         elif plan.mode == "none":
             self.frames.append(derive(prim, plan.fields, self.u_ref, self.dim, plan.convention))
         elif plan.mode == "store":
@@ -205,6 +211,9 @@ class Partial:
         self.frames += other.frames
         for mine, theirs in zip(self.averages, other.averages):
             mine.merge(theirs)
+        for block, theirs in other.block_averages.items():
+            mine = self.block_averages.get(block)
+            self.block_averages[block] = theirs if mine is None else mine.merge(theirs)
         return self
 
     def smoothed(self, out_times):

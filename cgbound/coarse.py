@@ -6,6 +6,7 @@ import numpy as np
 from ._memory import core_threads
 from ._validate import flag, integer, positive_number, real_array
 from .averaging import FramePlan, fill_partial, read_frame, run_blocks
+from .block_errors import block_assignment, block_errors, check_block_memory
 from .executors import check_backend, executor
 from .fields import check_convention, check_fields
 from .grid import Grid, Points
@@ -61,6 +62,15 @@ class CoarseGrain:
         at ``times`` (default: the frames' times), on a leading axis.
     times : array_like, optional
         Output times for Gaussian time smoothing.
+    errors : None or "blocks"
+        "blocks" (with ``time_average="mean"``): also the standard error of every field's time
+        average from the means of ``n_blocks`` consecutive blocks of frames, in
+        ``results.errors[field]`` (shaped like the field), with the median lag-1 correlation of
+        consecutive block means in ``results.block_correlation[field]``; a
+        ``cgbound.CorrelatedBlocksWarning`` when those are correlated (the error bars are then too
+        small). See docs/theory.md, "Error bars on time averages".
+    n_blocks : int
+        Blocks for ``errors="blocks"`` (at least 2; default 10), at most the number of frames.
 
     Notes
     -----
@@ -70,7 +80,7 @@ class CoarseGrain:
     """
 
     def __init__(self, snapshots, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None,
-                 time_average="mean", times=None):
+                 time_average="mean", times=None, errors=None, n_blocks=10):
         if isinstance(snapshots, Snapshot):
             raise TypeError("snapshots: expected a sequence or iterable of cg.Snapshot, got a single cg.Snapshot "
                             "(use cg.coarse_grain, or wrap it in a list)")
@@ -95,6 +105,15 @@ class CoarseGrain:
             raise ValueError(f"times: expected None unless time_average is a width (Gaussian smoothing in time), "
                              f"got times with time_average={time_average!r}")
         self.times = None if times is None else real_array(times, "times", ndim=1)
+        if errors not in (None, "blocks"):
+            raise ValueError(f"errors: expected None or 'blocks' (standard errors from block means), got {errors!r}")
+        if errors is not None and time_average != "mean":
+            raise ValueError(f"errors: expected time_average='mean' for errors='blocks' (the error of a time "
+                             f"average), got time_average={self.time_average!r}")
+        self.errors = errors
+        self.n_blocks = integer(n_blocks, "n_blocks")
+        if self.n_blocks < 2:
+            raise ValueError(f"n_blocks: expected at least 2 blocks (a standard error needs two), got {self.n_blocks}")
         self.results = None
 
     def _frames(self, start, stop, step):
@@ -153,6 +172,16 @@ class CoarseGrain:
         check_memory(self._target, self.fields, self._target.dim, core_threads(), frames=total or 1,
                       time_average=self.time_average, n_times=n_times)
         plan = self._plan()
+        if self.errors is not None:
+            if total is None:
+                raise TypeError(f"snapshots: expected a sequence with len() for errors='blocks' (the blocks are cut "
+                                f"before reading), got {type(self.snapshots).__name__}")
+            if total < self.n_blocks:
+                raise ValueError(f"n_blocks: expected at most the number of frames selected ({total}), "
+                                 f"got {self.n_blocks}")
+            check_block_memory(self._target, self.fields, self._target.dim, self.n_blocks)
+            plan.block_of = block_assignment(range(*slice(start, stop, step).indices(len(self.snapshots))),
+                                             self.n_blocks)
         if backend == "dask":
             if total is None or not hasattr(self.snapshots, "__getitem__"):
                 raise TypeError(f"snapshots: expected a list or a reader (len() and indexing) for backend='dask', "
@@ -175,6 +204,10 @@ class CoarseGrain:
         self.results = Result(shaped, partial.target, partial.kernel, self.convention, out_times, partial.box,
                               units=partial.units, n_frames=self.n_frames,
                               time_average=self.time_average if self.time_average != "smooth" else self.time_width)
+        if self.errors is not None:
+            errors, self.results.block_correlation = block_errors(partial, self.n_blocks)
+            self.results.errors = shape_fields(errors, partial.target, partial.dim)
+            self.results.n_blocks = self.n_blocks
         self.frame_times = np.asarray(partial.times)
         return self
 

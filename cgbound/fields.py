@@ -23,6 +23,14 @@ FIELDS = {
     "volume_fraction": (0, ("phi",)),
     "pressure": (0, ("rho", "p_w", "sk", "sb", "sw")),
     "temperature": (0, ("rho", "p_w", "sk")),
+    # structure (docs/theory.md, "Structure")
+    "number_density": (0, ("nd",)),
+    "fabric": (2, ("fb", "fw")),
+    "coordination_number": (0, ("nd", "fb", "fw")),
+    **{f"size_moment_{k}": (0, ("nd",) if k == 0 else (f"r{k}",)) for k in range(6)},
+    "mean_radius": (0, ("nd", "r1")),
+    "radius_spread": (0, ("nd", "r1", "r2")),
+    "radius_skewness": (0, ("nd", "r1", "r2", "r3")),
 }
 
 #: fields whose sign depends on the stress convention
@@ -120,5 +128,46 @@ def derive(primaries, fields, u_ref, dim, convention):
         elif name == "temperature":
             value = np.full(rho.shape, np.nan)
             np.divide(-np.trace(pr["sk"], axis1=1, axis2=2), dim * rho, out=value, where=rho > 0)
+        elif name in STRUCTURE_FIELDS:
+            value = structure_field(name, pr)
         out[name] = value
     return out
+
+
+#: averages per particle: NaN where the number density is zero, as the velocity is where the density is
+PER_PARTICLE_FIELDS = ("coordination_number", "mean_radius", "radius_spread", "radius_skewness")
+
+#: the structure fields (docs/theory.md, "Structure"), derived by structure_field
+STRUCTURE_FIELDS = ("number_density", "fabric", "coordination_number", "mean_radius", "radius_spread",
+                    "radius_skewness") + tuple(f"size_moment_{k}" for k in range(6))
+
+
+def _per_particle(sum_, nd):
+    """sum_ / nd where the number density is positive, NaN elsewhere (no particle there to average over)."""
+    out = np.full(nd.shape, np.nan)
+    np.divide(sum_, nd, out=out, where=nd > 0)
+    return out
+
+
+def structure_field(name, pr):
+    """One structure field from the averaged primaries ``pr`` (flat over nodes)."""
+    if name in ("number_density", "size_moment_0"):
+        return np.array(pr["nd"])
+    if name.startswith("size_moment_"):
+        return np.array(pr["r" + name[-1]])
+    if name == "fabric":
+        return pr["fb"] + pr["fw"]
+    if name == "coordination_number":
+        # a bulk contact touches two flowing particles, a boundary contact one
+        return _per_particle(2.0 * np.trace(pr["fb"], axis1=1, axis2=2) + np.trace(pr["fw"], axis1=1, axis2=2),
+                             pr["nd"])
+    mean = _per_particle(pr["r1"], pr["nd"])
+    if name == "mean_radius":
+        return mean
+    # central moments from the raw ones; clipped at 0 where rounding leaves a tiny negative variance
+    variance = np.maximum(_per_particle(pr["r2"], pr["nd"]) - mean ** 2, 0.0)
+    spread = np.sqrt(variance)
+    if name == "radius_spread":
+        return spread
+    third = _per_particle(pr["r3"], pr["nd"]) - 3.0 * mean * variance - mean ** 3
+    return _per_particle(third, spread ** 3)    # radius_skewness: NaN where the sizes do not spread

@@ -23,9 +23,11 @@ BULK_SEGMENTS = "bulk segments"                    # branch lines of contacts be
 BOUNDARY_SEGMENTS = "boundary segments"            # lines from a flowing particle to its boundary contact
 BOUNDARY_RAYS = "boundary rays"                    # rays from a flowing particle through its boundary contact
 BOUNDARY_POINTS = "boundary points"                # boundary contact points
-SOURCES = (PARTICLES, PARTICLE_FLUCTUATIONS, BULK_SEGMENTS, BOUNDARY_SEGMENTS, BOUNDARY_RAYS, BOUNDARY_POINTS)
+BULK_POINTS = "bulk contact points"                # contact points of contacts between flowing particles
+SOURCES = (PARTICLES, PARTICLE_FLUCTUATIONS, BULK_SEGMENTS, BOUNDARY_SEGMENTS, BOUNDARY_RAYS, BOUNDARY_POINTS,
+           BULK_POINTS)
 #: sources that need the snapshot's contacts split into bulk and boundary
-CONTACT_SOURCES = (BULK_SEGMENTS, BOUNDARY_SEGMENTS, BOUNDARY_RAYS, BOUNDARY_POINTS)
+CONTACT_SOURCES = (BULK_SEGMENTS, BOUNDARY_SEGMENTS, BOUNDARY_RAYS, BOUNDARY_POINTS, BULK_POINTS)
 
 
 class Primary(NamedTuple):
@@ -56,7 +58,18 @@ PRIMARIES = {p.name: p for p in (
             "oracle_scatter_points"),
     Primary("sx", "ray term of the extended stress: -sum_ik f_ik a_ik int_0^inf W(r - r_i + s a_ik) ds", 2,
             BOUNDARY_RAYS, "σ′ ray term", "24", "oracle_scatter_segments"),
+    # structure (docs/theory.md, "Structure"): not in the paper
+    Primary("nd", "number density: sum_i W_i", 0, PARTICLES, "n", None, "oracle_scatter_points"),
+    *(Primary(f"r{k}", f"radius moment {k}: sum_i r_i^{k} W_i", 0, PARTICLES, f"M{k}", None, "oracle_scatter_points")
+      for k in range(1, 6)),
+    Primary("fb", "bulk fabric: sum_ij n_ij n_ij W(r - c_ij), n_ij = r_ij / |r_ij|", 2, BULK_POINTS, "Fᵇ", None,
+            "oracle_scatter_points"),
+    Primary("fw", "boundary fabric: sum_ik n_ik n_ik W(r - c_ik), n_ik = a_ik / |a_ik|", 2, BOUNDARY_POINTS, "Fʷ",
+            None, "oracle_scatter_points"),
 )}
+
+#: the primaries of radius powers: name -> power (the number density "nd" is power 0)
+RADIUS_MOMENTS = {"nd": 0, **{f"r{k}": k for k in range(1, 6)}}
 
 #: primaries that need the contacts split into bulk and boundary
 CONTACT_PRIMARIES = frozenset(p.name for p in PRIMARIES.values() if p.source in CONTACT_SOURCES)
@@ -113,11 +126,21 @@ def check_computable(snapshot, needed, split=None):
     """
     if "phi" in needed and snapshot.radii is None:
         raise ValueError("snapshot.radii: expected radii for the field 'volume_fraction', got None")
+    if needed & set(RADIUS_MOMENTS) - {"nd"} and snapshot.radii is None:
+        raise ValueError("snapshot.radii: expected radii for the size moments (size_moment_k, mean_radius, "
+                         "radius_spread, radius_skewness), got None")
     if not needed & CONTACT_PRIMARIES:
         return None
     if split is None:
         split = snapshot.split_contacts()
     boundary = split[1]
+    for name, part in (("fb", split[0]), ("fw", boundary)):
+        if name in needed and part["i"].size and np.any(np.all(part["branch"] == 0.0, axis=1)):
+            k = int(np.flatnonzero(np.all(part["branch"] == 0.0, axis=1))[0])
+            what = ("bulk contacts between particles at distinct centres" if name == "fb" else
+                    "boundary contact points away from the particle centre")
+            raise ValueError(f"contacts: expected {what} for 'fabric' and 'coordination_number' (the contact normal "
+                             f"is the unit branch vector), got a zero branch at particle {int(part['i'][k])}")
     if "sx" in needed and boundary["i"].size:
         at_centre = np.all(boundary["branch"] == 0.0, axis=1)
         if np.any(at_centre):
@@ -177,6 +200,8 @@ def _particle_columns(snapshot, needed, u_ref):
         elif name == "phi":
             r = flowing_rows(snapshot, snapshot.radii)
             cols[:, 0] = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
+        elif name in RADIUS_MOMENTS:
+            cols[:, 0] = 1.0 if name == "nd" else flowing_rows(snapshot, snapshot.radii) ** RADIUS_MOMENTS[name]
     return block, layout
 
 
@@ -232,6 +257,16 @@ def boundary_point_sum(snapshot, boundary, target, kernel, P, nt):
     return scatter_points(target, kernel, boundary["point"], boundary["force"], n_threads=nt)
 
 
+def fabric_sum(snapshot, part, target, kernel, P, nt):
+    """Sources BULK_POINTS (``part`` the bulk contacts) and BOUNDARY_POINTS (the boundary contacts, for "fw"):
+    n n at each contact point, n the unit branch vector (its sign does not matter)."""
+    dim = snapshot.dim
+    if not part["i"].size:
+        return np.zeros((P, dim, dim))
+    n = part["branch"] / np.sqrt(np.einsum("ij,ij->i", part["branch"], part["branch"]))[:, None]
+    return scatter_points(target, kernel, part["point"], outer(n, n), n_threads=nt).reshape(P, dim, dim)
+
+
 def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
     """Primary sums of one snapshot at the target's nodes, flat over nodes: shape (P, ...).
 
@@ -258,4 +293,8 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
             out["sx"] = segment_sum(snapshot, boundary, where, line_kernel, P, nt, ray=True)
         if "t" in needed:
             out["t"] = boundary_point_sum(snapshot, boundary, where, line_kernel, P, nt)
+        if "fb" in needed:
+            out["fb"] = fabric_sum(snapshot, bulk, where, line_kernel, P, nt)
+        if "fw" in needed:
+            out["fw"] = fabric_sum(snapshot, boundary, where, line_kernel, P, nt)
     return out

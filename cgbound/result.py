@@ -13,7 +13,13 @@ class Result:
     and ``(D, D)`` for tensors; with ``time_average="none"`` or time smoothing a
     leading time axis comes first. Velocity and temperature are NaN where the
     density is zero.
+
+    With ``CoarseGrain(..., errors="blocks")``: ``errors[field]`` the standard error of the time
+    average (shaped like the field), ``block_correlation[field]`` the median lag-1 correlation of
+    consecutive block means, ``n_blocks``; otherwise these are None.
     """
+
+    errors = block_correlation = n_blocks = None     # set by CoarseGrain.run with errors="blocks"
 
     def __init__(self, fields, grid, kernel, convention, times, box, units=None, n_frames=None, time_average=None):
         self._fields = dict(fields)

@@ -272,7 +272,7 @@ class Snapshot:
         """Classify contacts (docs/theory.md, "The snapshot model").
 
         Returns ``(bulk, boundary)`` dicts of arrays: bulk has i, j, force, branch
-        (r_i - r_j, minimum image); boundary has i (the flowing particle), force
+        (r_i - r_j, minimum image), point (the contact point); boundary has i (the flowing particle), force
         (on it), branch a = r_i - c (minimum image) and point c = r_i - a.
         Arrays taken unchanged from the contacts are read-only views of them.
         """
@@ -282,7 +282,7 @@ class Snapshot:
         if len(c) == 0:
             empty = np.zeros((0, dim))
             idx = np.zeros(0, np.int64)
-            return ({"i": idx, "j": idx, "force": empty, "branch": empty},
+            return ({"i": idx, "j": idx, "force": empty, "branch": empty, "point": empty},
                     {"i": idx, "force": empty, "branch": empty, "point": empty})
         i, j, f, pt = c.i, c.j, c.force, c.point
         periodic, lengths = list(box.periodic), [float(x) for x in box.lengths]
@@ -295,7 +295,8 @@ class Snapshot:
             # every contact is bulk: read-only views of the contact arrays instead of selected copies
             r_ij = minimum_image(np.take(self.positions, i, axis=0) - np.take(self.positions, j, axis=0))
             empty = np.zeros((0, dim))
-            return ({"i": _read_only(i), "j": _read_only(j), "force": _read_only(f), "branch": r_ij},
+            return ({"i": _read_only(i), "j": _read_only(j), "force": _read_only(f), "branch": r_ij,
+                     "point": _read_only(pt)},
                     {"i": np.zeros(0, np.int64), "force": empty, "branch": empty, "point": empty})
         fixed_i = self.fixed[i]
         fixed_j = np.where(wall, True, self.fixed[np.where(wall, 0, j)])
@@ -305,7 +306,7 @@ class Snapshot:
 
         bi, bj = i[bulk], j[bulk]
         r_ij = minimum_image(self.positions[bi] - self.positions[bj])
-        bulk_out = {"i": bi, "j": bj, "force": f[bulk], "branch": r_ij}
+        bulk_out = {"i": bi, "j": bj, "force": f[bulk], "branch": r_ij, "point": pt[bulk]}
 
         k = np.concatenate([i[boundary_i], j[boundary_j]])
         fk = np.concatenate([f[boundary_i], -f[boundary_j]])

@@ -128,6 +128,13 @@ DIMENSIONS = {
     "volume_fraction": Dimension(0, 0, 0),
     "pressure": Dimension(1, 2, -2, True, "mixed"),
     "temperature": Dimension(0, 2, -2, False, "kinetic"),   # mass-weighted velocity variance (no k_B)
+    "number_density": Dimension(0, 0, 0, True),
+    "fabric": Dimension(0, 0, 0, True),                     # contacts per volume
+    "coordination_number": Dimension(0, 0, 0),
+    **{f"size_moment_{k}": Dimension(0, k, 0, True) for k in range(6)},
+    "mean_radius": Dimension(0, 1, 0),
+    "radius_spread": Dimension(0, 1, 0),
+    "radius_skewness": Dimension(0, 0, 0),
 }
 
 #: quantities that are not fields but have units too (coordinates, times, masses)

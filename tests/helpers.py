@@ -79,6 +79,12 @@ def random_snapshot(seed, dim=3, n=14, n_fixed=4, n_bulk=8, n_fixed_contacts=4, 
                        radii=rng.uniform(0.2, 0.5, n) if radii else None, time=float(seed))
 
 
+#: the local radius spread and skewness come from raw moments, which cancel where the local sizes hardly spread
+#: (a node seeing one particle): there rounding is amplified without bound, so whole-field comparisons at a
+#: fixed tolerance leave them out; tests/test_structure.py compares them where they are conditioned
+ILL_CONDITIONED_FIELDS = ("radius_spread", "radius_skewness")
+
+
 def assert_fields_close(actual, expected, rtol, what=""):
     """Compare arrays relative to the field's scale (max |expected|); NaNs must coincide."""
     actual = np.asarray(actual)

@@ -471,8 +471,11 @@ def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
     else:
         b = np.zeros((P, D))
     sign = -1.0 if convention == "compression" else 1.0
-    out = {}
+    structure = [name for name in fields if name in STRUCTURE_FIELD_NAMES]
+    out = oracle_structure(snap, where, kernel_obj, structure) if structure else {}
     for name in fields:
+        if name in structure:
+            continue
         out[name] = {
             "density": lambda: rho,
             "momentum": lambda: p,
@@ -492,3 +495,68 @@ def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
             "temperature": lambda: np.where(rho > 0, -np.trace(sk, axis1=1, axis2=2) / (D * np.where(rho > 0, rho, 1)), np.nan),
         }[name]()
     return out
+
+
+# ----------------------------------------------------------------------
+# structure (docs/theory.md, "Structure")
+
+
+STRUCTURE_FIELD_NAMES = ("number_density", "fabric", "coordination_number", "mean_radius", "radius_spread",
+                         "radius_skewness") + tuple(f"size_moment_{k}" for k in range(6))
+
+
+def oracle_structure(snap, where, kernel_obj, fields):
+    """Twin of the structure fields of cgbound.coarse_grain (fabric, coordination number, number density,
+    size moments and the local radius statistics), flat over nodes, by plain loops over particles and contacts."""
+    import cgbound as cg
+
+    kind = {cg.Gaussian: "gaussian", cg.Lucy: "lucy", cg.Heaviside: "heaviside"}[type(kernel_obj)]
+    kernel = OracleKernel(kind, snap.dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
+                          truncated=getattr(kernel_obj, "truncated", False))
+    box = snap.box
+    tgt = oracle_target(where, box)
+    D = snap.dim
+    P = tgt[0].shape[0]
+    lengths = [box.upper[d] - box.lower[d] for d in range(D)]
+    X = np.asarray(snap.positions)
+    fixed = np.asarray(snap.fixed)
+    radii = None if snap.radii is None else np.asarray(snap.radii)
+    moments = np.zeros((6, P))
+    for k in range(snap.n_particles):
+        if fixed[k]:
+            continue
+        w = oracle_scatter_points(kernel, tgt, X[k][None], np.ones((1, 1)))[:, 0]
+        for power in range(6):
+            if power == 0 or radii is not None:
+                moments[power] += w * (radii[k] ** power if power else 1.0)
+    fabric_bulk = np.zeros((P, D, D))
+    fabric_wall = np.zeros((P, D, D))
+    c = snap.contacts
+    for k in range(len(c)):
+        i, j, point = int(c.i[k]), int(c.j[k]), np.array(c.point[k])
+        wall_j = j < 0 or bool(fixed[j])
+        if fixed[i] and wall_j:
+            continue                                   # between boundary objects: ignored
+        if not fixed[i] and not wall_j:
+            normal = oracle_minimum_image(X[i] - X[j], box.periodic, lengths)
+            into = fabric_bulk
+        else:
+            flowing = j if fixed[i] else i
+            normal = oracle_minimum_image(X[flowing] - point, box.periodic, lengths)
+            into = fabric_wall
+        normal = normal / math.sqrt(float(normal @ normal))
+        w = oracle_scatter_points(kernel, tgt, point[None], np.ones((1, 1)))[:, 0]
+        into += w[:, None, None] * np.outer(normal, normal)[None]
+    n = moments[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(n > 0, moments[1] / n, np.nan)
+        var = np.where(n > 0, moments[2] / n, np.nan) - mean ** 2
+        third = np.where(n > 0, moments[3] / n, np.nan) - 3 * mean * var - mean ** 3
+        spread = np.sqrt(np.maximum(var, 0))
+        out = {"number_density": n, "fabric": fabric_bulk + fabric_wall,
+               "coordination_number": np.where(n > 0, (2 * np.trace(fabric_bulk, axis1=1, axis2=2)
+                                                      + np.trace(fabric_wall, axis1=1, axis2=2)) / n, np.nan),
+               "mean_radius": mean, "radius_spread": spread,
+               "radius_skewness": np.where(spread > 0, third / spread ** 3, np.nan)}
+    out.update({f"size_moment_{k}": moments[k] for k in range(6)})
+    return {name: out[name] for name in fields}

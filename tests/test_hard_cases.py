@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import cgbound as cg
+from cgbound.fields import PER_PARTICLE_FIELDS
 from stability_log import record
 
 mp.mp.dps = 50
@@ -362,7 +363,7 @@ def assert_empty_fields(out):
     """No flowing matter: velocity and temperature NaN, every other field exactly zero."""
     for name in ALL:
         value = out[name]
-        if name in ("velocity", "temperature"):
+        if name in ("velocity", "temperature") + PER_PARTICLE_FIELDS:
             assert np.all(np.isnan(value)), name
         else:
             assert np.all(value == 0), name

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 import cgbound as cg
-from helpers import assert_fields_close, random_snapshot
+from helpers import ILL_CONDITIONED_FIELDS, assert_fields_close, random_snapshot
 from oracle import oracle_coarse_grain
 
-ALL_FIELDS = tuple(cg.FIELD_NAMES)
+ALL_FIELDS = tuple(f for f in cg.FIELD_NAMES if f not in ILL_CONDITIONED_FIELDS)
 RTOL = 1e-10
 
 KERNELS = {

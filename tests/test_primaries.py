@@ -31,7 +31,7 @@ def test_catalogue_entries_are_complete():
         assert p.source in SOURCES
         assert p.rank in (0, 1, 2)
         assert p.symbol and p.description and p.twin.startswith("oracle_")
-    assert CONTACT_PRIMARIES == {"sb", "sw", "t", "sx"}
+    assert CONTACT_PRIMARIES == {"sb", "sw", "t", "sx", "fb", "fw"}
 
 
 def test_twins_exist_in_the_oracle():

@@ -7,6 +7,7 @@ from hypothesis import assume, HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import cgbound as cg
+from cgbound.fields import PER_PARTICLE_FIELDS
 
 EXAMPLES = 60
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -61,7 +62,10 @@ kernels = st.one_of(
     st.builds(cg.Heaviside, st.floats(1e-3, 20.0)),
 )
 
-FIELDS = tuple(f for f in cg.FIELD_NAMES if f != "extended_stress")
+# the radius skewness is NaN where the local sizes do not spread (identical radii); the fabric, like the extended
+# stress, is refused for a contact point at a particle's centre (no direction), which these snapshots may have
+FIELDS = tuple(f for f in cg.FIELD_NAMES
+               if f not in ("extended_stress", "radius_skewness", "fabric", "coordination_number"))
 
 
 def virial(snap):
@@ -110,8 +114,8 @@ def test_fields_are_finite_on_resolved_grids(snap, kernel):
     empty = out.density == 0
     for name in FIELDS:
         value = out[name]
-        if name in ("velocity", "temperature"):
-            assert np.all(np.isfinite(value[~empty])) and np.all(np.isnan(value[empty]))
+        if name in ("velocity", "temperature") + PER_PARTICLE_FIELDS:
+            assert np.all(np.isfinite(value[~empty])) and np.all(np.isnan(value[empty])), name
         else:
             assert np.all(np.isfinite(value)), name
 

@@ -51,6 +51,7 @@ LAYERS = {
     # writers.py with it: Result.to_hdf5 & co. call the writers, which import nothing above layer 0
     "pipeline": 5, "coarse": 5, "tiled": 5, "executors": 5, "result": 5, "writers": 5,
     "averaging": 5,                                               # time averages over blocks of frames
+    "block_errors": 5, "scale_separation": 5,                     # error bars from block means; choosing w
     "_partial": 5, "_dask": 5,                                    # today
     "plot": 5,                                                    # Result.plot and _repr_png_ draw through it
     "readers": 6, "mercurycg": 6,
