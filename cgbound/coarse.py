@@ -1,4 +1,5 @@
 """Entry points: coarse_grain (one snapshot) and CoarseGrain (many snapshots)."""
+import contextlib
 import itertools
 
 import numpy as np
@@ -12,6 +13,7 @@ from .grid import Grid, Points
 from .kernels import check_kernel
 from .pipeline import DEFAULT_FIELDS, check_memory, prepare, run_snapshot, shape_fields
 from .progress import progress, progress_bar
+from .readahead import read_ahead
 from .result import Result
 from .snapshot import Snapshot
 
@@ -163,7 +165,14 @@ class CoarseGrain:
             with executor("dask", client, n_workers) as cluster:
                 partial = run_blocks(cluster, plan, self.snapshots, indices, progress(verbose, len(indices), "frame"))
         else:
-            partial = fill_partial(plan, self._progress(self._frames(start, stop, step), total, verbose))
+            frames = self._frames(start, stop, step)
+            if hasattr(self.snapshots, "take"):
+                # a reader (cgbound.readers.FrameSequence): the next frame is read while this one is coarse
+                # grained; lists are in memory already, and other iterables run the user's code, which
+                # may expect the calling thread
+                frames = read_ahead(frames)
+            with contextlib.closing(frames):
+                partial = fill_partial(plan, self._progress(frames, total, verbose))
             if not partial.times:
                 self._no_frames(start, stop, step)
             if plan.mode == "store":
