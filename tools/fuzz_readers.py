@@ -154,7 +154,9 @@ def mutate(data, kind, rng):
     if kind == "directory":
         return "directory", True, ""
     if kind == "wrong_format":
-        other = DATA / "lammps/in.hooke3d" if not data.startswith(b"variable") else DATA / "liggghts/atoms.dump"
+        other = DATA / "lammps/in.hooke3d"        # a LAMMPS input script in place of a data file
+        if other.read_bytes() == data:
+            other = DATA / "liggghts/atoms.dump"  # and a dump in place of the script
         return other.read_bytes(), True, other.name
     if kind == "gzip":
         return gzip.compress(data, mtime=0), True, ""
