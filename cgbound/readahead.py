@@ -11,6 +11,8 @@ import queue
 import threading
 
 _ITEM, _DONE, _ERROR = range(3)
+#: how often the consumer waiting for an item wakes to let Python raise a pending KeyboardInterrupt
+POLL_SECONDS = 0.1
 
 
 def read_ahead(iterable):
@@ -46,7 +48,12 @@ def read_ahead(iterable):
     thread.start()
     try:
         while True:
-            kind, value = items.get()
+            try:
+                # wake now and then: Ctrl-C delivered to the reading thread is raised here (in the main
+                # thread) only when this thread runs Python code
+                kind, value = items.get(timeout=POLL_SECONDS)
+            except queue.Empty:
+                continue
             if kind == _DONE:
                 return
             if kind == _ERROR:
