@@ -117,7 +117,8 @@ TARGETS = {
                             "ChutePeriodicDemo.restart":
                                 DATA / "mercurydpm/ChutePeriodicDemo/ChutePeriodicDemo.restart"},
                            ("ChutePeriodicDemo.restart",), _mercurydpm_restart, False),
-    "mercurycg": ({"ChutePeriodicDemo_t15.Z_Gauss_w0.5.stat": DATA / "mercurycg/ChutePeriodicDemo_t15.Z_Gauss_w0.5.stat"},
+    "mercurycg": ({"ChutePeriodicDemo_t15.Z_Gauss_w0.5.stat":
+                       DATA / "mercurycg/ChutePeriodicDemo_t15.Z_Gauss_w0.5.stat"},
                   ("ChutePeriodicDemo_t15.Z_Gauss_w0.5.stat",), _mercurycg, False),
     "yade": ({"yade_0000003000.npz": DATA / "yade/periodic/yade_0000003000.npz",
               "yade_0000004000.npz": DATA / "yade/periodic/yade_0000004000.npz"},
@@ -201,7 +202,10 @@ def mutate(data, kind, rng):
         new = line[:b] + b" 1" + line[b:]
         structural = numeric and len(spans) > 1
     elif kind == "drop_token":
-        new = line[:a] + line[b:].lstrip(b" \t") if b < len(line.rstrip(b"\r\n")) else line[:a].rstrip(b" \t") + line[b:]
+        if b < len(line.rstrip(b"\r\n")):
+            new = line[:a] + line[b:].lstrip(b" \t")      # a token inside the row, with its separator
+        else:
+            new = line[:a].rstrip(b" \t") + line[b:]      # the row's last token
         structural = numeric and len(spans) > 1
     else:
         word = {"token_nan": b"nan", "token_inf": b"-inf", "token_1e999": b"1e999", "token_letters": b"abc",
@@ -367,6 +371,12 @@ def contract_applies(target, kind, structural):
     return structural and kind not in NOT_STRUCTURAL.get(target, ())
 
 
+def broken(result):
+    """Whether a result breaks the contract where it applies."""
+    return contract_applies(result["target"], result["kind"], result["structural"]) and not acceptable(
+        result, result["kind"])
+
+
 def acceptable(result, kind):
     ok = GOOD + (("fewer frames",) if kind == "truncate" else ())
     return result["outcome"] in ok
@@ -415,11 +425,11 @@ def table(results):
     for target in TARGETS:
         if target not in counts:
             continue
-        broken = sum(1 for r in results if r["target"] == target and contract_applies(r["target"], r["kind"], r["structural"])
-                     and not acceptable(r, r["kind"]))
-        rows.append([target] + [str(counts[target][o]) for o in shown] + [str(sum(counts[target].values())), str(broken)])
-    total_broken = sum(1 for r in results if contract_applies(r["target"], r["kind"], r["structural"]) and not acceptable(r, r["kind"]))
-    rows.append(["all"] + [str(sum(c[o] for c in counts.values())) for o in shown] + [str(len(results)), str(total_broken)])
+        n_broken = sum(1 for r in results if r["target"] == target and broken(r))
+        rows.append([target] + [str(counts[target][o]) for o in shown]
+                    + [str(sum(counts[target].values())), str(n_broken)])
+    rows.append(["all"] + [str(sum(c[o] for c in counts.values())) for o in shown]
+                + [str(len(results)), str(sum(1 for r in results if broken(r)))])
     widths = [max(len(x) for x in col) for col in zip(head, *rows)]
     lines = ["| " + " | ".join(h.ljust(w) for h, w in zip(head, widths)) + " |",
              "|" + "|".join("-" * (w + 2) for w in widths) + "|"]
@@ -434,7 +444,8 @@ def main(argv=None):
     parser.add_argument("--target", action="append", choices=list(TARGETS), help="only these readers (repeatable)")
     parser.add_argument("--timeout", type=float, default=20.0, help="seconds before a case counts as a hang")
     parser.add_argument("--show", action="append", default=[], metavar="OUTCOME",
-                        help="print the cases with this outcome (repeatable; 'broken': every case breaking the contract)")
+                        help="print the cases with this outcome (repeatable; 'broken': the cases breaking "
+                             "the contract)")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--start", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -445,14 +456,12 @@ def main(argv=None):
     print(f"fuzz_readers: {len(results)} cases, seed {args.seed}; contract (same data or a clear ValueError/OSError "
           "naming the file) checked on structural mutations")
     print(table(results))
-    by_kind = Counter((r["target"], r["kind"]) for r in results
-                      if contract_applies(r["target"], r["kind"], r["structural"]) and not acceptable(r, r["kind"]))
+    by_kind = Counter((r["target"], r["kind"]) for r in results if broken(r))
     if by_kind:
         print("\ncontract broken, by reader and mutation: "
               + ", ".join(f"{t}/{k} {c}" for (t, k), c in sorted(by_kind.items())))
     for r in results:
-        broken = contract_applies(r["target"], r["kind"], r["structural"]) and not acceptable(r, r["kind"])
-        if r["outcome"] in args.show or ("broken" in args.show and broken):
+        if r["outcome"] in args.show or ("broken" in args.show and broken(r)):
             print(f"  [{r['index']}] {r['target']} {r['file']} {r['kind']} {r['detail']}: {r['outcome']} {r['error']}")
     return 0
 
