@@ -68,7 +68,9 @@ class CoarseGrain:
     -----
     Use ``run(start, stop, step, verbose)``, which returns self; the fields are in ``results``.
     ``run(..., backend="dask", client=...)`` spreads blocks of frames over a dask.distributed
-    cluster with the same result (see docs/guide/scaling.md).
+    cluster with the same result (see docs/guide/scaling.md). In this process, the frames of a
+    reader are read one ahead in a background thread while the previous one is coarse grained
+    (the same result as reading first; at most one frame is held ahead).
     """
 
     def __init__(self, snapshots, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None,
