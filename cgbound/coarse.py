@@ -1,4 +1,5 @@
 """Entry points: coarse_grain (one snapshot) and CoarseGrain (many snapshots)."""
+import contextlib
 import itertools
 
 import numpy as np
@@ -13,6 +14,7 @@ from .grid import Grid, Points
 from .kernels import check_kernel
 from .pipeline import DEFAULT_FIELDS, check_memory, prepare, run_snapshot, shape_fields
 from .progress import progress, progress_bar
+from .readahead import read_ahead
 from .result import Result
 from .snapshot import Snapshot
 
@@ -76,7 +78,9 @@ class CoarseGrain:
     -----
     Use ``run(start, stop, step, verbose)``, which returns self; the fields are in ``results``.
     ``run(..., backend="dask", client=...)`` spreads blocks of frames over a dask.distributed
-    cluster with the same result (see docs/guide/scaling.md).
+    cluster with the same result (see docs/guide/scaling.md). In this process, the frames of a
+    reader are read one ahead in a background thread while the previous one is coarse grained
+    (the same result as reading first; at most one frame is held ahead).
     """
 
     def __init__(self, snapshots, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None,
@@ -192,7 +196,14 @@ class CoarseGrain:
             with executor("dask", client, n_workers) as cluster:
                 partial = run_blocks(cluster, plan, self.snapshots, indices, progress(verbose, len(indices), "frame"))
         else:
-            partial = fill_partial(plan, self._progress(self._frames(start, stop, step), total, verbose))
+            frames = self._frames(start, stop, step)
+            if hasattr(self.snapshots, "take"):
+                # a reader (cgbound.readers.FrameSequence): the next frame is read while this one is coarse
+                # grained; lists are in memory already, and other iterables run the user's code, which
+                # may expect the calling thread
+                frames = read_ahead(frames)
+            with contextlib.closing(frames):
+                partial = fill_partial(plan, self._progress(frames, total, verbose))
             if not partial.times:
                 self._no_frames(start, stop, step)
             if plan.mode == "store":

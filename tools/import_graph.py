@@ -42,6 +42,7 @@ LAYER_NAMES = {
 #: tool reports on any checkout (marked "today").
 LAYERS = {
     "_core": 0, "_engine": 0, "_version": 0, "_validate": 0, "_threads": 0, "_memory": 0, "_atomic": 0, "progress": 0,
+    "readahead": 0,                                               # frames read in a thread one ahead
     "box": 1, "snapshot": 1,
     "units": 1,                                                   # units of particle data and of every field
     "kernels": 2, "truncation": 2,
