@@ -43,7 +43,10 @@ resolved axes that used the marginal, since the header would name MercuryCG's ke
 contact-stress line integral is an approximation; on X, Y and Z profiles ``line_quadrature="mercurycg"``
 applies it (``StatFile.kernel()`` does), elsewhere cgbound's exact integral is used (1e-3 to 1e-2 apart).
 """
+import gzip
+import io
 import os
+import zlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -225,20 +228,46 @@ def _expand(name, values):
     return values
 
 
+def _stat_text(path):
+    """The text of a .stat file (plain or gzipped, by its magic bytes), or a ValueError naming the file."""
+    with open(path, "rb") as fh:
+        raw = fh.read()
+    if raw[:2] == b"\x1f\x8b":
+        try:
+            raw = gzip.decompress(raw)
+        except (OSError, EOFError, zlib.error) as exc:
+            raise ValueError(f"{path}: a damaged gzip file ({exc}); decompress it with gunzip to see where") from None
+    nul = raw.find(b"\0")
+    if nul >= 0:
+        line = raw.count(b"\n", 0, nul) + 1
+        raise ValueError(f"{path}: line {line}: a NUL byte in a text file "
+                         f"(the file is damaged or not a MercuryCG .stat file)")
+    try:
+        return raw.decode("ascii")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise ValueError(f"{path}: line {line}: byte {raw[exc.start]:#04x} is not "
+                         f"text (the file is damaged or not a MercuryCG .stat file)") from None
+
+
 def read_stat(path):
     """Read a MercuryCG ``.stat`` file into a :class:`StatFile`."""
     path = os.fspath(path)
-    with open(path) as fh:
-        first = fh.readline()
-        second = fh.readline()
-        head = _header(path, first)
-        specs, ncol = _column_line(path, second, head["coordinates"])
-        try:
-            rows = np.loadtxt(fh, ndmin=2)
-        except ValueError as exc:
-            raise ValueError(f"{path}: the data rows are not numbers: {exc}") from None
+    fh = io.StringIO(_stat_text(path))
+    first = fh.readline()
+    second = fh.readline()
+    head = _header(path, first)
+    specs, ncol = _column_line(path, second, head["coordinates"])
+    try:
+        rows = np.loadtxt(fh, ndmin=2)
+    except ValueError as exc:
+        raise ValueError(f"{path}: the data rows are not numbers: {exc}") from None
     if rows.shape[0] == 0:
         raise ValueError(f"{path}: no data rows")
+    if not np.all(np.isfinite(rows)):
+        row = int(np.flatnonzero(~np.all(np.isfinite(rows), axis=1))[0])
+        raise ValueError(f"{path}: line {3 + row}: expected finite numbers, got {rows[row][~np.isfinite(rows[row])][0]} "
+                         f"(MercuryCG writes finite values: the file is damaged)")
     if rows.shape[1] != ncol:
         raise ValueError(f"{path}: line 3: expected {ncol} columns (from line 2), got {rows.shape[1]}")
     coords = head["coordinates"]
