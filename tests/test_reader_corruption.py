@@ -26,13 +26,10 @@ CASES_PER_PAIR = 5
 #: to check their input: the tests are strict, so a pair that starts passing fails until removed here.
 KNOWN_FAILING = {
     # the LAMMPS input-script reader
-    ("lammps_input", "invalid_utf8"), ("lammps_input", "gzip"),
-    ("lammps_input", "nul_bytes"), ("lammps_input", "wrong_format"),   # wrong_format: a dump reads as a script
+    ("lammps_input", "wrong_format"),   # wrong_format: a dump reads as a script
     # MercuryDPM .data/.fstat (a wall contact is listed once: deleting it leaves a consistent file)
     ("mercurydpm", "delete_line"),
     # Yade .npz exports, cgbound HDF5
-    ("yade", "nul_bytes"),
-    ("hdf5", "nul_bytes"),
 }
 
 

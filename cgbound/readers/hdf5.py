@@ -115,6 +115,12 @@ class HDF5Snapshots(FrameSequence):
         self.units = units
         self.path = os.fspath(path)
         with self._open() as f:
+            n = self._header(f)
+        self._frames = list(range(n)) if frames is None else list(frames)
+
+    def _header(self, f):
+        """Check the file's format and schema attributes; the number of frames it holds."""
+        try:
             fmt = f.attrs.get("format")
             if isinstance(fmt, bytes):
                 fmt = fmt.decode("utf-8", errors="replace")
@@ -125,7 +131,13 @@ class HDF5Snapshots(FrameSequence):
                 raise ValueError(f"path: schema version {version} of {self.path!r} is newer than this cgbound reads")
             n = len(self._member(f, "frames", "the file"))
             self.provenance = f.attrs.get("provenance", "")
-        self._frames = list(range(n)) if frames is None else list(frames)
+        except KeyError as exc:   # h5py reports a damaged object (a bad checksum) as a KeyError
+            raise ValueError(f"{self.path}: cannot read the file's header ({exc.args[0] if exc.args else exc}); "
+                             f"the file is damaged: write it again") from None
+        except (OSError, RuntimeError) as exc:
+            raise OSError(f"{self.path}: cannot read the file's header ({exc}); the file is damaged or truncated: "
+                          f"write it again") from None
+        return n
 
     def _open(self):
         h5py = _h5py()
@@ -155,6 +167,9 @@ class HDF5Snapshots(FrameSequence):
             except (OSError, RuntimeError) as exc:
                 raise OSError(f"{self.path}: cannot read {where} ({exc}); the file is damaged or truncated: "
                               f"write it again") from None
+            except KeyError as exc:   # h5py reports a damaged object (a bad checksum) as a KeyError
+                raise ValueError(f"{self.path}: cannot read {where} ({exc.args[0] if exc.args else exc}); the file "
+                                 f"is damaged: write it again") from None
 
     def _read_frame(self, f, frame, where):
         g = self._member(self._member(f, "frames", "the file"), f"{frame:06d}", "/frames")

@@ -75,6 +75,24 @@ class InputScriptError(ValueError):
     """A construct of the input script that cannot be understood; the message names the file and line."""
 
 
+def _script_text(path, data):
+    """The text of an input script (LAMMPS reads plain text: a gzipped, binary or non-UTF-8 file is refused)."""
+    if data[:2] == b"\x1f\x8b":
+        raise InputScriptError(f"{path}: a gzipped file; LAMMPS reads input scripts as plain text: pass the "
+                               f"script itself (gunzip it)")
+    nul = data.find(b"\0")
+    if nul >= 0:
+        line = data.count(b"\n", 0, nul) + 1
+        raise InputScriptError(f"{path}:{line}: a NUL byte; this is not a text input script (damaged, or a "
+                               f"binary file passed as input=)")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise InputScriptError(f"{path}:{line}: byte {data[exc.start]:#04x} is not UTF-8 text; is this the input "
+                               f"script?") from None
+
+
 @dataclass
 class ComputeSpec:
     """``compute ID group style values...``: ``columns`` holds the meaning of each column (1-based
@@ -193,10 +211,11 @@ class _Parser:
     # -- lines ---------------------------------------------------------------------------------
     def logical_lines(self, path):
         try:
-            with open(path) as fh:
-                raw = fh.read().split("\n")
+            with open(path, "rb") as fh:
+                data = fh.read()
         except OSError as exc:
             raise InputScriptError(f"{path}: cannot read the input script: {exc.strerror}") from None
+        raw = _script_text(path, data).split("\n")
         k = 0
         while k < len(raw):
             start, text = k + 1, raw[k]

@@ -83,15 +83,29 @@ def _expand(paths):
     return [os.path.abspath(p) for p in out]
 
 
+def _arrays(path, names=None):
+    """The arrays ``names`` (all if None) of a checked export, read now, so that a damaged member is an error
+    naming the file (NumPy reads .npz members lazily and raises zipfile's errors at first access)."""
+    with _load(path) as data:
+        try:
+            return {k: data[k] for k in (data.files if names is None else names)}
+        except KeyError as exc:
+            raise ValueError(f"{path}: the export has no array {exc}; write it again with the yade_export.py "
+                             f"shipped with this cgbound") from None
+        except Exception as exc:   # zipfile.BadZipFile, zlib.error, EOFError, ValueError from a damaged member
+            raise ValueError(f"{path}: a damaged export ({type(exc).__name__}: {exc}); write the frame "
+                             f"again") from None
+
+
 def _load(path):
     try:
         data = np.load(path, allow_pickle=False)
+        fmt = str(data["format"]) if "format" in data.files else None
+        version = int(data["version"]) if "version" in data.files else None
     except Exception as exc:
         raise ValueError(f"{path}: not a cgbound Yade export (.npz written by yade_export.export_frame): {exc}") from None
-    fmt = str(data["format"]) if "format" in data.files else None
     if fmt != FORMAT:
         raise ValueError(f"{path}: expected format {FORMAT!r} (written by yade_export.export_frame), got {fmt!r}")
-    version = int(data["version"])
     if version != VERSION:
         raise ValueError(f"{path}: expected format version {VERSION}, got {version}; use the yade_export.py "
                          "shipped with this cgbound")
@@ -161,8 +175,7 @@ class YadeReader(FrameReader):
         self.body_force = body_force
         frames = []
         for path in files:
-            with _load(path) as data:
-                frames.append((int(data["iter"]), path))
+            frames.append((int(_arrays(path, ("iter",))["iter"]), path))
         frames.sort()
         steps = [k for k, _ in frames]
         if len(set(steps)) != len(steps):
@@ -178,8 +191,7 @@ class YadeReader(FrameReader):
 
     @staticmethod
     def _load_iter(path):
-        with np.load(path) as data:
-            return int(data["iter"])
+        return int(_arrays(path, ("iter",))["iter"])
 
     def force_mismatch(self, index):
         """Max ``|summed contact forces - O.forces.f|`` over particles relative to the RMS contact force."""
@@ -190,8 +202,7 @@ class YadeReader(FrameReader):
 
     # ------------------------------------------------------------------------------------------
     def _build(self, path):
-        with _load(path) as d:
-            data = {k: d[k] for k in d.files}
+        data = _arrays(path)
         ids, shape = data["id"], data["shape"]
         dynamic, blocked, clump = data["dynamic"], data["blocked"], data["clump_id"]
         sphere = shape == "Sphere"
