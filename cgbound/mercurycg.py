@@ -54,6 +54,7 @@ import numpy as np
 from .box import Box
 from .grid import Grid
 from .kernels import Gaussian, Heaviside, Lucy
+from .readers.files import decode_text
 
 __all__ = ["StatFile", "read_stat", "write_stat", "to_fields", "stat_kernel", "COMPONENTS"]
 
@@ -237,17 +238,7 @@ def _stat_text(path):
             raw = gzip.decompress(raw)
         except (OSError, EOFError, zlib.error) as exc:
             raise ValueError(f"{path}: a damaged gzip file ({exc}); decompress it with gunzip to see where") from None
-    nul = raw.find(b"\0")
-    if nul >= 0:
-        line = raw.count(b"\n", 0, nul) + 1
-        raise ValueError(f"{path}: line {line}: a NUL byte in a text file "
-                         f"(the file is damaged or not a MercuryCG .stat file)")
-    try:
-        return raw.decode("ascii")
-    except UnicodeDecodeError as exc:
-        line = raw.count(b"\n", 0, exc.start) + 1
-        raise ValueError(f"{path}: line {line}: byte {raw[exc.start]:#04x} is not "
-                         f"text (the file is damaged or not a MercuryCG .stat file)") from None
+    return decode_text(path, raw, "a MercuryCG .stat file")
 
 
 def read_stat(path):

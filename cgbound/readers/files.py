@@ -31,6 +31,20 @@ def open_input(path, text=False):
     return open(path, "r" if text else "rb")
 
 
+def decode_text(path, data, what="a text file", error=ValueError):
+    """``data`` (bytes read from ``path``) as UTF-8 text, or ``error`` naming the file and the line of the
+    first NUL byte or byte that is not UTF-8 (a damaged file, or a binary file given where text is read)."""
+    bad = data.find(b"\0")
+    if bad < 0:
+        try:
+            return data.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            bad = exc.start
+    line = data.count(b"\n", 0, bad) + 1
+    raise error(f"{path}:{line}: byte {data[bad]:#04x} is not UTF-8 text; {what} was expected (the file is "
+                f"damaged, or another kind of file was given)")
+
+
 def natural_key(path):
     """Sort key that orders the digit runs of a name by value: ``a.9`` < ``a.10``."""
     return [int(part) if part.isdigit() else part for part in _NUMBER.split(os.path.basename(str(path)))]

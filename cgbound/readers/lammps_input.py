@@ -45,6 +45,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .files import decode_text
+
 __all__ = ["InputScript", "InputScriptError", "ComputeSpec", "DumpSpec", "read_input", "LIGGGHTS_LAYOUT"]
 
 #: compute pair/gran/local: (keyword, meanings of its columns) in the order LIGGGHTS writes them
@@ -80,17 +82,7 @@ def _script_text(path, data):
     if data[:2] == b"\x1f\x8b":
         raise InputScriptError(f"{path}: a gzipped file; LAMMPS reads input scripts as plain text: pass the "
                                f"script itself (gunzip it)")
-    nul = data.find(b"\0")
-    if nul >= 0:
-        line = data.count(b"\n", 0, nul) + 1
-        raise InputScriptError(f"{path}:{line}: a NUL byte; this is not a text input script (damaged, or a "
-                               f"binary file passed as input=)")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = data.count(b"\n", 0, exc.start) + 1
-        raise InputScriptError(f"{path}:{line}: byte {data[exc.start]:#04x} is not UTF-8 text; is this the input "
-                               f"script?") from None
+    return decode_text(path, data, "a LAMMPS input script", InputScriptError)
 
 
 @dataclass
