@@ -82,7 +82,11 @@ def _script_text(path, data):
     if data[:2] == b"\x1f\x8b":
         raise InputScriptError(f"{path}: a gzipped file; LAMMPS reads input scripts as plain text: pass the "
                                f"script itself (gunzip it)")
-    return decode_text(path, data, "a LAMMPS input script", InputScriptError)
+    text = decode_text(path, data, "a LAMMPS input script", InputScriptError)
+    if text.lstrip().startswith("ITEM:"):   # the likely mix-up: a dump given where the script was meant
+        raise InputScriptError(f"{path}:1: this is a LAMMPS dump (it starts with 'ITEM:'), not an input script; "
+                               f"pass the script that wrote the dumps as input=, the dumps as the data")
+    return text
 
 
 @dataclass
