@@ -211,3 +211,10 @@ def test_liggghts_reader_with_its_input_script():
     for k in range(len(explicit)):
         np.testing.assert_array_equal(by_script[k].contacts.point, explicit[k].contacts.point)
         np.testing.assert_array_equal(by_script[k].fixed, explicit[k].fixed)
+
+
+def test_a_loop_variable_without_its_count_is_an_error_naming_the_line(tmp_path):
+    script = tmp_path / "in.cut"
+    script.write_text("units lj\nvariable k loop\n")
+    with pytest.raises(ValueError, match=r"in\.cut: line 2: variable k loop: expected 'N' or 'N1 N2'"):
+        read_input(script)

@@ -41,7 +41,7 @@ def decode_text(path, data, what="a text file", error=ValueError):
         except UnicodeDecodeError as exc:
             bad = exc.start
     line = data.count(b"\n", 0, bad) + 1
-    raise error(f"{path}:{line}: byte {data[bad]:#04x} is not UTF-8 text; {what} was expected (the file is "
+    raise error(f"{path}: line {line}: byte {data[bad]:#04x} is not UTF-8 text; {what} was expected (the file is "
                 f"damaged, or another kind of file was given)")
 
 

@@ -84,7 +84,7 @@ def _script_text(path, data):
                                f"script itself (gunzip it)")
     text = decode_text(path, data, "a LAMMPS input script", InputScriptError)
     if text.lstrip().startswith("ITEM:"):   # the likely mix-up: a dump given where the script was meant
-        raise InputScriptError(f"{path}:1: this is a LAMMPS dump (it starts with 'ITEM:'), not an input script; "
+        raise InputScriptError(f"{path}: line 1: this is a LAMMPS dump (it starts with 'ITEM:'), not an input script; "
                                f"pass the script that wrote the dumps as input=, the dumps as the data")
     return text
 
@@ -393,8 +393,9 @@ class _Parser:
             if name in self.vars:     # LAMMPS ignores the redefinition of these styles (-var wins)
                 return
             if style == "loop":
-                first = args[0] if len(args) < 2 else args[0]
-                self.vars[name] = ("index", "1" if len(args) == 1 else first)
+                if not args:
+                    self.fail(f"variable {name} loop: expected 'N' or 'N1 N2' after 'loop'")
+                self.vars[name] = ("index", "1" if len(args) == 1 else args[0])
             elif args:
                 self.vars[name] = ("index", args[0])
         elif style in ("string", "format"):
