@@ -115,7 +115,10 @@ def test_result_shows_a_small_plot_in_jupyter(chute_profile):
 
 
 def run_cli(*args, cwd):
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.getcwd()] + sys.path))
+    # the child imports the cgbound this test imported (in CI the checkout's uncompiled source would shadow
+    # the installed package if the working directory came first)
+    here = os.path.dirname(os.path.dirname(os.path.abspath(cg.__file__)))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([here] + sys.path))
     return subprocess.run([sys.executable, "-m", "cgbound", *args], cwd=cwd, env=env, capture_output=True, text=True)
 
 
