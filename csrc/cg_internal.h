@@ -231,6 +231,17 @@ static inline int stencil_range(const job *jb, const double *bmin, const double 
     return 1;
 }
 
+/* Advance the multi-index idx over the stencil box first..last along axes 0..n-1 (the last fastest);
+   returns 0 once every index has been visited. */
+static inline int stencil_next(cg_index *idx, const cg_index *first, const cg_index *last, int n)
+{
+    for (int a = n - 1; a >= 0; --a) {
+        if (++idx[a] <= last[a]) return 1;
+        idx[a] = first[a];
+    }
+    return 0;
+}
+
 /* Whether the separable path can take this object: returns 0 when the caller
    should use the node-by-node path instead. Otherwise visits every node of
    the object's stencil (one image at resolved position x, segment vector e,

@@ -182,13 +182,7 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
             const double w = lucy_at_frame(jb->kernel, &f, NULL) * scale;
             if (w != 0.0) cg_accumulate(jb, out, obj, base + k, w, NULL);
         }
-        int a = row - 1;
-        while (a >= 0) {
-            if (++idx[a] <= last[a]) break;
-            idx[a] = first[a];
-            --a;
-        }
-        if (a < 0) break;
+        if (!stencil_next(idx, first, last, row)) break;
     }
     return 1;
 }
@@ -242,13 +236,7 @@ int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double 
             const double w = cg_kernel_value(jb->kernel, rho2);
             if (w != 0.0) cg_accumulate(jb, out, obj, base + k, w, NULL);
         }
-        int a = row - 1;
-        while (a >= 0) {
-            if (++idx[a] <= last[a]) break;
-            idx[a] = first[a];
-            --a;
-        }
-        if (a < 0) break;
+        if (!stencil_next(idx, first, last, row)) break;
     }
     return 1;
 }

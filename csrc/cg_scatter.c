@@ -159,14 +159,7 @@ static cg_status visit_nodes(const job *jb, double *out, scratch *sc, cg_index o
             for (int a = 0; a < nr; ++a) nz |= grad[a] != 0.0;
             if (nz) cg_accumulate(jb, out, obj, node, w, grad);
         }
-        /* odometer over the stencil box, last axis fastest */
-        int a = nr - 1;
-        while (a >= 0) {
-            if (++idx[a] <= last[a]) break;
-            idx[a] = first[a];
-            --a;
-        }
-        if (a < 0) break;
+        if (!stencil_next(idx, first, last, nr)) break;
     }
     return CG_OK;
 }
