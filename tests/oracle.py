@@ -188,7 +188,31 @@ class OracleKernel:
             return self.gradient(q) / avg_extent
         if self.kind == "gaussian":
             return -q / self.w**2 * self.marginal((q * q).sum(axis=1), n_res, avg_extent)[:, None]
-        raise ValueError("no gradient of an averaged Lucy or Heaviside kernel")
+        if self.kind == "lucy":
+            return self.lucy_marginal_gradient(q, n_res, avg_extent)
+        raise ValueError("no gradient of an averaged Heaviside kernel")
+
+    def lucy_marginal_gradient(self, q, n_res, avg_extent):
+        """grad_q of Lucy's marginal over the averaged axes, integrated numerically from the full
+        kernel's radial derivative: grad M = q int W'(r) / r over the averaged coordinates (y, with
+        r^2 = |q|^2 + |y|^2); one averaged axis: 2 int_0^h dy (W'(r)/r is smooth in y for Lucy);
+        two: polar coordinates (s ds = r dr), 2 pi int W'(r) / r s ds = 2 pi int_rho^R W'(r) dr."""
+        R = self.R
+        rho2 = (q * q).sum(axis=1)
+        rho = np.sqrt(np.minimum(rho2, R * R))
+        inside = rho2 < R * R
+        if self.dim - n_res == 1:
+            h = np.sqrt(np.maximum(R * R - rho2, 0.0))
+            def f(y):
+                r = np.sqrt(rho[:, None] ** 2 + y * y)
+                safe = np.where(r > 0, r, 1.0)
+                return self.radial_derivative(r) / safe
+            integral = np.zeros_like(rho)
+            for a, b in [(0.0, 0.25), (0.25, 0.5), (0.5, 0.75), (0.75, 1.0)]:
+                integral += 2 * _gl(f, a * h, b * h, GL40_X, GL40_W)
+        else:
+            integral = 2 * math.pi * _gl(self.radial_derivative, rho, np.full_like(rho, R), GL40_X, GL40_W)
+        return np.where(inside, integral, 0.0)[:, None] * q / avg_extent
 
     def line_gradient(self, q, e, n_res=None, avg_extent=1.0, ray=False):
         """grad_r psi for nodes q (P x n_res) of int_0^S M(q - s e) ds (S = 1, or infinity for a ray):
