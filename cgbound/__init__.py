@@ -13,6 +13,7 @@ from .grid import Grid, Points
 from .kernels import Gaussian, Heaviside, Lucy
 from .residual import MomentumBalance, momentum_balance_residual
 from .result import Result
+from .rheology import stress_ratio
 from .snapshot import Contacts, Snapshot
 from ._threads import get_num_threads, set_num_threads, threads
 from .tiled import coarse_grain_tiled
@@ -26,3 +27,4 @@ __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", 
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
            "gaussian_cutoff_for", "gaussian_tail_fraction"]
+__all__ += ["stress_ratio"]
