@@ -122,11 +122,11 @@ def check_computable(snapshot, needed, split=None):
 
     Returns the split contacts (or None if no contact primary is needed) so that they are not split twice.
     """
-    if "phi" in needed and snapshot.radii is None:
-        raise ValueError("snapshot.radii: expected radii for the field 'volume_fraction', got None")
     if "phi_d" in needed and snapshot.radii is None:
         raise ValueError("snapshot.radii: expected radii for the field 'inertial_number' (the local mean diameter), "
                          "got None")
+    if "phi" in needed and snapshot.radii is None:
+        raise ValueError("snapshot.radii: expected radii for the field 'volume_fraction', got None")
     if not needed & CONTACT_PRIMARIES:
         return None
     if split is None:

@@ -5,8 +5,10 @@ Each twin is named after what it mirrors: ``oracle_scatter_points``,
 ``oracle_minimum_image`` mirror the ``_core`` entry points of the same name;
 ``oracle_split_contacts`` mirrors ``Snapshot.split_contacts``;
 ``oracle_coarse_grain`` mirrors ``cgbound.coarse_grain`` (the whole pipeline);
+``oracle_rheology`` mirrors its gradient, kinematics and rheology fields;
 ``OracleKernel`` mirrors the core's kernels (cg_kernel_value, cg_kernel_line,
-cg_kernel_gradient) and ``oracle_target`` the nodes of a Grid or Points target.
+cg_kernel_gradient; ``oracle_kernel_of`` builds it from a cgbound kernel) and
+``oracle_target`` the nodes of a Grid or Points target.
 
 It shares no numerics with the C core: marginals over averaged axes are
 integrated numerically from the D-dimensional kernel, line integrals use the
@@ -416,15 +418,20 @@ def oracle_split_contacts(snap):
     return bulk, boundary
 
 
-def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
-    """Twin of cgbound.coarse_grain: all requested fields, flat over nodes (P, ...), from the formulas of
-    docs/theory.md, "Fields"."""
+def oracle_kernel_of(kernel_obj, dim):
+    """The OracleKernel twin of a cgbound kernel object."""
     import cgbound as cg
 
     kind = {cg.Gaussian: "gaussian", cg.Lucy: "lucy", cg.Heaviside: "heaviside"}[type(kernel_obj)]
     line = getattr(kernel_obj, "line_quadrature", "exact")
-    kernel = OracleKernel(kind, snap.dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
-                       truncated=getattr(kernel_obj, "truncated", False), line_points=0 if line == "exact" else line)
+    return OracleKernel(kind, dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
+                        truncated=getattr(kernel_obj, "truncated", False), line_points=0 if line == "exact" else line)
+
+
+def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
+    """Twin of cgbound.coarse_grain: all requested fields, flat over nodes (P, ...), from the formulas of
+    docs/theory.md, "Fields"."""
+    kernel = oracle_kernel_of(kernel_obj, snap.dim)
     box = snap.box
     tgt = oracle_target(where, box)
     D = snap.dim
@@ -485,4 +492,77 @@ def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
             "pressure": lambda: -np.trace(sk + sb + sw, axis1=1, axis2=2) / D,
             "temperature": lambda: np.where(rho > 0, -np.trace(sk, axis1=1, axis2=2) / (D * np.where(rho > 0, rho, 1)), np.nan),
         }[name]()
+    return out
+
+
+def _shear_invariant(tensors):
+    """sqrt(J2) of the symmetric part of each tensor from its eigenvalues: J2 = (1/6) sum over pairs
+    (l_i - l_j)^2 in 3D, (l_1 - l_2)^2 / 4 in 2D (no deviator formed)."""
+    lam = np.linalg.eigvalsh(0.5 * (tensors + np.swapaxes(tensors, 1, 2)))
+    if lam.shape[1] == 2:
+        return np.abs(lam[:, 0] - lam[:, 1]) / 2
+    return np.sqrt(((lam[:, 0] - lam[:, 1]) ** 2 + (lam[:, 1] - lam[:, 2]) ** 2 + (lam[:, 2] - lam[:, 0]) ** 2) / 6)
+
+
+def oracle_rheology(snap, where, kernel_obj, fields):
+    """Twin of the gradient, kinematics and rheology fields of cgbound.coarse_grain, from the formulas of
+    docs/theory.md, "Gradients, kinematics and rheology": gradients by oracle_scatter_points (gradient=True)
+    of the absolute momentum, node by node, invariants from eigenvalues."""
+    kernel = oracle_kernel_of(kernel_obj, snap.dim)
+    tgt = oracle_target(where, snap.box)
+    resolved = tgt[1]
+    D = snap.dim
+    P = tgt[0].shape[0]
+    flow = ~np.asarray(snap.fixed)
+    pos = np.asarray(snap.positions)[flow]
+    m = np.asarray(snap.masses)[flow]
+    vel = np.zeros_like(pos) if snap.velocities is None else np.asarray(snap.velocities)[flow]
+    grad_rho = np.zeros((P, D))
+    grad_rho[:, resolved] = oracle_scatter_points(kernel, tgt, pos, m[:, None], gradient=True)[:, 0, :]
+    grad_p = np.zeros((P, D, D))
+    grad_p[:, :, resolved] = oracle_scatter_points(kernel, tgt, pos, m[:, None] * vel, gradient=True)
+    base = oracle_coarse_grain(snap, where, kernel_obj, ["density", "momentum", "stress"])
+    rho, p, sigma = base["density"], base["momentum"], base["stress"]
+    L = np.full((P, D, D), np.nan)
+    for n in range(P):
+        if rho[n] > 0:
+            V = p[n] / rho[n]
+            L[n] = (grad_p[n] - np.outer(V, grad_rho[n])) / rho[n]
+    strain = 0.5 * (L + np.swapaxes(L, 1, 2))
+    gamma = np.full(P, np.nan)
+    ok = rho > 0
+    gamma[ok] = 2 * _shear_invariant(strain[ok])        # sqrt(2 D':D') = 2 sqrt(J2(D))
+    tau = _shear_invariant(sigma)
+    pressure = -np.trace(sigma, axis1=1, axis2=2) / D
+    radii = np.asarray(snap.radii)[flow] if snap.radii is not None else None
+    out = {}
+    for name in fields:
+        if name == "density_gradient":
+            out[name] = grad_rho
+        elif name == "momentum_gradient":
+            out[name] = grad_p
+        elif name == "velocity_gradient":
+            out[name] = L
+        elif name == "strain_rate":
+            out[name] = strain
+        elif name == "spin":
+            out[name] = 0.5 * (L - np.swapaxes(L, 1, 2))
+        elif name == "shear_rate":
+            out[name] = gamma
+        elif name == "shear_stress":
+            out[name] = tau
+        elif name == "friction":
+            out[name] = np.array([tau[n] / pressure[n] if pressure[n] > 0 else np.nan for n in range(P)])
+        elif name == "inertial_number":
+            volume = math.pi * radii**2 if D == 2 else 4 / 3 * math.pi * radii**3
+            phi = oracle_scatter_points(kernel, tgt, pos, volume[:, None])[:, 0]
+            phi_d = oracle_scatter_points(kernel, tgt, pos, (volume * 2 * radii)[:, None])[:, 0]
+            value = np.full(P, np.nan)
+            for n in range(P):
+                if phi[n] > 0 and pressure[n] > 0 and rho[n] > 0:
+                    d_mean, rho_p = phi_d[n] / phi[n], rho[n] / phi[n]
+                    value[n] = gamma[n] * d_mean / math.sqrt(pressure[n] / rho_p)
+            out[name] = value
+        else:
+            raise ValueError(name)
     return out
