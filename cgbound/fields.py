@@ -153,6 +153,11 @@ def derive(primaries, fields, u_ref, dim, convention):
 
 RHEOLOGY_FIELDS = ("density_gradient", "momentum_gradient", "velocity_gradient", "strain_rate", "spin",
                    "shear_rate", "shear_stress", "friction", "inertial_number")
+#: NaN where the density is zero (they divide by it), like velocity and temperature
+NAN_WITHOUT_MATTER = ("velocity_gradient", "strain_rate", "spin", "shear_rate", "inertial_number")
+#: NaN where the pressure is not positive; they divide by it, so their round-off grows like 1/p where it
+#: crosses zero
+PRESSURE_RATIO_FIELDS = ("friction", "inertial_number")
 
 
 def velocity_gradient(rho, p_w, grad_rho, grad_p_w):

@@ -431,6 +431,11 @@ def oracle_kernel_of(kernel_obj, dim):
 def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
     """Twin of cgbound.coarse_grain: all requested fields, flat over nodes (P, ...), from the formulas of
     docs/theory.md, "Fields"."""
+    rheology = [name for name in fields if name in RHEOLOGY_NAMES]
+    if rheology:        # their own twin (which asks this one for density, momentum and stress)
+        out = oracle_coarse_grain(snap, where, kernel_obj, [f for f in fields if f not in rheology], convention)
+        out.update(oracle_rheology(snap, where, kernel_obj, rheology))
+        return {name: out[name] for name in fields}
     kernel = oracle_kernel_of(kernel_obj, snap.dim)
     box = snap.box
     tgt = oracle_target(where, box)
@@ -495,6 +500,11 @@ def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
     return out
 
 
+#: the fields oracle_rheology mirrors
+RHEOLOGY_NAMES = ("density_gradient", "momentum_gradient", "velocity_gradient", "strain_rate", "spin", "shear_rate",
+                  "shear_stress", "friction", "inertial_number")
+
+
 def _shear_invariant(tensors):
     """sqrt(J2) of the symmetric part of each tensor from its eigenvalues: J2 = (1/6) sum over pairs
     (l_i - l_j)^2 in 3D, (l_1 - l_2)^2 / 4 in 2D (no deviator formed)."""
@@ -517,21 +527,22 @@ def oracle_rheology(snap, where, kernel_obj, fields):
     pos = np.asarray(snap.positions)[flow]
     m = np.asarray(snap.masses)[flow]
     vel = np.zeros_like(pos) if snap.velocities is None else np.asarray(snap.velocities)[flow]
-    grad_rho = np.zeros((P, D))
-    grad_rho[:, resolved] = oracle_scatter_points(kernel, tgt, pos, m[:, None], gradient=True)[:, 0, :]
-    grad_p = np.zeros((P, D, D))
-    grad_p[:, :, resolved] = oracle_scatter_points(kernel, tgt, pos, m[:, None] * vel, gradient=True)
     base = oracle_coarse_grain(snap, where, kernel_obj, ["density", "momentum", "stress"])
     rho, p, sigma = base["density"], base["momentum"], base["stress"]
+    grad_rho = np.zeros((P, D))
+    grad_p = np.zeros((P, D, D))
     L = np.full((P, D, D), np.nan)
-    for n in range(P):
-        if rho[n] > 0:
-            V = p[n] / rho[n]
-            L[n] = (grad_p[n] - np.outer(V, grad_rho[n])) / rho[n]
-    strain = 0.5 * (L + np.swapaxes(L, 1, 2))
     gamma = np.full(P, np.nan)
-    ok = rho > 0
-    gamma[ok] = 2 * _shear_invariant(strain[ok])        # sqrt(2 D':D') = 2 sqrt(J2(D))
+    if set(fields) - {"shear_stress", "friction"}:          # fields with gradients
+        grad_rho[:, resolved] = oracle_scatter_points(kernel, tgt, pos, m[:, None], gradient=True)[:, 0, :]
+        grad_p[:, :, resolved] = oracle_scatter_points(kernel, tgt, pos, m[:, None] * vel, gradient=True)
+        for n in range(P):
+            if rho[n] > 0:
+                V = p[n] / rho[n]
+                L[n] = (grad_p[n] - np.outer(V, grad_rho[n])) / rho[n]
+        ok = rho > 0
+        gamma[ok] = 2 * _shear_invariant(0.5 * (L + np.swapaxes(L, 1, 2))[ok])   # sqrt(2 D':D') = 2 sqrt(J2(D))
+    strain = 0.5 * (L + np.swapaxes(L, 1, 2))
     tau = _shear_invariant(sigma)
     pressure = -np.trace(sigma, axis1=1, axis2=2) / D
     radii = np.asarray(snap.radii)[flow] if snap.radii is not None else None
