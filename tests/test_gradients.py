@@ -408,3 +408,34 @@ def test_stress_ratio_is_the_same_in_both_conventions_and_checks_its_arguments()
         cg.stress_ratio(t, "xz", "zz", field="extended_stress")
     with pytest.raises(TypeError, match="result: expected a cgbound.Result"):
         cg.stress_ratio({"stress": 1}, "xz", "zz")
+
+
+# --- 6. through the other front doors ----------------------------------------------------------
+
+def test_tiles_give_the_same_gradients():
+    snap = random_snapshot(12, n=16)
+    grid = cg.Grid(snap.box, (6, 5, 4))
+    fields = ("velocity_gradient", "shear_rate", "inertial_number")
+    whole = cg.coarse_grain(snap, grid, KERNELS["lucy"], fields=fields)
+    tiled = cg.coarse_grain_tiled(snap, grid, KERNELS["lucy"], fields=fields, tiles=(2, 2, 1), backend="serial")
+    for field in fields:
+        assert_fields_close(tiled[field], whole[field], 1e-12, field)
+
+
+def test_command_line_writes_the_gradient_fields_and_names_the_kernel_flag(tmp_path, capsys):
+    from cgbound.cli import main
+    snaps = [random_snapshot(k, dim=3) for k in range(2)]
+    cg.readers.write_snapshots(tmp_path / "in.h5", snaps)
+    out = tmp_path / "out.npz"
+    assert main(["run", str(tmp_path / "in.h5"), "--grid", "1,1,12", "--average", "x,y", "--width", "0.4",
+                 "--fields", "velocity_gradient,shear_rate", "-o", str(out), "-q"]) == 0
+    expected = cg.CoarseGrain(snaps, cg.Grid(snaps[0].box, (1, 1, 12), average=("x", "y")), cg.Gaussian(0.4),
+                              fields=("velocity_gradient", "shear_rate")).run().results
+    with np.load(out) as data:
+        np.testing.assert_allclose(data["velocity_gradient"], expected.velocity_gradient, rtol=1e-13)
+    capsys.readouterr()
+    assert main(["run", str(tmp_path / "in.h5"), "--grid", "1,1,12", "--average", "x,y", "--kernel", "heaviside",
+                 "--cutoff", "0.8", "--fields", "shear_rate", "-o", str(tmp_path / "x.npz"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "--kernel" in err and "differentiable" in err
+    assert not (tmp_path / "x.npz").exists()
