@@ -21,20 +21,13 @@
  *
  * Both are smooth at rho = 0 (G(0) = 2/3, P(0) = 1) and vanish at the edge.
  * G's closed form cancels like h^5 near x = 1: there the smooth integrand
- * (1 - r)^2 is integrated by two 12-point Gauss-Legendre panels per half,
+ * (1 - r)^2 is integrated by two 12-point Gauss-Legendre panels on [0, h],
  * as cg_kernels.c does for m1 itself.
  */
 #include "cg.h"
 #include "cg_internal.h"
 
 #include <math.h>
-
-static const double GL12_X[6] = {0.1252334085114689, 0.3678314989981802,
-                                 0.5873179542866175, 0.7699026741943047,
-                                 0.9041172563704748, 0.9815606342467192};
-static const double GL12_W[6] = {0.2491470458134027, 0.2334925365383546,
-                                 0.20316742672306573, 0.16007832854334642,
-                                 0.10693932599531907, 0.04717533638651141};
 
 /* G(x) = int_{-h}^{h} (1 - sqrt(x^2 + y^2))^2 dy, 0 <= x < 1 */
 static double lucy_gradient_chord(double x)
@@ -46,13 +39,14 @@ static double lucy_gradient_chord(double x)
         if (x > 0.0) g -= 2.0 * x2 * log((1.0 + h) / x);
         return g;
     }
-    double sum = 0.0;
+    /* G = 2 int_0^h: two panels of the 12-point rule on [0, 1] */
+    double xs[12], ws[12], sum = 0.0;
+    cg_gauss_legendre01(12, xs, ws);
     for (int panel = 0; panel < 2; ++panel) {
-        const double half = 0.25 * h, mid = 0.5 * h * panel + half;
-        for (int k = 0; k < 6; ++k) {
-            const double y1 = mid + half * GL12_X[k], y2 = mid - half * GL12_X[k];
-            const double o1 = 1.0 - sqrt(x * x + y1 * y1), o2 = 1.0 - sqrt(x * x + y2 * y2);
-            sum += GL12_W[k] * half * (o1 * o1 + o2 * o2);
+        const double lo = 0.5 * h * panel, len = 0.5 * h;
+        for (int k = 0; k < 12; ++k) {
+            const double y = lo + len * xs[k], o = 1.0 - sqrt(x * x + y * y);
+            sum += ws[k] * len * o * o;
         }
     }
     return 2.0 * sum;
