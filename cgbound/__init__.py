@@ -15,6 +15,7 @@ from .kernels import Gaussian, Heaviside, Lucy
 from .residual import MomentumBalance, momentum_balance_residual
 from .result import Result
 from .scale_separation import WidthScan, width_scan
+from .rheology import stress_ratio
 from .snapshot import Contacts, Snapshot
 from ._threads import get_num_threads, set_num_threads, threads
 from .tiled import coarse_grain_tiled
@@ -29,4 +30,4 @@ __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", 
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
            "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning",
-           "WidthScan", "width_scan", "Units"]
+           "WidthScan", "width_scan", "Units", "stress_ratio"]

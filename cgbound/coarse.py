@@ -9,7 +9,7 @@ from ._validate import flag, integer, positive_number, real_array
 from .averaging import FramePlan, fill_partial, read_frame, run_blocks
 from .block_errors import block_assignment, block_errors, check_block_memory
 from .executors import check_backend, executor
-from .fields import check_convention, check_fields
+from .fields import check_convention, check_differentiable, check_fields
 from .grid import Grid, Points
 from .kernels import check_kernel
 from .pipeline import DEFAULT_FIELDS, check_memory, prepare, run_snapshot, shape_fields
@@ -96,6 +96,7 @@ class CoarseGrain:
         self.kernel = check_kernel(kernel)
         self.fields = check_fields(fields)
         self.convention = check_convention(convention)
+        check_differentiable(self.kernel, self.fields)
         self.species = integer(species, "species", allow_none=True)
         if isinstance(time_average, str):
             if time_average not in ("mean", "none"):

@@ -31,7 +31,21 @@ FIELDS = {
     "mean_radius": (0, ("nd", "r1")),
     "radius_spread": (0, ("nd", "r1", "r2")),
     "radius_skewness": (0, ("nd", "r1", "r2", "r3")),
+    # gradients and rheology (docs/theory.md, "Gradients, kinematics and rheology")
+    "density_gradient": (1, ("grad_rho",)),
+    "momentum_gradient": (2, ("grad_rho", "grad_p_w")),
+    "velocity_gradient": (2, ("rho", "p_w", "grad_rho", "grad_p_w")),
+    "strain_rate": (2, ("rho", "p_w", "grad_rho", "grad_p_w")),
+    "spin": (2, ("rho", "p_w", "grad_rho", "grad_p_w")),
+    "shear_rate": (0, ("rho", "p_w", "grad_rho", "grad_p_w")),
+    "shear_stress": (0, ("rho", "p_w", "sk", "sb", "sw")),
+    "friction": (0, ("rho", "p_w", "sk", "sb", "sw")),
+    "inertial_number": (0, ("rho", "p_w", "grad_rho", "grad_p_w", "sk", "sb", "sw", "phi", "phi_d")),
 }
+
+#: fields that need the kernel's gradient (a differentiable kernel: Gaussian or Lucy)
+GRADIENT_FIELDS = ("density_gradient", "momentum_gradient", "velocity_gradient", "strain_rate", "spin",
+                   "shear_rate", "inertial_number")
 
 #: fields whose sign depends on the stress convention
 STRESS_FIELDS = ("kinetic_stress", "contact_stress", "boundary_stress", "stress", "extended_stress")
@@ -70,6 +84,14 @@ def check_convention(convention):
     return convention
 
 
+def check_differentiable(kernel, fields):
+    """Raise before any work if a field needs the gradient of a kernel that has none (Heaviside)."""
+    for name in fields:
+        if name in GRADIENT_FIELDS and not kernel.differentiable:
+            raise ValueError(f"kernel: expected a differentiable kernel (Gaussian or Lucy) for the field {name!r}, "
+                             f"got {kernel!r}")
+
+
 def needed_primaries(fields):
     """The primaries (names in PRIMARIES) the fields need."""
     needed = set()
@@ -87,6 +109,7 @@ def derive(primaries, fields, u_ref, dim, convention):
     pr = primaries
     own = np.ascontiguousarray
     out = {}
+    memo = {}          # intermediate fields shared by the rheology fields
     rho = pr.get("rho")
     sign = -1.0 if convention == "compression" else 1.0
 
@@ -130,6 +153,8 @@ def derive(primaries, fields, u_ref, dim, convention):
             np.divide(-np.trace(pr["sk"], axis1=1, axis2=2), dim * rho, out=value, where=rho > 0)
         elif name in STRUCTURE_FIELDS:
             value = structure_field(name, pr)
+        elif name in RHEOLOGY_FIELDS:
+            value = rheology_field(name, pr, u_ref, dim, memo)
         out[name] = value
     return out
 
@@ -171,3 +196,89 @@ def structure_field(name, pr):
         return spread
     third = _per_particle(pr["r3"], pr["nd"]) - 3.0 * mean * variance - mean ** 3
     return _per_particle(third, spread ** 3)    # radius_skewness: NaN where the sizes do not spread
+# --- gradients, kinematics and rheology (docs/theory.md, "Gradients, kinematics and rheology") ---
+
+RHEOLOGY_FIELDS = ("density_gradient", "momentum_gradient", "velocity_gradient", "strain_rate", "spin",
+                   "shear_rate", "shear_stress", "friction", "inertial_number")
+#: NaN where the density is zero (they divide by it), like velocity and temperature
+NAN_WITHOUT_MATTER = ("velocity_gradient", "strain_rate", "spin", "shear_rate", "inertial_number")
+#: NaN where the pressure is not positive; they divide by it, so their round-off grows like 1/p where it
+#: crosses zero
+PRESSURE_RATIO_FIELDS = ("friction", "inertial_number")
+
+
+def velocity_gradient(rho, p_w, grad_rho, grad_p_w):
+    """L_ab = dV_a/dr_b = (dp_a/dr_b - V_a drho/dr_b) / rho (NaN where rho = 0); the reference velocity
+    cancels, so the momenta relative to it are used."""
+    L = np.full(grad_p_w.shape, np.nan)
+    has = rho > 0
+    V = p_w[has] / rho[has][:, None]
+    L[has] = (grad_p_w[has] - V[:, :, None] * grad_rho[has][:, None, :]) / rho[has][:, None, None]
+    return L
+
+
+def deviator(tensor):
+    """tensor - (tr tensor / D) I, per node."""
+    dim = tensor.shape[-1]
+    out = tensor.copy()
+    mean = np.trace(tensor, axis1=-2, axis2=-1) / dim
+    for a in range(dim):
+        out[..., a, a] -= mean
+    return out
+
+
+def shear_rate_of(strain):
+    """gamma_dot = sqrt(2 D':D'), D' the deviatoric strain rate."""
+    dev = deviator(strain)
+    return np.sqrt(2.0 * np.einsum("...ab,...ab->...", dev, dev))
+
+
+def shear_stress_of(stress):
+    """|tau| = sqrt(tau':tau' / 2) of the deviatoric part tau' of the (symmetrised) stress; the same in
+    either sign convention."""
+    sym = 0.5 * (stress + np.swapaxes(stress, -1, -2))
+    dev = deviator(sym)
+    return np.sqrt(0.5 * np.einsum("...ab,...ab->...", dev, dev))
+
+
+def rheology_field(name, pr, u_ref, dim, memo):
+    """One of RHEOLOGY_FIELDS from the averaged primaries; ``memo`` keeps intermediate fields shared by
+    several requested fields (L, D, the stress, the pressure)."""
+    def get(key, make):
+        if key not in memo:
+            memo[key] = make()
+        return memo[key]
+
+    L = lambda: get("L", lambda: velocity_gradient(pr["rho"], pr["p_w"], pr["grad_rho"], pr["grad_p_w"]))
+    D = lambda: get("D", lambda: 0.5 * (L() + np.swapaxes(L(), 1, 2)))
+    sigma = lambda: get("sigma", lambda: pr["sk"] + pr["sb"] + pr["sw"])           # tension convention
+    pressure = lambda: get("p", lambda: -np.trace(sigma(), axis1=1, axis2=2) / dim)
+    tau = lambda: get("tau", lambda: shear_stress_of(sigma()))
+    gamma = lambda: get("gamma", lambda: shear_rate_of(D()))
+
+    def positive_ratio(num, den):
+        out = np.full(num.shape, np.nan)
+        np.divide(num, den, out=out, where=den > 0)
+        return out
+
+    if name == "density_gradient":
+        return np.ascontiguousarray(pr["grad_rho"])
+    if name == "momentum_gradient":
+        return pr["grad_p_w"] + u_ref[None, :, None] * pr["grad_rho"][:, None, :]
+    if name == "velocity_gradient":
+        return L().copy()
+    if name == "strain_rate":
+        return D().copy()
+    if name == "spin":
+        return 0.5 * (L() - np.swapaxes(L(), 1, 2))
+    if name == "shear_rate":
+        return gamma().copy()
+    if name == "shear_stress":
+        return tau().copy()
+    if name == "friction":
+        return positive_ratio(tau(), pressure())
+    # inertial number I = gamma_dot d sqrt(rho_p / p), d = phi_d / phi, rho_p = rho / phi (NaN where p <= 0)
+    phi = pr["phi"]
+    d_mean = positive_ratio(pr["phi_d"], phi)
+    rho_p = positive_ratio(pr["rho"], phi)
+    return gamma() * d_mean * np.sqrt(positive_ratio(rho_p, pressure()))

@@ -10,10 +10,10 @@ from typing import NamedTuple, Optional
 
 from ._memory import check_fits, core_threads, grid_doubles
 from ._validate import integer
-from .fields import check_convention, check_fields, derive, field_rank, needed_primaries
+from .fields import check_convention, check_differentiable, check_fields, derive, field_rank, needed_primaries
 from .grid import Grid, check_target, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
-from .primaries import PARTICLES, PRIMARIES, check_computable, compute_primaries, reference_velocity
+from .primaries import PARTICLE_GRADIENTS, PARTICLES, PRIMARIES, check_computable, compute_primaries, reference_velocity
 from .result import Result
 from .snapshot import Snapshot
 from .units import check_fields as check_units_fields
@@ -40,6 +40,7 @@ def check_arguments(snapshot, grid, kernel, fields, convention, species):
     kernel = check_kernel(kernel)
     fields = check_fields(fields)
     convention = check_convention(convention)
+    check_differentiable(kernel, fields)
     species = integer(species, "species", allow_none=True)
     check_units_fields(snapshot.units, fields)
     if species is not None:
@@ -70,7 +71,10 @@ def per_node_doubles(needed, fields, dim, threads, frames=1, time_average="mean"
     prim = sum(dim ** PRIMARIES[p].rank for p in needed)
     # the primaries of the particles' positions are summed in one scatter (primaries.particle_sums)
     batched = sum(dim ** PRIMARIES[p].rank for p in needed if PRIMARIES[p].source == PARTICLES)
-    widest = max([dim ** PRIMARIES[p].rank for p in needed if PRIMARIES[p].source != PARTICLES] + [batched])
+    # the gradients are one scatter too, D doubles per column
+    gradients = sum(dim ** PRIMARIES[p].rank for p in needed if PRIMARIES[p].source == PARTICLE_GRADIENTS)
+    widest = max([dim ** PRIMARIES[p].rank for p in needed if PRIMARIES[p].source not in (PARTICLES, PARTICLE_GRADIENTS)]
+                 + [batched, gradients])
     scratch = dim if "sk" in needed else 0                  # node velocities for the fluctuation sum
     out = sum(dim ** field_rank(f) for f in fields)
     widest_field = max((dim ** field_rank(f) for f in fields), default=0)

@@ -24,8 +24,9 @@ BOUNDARY_SEGMENTS = "boundary segments"            # lines from a flowing partic
 BOUNDARY_RAYS = "boundary rays"                    # rays from a flowing particle through its boundary contact
 BOUNDARY_POINTS = "boundary points"                # boundary contact points
 BULK_POINTS = "bulk contact points"                # contact points of contacts between flowing particles
+PARTICLE_GRADIENTS = "particle gradients"          # flowing particles' centres, the kernel's gradient
 SOURCES = (PARTICLES, PARTICLE_FLUCTUATIONS, BULK_SEGMENTS, BOUNDARY_SEGMENTS, BOUNDARY_RAYS, BOUNDARY_POINTS,
-           BULK_POINTS)
+           BULK_POINTS, PARTICLE_GRADIENTS)
 #: sources that need the snapshot's contacts split into bulk and boundary
 CONTACT_SOURCES = (BULK_SEGMENTS, BOUNDARY_SEGMENTS, BOUNDARY_RAYS, BOUNDARY_POINTS, BULK_POINTS)
 
@@ -66,10 +67,19 @@ PRIMARIES = {p.name: p for p in (
             "oracle_scatter_points"),
     Primary("fw", "boundary fabric: sum_ik n_ik n_ik W(r - c_ik), n_ik = a_ik / |a_ik|", 2, BOUNDARY_POINTS, "Fʷ",
             None, "oracle_scatter_points"),
+    Primary("phi_d", "volume-weighted diameter sum: sum_i V_i d_i W_i (d_i = 2 a_i)", 0, PARTICLES, "φ d̄", None,
+            "oracle_scatter_points"),
+    Primary("grad_rho", "density gradient: sum_i m_i grad W_i ([b] = d/dr_b)", 1, PARTICLE_GRADIENTS, "∇ρ", None,
+            "oracle_scatter_points"),
+    Primary("grad_p_w", "momentum gradient relative to u_ref: sum_i m_i (v_i - u_ref) grad W_i ([a, b] = d p_a/dr_b)",
+            2, PARTICLE_GRADIENTS, "∇p", None, "oracle_scatter_points"),
 )}
 
 #: the primaries of radius powers: name -> power (the number density "nd" is power 0)
 RADIUS_MOMENTS = {"nd": 0, **{f"r{k}": k for k in range(1, 6)}}
+
+#: primaries that are kernel gradients (need a differentiable kernel)
+GRADIENT_PRIMARIES = frozenset(p.name for p in PRIMARIES.values() if p.source == PARTICLE_GRADIENTS)
 
 #: primaries that need the contacts split into bulk and boundary
 CONTACT_PRIMARIES = frozenset(p.name for p in PRIMARIES.values() if p.source in CONTACT_SOURCES)
@@ -124,6 +134,9 @@ def check_computable(snapshot, needed, split=None):
 
     Returns the split contacts (or None if no contact primary is needed) so that they are not split twice.
     """
+    if "phi_d" in needed and snapshot.radii is None:
+        raise ValueError("snapshot.radii: expected radii for the field 'inertial_number' (the local mean diameter), "
+                         "got None")
     if "phi" in needed and snapshot.radii is None:
         raise ValueError("snapshot.radii: expected radii for the field 'volume_fraction', got None")
     if needed & set(RADIUS_MOMENTS) - {"nd"} and snapshot.radii is None:
@@ -202,6 +215,9 @@ def _particle_columns(snapshot, needed, u_ref):
             cols[:, 0] = np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3
         elif name in RADIUS_MOMENTS:
             cols[:, 0] = 1.0 if name == "nd" else flowing_rows(snapshot, snapshot.radii) ** RADIUS_MOMENTS[name]
+        elif name == "phi_d":
+            r = flowing_rows(snapshot, snapshot.radii)
+            cols[:, 0] = (np.pi * r**2 if dim == 2 else 4.0 / 3.0 * np.pi * r**3) * (2.0 * r)
     return block, layout
 
 
@@ -223,6 +239,42 @@ def particle_sums(snapshot, needed, u_ref, target, kernel, P, nt):
     for name in ("p_w", "k", "b"):
         if name in needed and name not in out:
             out[name] = _zeros(name, P, snapshot.dim)
+    return out
+
+
+def gradient_sums(snapshot, needed, u_ref, target, kernel, P, nt, resolved):
+    """Source PARTICLE_GRADIENTS: one gradient scatter of [m, m (v - u_ref)] (the columns the needed
+    gradients use). The core gives the D_res resolved derivatives; the derivatives along averaged axes
+    are zero (the marginal does not depend on them) and are stored as zeros, so every gradient has D
+    components: grad_rho (P, D), grad_p_w (P, D, D) with [a, b] = d p_a / d r_b."""
+    dim = snapshot.dim
+    names = [name for name in ("grad_rho", "grad_p_w") if name in needed]
+    pos = flowing_rows(snapshot, snapshot.positions)
+    out = {name: _zeros(name, P, dim) for name in names}
+    has_v = snapshot.velocities is not None
+    width = (1 if "grad_rho" in names else 0) + (dim if "grad_p_w" in names and has_v else 0)
+    if not width or not pos.shape[0] or not resolved:
+        return out
+    m = flowing_rows(snapshot, snapshot.masses)
+    block = np.empty((m.shape[0], width))
+    col = 0
+    if "grad_rho" in names:
+        block[:, 0] = m
+        col = 1
+    if "grad_p_w" in names and has_v:
+        v = flowing_rows(snapshot, snapshot.velocities)
+        for r in range(dim):
+            np.subtract(v[:, r], u_ref[r], out=block[:, col + r])
+            np.multiply(m, block[:, col + r], out=block[:, col + r])
+    summed = scatter_points(target, kernel, pos, block, gradient=True, n_threads=nt)   # (P, width, D_res)
+    del block
+    axes = list(resolved)
+    col = 0
+    if "grad_rho" in names:
+        out["grad_rho"][:, axes] = summed[:, 0, :]
+        col = 1
+    if "grad_p_w" in names and has_v:
+        out["grad_p_w"][:, :, axes] = summed[:, col:col + dim, :]
     return out
 
 
@@ -279,6 +331,8 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
     point_kernel = core_kernel(kernel, target.avg_extent)
     nt = get_num_threads()
     out = particle_sums(snapshot, needed, u_ref, where, point_kernel, P, nt)
+    if needed & GRADIENT_PRIMARIES:
+        out.update(gradient_sums(snapshot, needed, u_ref, where, point_kernel, P, nt, target.resolved))
     if "sk" in needed:
         out["sk"] = fluctuation_sum(snapshot, out.get("rho"), out.get("p_w"), u_ref, where, point_kernel, P, nt)
     if needed & CONTACT_PRIMARIES:

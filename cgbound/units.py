@@ -135,6 +135,15 @@ DIMENSIONS = {
     "mean_radius": Dimension(0, 1, 0),
     "radius_spread": Dimension(0, 1, 0),
     "radius_skewness": Dimension(0, 0, 0),
+    "density_gradient": Dimension(1, -1, 0, True),
+    "momentum_gradient": Dimension(1, 0, -1, True),
+    "velocity_gradient": Dimension(0, 0, -1),
+    "strain_rate": Dimension(0, 0, -1),
+    "spin": Dimension(0, 0, -1),
+    "shear_rate": Dimension(0, 0, -1),
+    "shear_stress": Dimension(1, 2, -2, True, "mixed"),
+    "friction": Dimension(0, 0, 0),
+    "inertial_number": Dimension(0, 0, 0),
 }
 
 #: quantities that are not fields but have units too (coordinates, times, masses)

@@ -129,7 +129,8 @@ cg_status cg_kernel_init(cg_kernel *kernel);
 double cg_kernel_value(const cg_kernel *kernel, double rho2);
 
 /* Gradient of the marginal at x (D_res components) into grad; returns M(x).
-   Only for D_avg = 0 (full-dimensional kernel); Heaviside's gradient is 0. */
+   Any D_avg for the Gaussian and Lucy (Lucy's marginals: cg_gradient.c);
+   Heaviside's gradient is given as 0 (D_avg = 0 only). */
 double cg_kernel_gradient(const cg_kernel *kernel, const double *x, double *grad);
 
 /* psi = int_0^1 M(|q - s e|^2) ds for the resolved vectors q (node minus
@@ -169,7 +170,8 @@ cg_index cg_target_size(const cg_target *target);
  * Point objects:  out[p, k] += sum_o values[o, k] * M(node_p - x_o)
  * positions: n x D, values: n x n_values.
  * gradient = 0: out is P x n_values.
- * gradient = 1: out is P x n_values x D_res and receives grad M instead.
+ * gradient = 1: out is P x n_values x D_res and receives grad M instead
+ *   (Gaussian and Lucy for any D_avg; Heaviside only for D_avg = 0).
  */
 cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
                             cg_index n, const double *positions,
@@ -179,7 +181,8 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
 /*
  * Segment objects: out[p, k] += sum_o values[o, k] * psi_o(node_p) with
  * psi_o(r) = int_0^S M(r - start_o - s vec_o) ds; S = 1, or infinity if ray.
- * starts, vecs: n x D; values: n x n_values; gradient as for points.
+ * starts, vecs: n x D; values: n x n_values; gradient as for points, but
+ * Lucy's segments only for D_avg = 0 (CG_ERR_UNSUPPORTED otherwise).
  * A ray whose resolved projection never leaves the target (zero projection,
  * or only along periodic axes) gives CG_ERR_DIVERGENT before any work.
  */

@@ -134,6 +134,10 @@ double cg_lucy_segment(const cg_kernel *kernel, const segment_axis *ax, const do
    the support (the caller clips). */
 void cg_lucy_line(double a2, double t0, double t1, double span, double R, int want_grad, double *acc);
 
+/* Gradient of Lucy's marginal over one or two averaged axes (D_avg > 0,
+   D_res > 0) at resolved offset x into grad; returns M(x) (cg_gradient.c). */
+double cg_lucy_marginal_gradient(const cg_kernel *kernel, const double *x, double *grad);
+
 /* Order of a Gauss-Legendre rule that integrates the Gaussian (width w) over a
    segment of length L exactly to round-off, or 0 if the segment is too long. */
 int cg_gaussian_roundoff_points(double L, double w);

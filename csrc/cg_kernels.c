@@ -193,6 +193,7 @@ double cg_kernel_value(const cg_kernel *k, double rho2)
 double cg_kernel_gradient(const cg_kernel *k, const double *x, double *grad)
 {
     const int n = k->n_resolved;
+    if (k->type == CG_KERNEL_LUCY && n > 0 && cg_kernel_marginal_axes(k) > 0) return cg_lucy_marginal_gradient(k, x, grad);
     double rho2 = 0.0;
     for (int d = 0; d < n; ++d) rho2 += x[d] * x[d];
     const double value = cg_kernel_value(k, rho2);

@@ -273,7 +273,9 @@ static cg_status prepare(job *jb)
     }
     const cg_kernel *k = jb->kernel;
     if (jb->mode == MODE_GRADIENT) {
-        if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) != 0) return CG_ERR_UNSUPPORTED;
+        /* averaged axes: the Gaussian's marginals, and Lucy's for points (cg_gradient.c) */
+        if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) != 0 &&
+            !(k->type == CG_KERNEL_LUCY && !jb->is_segment)) return CG_ERR_UNSUPPORTED;
         if (k->mercurycg_line && jb->is_segment) return CG_ERR_UNSUPPORTED;
     }
     if (k->line_points < 0 || k->line_points > CG_MAX_LINE_POINTS) return CG_ERR_ARGUMENT;

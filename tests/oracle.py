@@ -5,9 +5,11 @@ Each twin is named after what it mirrors: ``oracle_scatter_points``,
 ``oracle_minimum_image`` mirror the ``_core`` entry points of the same name;
 ``oracle_split_contacts`` mirrors ``Snapshot.split_contacts``;
 ``oracle_coarse_grain`` mirrors ``cgbound.coarse_grain`` (the whole pipeline);
+``oracle_rheology`` mirrors its gradient, kinematics and rheology fields;
 ``OracleKernel`` mirrors the core's kernels (cg_kernel_value, cg_kernel_line,
 cg_kernel_gradient; with ``lower_dimensional``, MercuryCG's kernel over averaged axes; with
-``line_points="mercurycg"``, MercuryCG's approximate Gauss line integral, its normalisation by quadrature) and ``oracle_target`` the nodes of a Grid or Points target.
+``line_points="mercurycg"``, MercuryCG's approximate Gauss line integral, its normalisation by quadrature;
+``oracle_kernel_of`` builds it from a cgbound kernel) and ``oracle_target`` the nodes of a Grid or Points target.
 
 It shares no numerics with the C core: marginals over averaged axes are
 integrated numerically from the D-dimensional kernel, line integrals use the
@@ -217,7 +219,31 @@ class OracleKernel:
             return self.gradient(q) / avg_extent
         if self.kind == "gaussian":
             return -q / self.w**2 * self.marginal((q * q).sum(axis=1), n_res, avg_extent)[:, None]
-        raise ValueError("no gradient of an averaged Lucy or Heaviside kernel")
+        if self.kind == "lucy":
+            return self.lucy_marginal_gradient(q, n_res, avg_extent)
+        raise ValueError("no gradient of an averaged Heaviside kernel")
+
+    def lucy_marginal_gradient(self, q, n_res, avg_extent):
+        """grad_q of Lucy's marginal over the averaged axes, integrated numerically from the full
+        kernel's radial derivative: grad M = q int W'(r) / r over the averaged coordinates (y, with
+        r^2 = |q|^2 + |y|^2); one averaged axis: 2 int_0^h dy (W'(r)/r is smooth in y for Lucy);
+        two: polar coordinates (s ds = r dr), 2 pi int W'(r) / r s ds = 2 pi int_rho^R W'(r) dr."""
+        R = self.R
+        rho2 = (q * q).sum(axis=1)
+        rho = np.sqrt(np.minimum(rho2, R * R))
+        inside = rho2 < R * R
+        if self.dim - n_res == 1:
+            h = np.sqrt(np.maximum(R * R - rho2, 0.0))
+            def f(y):
+                r = np.sqrt(rho[:, None] ** 2 + y * y)
+                safe = np.where(r > 0, r, 1.0)
+                return self.radial_derivative(r) / safe
+            integral = np.zeros_like(rho)
+            for a, b in [(0.0, 0.25), (0.25, 0.5), (0.5, 0.75), (0.75, 1.0)]:
+                integral += 2 * _gl(f, a * h, b * h, GL40_X, GL40_W)
+        else:
+            integral = 2 * math.pi * _gl(self.radial_derivative, rho, np.full_like(rho, R), GL40_X, GL40_W)
+        return np.where(inside, integral, 0.0)[:, None] * q / avg_extent
 
     def line_gradient(self, q, e, n_res=None, avg_extent=1.0, ray=False):
         """grad_r psi for nodes q (P x n_res) of int_0^S M(q - s e) ds (S = 1, or infinity for a ray):
@@ -421,16 +447,26 @@ def oracle_split_contacts(snap):
     return bulk, boundary
 
 
-def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
-    """Twin of cgbound.coarse_grain: all requested fields, flat over nodes (P, ...), from the formulas of
-    docs/theory.md, "Fields"."""
+def oracle_kernel_of(kernel_obj, dim):
+    """The OracleKernel twin of a cgbound kernel object."""
     import cgbound as cg
 
     kind = {cg.Gaussian: "gaussian", cg.Lucy: "lucy", cg.Heaviside: "heaviside"}[type(kernel_obj)]
-    line = getattr(kernel_obj, "line_quadrature", "exact")   # "exact", "mercurycg" or n
-    kernel = OracleKernel(kind, snap.dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
-                       truncated=getattr(kernel_obj, "truncated", False), line_points=0 if line == "exact" else line,
-                       lower_dimensional=kernel_obj.averaged_axes == "lower-dimensional")
+    line = getattr(kernel_obj, "line_quadrature", "exact")
+    return OracleKernel(kind, dim, getattr(kernel_obj, "width", None) or kernel_obj.radius, kernel_obj.radius,
+                        truncated=getattr(kernel_obj, "truncated", False), line_points=0 if line == "exact" else line,
+                        lower_dimensional=getattr(kernel_obj, "averaged_axes", "marginal") == "lower-dimensional")
+
+
+def oracle_coarse_grain(snap, where, kernel_obj, fields, convention="tension"):
+    """Twin of cgbound.coarse_grain: all requested fields, flat over nodes (P, ...), from the formulas of
+    docs/theory.md, "Fields"."""
+    rheology = [name for name in fields if name in RHEOLOGY_NAMES]
+    if rheology:        # their own twin (which asks this one for density, momentum and stress)
+        out = oracle_coarse_grain(snap, where, kernel_obj, [f for f in fields if f not in rheology], convention)
+        out.update(oracle_rheology(snap, where, kernel_obj, rheology))
+        return {name: out[name] for name in fields}
+    kernel = oracle_kernel_of(kernel_obj, snap.dim)
     box = snap.box
     tgt = oracle_target(where, box)
     D = snap.dim
@@ -560,3 +596,80 @@ def oracle_structure(snap, where, kernel_obj, fields):
                "radius_skewness": np.where(spread > 0, third / spread ** 3, np.nan)}
     out.update({f"size_moment_{k}": moments[k] for k in range(6)})
     return {name: out[name] for name in fields}
+#: the fields oracle_rheology mirrors
+RHEOLOGY_NAMES = ("density_gradient", "momentum_gradient", "velocity_gradient", "strain_rate", "spin", "shear_rate",
+                  "shear_stress", "friction", "inertial_number")
+
+
+def _shear_invariant(tensors):
+    """sqrt(J2) of the symmetric part of each tensor from its eigenvalues: J2 = (1/6) sum over pairs
+    (l_i - l_j)^2 in 3D, (l_1 - l_2)^2 / 4 in 2D (no deviator formed)."""
+    lam = np.linalg.eigvalsh(0.5 * (tensors + np.swapaxes(tensors, 1, 2)))
+    if lam.shape[1] == 2:
+        return np.abs(lam[:, 0] - lam[:, 1]) / 2
+    return np.sqrt(((lam[:, 0] - lam[:, 1]) ** 2 + (lam[:, 1] - lam[:, 2]) ** 2 + (lam[:, 2] - lam[:, 0]) ** 2) / 6)
+
+
+def oracle_rheology(snap, where, kernel_obj, fields):
+    """Twin of the gradient, kinematics and rheology fields of cgbound.coarse_grain, from the formulas of
+    docs/theory.md, "Gradients, kinematics and rheology": gradients by oracle_scatter_points (gradient=True)
+    of the absolute momentum, node by node, invariants from eigenvalues."""
+    kernel = oracle_kernel_of(kernel_obj, snap.dim)
+    tgt = oracle_target(where, snap.box)
+    resolved = tgt[1]
+    D = snap.dim
+    P = tgt[0].shape[0]
+    flow = ~np.asarray(snap.fixed)
+    pos = np.asarray(snap.positions)[flow]
+    m = np.asarray(snap.masses)[flow]
+    vel = np.zeros_like(pos) if snap.velocities is None else np.asarray(snap.velocities)[flow]
+    base = oracle_coarse_grain(snap, where, kernel_obj, ["density", "momentum", "stress"])
+    rho, p, sigma = base["density"], base["momentum"], base["stress"]
+    grad_rho = np.zeros((P, D))
+    grad_p = np.zeros((P, D, D))
+    L = np.full((P, D, D), np.nan)
+    gamma = np.full(P, np.nan)
+    if set(fields) - {"shear_stress", "friction"}:          # fields with gradients
+        grad_rho[:, resolved] = oracle_scatter_points(kernel, tgt, pos, m[:, None], gradient=True)[:, 0, :]
+        grad_p[:, :, resolved] = oracle_scatter_points(kernel, tgt, pos, m[:, None] * vel, gradient=True)
+        for n in range(P):
+            if rho[n] > 0:
+                V = p[n] / rho[n]
+                L[n] = (grad_p[n] - np.outer(V, grad_rho[n])) / rho[n]
+        ok = rho > 0
+        gamma[ok] = 2 * _shear_invariant(0.5 * (L + np.swapaxes(L, 1, 2))[ok])   # sqrt(2 D':D') = 2 sqrt(J2(D))
+    strain = 0.5 * (L + np.swapaxes(L, 1, 2))
+    tau = _shear_invariant(sigma)
+    pressure = -np.trace(sigma, axis1=1, axis2=2) / D
+    radii = np.asarray(snap.radii)[flow] if snap.radii is not None else None
+    out = {}
+    for name in fields:
+        if name == "density_gradient":
+            out[name] = grad_rho
+        elif name == "momentum_gradient":
+            out[name] = grad_p
+        elif name == "velocity_gradient":
+            out[name] = L
+        elif name == "strain_rate":
+            out[name] = strain
+        elif name == "spin":
+            out[name] = 0.5 * (L - np.swapaxes(L, 1, 2))
+        elif name == "shear_rate":
+            out[name] = gamma
+        elif name == "shear_stress":
+            out[name] = tau
+        elif name == "friction":
+            out[name] = np.array([tau[n] / pressure[n] if pressure[n] > 0 else np.nan for n in range(P)])
+        elif name == "inertial_number":
+            volume = math.pi * radii**2 if D == 2 else 4 / 3 * math.pi * radii**3
+            phi = oracle_scatter_points(kernel, tgt, pos, volume[:, None])[:, 0]
+            phi_d = oracle_scatter_points(kernel, tgt, pos, (volume * 2 * radii)[:, None])[:, 0]
+            value = np.full(P, np.nan)
+            for n in range(P):
+                if phi[n] > 0 and pressure[n] > 0 and rho[n] > 0:
+                    d_mean, rho_p = phi_d[n] / phi[n], rho[n] / phi[n]
+                    value[n] = gamma[n] * d_mean / math.sqrt(pressure[n] / rho_p)
+            out[name] = value
+        else:
+            raise ValueError(name)
+    return out

@@ -13,6 +13,7 @@ import pytest
 
 import cgbound as cg
 from cgbound.fields import PER_PARTICLE_FIELDS
+from cgbound.fields import NAN_WITHOUT_MATTER, PRESSURE_RATIO_FIELDS
 from stability_log import record
 
 mp.mp.dps = 50
@@ -360,10 +361,11 @@ ALL = tuple(cg.FIELD_NAMES)
 
 
 def assert_empty_fields(out):
-    """No flowing matter: velocity and temperature NaN, every other field exactly zero."""
+    """No flowing matter: velocity, temperature and the fields that divide by the density or the pressure
+    NaN, every other field exactly zero."""
     for name in ALL:
         value = out[name]
-        if name in ("velocity", "temperature") + PER_PARTICLE_FIELDS:
+        if name in ("velocity", "temperature") + PER_PARTICLE_FIELDS + NAN_WITHOUT_MATTER + PRESSURE_RATIO_FIELDS:
             assert np.all(np.isnan(value)), name
         else:
             assert np.all(value == 0), name

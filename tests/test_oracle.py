@@ -6,6 +6,7 @@ import pytest
 
 import cgbound as cg
 from helpers import ILL_CONDITIONED_FIELDS, assert_fields_close, random_snapshot
+from cgbound.fields import GRADIENT_FIELDS, PRESSURE_RATIO_FIELDS
 from oracle import oracle_coarse_grain
 
 ALL_FIELDS = tuple(f for f in cg.FIELD_NAMES if f not in ILL_CONDITIONED_FIELDS)
@@ -31,20 +32,29 @@ def grid_for(box, average):
     return cg.Grid(box, tuple(1 if n in average else s for n, s in zip(names, sizes)), average=average)
 
 
-def fields_for(snap, where):
-    """extended_stress is infinite (and refused) when no resolved axis is non-periodic."""
+def fields_for(snap, where, kernel=None):
+    """extended_stress is infinite (and refused) when no resolved axis is non-periodic; gradient fields need a
+    differentiable kernel."""
     resolved = [d for d in range(snap.dim) if d not in getattr(where, "averaged", ())]
+    fields = ALL_FIELDS
+    if kernel is not None and not kernel.differentiable:
+        fields = tuple(f for f in fields if f not in GRADIENT_FIELDS)
     if any(not snap.box.periodic[d] for d in resolved):
-        return ALL_FIELDS
-    return tuple(f for f in ALL_FIELDS if f != "extended_stress")
+        return fields
+    return tuple(f for f in fields if f != "extended_stress")
 
 
 def check_against_oracle(snap, where, kernel, convention="tension"):
-    fields = fields_for(snap, where)
+    fields = fields_for(snap, where, kernel)
     out = cg.coarse_grain(snap, where, kernel, fields=fields, convention=convention)
     ref = oracle_coarse_grain(snap, where, kernel, fields, convention=convention)
     for name in fields:
-        assert_fields_close(out[name].reshape(ref[name].shape), ref[name], RTOL, name)
+        got, expected = out[name].reshape(ref[name].shape), ref[name]
+        if name in PRESSURE_RATIO_FIELDS:
+            # 1/p amplifies round-off where the pressure crosses zero: compare where it is well conditioned
+            sure = np.abs(ref["pressure"]) >= 1e-4 * np.abs(ref["stress"]).max()
+            got, expected = got[sure], expected[sure]
+        assert_fields_close(got, expected, RTOL, name)
 
 
 @pytest.mark.parametrize("kernel", sorted(KERNELS))

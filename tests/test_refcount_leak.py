@@ -136,7 +136,7 @@ ERRORS = {
     "vectors_wrong_shape": raises(ValueError, _core.scatter_segments, GRID, LUCY, POS, VEC[:4], VAL),
     "vectors_nan": raises(ValueError, _core.scatter_segments, GRID, LUCY, POS, POS_NAN, VAL),
     "divergent_ray": raises(ValueError, _core.scatter_segments, GRID, GAUSS, POS, ALONG, VAL, ray=True),
-    "unsupported_gradient": raises(NotImplementedError, _core.scatter_points, AVERAGED, LUCY_AVG, POS, VAL,
+    "unsupported_gradient": raises(NotImplementedError, _core.scatter_segments, AVERAGED, LUCY_AVG, POS, VEC, VAL,
                                    gradient=True),
     "masses_wrong_length": raises(ValueError, _core.scatter_fluctuation, GRID, LUCY, POS, MASS[:4], VEL, NODE_V),
     "node_velocity_wrong_shape": raises(ValueError, _core.scatter_fluctuation, GRID, LUCY, POS, MASS, VEL,

@@ -56,6 +56,7 @@ LAYERS = {
     "_partial": 5, "_dask": 5,                                    # today
     "plot": 5,                                                    # Result.plot and _repr_png_ draw through it
     "readers": 6, "mercurycg": 6,
+    "rheology": 6,                                                # ratios of a Result's stress components
     "__init__": 7, "__main__": 7, "cli": 7, "paper": 7,
     "scenes": 7, "profiles": 7, "datasets": 7, "blobs": 7,        # today (the paper wing, before cgbound/paper/)
 }

@@ -23,6 +23,7 @@ API_FLAGS = {
     "pair_style": "--pair-style", "species": "--species", "lower": "--lower", "upper": "--upper",
     "paths": "PATH", "check_forces": "--no-check-forces",
 }
+API_FLAGS["kernel"] = "--kernel"        # e.g. a gradient field asked of the Heaviside kernel
 
 _LEADING_NAME = re.compile(r"^([A-Za-z_][A-Za-z0-9_.]*): ")
 

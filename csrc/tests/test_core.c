@@ -888,7 +888,8 @@ static void test_errors_and_empty(void)
     }
     CHECK(all_zero(out, 64 * 9), "errors write nothing");
 
-    /* gradients of averaged compact kernels are unsupported; the Gaussian's are fine */
+    /* gradients over averaged axes: Heaviside's and Lucy's segments are unsupported; Lucy's points
+       (cg_gradient.c) and the Gaussian's are fine */
     {
         grid_store g2;
         const cg_index s2[2] = {4, 4};
@@ -899,12 +900,37 @@ static void test_errors_and_empty(void)
         cg_kernel_init(&lucy);
         cg_kernel_init(&heav);
         cg_kernel_init(&gau);
-        CHECK_STATUS(cg_scatter_points(&ta, &lucy, 6, OBJ_POS, 1, masses, 1, out), CG_ERR_UNSUPPORTED);
+        CHECK_STATUS(cg_scatter_segments(&ta, &lucy, 6, OBJ_POS, OBJ_VEC, 0, 1, masses, 1, out),
+                     CG_ERR_UNSUPPORTED);
+        CHECK_STATUS(cg_scatter_points(&ta, &heav, 6, OBJ_POS, 1, masses, 1, out), CG_ERR_UNSUPPORTED);
         CHECK_STATUS(cg_scatter_segments(&ta, &heav, 6, OBJ_POS, OBJ_VEC, 0, 1, masses, 1, out),
                      CG_ERR_UNSUPPORTED);
         CHECK(all_zero(out, 64 * 9), "unsupported writes nothing");
+        CHECK_STATUS(cg_scatter_points(&ta, &lucy, 6, OBJ_POS, 1, masses, 1, out), CG_OK);
+        CHECK(!all_zero(out, 16 * 2), "Lucy marginal gradient");
         CHECK_STATUS(cg_scatter_points(&ta, &gau, 6, OBJ_POS, 1, masses, 1, out), CG_OK);
         CHECK(!all_zero(out, 16 * 2), "Gaussian marginal gradient");
+        /* Lucy's marginal gradients (one and two averaged axes) against central differences of the value,
+           on both sides of x = 0.5 where G switches from its closed form to quadrature */
+        for (int n_res = 1; n_res <= 2; ++n_res) {
+            cg_kernel lm = make_kernel(CG_KERNEL_LUCY, 3, n_res, 0.0, 1.5);
+            cg_kernel_init(&lm);
+            const double pts[4][2] = {{0.1, 0.2}, {0.5, -0.3}, {-0.9, 0.6}, {1.2, 0.3}};
+            for (int p = 0; p < 4; ++p) {
+                double g[2], x[2] = {pts[p][0], pts[p][1]};
+                cg_kernel_gradient(&lm, x, g);
+                for (int d = 0; d < n_res; ++d) {
+                    const double hh = 1e-5;
+                    double xp[2] = {x[0], x[1]}, xm[2] = {x[0], x[1]};
+                    xp[d] += hh;
+                    xm[d] -= hh;
+                    double rp = 0.0, rm = 0.0;
+                    for (int e = 0; e < n_res; ++e) { rp += xp[e] * xp[e]; rm += xm[e] * xm[e]; }
+                    const double fd = (cg_kernel_value(&lm, rp) - cg_kernel_value(&lm, rm)) / (2 * hh);
+                    CHECK(fabs(fd - g[d]) <= 1e-8 * (fabs(g[d]) + 1e-3), "Lucy marginal gradient vs differences");
+                }
+            }
+        }
     }
 }
 
