@@ -318,7 +318,7 @@ def check_reach(kernel, dim, periodic_lengths, largest_product, where="snapshot"
     if images > MAX_IMAGES:
         lengths = ", ".join(f"{axis} {length:g}" for axis, length in periodic_lengths.items())
         raise ValueError(f"{name}: expected a kernel whose support (radius {kernel.radius:g}) reaches at most "
-                         f"{MAX_IMAGES:g} periodic images of a particle, got {images:.3g} on the periodic box "
+                         f"{MAX_IMAGES:g} periodic images of a particle, got one reaching {images:.3g} images on the periodic box "
                          f"(lengths {lengths}); a kernel this wide is uniform along those axes: average over them "
                          f"(Grid(..., average=...)) or use a narrower kernel")
     peak = kernel.peak_bound(dim)

@@ -197,7 +197,8 @@ def test_kernel_far_wider_than_a_periodic_box_is_refused_naming_width(fields):
     snap = cg.Snapshot(rng.random((5, 3)), np.zeros((5, 3)), np.ones(5), box=box,
                        contacts=cg.Contacts([0], [1], [[1.0, 0, 0]], [[0.5, 0.5, 0.5]]))
     for kernel in (cg.Gaussian(40.0), cg.Gaussian(1e20), cg.Lucy(1e25)):
-        with pytest.raises(ValueError, match=r"^(width|cutoff): expected a kernel whose support .* periodic box "
+        with pytest.raises(ValueError, match=r"^(width|cutoff): expected a kernel whose support .* reaching "
+                                             r"[0-9.e+]+ images on the periodic box "
                                              r"\(lengths x 1, y 1, z 1\)"):
             cg.coarse_grain(snap, cg.Grid(box, 2), kernel, fields=fields)
         with pytest.raises(ValueError, match=r"^(width|cutoff): "):
@@ -217,6 +218,25 @@ def test_huge_grids_are_memory_errors_naming_shape_before_allocating():
     for shape in [(10 ** 12, 1, 1), (2 ** 62, 1, 1)]:
         with pytest.raises(MemoryError, match="^shape: expected a request that fits in memory"):
             cg.Grid(box, shape)
+
+
+def test_grid_own_arrays_are_counted_before_allocating(monkeypatch):
+    """Was: Grid(box, (3e8, 1, 1)) refused only after 12.8 s and 4.7 GB: its own node coordinates (2.4 GB here)
+    are in the estimate, so on a machine without that memory it is refused before allocating them."""
+    import tracemalloc
+    from cgbound import _memory
+    monkeypatch.setattr(_memory, "physical_memory", lambda: 10 ** 9)
+    box = cg.Box([0, 0, 0], [1, 1, 1])
+    tracemalloc.start()
+    try:
+        with pytest.raises(MemoryError, match=r"^shape: expected a request that fits in memory, got one needing "
+                                              r"about 2\.4 GB \(300000002 doubles of the grid itself"):
+            cg.Grid(box, (3 * 10 ** 8, 1, 1))
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 20e6, f"{peak / 1e6:.1f} MB allocated before the MemoryError"
+    assert cg.Grid(box, (1000, 1, 1)).shape == (1000, 1, 1)   # a grid that fits is still built
 
 
 def test_ints_beyond_float_are_named_value_errors():
