@@ -103,8 +103,11 @@ def read_all(data, fstat=None, **options):
 
 def test_hand_files_still_read(tmp_path):
     f = write(tmp_path, **{"d.data": DATA3, "d.fstat": FSTAT3})
-    frames = read_all(f["d.data"], f["d.fstat"])
+    frames = read_all(f["d.data"], f["d.fstat"], fixed=[2])
     assert [len(s.contacts) for s in frames] == [0, 4]
+    with pytest.raises(ValueError, match=r"d\.fstat:9: the pair \(0, 2\) of two flowing particles is listed once; "
+                                         r".*a line of the file was lost"):
+        read_all(f["d.data"], f["d.fstat"])          # particle 2 taken as flowing: its pair line is one-sided
 
 
 def test_fstat_whose_last_frame_lost_its_lines_is_an_error(tmp_path):
@@ -214,16 +217,17 @@ def test_multi_file_output_and_the_structure_checks_per_file(tmp_path):
     f = write(tmp_path, **{"m.data.0": "".join(parts[:4]), "m.data.1": "".join(parts[4:]),
                            "m.fstat.0": "".join(FSTAT3.splitlines(keepends=True)[:3]),
                            "m.fstat.1": "".join(FSTAT3.splitlines(keepends=True)[3:])})
-    multi = open_dataset(str(tmp_path / "m.data.*"), fstat_path=str(tmp_path / "m.fstat.*"), density=1.0)
+    multi = open_dataset(str(tmp_path / "m.data.*"), fstat_path=str(tmp_path / "m.fstat.*"), density=1.0,
+                         fixed=[2])
     single = write(tmp_path, **{"s.data": DATA3, "s.fstat": FSTAT3})
-    one = MercuryReader(single["s.data"], single["s.fstat"], density=1.0)
+    one = MercuryReader(single["s.data"], single["s.fstat"], density=1.0, fixed=[2])
     assert len(multi) == 2
     for a, b in zip(multi, one):
         assert a.positions.tobytes() == b.positions.tobytes()
         assert a.contacts.force.tobytes() == b.contacts.force.tobytes()
     (tmp_path / "m.fstat.1").write_text("".join(FSTAT3.splitlines(keepends=True)[3:5]))
     with pytest.raises(ValueError, match=r"m\.fstat\.1:1: 2 '#' header lines in a row"):
-        open_dataset(str(tmp_path / "m.data.*"), fstat_path=str(tmp_path / "m.fstat.*"), density=1.0)
+        open_dataset(str(tmp_path / "m.data.*"), fstat_path=str(tmp_path / "m.fstat.*"), density=1.0, fixed=[2])
 
 
 # --- HDF5 ----------------------------------------------------------------------------------------

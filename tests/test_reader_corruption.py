@@ -24,12 +24,9 @@ CASES_PER_PAIR = 5
 #: (reader, mutation) pairs that main's readers fail today (some case of the pair reads as something else,
 #: raises an error not naming the file, or an exception of the wrong type). Empty it as the readers learn
 #: to check their input: the tests are strict, so a pair that starts passing fails until removed here.
-KNOWN_FAILING = {
-    # MercuryDPM .fstat: genuine files list contacts with walls and with fixed particles once and the others
-    # from both sides, and declare no count, so losing one line of a two-sided pair leaves a file that reads
-    # as that pair listed once (detectable only against the particles' fixed flags: not done yet)
-    ("mercurydpm", "delete_line"),
-}
+# none left: the last one (MercuryDPM .fstat losing one line of a two-sided pair) is refused since the
+# reader checks that pairs of two flowing particles are listed from both sides
+KNOWN_FAILING = set()
 
 
 def pairs():

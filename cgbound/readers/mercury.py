@@ -59,7 +59,8 @@ should MercuryDPM ever fix the flip.
 Double listings are merged: the two lines of a pair must carry opposite forces and the same
 contact point (within ``rtol`` of the frame's largest force / particle diameter); otherwise a
 ValueError names the file and both line numbers. A pair listed more than twice, or twice from
-the same side, is an error too. The kept orientation is i < j. Walls become ``j = -1``
+the same side, is an error too, and so is a pair of two flowing particles listed once (a lost line:
+MercuryDPM writes those from both sides). The kept orientation is i < j. Walls become ``j = -1``
 (:attr:`MercuryFrame.wall_index` keeps which wall). Contact points of ``marker 0`` files (the
 "centre" of older versions: the midpoint of the overlap-corrected centre line for pairs, the
 wall-surface point for walls) are used as contact points unchanged.
@@ -251,7 +252,7 @@ class MercuryReader(FrameReader):
         fixed = self._fixed(radii, species, n, pos, time)
         masses = self._masses(radii, species, fixed)
         if fstat is not None:
-            contacts, wall_index, overlap = self._contacts(fstat, pos, radii, box)
+            contacts, wall_index, overlap = self._contacts(fstat, pos, radii, box, fixed)
         else:
             contacts, wall_index, overlap = Contacts.empty(self.dim), np.zeros(0, np.int64), np.zeros(0)
         snap = Snapshot(pos, velocities=vel, masses=masses, box=box, contacts=contacts, fixed=fixed,
@@ -340,7 +341,7 @@ class MercuryReader(FrameReader):
         m = rho * vol
         return np.where(fixed & ~(m > 0), 1.0, m)
 
-    def _contacts(self, fstat, pos, radii, box):
+    def _contacts(self, fstat, pos, radii, box, fixed):
         """The contacts of a .fstat frame: (Contacts, wall index, overlap)."""
         rows, ints, line_of = read_fstat_rows(self.fstat_path, *fstat[:4])
         if rows is None:
@@ -351,7 +352,7 @@ class MercuryReader(FrameReader):
         overlap = rows[:, 6]
         force = self._forces_on_i(rows, line_of, d, box.minimum_image(pos[i] - point))
         wall = jraw < 0
-        keep = wall | self._one_listing_per_pair(i, jraw, force, point, radii, line_of)
+        keep = wall | self._one_listing_per_pair(i, jraw, force, point, radii, line_of, fixed)
         sel = np.flatnonzero(keep)
         j = np.where(wall, -1, jraw)[sel]
         wall_index = np.where(wall, -1 - jraw, -1)[sel]
@@ -390,11 +391,12 @@ class MercuryReader(FrameReader):
         sign = np.where(proj < 0, -1.0, 1.0)
         return sign[:, None] * (fn[:, None] * normal + ft[:, None] * tang)
 
-    def _one_listing_per_pair(self, i, jraw, force, point, radii, line_of):
-        """Which pair lines to keep: a pair listed once is kept; one listed from both sides (opposite
-        forces, the same contact point within rtol) is kept once, oriented i < j; anything else raises
-        (the pair whose first line comes first is reported). Vectorised: lines grouped by a sort on the
-        pair's key."""
+    def _one_listing_per_pair(self, i, jraw, force, point, radii, line_of, fixed):
+        """Which pair lines to keep: a pair with a fixed particle listed once is kept; one listed from
+        both sides (opposite forces, the same contact point within rtol) is kept once, oriented i < j;
+        anything else raises (the pair whose first line comes first is reported): a pair of two flowing
+        particles listed once (MercuryDPM writes those from both sides: a line was lost), more than twice,
+        twice from one side, or inconsistently. Vectorised: lines grouped by a sort on the pair's key."""
         path = self.fstat_path
         keep = np.zeros(i.shape, bool)
         scale = float(np.max(np.linalg.norm(force, axis=1))) if len(force) else 0.0
@@ -429,6 +431,14 @@ class MercuryReader(FrameReader):
                              f"forces {force[p].tolist()} and {force[q].tolist()} are not opposite or the "
                              f"contact points {point[p].tolist()} and {point[q].tolist()} differ (|f1 + f2| = "
                              f"{df[g]:.3g}, |c1 - c2| = {dc[g]:.3g}, rtol = {self.rtol:g})")
+        once = count == 1
+        lonely = once & ~fixed[i[k1]] & ~fixed[jraw[k1]]
+        if np.any(lonely):
+            k = int(np.min(k1[lonely]))
+            raise ValueError(f"{path}:{line_of(k)}: the pair ({i[k]}, {jraw[k]}) of two flowing particles is listed "
+                             "once; MercuryDPM writes such a contact from both sides, so a line of the file was lost "
+                             "(a truncated or edited file?) or the fixed particles are wrong (check fixed= or the "
+                             ".restart file)")
         p, q = k1[two], k2[two]
         keep[np.where(i[p] < i[q], p, q)] = True
         return keep
