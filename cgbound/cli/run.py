@@ -44,12 +44,12 @@ examples, one per format:
     cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1.5 --grid 1,1,100 --average x,y \\
         -o chute.h5
   LAMMPS read with its input script (columns, frozen types, walls and gravity from the script):
-    cgbound run atoms.dump --pairs pairs.dump --input in.chute --var angle=26 --grid 1,1,200 --average x,y \
+    cgbound run atoms.dump --pairs pairs.dump --input in.chute --var angle=26 --grid 1,1,200 --average x,y \\
         -o profile.h5
   Yade (a directory of exports written by cgbound.readers.yade_export inside Yade):
     cgbound run yade_frames/ --grid 1,1,50 --average x,y --fields density,stress -o yade.h5
   MercuryCG's .stat format out (Lucy: MercuryCG's width is the cutoff; its 1-D kernel over averaged axes):
-    cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1 --grid 1,1,140 --average x,y \
+    cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1 --grid 1,1,140 --average x,y \\
         --averaged-kernel lower-dimensional -o chute.stat
   MDAnalysis (topology and trajectory):
     cgbound run topol.tpr traj.xtc --format mdanalysis --grid 40,40,40 --fields density -o density.npz
