@@ -180,10 +180,12 @@ def iter_chunks(path, chunk_size=1 << 22, checkpoints=None, spacing=1 << 24, res
         try:
             while raw := f.read(chunk_size):
                 data = raw
+                # checkpoint where the state holds no unconsumed input: a copy taken mid-chunk keeps its
+                # unconsumed_tail (up to chunk_size bytes) alive with it
+                if checkpoints is not None and (last is None or produced - last >= spacing):
+                    checkpoints.append((produced, f.tell() - len(data), inflate.copy()))
+                    last = produced
                 while data:
-                    if checkpoints is not None and (last is None or produced - last >= spacing):
-                        checkpoints.append((produced, f.tell() - len(data), inflate.copy()))
-                        last = produced
                     in_member = True
                     out = inflate.decompress(data, chunk_size)  # bounded output: one chunk at a time
                     if out:
