@@ -14,7 +14,8 @@ import re
 
 import numpy as np
 
-from ._text import find_lines, iter_chunks, parse_table
+from ._text import find_lines, gzip_checkpoints, iter_chunks, parse_table
+from ._text import read_range as _read_text_range
 from .files import is_gzip
 
 __all__ = ["DATA_COLUMNS", "FSTAT_COLUMNS", "read_fstat_rows", "read_particles", "read_restart", "scan_data",
@@ -28,11 +29,31 @@ _TIME_RTOL = 1e-9                # a line's time against its frame's (both writt
 _TEXT = re.compile(rb"\S")       # the first byte that is not whitespace
 
 
+#: gzip checkpoints of the files scanned, by (real path, mtime, size): a frame read resumes decompressing at
+#: the nearest one instead of the start (without them reading every frame of a gzipped file is quadratic)
+_GZIP_CHECKPOINTS = {}
+_GZIP_CHECKPOINTS_KEPT = 16
+
+
+def _gzip_key(path):
+    st = os.stat(path)
+    return os.path.realpath(path), st.st_mtime_ns, st.st_size
+
+
+def _remember_checkpoints(path, checkpoints):
+    if len(_GZIP_CHECKPOINTS) >= _GZIP_CHECKPOINTS_KEPT:
+        _GZIP_CHECKPOINTS.pop(next(iter(_GZIP_CHECKPOINTS)))
+    _GZIP_CHECKPOINTS[_gzip_key(path)] = checkpoints
+
+
 @contextlib.contextmanager
 def file_bytes(path):
     """The whole file's bytes: memory-mapped if plain, decompressed as a zlib stream if gzip."""
     if is_gzip(path):
-        yield b"".join(iter_chunks(path))
+        checkpoints = []
+        data = b"".join(iter_chunks(path, checkpoints=checkpoints))
+        _remember_checkpoints(path, checkpoints)
+        yield data
         return
     with open(path, "rb") as fh:
         if os.fstat(fh.fileno()).st_size == 0:
@@ -49,20 +70,16 @@ def file_bytes(path):
 
 
 def read_range(path, start, stop):
-    """Bytes [start, stop) of the file (decompressed bytes if gzip, streamed up to stop)."""
+    """Bytes [start, stop) of the file (decompressed bytes if gzip, streamed from the checkpoint before start)."""
     if not is_gzip(path):
         with open(path, "rb") as fh:
             fh.seek(start)
             return fh.read(stop - start)
-    out, position = [], 0
-    for chunk in iter_chunks(path):
-        end = position + len(chunk)
-        if end > start:
-            out.append(chunk[max(start - position, 0):stop - position])
-        position = end
-        if position >= stop:
-            break
-    return b"".join(out)
+    checkpoints = _GZIP_CHECKPOINTS.get(_gzip_key(path))
+    if checkpoints is None:
+        checkpoints = gzip_checkpoints(path)
+        _remember_checkpoints(path, checkpoints)
+    return bytes(_read_text_range(path, start, stop, checkpoints))
 
 
 def _empty_file_error(path, what):
