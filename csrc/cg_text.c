@@ -533,33 +533,36 @@ cg_status cg_text_parse_table_threads(const char *text, size_t length, int64_t n
                                       const unsigned char *int_columns, int flags, int64_t max_rows, double *values,
                                       int64_t *ints, cg_text_result *result, int n_threads)
 {
-    /* blank lines skipped make row != line, so the parts could not place their rows */
-    if (n_threads < 2 || length < 2 * CG_TEXT_BYTES_PER_THREAD || (flags & CG_TEXT_SKIP_BLANK) || !result || !text ||
-        ncols < 1 || max_rows < 0 || !values)
+    if (n_threads < 2 || length < 2 * CG_TEXT_BYTES_PER_THREAD || !result || !text || ncols < 1 || max_rows < 0 ||
+        !values)
         return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
     int64_t n_int = 0;
     if (int_columns)
         for (int64_t c = 0; c < ncols; ++c) n_int += int_columns[c] != 0;
     if (n_int && !ints) return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
 
-    /* With CG_TEXT_STOP_AT_MAX_ROWS every line up to the end is a row (or an error), so the table is the
-       first max_rows lines. Parts start at line starts; part k's first row is the number of lines before
-       it. Any error: the serial pass runs again, so errors are reported exactly as it reports them. */
+    /* Parts start at line starts; part k parses into rows from first_line[k] (the lines before it) on,
+       which leaves room for its rows; rows are closed up afterwards where blank lines were skipped. With
+       CG_TEXT_STOP_AT_MAX_ROWS (and no blank lines allowed) every line up to the end is a row or an error,
+       so the table is the first max_rows lines. Any error: the range is parsed again in one pass, so
+       errors are reported exactly as that pass reports them. */
+    if ((flags & CG_TEXT_STOP_AT_MAX_ROWS) && (flags & CG_TEXT_SKIP_BLANK))
+        return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
     const char *end = (flags & CG_TEXT_STOP_AT_MAX_ROWS) ? after_lines(text, text + length, max_rows) : text + length;
     const size_t span = (size_t)(end - text);
     int parts = n_threads < CG_TEXT_MAX_THREADS ? n_threads : CG_TEXT_MAX_THREADS;
     if ((size_t)parts > span / CG_TEXT_BYTES_PER_THREAD) parts = (int)(span / CG_TEXT_BYTES_PER_THREAD);
     if (parts < 2) return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
     const char *start[CG_TEXT_MAX_THREADS + 1];
-    int64_t first_row[CG_TEXT_MAX_THREADS + 1];
+    int64_t first_line[CG_TEXT_MAX_THREADS + 1];
     start[0] = text;
-    first_row[0] = 0;
+    first_line[0] = 0;
     for (int k = 1; k < parts; ++k) {
         const char *cut = text + span / (size_t)parts * (size_t)k;
         if (cut < start[k - 1]) cut = start[k - 1];
         const char *nl = memchr(cut, '\n', (size_t)(end - cut));
         start[k] = nl ? nl + 1 : end;
-        first_row[k] = first_row[k - 1] + cg_text_count_lines(start[k - 1], (size_t)(start[k] - start[k - 1]));
+        first_line[k] = first_line[k - 1] + cg_text_count_lines(start[k - 1], (size_t)(start[k] - start[k - 1]));
     }
     start[parts] = end;
     cg_text_result part[CG_TEXT_MAX_THREADS];
@@ -568,21 +571,27 @@ cg_status cg_text_parse_table_threads(const char *text, size_t length, int64_t n
 #pragma omp parallel for num_threads(parts) schedule(static, 1)
 #endif
     for (int k = 0; k < parts; ++k) {
-        const int64_t room = max_rows > first_row[k] ? max_rows - first_row[k] : 0; /* 0: any row is an error */
+        const int64_t room = max_rows > first_line[k] ? max_rows - first_line[k] : 0; /* 0: any row is an error */
         status[k] = cg_text_parse_table(start[k], (size_t)(start[k + 1] - start[k]), ncols, int_columns,
                                         flags & ~CG_TEXT_STOP_AT_MAX_ROWS, room,
-                                        room ? values + first_row[k] * ncols : values,
-                                        n_int ? (room ? ints + first_row[k] * n_int : ints) : NULL, &part[k]);
+                                        room ? values + first_line[k] * ncols : values,
+                                        n_int ? (room ? ints + first_line[k] * n_int : ints) : NULL, &part[k]);
     }
     memset(result, 0, sizeof *result);
     for (int k = 0; k < parts; ++k) {
-        /* a part without errors holds one row per line, so the next part's rows follow on */
-        if (status[k] != CG_OK || (k + 1 < parts && part[k].nrows != first_row[k + 1] - first_row[k]))
+        if (status[k] != CG_OK)
             return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+        if (result->nrows != first_line[k] && part[k].nrows) { /* blank lines were skipped before: close up */
+            memmove(values + result->nrows * ncols, values + first_line[k] * ncols,
+                    (size_t)(part[k].nrows * ncols) * sizeof *values);
+            if (n_int)
+                memmove(ints + result->nrows * n_int, ints + first_line[k] * n_int,
+                        (size_t)(part[k].nrows * n_int) * sizeof *ints);
+        }
         if (part[k].nonfinite) {
             if (result->nonfinite == 0) {
                 result->first_nonfinite = part[k].first_nonfinite;
-                result->first_nonfinite.line += first_row[k];
+                result->first_nonfinite.line += first_line[k];
                 result->first_nonfinite.offset += start[k] - text;
             }
             result->nonfinite += part[k].nonfinite;

@@ -98,7 +98,7 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
  * CG_TEXT_BYTES_PER_THREAD bytes, each part parses into its own rows.
  * Results, errors and result fields are the same as cg_text_parse_table's
  * (on any error the range is parsed again in one pass, which reports it).
- * With CG_TEXT_SKIP_BLANK it parses in one pass.
+ * With both CG_TEXT_SKIP_BLANK and CG_TEXT_STOP_AT_MAX_ROWS it parses in one pass.
  */
 #define CG_TEXT_BYTES_PER_THREAD ((size_t)1 << 21)
 #define CG_TEXT_MAX_THREADS 16

@@ -179,10 +179,20 @@ def test_threaded_declared_counts(lines):
         assert results[1] == results[0] and results[2] == results[0]
         assert results[0][0] == "ok"
         assert results[0][3] == len(("\n".join(lines[:nrows]) + "\n").encode())
-    # blank lines skipped (one thread by design) and a range of only blank lines after the rows
-    spaced = ("\n\n".join(lines) + "\n  \n").encode()
-    results = parse_both(spaced, ncols=8, int_columns=(0, 1), skip_blank=True)
-    assert results[0][0] == "ok" and results[1] == results[0] and results[2] == results[0]
+    # blank lines skipped (rows closed up after the parts), with nan/inf and declared counts
+    spaced = ("\n\n".join(lines[:n // 2]) + "\n \t\n\n" + "\n".join(lines[n // 2:]) + "\n  \n").encode()
+    for kw in [{}, {"nrows": n}, {"nrows": n - 1}, {"nrows": n + 1}]:
+        results = parse_both(spaced, ncols=8, int_columns=(0, 1), skip_blank=True, **kw)
+        assert results[0][0] == ("ok" if kw.get("nrows", n) == n else "error")
+        assert results[1] == results[0] and results[2] == results[0]
+    with_nan = spaced.replace(lines[n // 3 * 2].encode(), lines[n // 3 * 2].rsplit(" ", 1)[0].encode() + b" -NaN")
+    assert with_nan != spaced
+    for allow in (False, True):
+        results = parse_both(with_nan, ncols=8, int_columns=(0, 1), skip_blank=True, allow_nonfinite=allow)
+        assert results[0][0] == ("ok" if allow else "error")
+        assert results[1] == results[0] and results[2] == results[0]
+    nan_line = 1 + next(k for k, line in enumerate(with_nan.split(b"\n")) if b"NaN" in line)
+    assert f"line {nan_line}, column 8" in parse_both(with_nan, ncols=8, skip_blank=True)[0][1]
     results = parse_both(data + b"   \n  ", ncols=8, int_columns=(0, 1))
     assert results[0][0] == "error" and results[1] == results[0] and results[2] == results[0]
 
