@@ -404,7 +404,11 @@ class MercuryReader(FrameReader):
             return keep
         lo, hi = np.minimum(i, jraw)[lines], np.maximum(i, jraw)[lines]
         key = lo * (int(hi.max()) + 1) + hi
-        order = np.argsort(key, kind="stable")       # equal keys keep their line order
+        span = int(key.max()) + 1
+        if span < (1 << 62) // lines.size:   # equal keys keep their line order: a unique key sorts faster than
+            order = np.argsort(key * lines.size + np.arange(lines.size))   # a stable sort of the key
+        else:
+            order = np.argsort(key, kind="stable")
         skey, sline = key[order], lines[order]
         first = np.flatnonzero(np.r_[True, skey[1:] != skey[:-1]])
         count = np.diff(np.r_[first, skey.size])
