@@ -14,7 +14,7 @@ import re
 
 import numpy as np
 
-from ._text import find_lines, iter_chunks, parse_table
+from ._text import find_lines, iter_chunks, parse_table, read_range
 from .files import is_gzip
 
 __all__ = ["DATA_COLUMNS", "FSTAT_COLUMNS", "read_fstat_rows", "read_particles", "read_restart", "scan_data",
@@ -46,23 +46,6 @@ def file_bytes(path):
                 mm.close()
             except BufferError:   # an error's traceback still holds a view of it: freed with the traceback
                 pass
-
-
-def read_range(path, start, stop):
-    """Bytes [start, stop) of the file (decompressed bytes if gzip, streamed up to stop)."""
-    if not is_gzip(path):
-        with open(path, "rb") as fh:
-            fh.seek(start)
-            return fh.read(stop - start)
-    out, position = [], 0
-    for chunk in iter_chunks(path):
-        end = position + len(chunk)
-        if end > start:
-            out.append(chunk[max(start - position, 0):stop - position])
-        position = end
-        if position >= stop:
-            break
-    return b"".join(out)
 
 
 def _empty_file_error(path, what):

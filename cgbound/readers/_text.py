@@ -230,7 +230,9 @@ def read_range(path, start, stop, checkpoints=None):
     if not _is_gzip(path):
         with open(path, "rb") as f:
             f.seek(start)
-            return bytearray(f.read(stop - start))
+            out = bytearray(max(stop - start, 0))
+            del out[f.readinto(out):]   # read straight into the buffer (one copy); shorter if the file is
+            return out
     resume = None
     for point in checkpoints or ():
         if point[0] <= start:
