@@ -222,7 +222,7 @@ def gzip_checkpoints(path, spacing=1 << 24):
 
 
 def read_range(path, start, stop, checkpoints=None):
-    """Bytes [start, stop) of the file's (decompressed, if gzip) content, as a bytearray.
+    """Bytes [start, stop) of the file's (decompressed, if gzip) content: bytes, or a bytearray for gzip.
 
     For gzip input, decompression resumes at the last of ``checkpoints`` (from :func:`iter_chunks`)
     at or before ``start``; without them it starts at the beginning. Memory: the range plus a chunk.
@@ -230,9 +230,7 @@ def read_range(path, start, stop, checkpoints=None):
     if not _is_gzip(path):
         with open(path, "rb") as f:
             f.seek(start)
-            out = bytearray(max(stop - start, 0))
-            del out[f.readinto(out):]   # read straight into the buffer (one copy); shorter if the file is
-            return out
+            return f.read(max(stop - start, 0))   # bytes: one copy (a bytearray would be filled twice)
     resume = None
     for point in checkpoints or ():
         if point[0] <= start:
