@@ -393,7 +393,10 @@ class MercuryReader(FrameReader):
             raise ValueError(f"{self.fstat_path}:{line_of(k)}: the normal is perpendicular to (particle centre - "
                              "contact point); cannot tell its orientation")
         sign = np.where(proj < 0, -1.0, 1.0)
-        return sign[:, None] * (fn[:, None] * normal + ft[:, None] * tang)
+        force = fn[:, None] * normal     # sign (fn n + ft t), the same operations in place (fewer temporaries)
+        force += ft[:, None] * tang
+        force *= sign[:, None]
+        return force
 
     def _one_listing_per_pair(self, i, jraw, force, point, radii, line_of):
         """Which pair lines to keep: a pair listed once is kept; one listed from both sides (opposite
