@@ -10,7 +10,7 @@ W1: the 46^3 simple-cubic lattice of benchmarks/workloads.py (97,336 particles, 
   lammps   atoms.dump (dump custom: id type x y z vx vy vz radius mass) + pairs.dump (dump local: patom1 patom2
            fx fy fz, each pair once)
   hdf5     w1.h5 (cgbound's write_snapshots)
-cgbound: the reader built and both frames read (read), then coarse_grain of each frame (Gaussian w = 1.0,
+cgbound: the reader built and both frames read on --threads threads (read), then coarse_grain of each frame (Gaussian w = 1.0,
 cutoff 3w, normalize="truncated", XYZ 46^3 grid; density, momentum, momentum flux, contact stress) with
 --threads threads (coarse grain); total = read + coarse grain; medians of --repeat runs.
 MercuryCG (PATH, optional): its -coordinates O run is its reading time, its -coordinates XYZ -function Gauss
@@ -128,8 +128,9 @@ def main():
             frames = []
 
             def read():
-                reader = build[name]()
-                frames[:] = [reader[k] for k in range(len(reader))]
+                with cg.threads(args.threads):   # frames of >= 4 MB of text parse on these threads
+                    reader = build[name]()
+                    frames[:] = [reader[k] for k in range(len(reader))]
 
             def coarse():
                 with cg.threads(args.threads):

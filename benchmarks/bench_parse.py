@@ -15,7 +15,8 @@ Methods, each over the whole file (both frames), file in the page cache:
                scan_dump (frame offsets, structure checks) + DumpIndex.read of every frame
   reader gz    the same on a gzipped copy (zlib stream into the same parser; with --gzip)
   wc -l        the same bytes through `wc -l` (a lower bound for any line-oriented reader)
-MB/s = file size / median wall time; the C parser runs on one thread (CPU time printed too).
+MB/s = file size / median wall time (CPU time printed too). cg_text and reader run on one thread; with
+--threads N > 1 also `cg_text Nt` and `reader Nt`: frames of >= 4 MB cut at line starts over N threads.
 """
 import argparse
 import mmap
@@ -28,6 +29,8 @@ import sys
 import time
 
 import numpy as np
+
+import cgbound as cg
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
@@ -144,7 +147,7 @@ def frames_of(kind, mm):
     return out
 
 
-def parse_cg_text(path, kind):
+def parse_cg_text(path, kind, threads=1):
     with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
         total = 0
         if kind == "data":  # the scan parses each frame already (as a reader would keep it)
@@ -152,19 +155,21 @@ def parse_cg_text(path, kind):
             while pos < size:
                 end = mm.find(b"\n", pos)
                 n = int(bytes(mm[pos:end]).split()[0])
-                table = _text.parse_table(mm, end + 1, size, 14, int_columns=(13,), nrows=n, stop_after_rows=True)
+                table = _text.parse_table(mm, end + 1, size, 14, int_columns=(13,), nrows=n, stop_after_rows=True,
+                                          threads=threads)
                 total, pos = total + len(table.values), table.end
             return total
         for start, stop, ncols, n, ints in frames_of(kind, mm):
-            total += len(_text.parse_table(mm, start, stop, ncols, int_columns=ints, nrows=n).values)
+            total += len(_text.parse_table(mm, start, stop, ncols, int_columns=ints, nrows=n, threads=threads).values)
         return total
 
 
-def read_with_reader(path, kind):
+def read_with_reader(path, kind, threads=1):
     """The LAMMPS reader's parsing: one scan, then every frame parsed (IDs and types as int64)."""
-    index = scan_dump(path, kind)
-    ints = ("c_pl[1]", "c_pl[2]") if kind == "local" else ()
-    return sum(index.read(offset, ints)["n"] for offset, _ in index)
+    with cg.threads(threads):
+        index = scan_dump(path, kind)
+        ints = ("c_pl[1]", "c_pl[2]") if kind == "local" else ()
+        return sum(index.read(offset, ints)["n"] for offset, _ in index)
 
 
 def gzipped_copy(path):
@@ -232,11 +237,12 @@ def main(argv=None):
     ap.add_argument("--skip-slow", action="store_true", help="time only cg_text, the reader and wc -l")
     ap.add_argument("--gzip", action="store_true", help="also time the LAMMPS reader on gzipped copies")
     ap.add_argument("--only", nargs="*", help="only these files (e.g. atoms.dump pairs.dump)")
+    ap.add_argument("--threads", type=int, default=2, help="also time cg_text and the reader on this many threads")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     paths = write_files(args.dir, args.format)
     print(f"# files in {args.dir} (written or reused in {time.perf_counter() - t0:.1f} s); floats as {args.format}")
-    print(header(threads=1))
+    print(header(threads=args.threads))
     have_wc = shutil.which("wc") is not None
     print("# MB/s = size / median wall time; MB/s cpu = size / median CPU time (on a loaded machine the CPU time\n"
           "# is the per-core figure); x wc -l = wall time / wc's wall time, cpu x wc = CPU time / wc's CPU time")
@@ -258,11 +264,17 @@ def main(argv=None):
             dump_kind = "atoms" if name == "atoms.dump" else "local"
             assert read_with_reader(path, dump_kind) == rows, name
             methods.insert(1, ("reader", lambda: read_with_reader(path, dump_kind), args.repeat))
+            if args.threads > 1:
+                methods.insert(2, (f"reader {args.threads}t",
+                                   lambda: read_with_reader(path, dump_kind, args.threads), args.repeat))
             if args.gzip:
                 packed = gzipped_copy(path)
                 methods.insert(2, ("reader gz", lambda: read_with_reader(packed, dump_kind), args.repeat))
+        if args.threads > 1:
+            methods.insert(1, (f"cg_text {args.threads}t", lambda: parse_cg_text(path, kind, args.threads),
+                               args.repeat))
         if args.skip_slow:
-            methods = [m for m in methods if m[0] in ("cg_text", "reader", "reader gz")]
+            methods = [m for m in methods if m[0].startswith(("cg_text", "reader"))]
         for label, fn, repeat in methods:
             med, best, cpu = timed(fn, repeat, warmup=0, cpu=True)
             print(f"{name:<11} {size:6.1f} {label:<11} {med:9.3f} {best:8.3f} {cpu:7.3f} {size / med:8.1f} "

@@ -93,9 +93,10 @@ def wrap(positions, periodic, lower, upper):
     return _core.wrap(positions, periodic, lower, upper)
 
 
-def text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags):
-    """One pass of the C text parser over ``data[start:stop]`` (see csrc/cg_text.h and readers/_text.py)."""
-    return _core.text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags)
+def text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1):
+    """The C text parser over ``data[start:stop]`` (see csrc/cg_text.h and readers/_text.py), on up to
+    n_threads threads for large ranges."""
+    return _core.text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads)
 
 
 def text_find_lines(data, start, stop, prefix):

@@ -237,16 +237,24 @@ class Snapshot:
             raise ValueError(f"contacts.j: expected a particle other than contacts.i (or -1 for a wall), "
                              f"got particle {c.i[k]} joined to itself at contact {k}")
         pairs = c.j >= 0
-        lo = np.where(pairs, np.minimum(c.i, c.j), c.i)
-        hi = np.where(pairs, np.maximum(c.i, c.j), -1)
-        key = np.stack([lo, hi], axis=1)
         if pairs.any():
-            uniq, counts = np.unique(key[pairs], axis=0, return_counts=True)
-            if np.any(counts > 1):
-                a, b = uniq[counts > 1][0]
-                where = np.flatnonzero(pairs & (lo == a) & (hi == b))
-                raise ValueError(f"contacts: expected each pair once (as (i, j, f) or (j, i, -f)), got the pair "
-                                 f"({a}, {b}) at contacts {', '.join(str(int(k)) for k in where)}")
+            ci, cj = c.i[pairs], c.j[pairs]
+            lo, hi = np.minimum(ci, cj), np.maximum(ci, cj)
+            # one int64 key per pair (lo * n + hi, exact since n * n < 2^63): sorting it orders the pairs as
+            # (lo, hi) tuples, so the first repeat found is the lexicographically first repeated pair
+            if n < 3_000_000_000:
+                key = lo.astype(np.int64) * n + hi
+            else:  # (never in practice: the positions alone would take 72 GB) sort the pairs as tuples
+                key = np.unique(np.stack([lo, hi], axis=1), axis=0, return_inverse=True)[1].ravel()
+            if not np.all(key[1:] > key[:-1]):  # readers mostly give pairs in order: then no sort is needed
+                order = np.sort(key)
+                repeat = np.flatnonzero(order[1:] == order[:-1])
+                if len(repeat):
+                    first = np.flatnonzero(key == order[repeat[0]])[0]
+                    a, b = int(lo[first]), int(hi[first])
+                    where = np.flatnonzero((c.j >= 0) & (np.minimum(c.i, c.j) == a) & (np.maximum(c.i, c.j) == b))
+                    raise ValueError(f"contacts: expected each pair once (as (i, j, f) or (j, i, -f)), got the pair "
+                                     f"({a}, {b}) at contacts {', '.join(str(int(k)) for k in where)}")
 
     # ------------------------------------------------------------------
     def with_fixed(self, fixed):

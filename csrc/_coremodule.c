@@ -681,13 +681,17 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
     (void)self;
     text_buffer data = {0}, mask = {0};
     Py_ssize_t start, stop, ncols, max_rows;
-    int flags;
+    int flags, n_threads = 1;
     PyArrayObject *values = NULL, *ints = NULL;
     PyObject *ret = NULL;
-    if (!PyArg_ParseTuple(args, "O&nnnO&ni", convert_text_buffer, &data, &start, &stop, &ncols, convert_text_buffer,
-                          &mask, &max_rows, &flags))
+    if (!PyArg_ParseTuple(args, "O&nnnO&ni|i", convert_text_buffer, &data, &start, &stop, &ncols, convert_text_buffer,
+                          &mask, &max_rows, &flags, &n_threads))
         return NULL;
     if (!check_text_range(&data, start, stop)) goto done;
+    if (n_threads < 1) {
+        PyErr_Format(PyExc_ValueError, "n_threads: expected a positive count, got %d", n_threads);
+        goto done;
+    }
     if (ncols < 1 || mask.view.len != ncols) {
         PyErr_Format(PyExc_ValueError, "ncols: expected a positive count equal to len(int_mask) = %zd, got %zd",
                      mask.view.len, ncols);
@@ -714,8 +718,9 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
     cg_text_result res;
     cg_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = cg_text_parse_table(text, length, ncols, n_int ? is_int : NULL,
-                             flags & (CG_TEXT_SKIP_BLANK | CG_TEXT_STOP_AT_MAX_ROWS), max_rows, (double *)PyArray_DATA(values), (int64_t *)PyArray_DATA(ints), &res);
+    st = cg_text_parse_table_threads(text, length, ncols, n_int ? is_int : NULL,
+                                     flags & (CG_TEXT_SKIP_BLANK | CG_TEXT_STOP_AT_MAX_ROWS), max_rows,
+                                     (double *)PyArray_DATA(values), (int64_t *)PyArray_DATA(ints), &res, n_threads);
     Py_END_ALLOW_THREADS
     if (st == CG_ERR_ARGUMENT) {
         PyErr_SetString(PyExc_ValueError, cg_strerror(st));
@@ -771,7 +776,7 @@ done:
 
 #define CG_TEXT_METHODS                                                                                             \
     {"text_parse_table", py_text_parse_table, METH_VARARGS,                                                         \
-     "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags) -> (values, ints, nrows, end, "         \
+     "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1) -> (values, ints, nrows, end, "         \
      "(status, message, line, column, offset, length), (nonfinite, line, column, offset, length))\n\n"             \
      "flags: 1 skip blank lines, 2 stop after max_rows rows (end: offset in data where parsing stopped). "          \
      "Parse data[start:stop] as rows of ncols numbers (cg_text_parse_table); max_rows < 0: one per line at most. "  \

@@ -1,4 +1,9 @@
-/* cg_text.c -- one-pass numeric tables from text, and the frame scan (cg_text.h). */
+/* cg_text.c -- one-pass numeric tables from text, and the frame scan (cg_text.h).
+ *
+ * Speed: each token is first tried by fast_double / fast_int, which parse the common forms in one pass
+ * (8 digits at a time, no separate scan for the token's end); everything else (and every error) goes
+ * through parse_double / parse_int, the reference path. cg_text_parse_table_threads cuts large ranges
+ * at line starts over OpenMP threads. */
 #include "cg_text.h"
 
 #include <float.h>
@@ -8,6 +13,10 @@
 #include <string.h>
 
 #include "cg_text_pow10.h"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 /* byte classes: token byte, separator, line end */
 enum { TOKEN = 0, SPACE = 1, NEWLINE = 2 };
@@ -233,6 +242,131 @@ static cg_status parse_double(const unsigned char *tok, const unsigned char *end
     return CG_OK;
 }
 
+/* ------------------------------------------------------------------ */
+/* the fast path: the forms engines write, decided in one pass          */
+
+#if defined(__BYTE_ORDER__) && defined(__ORDER_LITTLE_ENDIAN__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+#define CG_TEXT_SWAR 1
+/* eight ASCII digits at once (SWAR, as in simdjson and fast_float): test and value of 8 bytes */
+static inline uint64_t load8(const unsigned char *p)
+{
+    uint64_t v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+static inline int eight_digits(uint64_t v)
+{
+    return !(((v + 0x4646464646464646ULL) | (v - 0x3030303030303030ULL)) & 0x8080808080808080ULL);
+}
+
+static inline uint64_t eight_digits_value(uint64_t v)
+{
+    const uint64_t mask = 0x000000FF000000FFULL;
+    const uint64_t mul1 = 0x000F424000000064ULL; /* 100 + (1000000 << 32) */
+    const uint64_t mul2 = 0x0000271000000001ULL; /* 1 + (10000 << 32) */
+    v -= 0x3030303030303030ULL;
+    v = v * 10 + (v >> 8);
+    return (uint32_t)((((v & mask) * mul1) + (((v >> 16) & mask) * mul2)) >> 32);
+}
+#endif
+
+/* digits from p on into *man (man = man * 10 + digit each); returns the first non-digit */
+static inline const unsigned char *scan_digits(const unsigned char *p, const unsigned char *end, uint64_t *man)
+{
+    uint64_t m = *man;
+#ifdef CG_TEXT_SWAR
+    while (end - p >= 8) {
+        uint64_t v = load8(p);
+        if (!eight_digits(v)) break;
+        m = m * 100000000u + eight_digits_value(v);
+        p += 8;
+    }
+#endif
+    for (; p < end && is_digit(*p); ++p) m = m * 10 + (unsigned)(*p - '0');
+    *man = m;
+    return p;
+}
+
+/*
+ * A decimal with at most 19 significant digits whose value Clinger's or
+ * Eisel-Lemire's path decides, parsed from p without first finding the
+ * token's end: returns the end of the token (a separator, '\n' or the end of
+ * the range follows) with *value set, or NULL to let parse_double decide
+ * (more digits, nan/inf, halfway cases, subnormals, overflow, malformed
+ * tokens). Both paths are correctly rounded, so the value is the same.
+ * (man wraps for more than 19 significant digits; then NULL is returned.)
+ */
+static inline const unsigned char *fast_double(const unsigned char *p, const unsigned char *end, double *value)
+{
+    int neg = 0;
+    if (p < end && (*p == '-' || *p == '+')) {
+        neg = *p == '-';
+        ++p;
+    }
+    const unsigned char *digits = p;
+    uint64_t man = 0;
+    p = scan_digits(p, end, &man);
+    int64_t ndigits = p - digits, exp10 = 0;
+    if (p < end && *p == '.') {
+        const unsigned char *fraction = ++p;
+        p = scan_digits(p, end, &man);
+        exp10 = -(int64_t)(p - fraction);
+        ndigits += p - fraction;
+    }
+    if (ndigits == 0) return NULL;
+    if (p < end && (*p == 'e' || *p == 'E')) {
+        ++p;
+        int eneg = 0;
+        if (p < end && (*p == '+' || *p == '-')) {
+            eneg = *p == '-';
+            ++p;
+        }
+        if (p == end || !is_digit(*p)) return NULL;
+        int64_t e = 0;
+        for (; p < end && is_digit(*p); ++p)
+            if (e < 100000000) e = e * 10 + (*p - '0');
+        exp10 += eneg ? -e : e;
+    }
+    if (p < end && byte_class[*p] == TOKEN) return NULL;
+    if (ndigits > 19) { /* leading zeros count as digits but add no value */
+        const unsigned char *q = digits;
+        for (; q < p && (*q == '0' || *q == '.'); ++q) ndigits -= *q == '0';
+        if (ndigits > 19) return NULL;
+    }
+    if (man == 0) {
+        *value = neg ? -0.0 : 0.0;
+        return p;
+    }
+#if FLT_EVAL_METHOD == 0
+    if (man <= (1ULL << 53) && exp10 >= -22 && exp10 <= 22) {
+        double v = (double)man;
+        v = exp10 >= 0 ? v * exact_pow10[exp10] : v / exact_pow10[-exp10];
+        *value = neg ? -v : v;
+        return p;
+    }
+#endif
+    if (exp10 >= CG_POW10_MIN_EXP10 && exp10 <= CG_POW10_MAX_EXP10 && eisel_lemire(man, (int)exp10, neg, value))
+        return p;
+    return NULL;
+}
+
+/* [+-]?digits with at most 18 digits (no overflow possible), ended like a token; else NULL */
+static inline const unsigned char *fast_int(const unsigned char *p, const unsigned char *end, int64_t *value)
+{
+    int neg = 0;
+    if (p < end && (*p == '-' || *p == '+')) {
+        neg = *p == '-';
+        ++p;
+    }
+    const unsigned char *digits = p;
+    uint64_t v = 0;
+    for (; p < end && is_digit(*p) && p - digits < 18; ++p) v = v * 10 + (unsigned)(*p - '0');
+    if (p == digits || (p < end && byte_class[*p] == TOKEN)) return NULL;
+    *value = neg ? -(int64_t)v : (int64_t)v;
+    return p;
+}
+
 cg_status cg_text_parse_double(const char *token, size_t length, double *value)
 {
     if (!token || !value) return CG_ERR_ARGUMENT;
@@ -331,6 +465,22 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
                 return CG_ERR_TEXT_ROW_LENGTH;
             }
             const unsigned char *tok = p;
+            if (int_columns && int_columns[c]) {
+                int64_t iv;
+                const unsigned char *q = fast_int(tok, end, &iv);
+                if (q) {
+                    *irow++ = iv;
+                    vrow[c] = (double)iv;
+                    p = q;
+                    continue;
+                }
+            } else {
+                const unsigned char *q = fast_double(tok, end, &vrow[c]);
+                if (q) {
+                    p = q;
+                    continue;
+                }
+            }
             while (p < end && byte_class[*p] == TOKEN) ++p;
             cg_status st;
             if (int_columns && int_columns[c]) {
@@ -370,6 +520,90 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
     }
     result->nrows = row;
     result->end = (int64_t)(p - base);
+    return CG_OK;
+}
+
+/* the start of the line after the n-th '\n' of [p, end), or end if there are fewer */
+static const char *after_lines(const char *p, const char *end, int64_t n)
+{
+    for (; n > 0 && p < end; --n) {
+        const char *nl = memchr(p, '\n', (size_t)(end - p));
+        if (!nl) return end;
+        p = nl + 1;
+    }
+    return p;
+}
+
+cg_status cg_text_parse_table_threads(const char *text, size_t length, int64_t ncols,
+                                      const unsigned char *int_columns, int flags, int64_t max_rows, double *values,
+                                      int64_t *ints, cg_text_result *result, int n_threads)
+{
+    if (n_threads < 2 || length < 2 * CG_TEXT_BYTES_PER_THREAD || !result || !text || ncols < 1 || max_rows < 0 ||
+        !values)
+        return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+    int64_t n_int = 0;
+    if (int_columns)
+        for (int64_t c = 0; c < ncols; ++c) n_int += int_columns[c] != 0;
+    if (n_int && !ints) return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+
+    /* Parts start at line starts; part k parses into rows from first_line[k] (the lines before it) on,
+       which leaves room for its rows; rows are closed up afterwards where blank lines were skipped. With
+       CG_TEXT_STOP_AT_MAX_ROWS (and no blank lines allowed) every line up to the end is a row or an error,
+       so the table is the first max_rows lines. Any error: the range is parsed again in one pass, so
+       errors are reported exactly as that pass reports them. */
+    if ((flags & CG_TEXT_STOP_AT_MAX_ROWS) && (flags & CG_TEXT_SKIP_BLANK))
+        return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+    const char *end = (flags & CG_TEXT_STOP_AT_MAX_ROWS) ? after_lines(text, text + length, max_rows) : text + length;
+    const size_t span = (size_t)(end - text);
+    int parts = n_threads < CG_TEXT_MAX_THREADS ? n_threads : CG_TEXT_MAX_THREADS;
+    if ((size_t)parts > span / CG_TEXT_BYTES_PER_THREAD) parts = (int)(span / CG_TEXT_BYTES_PER_THREAD);
+    if (parts < 2) return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+    const char *start[CG_TEXT_MAX_THREADS + 1];
+    int64_t first_line[CG_TEXT_MAX_THREADS + 1];
+    start[0] = text;
+    first_line[0] = 0;
+    for (int k = 1; k < parts; ++k) {
+        const char *cut = text + span / (size_t)parts * (size_t)k;
+        if (cut < start[k - 1]) cut = start[k - 1];
+        const char *nl = memchr(cut, '\n', (size_t)(end - cut));
+        start[k] = nl ? nl + 1 : end;
+        first_line[k] = first_line[k - 1] + cg_text_count_lines(start[k - 1], (size_t)(start[k] - start[k - 1]));
+    }
+    start[parts] = end;
+    cg_text_result part[CG_TEXT_MAX_THREADS];
+    cg_status status[CG_TEXT_MAX_THREADS];
+#ifdef _OPENMP
+#pragma omp parallel for num_threads(parts) schedule(static, 1)
+#endif
+    for (int k = 0; k < parts; ++k) {
+        const int64_t room = max_rows > first_line[k] ? max_rows - first_line[k] : 0; /* 0: any row is an error */
+        status[k] = cg_text_parse_table(start[k], (size_t)(start[k + 1] - start[k]), ncols, int_columns,
+                                        flags & ~CG_TEXT_STOP_AT_MAX_ROWS, room,
+                                        room ? values + first_line[k] * ncols : values,
+                                        n_int ? (room ? ints + first_line[k] * n_int : ints) : NULL, &part[k]);
+    }
+    memset(result, 0, sizeof *result);
+    for (int k = 0; k < parts; ++k) {
+        if (status[k] != CG_OK)
+            return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+        if (result->nrows != first_line[k] && part[k].nrows) { /* blank lines were skipped before: close up */
+            memmove(values + result->nrows * ncols, values + first_line[k] * ncols,
+                    (size_t)(part[k].nrows * ncols) * sizeof *values);
+            if (n_int)
+                memmove(ints + result->nrows * n_int, ints + first_line[k] * n_int,
+                        (size_t)(part[k].nrows * n_int) * sizeof *ints);
+        }
+        if (part[k].nonfinite) {
+            if (result->nonfinite == 0) {
+                result->first_nonfinite = part[k].first_nonfinite;
+                result->first_nonfinite.line += first_line[k];
+                result->first_nonfinite.offset += start[k] - text;
+            }
+            result->nonfinite += part[k].nonfinite;
+        }
+        result->nrows += part[k].nrows;
+    }
+    result->end = (int64_t)(end - text);
     return CG_OK;
 }
 

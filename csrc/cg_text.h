@@ -92,6 +92,20 @@ typedef struct cg_text_result {
 cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, const unsigned char *int_columns,
                               int flags, int64_t max_rows, double *values, int64_t *ints, cg_text_result *result);
 
+/*
+ * cg_text_parse_table over up to n_threads threads (OpenMP; one without it):
+ * the range is cut at line starts into parts of at least
+ * CG_TEXT_BYTES_PER_THREAD bytes, each part parses into its own rows.
+ * Results, errors and result fields are the same as cg_text_parse_table's
+ * (on any error the range is parsed again in one pass, which reports it).
+ * With both CG_TEXT_SKIP_BLANK and CG_TEXT_STOP_AT_MAX_ROWS it parses in one pass.
+ */
+#define CG_TEXT_BYTES_PER_THREAD ((size_t)1 << 21)
+#define CG_TEXT_MAX_THREADS 16
+cg_status cg_text_parse_table_threads(const char *text, size_t length, int64_t ncols,
+                                      const unsigned char *int_columns, int flags, int64_t max_rows, double *values,
+                                      int64_t *ints, cg_text_result *result, int n_threads);
+
 /* Number of lines in the range: '\n' count, plus one if the range is not
  * empty and does not end with '\n'. An upper bound for the rows it holds. */
 int64_t cg_text_count_lines(const char *text, size_t length);

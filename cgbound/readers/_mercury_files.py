@@ -70,16 +70,14 @@ def file_bytes(path):
 
 
 def read_range(path, start, stop):
-    """Bytes [start, stop) of the file (decompressed bytes if gzip, streamed from the checkpoint before start)."""
+    """Bytes [start, stop) of the file (decompressed if gzip, from the scan's checkpoint before start)."""
     if not is_gzip(path):
-        with open(path, "rb") as fh:
-            fh.seek(start)
-            return fh.read(stop - start)
+        return _read_text_range(path, start, stop)
     checkpoints = _GZIP_CHECKPOINTS.get(_gzip_key(path))
     if checkpoints is None:
         checkpoints = gzip_checkpoints(path)
         _remember_checkpoints(path, checkpoints)
-    return bytes(_read_text_range(path, start, stop, checkpoints))
+    return _read_text_range(path, start, stop, checkpoints)
 
 
 def _empty_file_error(path, what):

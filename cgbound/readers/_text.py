@@ -15,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import _engine
+from .. import _engine, _threads
 
 # the C status codes of the text layer (cg.h); the messages come from cg_strerror
 _ROW_LENGTH = 9
@@ -61,7 +61,7 @@ def _where(name, frame, line):
 
 def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=None, skip_blank=False,
                 stop_after_rows=False, allow_nonfinite=False, name="<data>", frame=None, first_line=None,
-                column_names=None):
+                column_names=None, threads=None):
     """Parse ``data[start:stop]`` as rows of exactly ``ncols`` whitespace-separated numbers.
 
     int_columns: column indices that must hold integers (exact int64; '1.0', 'nan' or values
@@ -72,7 +72,9 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
     error. allow_nonfinite: nan/inf values are returned instead of being an error. name, frame:
     how the file and the frame are called in messages. first_line: the 1-based line number of
     ``start`` in the file, if the caller knows it (otherwise counted, on errors only). column_names:
-    the columns' names, quoted beside their numbers in messages.
+    the columns' names, quoted beside their numbers in messages. threads: how many threads may parse a
+    large range (cut at line starts; the same values and errors for any count); None: the core's setting
+    (:func:`cgbound.get_num_threads`).
 
     Returns a ``Table`` (values, ints).
     """
@@ -94,9 +96,13 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
     if stop_after_rows and nrows is None:
         raise ValueError("stop_after_rows: needs nrows (the declared row count)")
     flags = (1 if skip_blank else 0) | (2 if stop_after_rows else 0)
+    if threads is None:
+        threads = _threads.get_num_threads()
+    elif isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"threads: expected a positive number of threads or None, got {threads!r}")
 
     values, ints, found, end, error, nonfinite = _engine.text_parse_table(data, start, stop, ncols, bytes(mask),
-                                                                           max_rows, flags)
+                                                                           max_rows, flags, threads)
     status, message, line, column, offset, length = error
 
     def column_label(column):
@@ -218,7 +224,7 @@ def gzip_checkpoints(path, spacing=1 << 24):
 
 
 def read_range(path, start, stop, checkpoints=None):
-    """Bytes [start, stop) of the file's (decompressed, if gzip) content, as a bytearray.
+    """Bytes [start, stop) of the file's (decompressed, if gzip) content: bytes, or a bytearray for gzip.
 
     For gzip input, decompression resumes at the last of ``checkpoints`` (from :func:`iter_chunks`)
     at or before ``start``; without them it starts at the beginning. Memory: the range plus a chunk.
@@ -226,7 +232,7 @@ def read_range(path, start, stop, checkpoints=None):
     if not _is_gzip(path):
         with open(path, "rb") as f:
             f.seek(start)
-            return bytearray(f.read(stop - start))
+            return f.read(max(stop - start, 0))   # bytes: one copy (a bytearray would be filled twice)
     resume = None
     for point in checkpoints or ():
         if point[0] <= start:

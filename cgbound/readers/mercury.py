@@ -379,17 +379,25 @@ class MercuryReader(FrameReader):
     def _forces_on_i(self, rows, line_of, d, arm):
         """The force on particle i of each line: s (fn n + ft t), s = sign(n . arm), arm = x_i - c
         (minimum image; see the module docstring)."""
-        fn, ft = rows[:, 8].copy(), rows[:, 9].copy()
+        fn, ft = rows[:, 8], rows[:, 9]
         normal, tang = np.ascontiguousarray(rows[:, 10:10 + d]), np.ascontiguousarray(rows[:, 13:13 + d])
         proj = np.sum(normal * arm, axis=1)
-        nonzero_force = (fn != 0) | (ft != 0)
-        flat = (np.abs(proj) <= 1e-12 * np.maximum(np.linalg.norm(arm, axis=1), 1e-300)) & nonzero_force
-        if np.any(flat):
-            k = int(np.flatnonzero(flat)[0])
+        # flat: |proj| <= 1e-12 max(|arm|, 1e-300) with a nonzero force; |arm| <= 2 sqrt(d) max|arm_k|, so only
+        # the lines under that bound are looked at (the norms of all lines cost more than the rest)
+        bound = 2.0 * math.sqrt(d) * float(np.abs(arm).max(initial=0.0))
+        near = np.flatnonzero(np.abs(proj) <= 1e-12 * max(bound, 1e-300))
+        arm_near = arm[near]
+        flat = near[(np.abs(proj[near]) <= 1e-12 * np.maximum(np.linalg.norm(arm_near, axis=1), 1e-300))
+                    & ((fn[near] != 0) | (ft[near] != 0))]
+        if flat.size:
+            k = int(flat[0])
             raise ValueError(f"{self.fstat_path}:{line_of(k)}: the normal is perpendicular to (particle centre - "
                              "contact point); cannot tell its orientation")
         sign = np.where(proj < 0, -1.0, 1.0)
-        return sign[:, None] * (fn[:, None] * normal + ft[:, None] * tang)
+        force = fn[:, None] * normal     # sign (fn n + ft t), the same operations in place (fewer temporaries)
+        force += ft[:, None] * tang
+        force *= sign[:, None]
+        return force
 
     def _one_listing_per_pair(self, i, jraw, force, point, radii, line_of, fixed):
         """Which pair lines to keep: a pair with a fixed particle listed once is kept; one listed from
@@ -406,7 +414,11 @@ class MercuryReader(FrameReader):
             return keep
         lo, hi = np.minimum(i, jraw)[lines], np.maximum(i, jraw)[lines]
         key = lo * (int(hi.max()) + 1) + hi
-        order = np.argsort(key, kind="stable")       # equal keys keep their line order
+        span = int(key.max()) + 1
+        if span < (1 << 62) // lines.size:   # equal keys keep their line order: a unique key sorts faster than
+            order = np.argsort(key * lines.size + np.arange(lines.size))   # a stable sort of the key
+        else:
+            order = np.argsort(key, kind="stable")
         skey, sline = key[order], lines[order]
         first = np.flatnonzero(np.r_[True, skey[1:] != skey[:-1]])
         count = np.diff(np.r_[first, skey.size])
