@@ -348,7 +348,7 @@ class MercuryReader(FrameReader):
             return Contacts.empty(self.dim), np.zeros(0, np.int64), np.zeros(0)
         i, jraw = self._partners(ints, line_of, pos.shape[0])
         d = self.dim    # cgbound's axes are MercuryDPM's first d components
-        point = np.ascontiguousarray(rows[:, 3:3 + d])
+        point = rows[:, 3:3 + d]       # a strided view; Contacts gets the kept rows' copy
         overlap = rows[:, 6]
         force = self._forces_on_i(rows, line_of, d, box.minimum_image(pos[i] - point))
         wall = jraw < 0
@@ -380,8 +380,8 @@ class MercuryReader(FrameReader):
         """The force on particle i of each line: s (fn n + ft t), s = sign(n . arm), arm = x_i - c
         (minimum image; see the module docstring)."""
         fn, ft = rows[:, 8], rows[:, 9]
-        normal, tang = np.ascontiguousarray(rows[:, 10:10 + d]), np.ascontiguousarray(rows[:, 13:13 + d])
-        proj = np.sum(normal * arm, axis=1)
+        normal, tang = rows[:, 10:10 + d], rows[:, 13:13 + d]       # strided views: no copies
+        proj = np.einsum("ij,ij->i", normal, arm)
         # flat: |proj| <= 1e-12 max(|arm|, 1e-300) with a nonzero force; |arm| <= 2 sqrt(d) max|arm_k|, so only
         # the lines under that bound are looked at (the norms of all lines cost more than the rest)
         bound = 2.0 * math.sqrt(d) * float(np.abs(arm).max(initial=0.0))
@@ -393,10 +393,9 @@ class MercuryReader(FrameReader):
             k = int(flat[0])
             raise ValueError(f"{self.fstat_path}:{line_of(k)}: the normal is perpendicular to (particle centre - "
                              "contact point); cannot tell its orientation")
-        sign = np.where(proj < 0, -1.0, 1.0)
         force = fn[:, None] * normal     # sign (fn n + ft t), the same operations in place (fewer temporaries)
         force += ft[:, None] * tang
-        force *= sign[:, None]
+        np.negative(force, out=force, where=(proj < 0)[:, None])     # times -1 exactly, where s = -1
         return force
 
     def _one_listing_per_pair(self, i, jraw, force, point, radii, line_of, fixed):
