@@ -49,8 +49,8 @@ def test_move_wall_redefines_the_same_wall_fix():
     scene = silo(n_particles=50)
     lines = scenes.input_script(scene, [Settle(), MoveWall(1, -0.05), Frames(1, 1.0)]).splitlines()
     k = lines.index("unfix           wall1")
-    assert lines[k + 1] == ("fix             wall1 flow wall/gran hooke/history 20000.0 5714.285714285714 88.0 44.0 0.5 1 "
-                            "zplane -0.05 NULL contacts")
+    assert lines[k + 1] == ("fix             wall1 flow wall/gran hooke/history 20000.0 5714.285714285714 88.0 44.0 "
+                            "0.5 1 zplane -0.05 NULL contacts")
     assert all(line.endswith("f_wall0[*] f_wall1[*]") for line in lines if line.startswith("dump            fa"))
 
 
@@ -125,7 +125,7 @@ def side_and_base(snap):
     wall = c.j < 0
     r = np.hypot(c.point[:, 0], c.point[:, 1])
     side = wall & (np.abs(r - SILO_RADIUS) < 1e-12)
-    base = wall & (c.point[:, 2] == BOTTOM)
+    base = wall & np.isclose(c.point[:, 2], BOTTOM, rtol=0, atol=1e-12)
     return side, base
 
 

@@ -38,7 +38,8 @@ frames = LammpsReader(shipped("frames.atoms.dump.gz"), shipped("frames.pairs.dum
 snap = frames[len(frames) - 1]
 R, D, g = 4.0, 8.0, 1.0
 mu_wall = SILO_CONTACT_MODEL.friction
-print(snap, f"\n{len(frames)} frames; per-particle force balance of this one: {frames.force_mismatch(len(frames) - 1):.1e}")
+mismatch = frames.force_mismatch(len(frames) - 1)
+print(snap, f"\n{len(frames)} frames; per-particle force balance of the last one: {mismatch:.1e}")
 
 # %% [markdown]
 # **The column and its walls.** The wall contacts are told apart by where they touch: on the cylinder

@@ -244,5 +244,6 @@ def _stage(scene, n, stage):
         if not np.isfinite(stage.position):
             raise ValueError(f"position: expected a finite number, got {stage.position!r}")
         # the same fix ID, so the frames' wall columns keep their names
-        return [f"unfix           wall{k}"] + _wall_fix(scene, k, replace(scene.walls[k], position=float(stage.position)))
+        moved = replace(scene.walls[k], position=float(stage.position))
+        return [f"unfix           wall{k}"] + _wall_fix(scene, k, moved)
     raise TypeError(f"stages: expected Settle, Run, Frames, Trace or MoveWall, got {type(stage).__name__}")
