@@ -3,8 +3,8 @@
 The silo scene (cgbound.paper.scenes.silo: spheres in a vertical cylinder of radius 4 with a flat
 bottom, gravity -z, frictional Hookean contacts, wall friction) falls onto the bottom, is
 relaxed until the kinetic energy of all particles is below the tolerance, the bottom is lowered by
-0.05 d so that the column slides down a little along the wall (mobilising the wall friction), the
-column comes to rest again, and a few frames are
+0.2 d at constant speed over 10 time units so that the column slides down along the wall (mobilising
+the wall friction), the column comes to rest again, and a few frames are
 dumped (each inside its own ``run 0``, with the wall contacts of both walls). The LAMMPS dumps
 are kept as they are, gzipped, with the input script and the data file.
 
@@ -33,12 +33,13 @@ def main(argv=None):
     p.add_argument("--n-particles", type=int, default=2000)
     p.add_argument("--tolerance", type=float, default=1e-4, help="kinetic energy at which the column counts as at rest")
     p.add_argument("--frames", type=int, default=2)
-    p.add_argument("--drop", type=float, default=0.05, help="how far the bottom is lowered after the first rest")
+    p.add_argument("--drop", type=float, default=0.2, help="how far the bottom is lowered after the first rest")
+    p.add_argument("--lowering", type=float, default=10.0, help="in how many time units")
     args = p.parse_args(argv)
     scene = silo(n_particles=args.n_particles)
-    # fall and come to rest; lower the bottom by 0.05 d so that the column slides down along the
-    # wall and mobilises its friction (Janssen's assumption); come to rest again
-    stages = [Settle(tolerance=args.tolerance, chunk=1.0, max_time=150.0), MoveWall(1, -args.drop),
+    # fall and come to rest; lower the bottom slowly so that the column slides down along the wall and
+    # mobilises its friction (Janssen's assumption); come to rest again
+    stages = [Settle(tolerance=args.tolerance, chunk=1.0, max_time=150.0), MoveWall(1, -args.drop, args.lowering),
               Settle(tolerance=args.tolerance, chunk=1.0, max_time=150.0), Frames(args.frames, 1.0)]
     result = run_scene(scene, stages, workdir=args.workdir)
     cpu = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -54,8 +54,24 @@ def test_move_wall_redefines_the_same_wall_fix():
     assert all(line.endswith("f_wall0[*] f_wall1[*]") for line in lines if line.startswith("dump            fa"))
 
 
+def test_move_wall_slowly_uses_a_moving_plane_region():
+    scene = silo(n_particles=50)
+    lines = scenes.input_script(scene, [MoveWall(1, -0.2, 10.0)]).splitlines()
+    k = lines.index("unfix           wall1")
+    assert lines[k + 1:k + 7] == [
+        'variable        wall1shift0 equal "ramp(0.0,-0.2)"',
+        "region          wall1moving0 plane 0.0 0.0 0.0 0.0 0.0 1.0 side in move NULL NULL v_wall1shift0 units box",
+        "fix             wall1 flow wall/gran/region hooke/history 20000.0 5714.285714285714 88.0 44.0 0.5 1 "
+        "region wall1moving0 contacts",
+        f"run             {int(round(10.0 / SILO_TIMESTEP))}",
+        "unfix           wall1",
+        "fix             wall1 flow wall/gran hooke/history 20000.0 5714.285714285714 88.0 44.0 0.5 1 "
+        "zplane -0.2 NULL contacts"]
+
+
 @pytest.mark.parametrize("stage, name", [(MoveWall(0, 0.0), "index"), (MoveWall(2, 0.0), "index"),
-                                         (MoveWall(1, np.inf), "position")])
+                                         (MoveWall(1, np.inf), "position"), (MoveWall(1, -0.2, -1.0), "duration"),
+                                         (MoveWall(1, -0.2, 1e-5), "duration")])
 def test_move_wall_needs_a_flat_wall_and_a_position(stage, name):
     with pytest.raises(ValueError, match=name):
         scenes.input_script(silo(n_particles=50), [stage])

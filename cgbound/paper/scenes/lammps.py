@@ -54,14 +54,16 @@ class Frames:
 
 @dataclass(frozen=True)
 class MoveWall:
-    """Move the flat wall ``walls[index]`` (a :class:`~cgbound.paper.scenes.Wall`) to ``position`` at once.
+    """Move the flat wall ``walls[index]`` (a :class:`~cgbound.paper.scenes.Wall`) from the scene's
+    position to ``position``: at once (``duration`` 0), or at constant speed over ``duration`` time units.
 
-    Lowering a silo's bottom a little under a column at rest lets the column slide down along the
+    Lowering a silo's bottom slowly under a column at rest lets the column slide down along the
     side wall, which mobilises the wall friction everywhere (the state Janssen's analysis assumes).
     """
 
     index: int
     position: float
+    duration: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -243,7 +245,24 @@ def _stage(scene, n, stage):
             raise ValueError(f"index: expected the index of a flat Wall of the scene, got {k!r}")
         if not np.isfinite(stage.position):
             raise ValueError(f"position: expected a finite number, got {stage.position!r}")
+        wall = scene.walls[k]
+        moved = replace(wall, position=float(stage.position))
+        out = [f"unfix           wall{k}"]
+        steps = _steps(scene, stage.duration, "duration")
+        if steps:
+            # a plane region moving at constant speed (LAMMPS gives the wall/gran/region contacts its velocity)
+            axis = "xyz".index("y" if scene.dim == 2 and wall.axis == "z" else wall.axis)
+            point, normal = [0.0] * 3, [0.0] * 3
+            point[axis], normal[axis] = wall.position, (1.0 if wall.side == "above" else -1.0)
+            shift = ["NULL"] * 3
+            shift[axis] = f"v_wall{k}shift{n}"
+            out += [f"variable        wall{k}shift{n} equal \"ramp(0.0,{_f(stage.position - wall.position)})\"",
+                    f"region          wall{k}moving{n} plane {' '.join(_f(v) for v in point + normal)} side in "
+                    f"move {' '.join(shift)} units box",
+                    f"fix             wall{k} flow wall/gran/region {_contact_model(scene.contacts)} "
+                    f"region wall{k}moving{n} contacts",
+                    f"run             {steps}",
+                    f"unfix           wall{k}"]
         # the same fix ID, so the frames' wall columns keep their names
-        moved = replace(scene.walls[k], position=float(stage.position))
-        return [f"unfix           wall{k}"] + _wall_fix(scene, k, moved)
+        return out + _wall_fix(scene, k, moved)
     raise TypeError(f"stages: expected Settle, Run, Frames, Trace or MoveWall, got {type(stage).__name__}")
