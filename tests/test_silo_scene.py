@@ -15,10 +15,10 @@ LAMMPS = scenes.find_lammps()
 needs_lammps = pytest.mark.skipif(LAMMPS is None, reason="LAMMPS (lmp) not installed")
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "lammps", "silo")
-#: the shipped run: silo() with its defaults, the bottom lowered from z = 0 to -0.05 (scripts/make_silo_data.py)
+#: the shipped run: silo() with its defaults, the bottom lowered from z = 0 to -0.2 (scripts/make_silo_data.py)
 SILO_RADIUS = 4.0
 N_PARTICLES = 2000
-BOTTOM = -0.05
+BOTTOM = -0.2
 GRAVITY = np.array([0.0, 0.0, -1.0])
 
 

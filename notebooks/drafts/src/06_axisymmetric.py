@@ -4,7 +4,7 @@
 # The scene `cgbound.paper.scenes.silo`: 2000 frictional spheres (d = 0.9 … 1.1, m ∝ d³, m = 1 for d = 1)
 # in a vertical cylinder of radius R = 4 (D = 8) with a flat bottom, gravity −z, frictional Hookean
 # contacts (sliding friction μ = 0.5 between particles and against both walls). LAMMPS let the
-# particles fall and come to rest, lowered the bottom by 0.05 d so that the column slid down a little
+# particles fall and come to rest, lowered the bottom slowly by 0.2 d so that the column slid down
 # along the wall (which mobilises the wall friction), and let it come to rest again
 # (`scripts/make_silo_data.py`; the dumps are shipped in `tests/data/lammps/silo`). The side wall is a
 # `fix wall/gran/region` with a cylinder region: its `contacts` output gives every particle's contact
@@ -87,20 +87,22 @@ mass = np.trapezoid(np.trapezoid(rho * 2 * np.pi * r[:, None], r, axis=0), z)
 print(f"∫ρ dV = {mass:.2f}, total mass {snap.masses.sum():.2f}")
 
 # %% [markdown]
-# **Radial profiles** at three depths: density, pressure, the radial and vertical stresses. Deep in
-# the column σ_zz is nearly uniform across the silo; the wall's friction shows in σ_rz, which grows from
-# zero on the axis (symmetry) towards the wall.
+# **Radial profiles**, averaged over three depth bands (one frame is noisy: force chains): density,
+# pressure, σ_rr and σ_zz, and the shear σ_rz, which vanishes on the axis by symmetry and carries the
+# wall friction. Within about 2w of the wall the kernel reaches past r = R, where there are no particles,
+# so every field falls off there (the wall's own force is in the IFD, below).
 
 # %%
+bands = [(0.25 * D, 0.75 * D), (1.0 * D, 2.0 * D), (2.5 * D, 4.5 * D)]
 fig, axes = plt.subplots(1, 4, figsize=(13, 3.4), constrained_layout=True)
-for depth_k in (0.5 * D, 1.5 * D, 3 * D):
-    k = np.argmin(np.abs(depth - depth_k))
-    label = f"depth {depth[k]:.0f} ({depth[k] / D:.1f} D)"
-    axes[0].plot(r, rho[:, k], label=label)
-    axes[1].plot(r, out.pressure[:, 0, k], label=label)
-    axes[2].plot(r, sigma[:, k, 0, 0], label=label)
-    axes[2].plot(r, sigma[:, k, 2, 2], ls="--", color=axes[2].lines[-1].get_color())
-    axes[3].plot(r, sigma[:, k, 0, 2], label=label)
+for lo, hi in bands:
+    band = (depth >= lo) & (depth < hi)
+    label = f"depth {lo / D:g}–{hi / D:g} D"
+    axes[0].plot(r, rho[:, band].mean(axis=1), label=label)
+    axes[1].plot(r, out.pressure[:, 0, band].mean(axis=1), label=label)
+    axes[2].plot(r, sigma[:, band, 0, 0].mean(axis=1), label=label)
+    axes[2].plot(r, sigma[:, band, 2, 2].mean(axis=1), ls="--", color=axes[2].lines[-1].get_color())
+    axes[3].plot(r, sigma[:, band, 0, 2].mean(axis=1), label=label)
 for ax, name in zip(axes, ("density ρ", "pressure p", "σ_rr (solid), σ_zz (dashed)", "σ_rz")):
     ax.axvline(R, color="0.5", lw=0.8)
     ax.set(xlabel="r", title=name)
@@ -140,11 +142,13 @@ K = best
 print(f"fitted K = {K:.3f}; Janssen's saturation ρ g D / (4 μ_w K) = {rho_bulk * g * D / (4 * mu_wall * K):.1f} "
       f"vs hydrostatic ρ g H = {rho_bulk * g * height:.1f}")
 
+in_column = z >= z_bottom
 fig, ax = plt.subplots(figsize=(5.5, 4.2), constrained_layout=True)
-ax.plot(sigma_zz_mean, depth, label="σ̄_zz (coarse-grained)")
-ax.plot(sigma_zz_discrete, depth, ls=":", label="(weight − wall friction) above / πR²")
-ax.plot(janssen(depth, K), depth, ls="--", label=f"Janssen, K = {K:.2f}")
-ax.plot(rho_bulk * g * np.clip(depth, 0, None), depth, color="0.6", lw=0.8, label="hydrostatic ρ g z")
+ax.plot(sigma_zz_mean[in_column], depth[in_column], label="σ̄_zz (coarse-grained)")
+ax.plot(sigma_zz_discrete[in_column], depth[in_column], ls=":", label="(weight − wall friction) above / πR²")
+ax.plot(janssen(depth, K)[in_column], depth[in_column], ls="--", label=f"Janssen, K = {K:.2f}")
+ax.plot(rho_bulk * g * np.clip(depth, 0, None)[in_column], depth[in_column], color="0.6", lw=0.8,
+        label="hydrostatic ρ g z")
 ax.set(xlabel="vertical stress", ylabel="depth below the free surface", xlim=(0, 1.2 * sigma_zz_mean.max()))
 ax.invert_yaxis()
 ax.legend(fontsize=8)
@@ -183,8 +187,10 @@ fig
 
 # %% [markdown]
 # **How much of the wall friction is mobilised**: the ratio τ_w / σ_w along the wall, against the sliding
-# friction μ_w = 0.5 (the Coulomb bound every wall contact obeys). And the IFD in the (r, z) plane: it lives
-# on the two walls only (r = R and the bottom), nowhere in the bulk.
+# friction μ_w = 0.5 (the Coulomb bound every wall contact obeys). The fit above determines only the
+# product μ_w K of Janssen's law; the wall itself says how it splits: the mobilised friction τ_w / σ_w and
+# the stress ratio σ_w / σ̄_zz (printed below). And the IFD in the (r, z) plane: it lives on the two walls
+# only (r = R and the bottom), nowhere in the bulk.
 
 # %%
 fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), constrained_layout=True)
@@ -196,6 +202,12 @@ axes[0].invert_yaxis()
 axes[0].legend()
 t_norm = np.linalg.norm(t, axis=-1)
 image = axes[1].pcolormesh(r, z, t_norm.T, shading="auto")
-axes[1].set(xlabel="r", ylabel="z", title="|t| (θ-averaged IFD)", aspect="equal")
+axes[1].axvline(R, color="w", lw=0.5)
+axes[1].set(xlabel="r", ylabel="z", title="|t| (θ-averaged IFD)")
 fig.colorbar(image, ax=axes[1])
+saturated = ok & (depth > 2 * D)
+print(f"below 2 D: μ_w K = {mu_wall * K:.3f} from the fit; mobilised friction τ_w / σ_w = "
+      f"{tau_w[saturated].mean() / sigma_w[saturated].mean():.3f}, stress ratio σ_w / σ̄_zz = "
+      f"{sigma_w[saturated].mean() / sigma_zz_mean[saturated].mean():.3f}, their product "
+      f"{tau_w[saturated].mean() / sigma_zz_mean[saturated].mean():.3f}")
 fig
