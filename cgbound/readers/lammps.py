@@ -27,8 +27,9 @@ Three kinds of LAMMPS output are combined, frame by frame (matched by TIMESTEP):
   particle from the wall, 5-7 = contact point (on the wall surface), 8 = radius. Give the fix IDs
   as ``walls=["ID", ...]``; they become boundary contacts with ``j = -1``. Verified for
   ``fix wall/gran`` (plane walls) and ``fix wall/gran/region ... contacts`` with a cylinder region
-  (same layout, contact points on the cylinder: tests/data/lammps/silo). LAMMPS stores one contact per particle and fix, so a particle touching two
-  walls of one fix cannot be represented by this output.
+  (same layout, contact points on the cylinder: tests/data/lammps/silo). LAMMPS stores one
+  contact per particle and fix, so a particle touching two walls of one fix cannot be represented
+  by this output.
 
 Writing consistent dumps
 ------------------------
