@@ -145,6 +145,17 @@ def side_and_base(snap):
     return side, base
 
 
+def test_shipped_silo_input_is_what_the_scene_writes_today():
+    # the shipped run is the scene of this code base with the stages of scripts/make_silo_data.py
+    scene = silo()
+    stages = [Settle(tolerance=1e-4, chunk=1.0, max_time=150.0), MoveWall(1, BOTTOM, 10.0),
+              Settle(tolerance=1e-4, chunk=1.0, max_time=150.0), Frames(2, 1.0)]
+    with open(os.path.join(DATA, "in.scene")) as f:
+        assert f.read() == scenes.input_script(scene, stages)
+    with open(os.path.join(DATA, "scene.data")) as f:
+        assert f.read() == scenes.data_file(scene)
+
+
 def test_shipped_silo_particles_and_contacts(reader):
     assert len(reader) >= 2
     for snap in reader:
