@@ -26,9 +26,10 @@ Three kinds of LAMMPS output are combined, frame by frame (matched by TIMESTEP):
   dumped as the fix's per-atom array ``f_ID[1..8]``: 1 = contact flag, 2-4 = force on the
   particle from the wall, 5-7 = contact point (on the wall surface), 8 = radius. Give the fix IDs
   as ``walls=["ID", ...]``; they become boundary contacts with ``j = -1``. Verified for
-  ``fix wall/gran`` (plane walls); ``fix wall/gran/region ... contacts`` has the same layout
-  but was not run. LAMMPS stores one contact per particle and fix, so a particle touching two
-  walls of one fix cannot be represented by this output.
+  ``fix wall/gran`` (plane walls) and ``fix wall/gran/region ... contacts`` with a cylinder region
+  (same layout, contact points on the cylinder: tests/data/lammps/silo). LAMMPS stores one
+  contact per particle and fix, so a particle touching two walls of one fix cannot be represented
+  by this output.
 
 Writing consistent dumps
 ------------------------

@@ -8,9 +8,11 @@ per-particle forces come from one force evaluation (see :mod:`cgbound.readers.la
 Axes: a 2D scene's axes (x, z) are LAMMPS's (x, y); LAMMPS's z is a thin periodic slab.
 Atom types: 1 flowing, 2 fixed. Atom IDs are 1..N in scene order.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+
+from .scene import CylinderWall, Wall
 
 #: file names used inside a scene's work directory
 DATA_FILE = "scene.data"
@@ -48,6 +50,20 @@ class Frames:
 
     count: int
     interval: float
+
+
+@dataclass(frozen=True)
+class MoveWall:
+    """Move the flat wall ``walls[index]`` (a :class:`~cgbound.paper.scenes.Wall`) from the scene's
+    position to ``position``: at once (``duration`` 0), or at constant speed over ``duration`` time units.
+
+    Lowering a silo's bottom slowly under a column at rest lets the column slide down along the
+    side wall, which mobilises the wall friction everywhere (the state Janssen's analysis assumes).
+    """
+
+    index: int
+    position: float
+    duration: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -116,13 +132,20 @@ def _contact_model(c):
 
 
 def _wall_fix(scene, k, wall):
+    if isinstance(wall, CylinderWall):
+        # an unbounded cylinder region (INF ends, meaning -inf and +inf: no caps); the particles are on its inside
+        c1, c2 = wall.center
+        return [f"region          wall{k}region cylinder {wall.axis} {_f(c1)} {_f(c2)} {_f(wall.radius)} INF INF "
+                "side in units box",
+                f"fix             wall{k} flow wall/gran/region {_contact_model(scene.contacts)} region wall{k}region "
+                "contacts"]
     axis = "y" if scene.dim == 2 and wall.axis == "z" else wall.axis  # 2D: cgbound's z is LAMMPS's y
     lo, hi = (_f(wall.position), "NULL") if wall.side == "above" else ("NULL", _f(wall.position))
-    return f"fix             wall{k} flow wall/gran {_contact_model(scene.contacts)} {axis}plane {lo} {hi} contacts"
+    return [f"fix             wall{k} flow wall/gran {_contact_model(scene.contacts)} {axis}plane {lo} {hi} contacts"]
 
 
 def input_script(scene, stages):
-    """Text of the LAMMPS input script running ``stages`` (Settle, Run, Frames, Trace) in order."""
+    """Text of the LAMMPS input script running ``stages`` (Settle, Run, Frames, Trace, MoveWall) in order."""
     c = scene.contacts
     fixed = bool(np.any(scene.fixed))
     periodic = ["p" if p else ("m" if scene.dim == 3 else "f") for p in scene.box.periodic]
@@ -156,7 +179,7 @@ def input_script(scene, stages):
     if scene.damping is not None:
         out.append(f"fix             damping flow viscous {_f(scene.damping)}")
     for k, wall in enumerate(scene.walls):
-        out.append(_wall_fix(scene, k, wall))
+        out += _wall_fix(scene, k, wall)
     if scene.dim == 2:
         out.append("fix             plane all enforce2d")
     out += ["compute         ke flow ke",
@@ -216,4 +239,30 @@ def _stage(scene, n, stage):
                 "dump_modify     tr format float %.17g sort id",
                 f"run             {_steps(scene, stage.duration, 'duration')}",
                 "undump          tr"]
-    raise TypeError(f"stages: expected Settle, Run, Frames or Trace, got {type(stage).__name__}")
+    if isinstance(stage, MoveWall):
+        k = stage.index
+        if not (isinstance(k, (int, np.integer)) and 0 <= k < len(scene.walls) and isinstance(scene.walls[k], Wall)):
+            raise ValueError(f"index: expected the index of a flat Wall of the scene, got {k!r}")
+        if not np.isfinite(stage.position):
+            raise ValueError(f"position: expected a finite number, got {stage.position!r}")
+        wall = scene.walls[k]
+        moved = replace(wall, position=float(stage.position))
+        out = [f"unfix           wall{k}"]
+        steps = _steps(scene, stage.duration, "duration")
+        if steps:
+            # a plane region moving at constant speed (LAMMPS gives the wall/gran/region contacts its velocity)
+            axis = "xyz".index("y" if scene.dim == 2 and wall.axis == "z" else wall.axis)
+            point, normal = [0.0] * 3, [0.0] * 3
+            point[axis], normal[axis] = wall.position, (1.0 if wall.side == "above" else -1.0)
+            shift = ["NULL"] * 3
+            shift[axis] = f"v_wall{k}shift{n}"
+            out += [f"variable        wall{k}shift{n} equal \"ramp(0.0,{_f(stage.position - wall.position)})\"",
+                    f"region          wall{k}moving{n} plane {' '.join(_f(v) for v in point + normal)} side in "
+                    f"move {' '.join(shift)} units box",
+                    f"fix             wall{k} flow wall/gran/region {_contact_model(scene.contacts)} "
+                    f"region wall{k}moving{n} contacts",
+                    f"run             {steps}",
+                    f"unfix           wall{k}"]
+        # the same fix ID, so the frames' wall columns keep their names
+        return out + _wall_fix(scene, k, moved)
+    raise TypeError(f"stages: expected Settle, Run, Frames, Trace or MoveWall, got {type(stage).__name__}")

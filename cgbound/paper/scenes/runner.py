@@ -138,7 +138,8 @@ def run_scene(scene, stages, workdir=None, executable=None, timeout=None, keep=T
     if any(isinstance(s, lmp_input.Frames) for s in stages):
         reader = LammpsReader(os.path.join(workdir, lmp_input.FRAME_ATOMS), os.path.join(workdir, lmp_input.FRAME_PAIRS),
                               pair_values=lmp_input.PAIR_VALUES, walls=[f"wall{k}" for k in range(len(scene.walls))],
-                              fixed_types=[2], body_force=scene.gravity if scene.gravity is not None else None,
+                              fixed_types=[2] if np.any(scene.fixed) else [],
+                              body_force=scene.gravity if scene.gravity is not None else None,
                               dimension=scene.dim, dt=scene.timestep)
         result.snapshots = list(reader)
         for snap in result.snapshots:

@@ -103,6 +103,29 @@ class Wall:
             raise ValueError(f"position: expected a finite number, got {self.position!r}")
 
 
+@dataclass(frozen=True)
+class CylinderWall:
+    """A frictional cylindrical wall (a 3D scene's side wall) of ``radius`` around an axis along ``axis``
+    through ``center`` (the two other coordinates, in axis order); particles stay inside.
+
+    The cylinder is unbounded along its axis (no end caps): close it with a :class:`Wall`.
+    """
+
+    axis: str
+    center: tuple
+    radius: float
+
+    def __post_init__(self):
+        if self.axis not in AXIS_NAMES:
+            raise ValueError(f"axis: expected one of {AXIS_NAMES}, got {self.axis!r}")
+        center = tuple(float(c) for c in np.ravel(self.center))
+        if len(center) != 2 or not all(np.isfinite(center)):
+            raise ValueError(f"center: expected two finite coordinates, got {self.center!r}")
+        object.__setattr__(self, "center", center)
+        if not (np.isfinite(self.radius) and self.radius > 0):
+            raise ValueError(f"radius: expected a positive number, got {self.radius!r}")
+
+
 @dataclass
 class Scene:
     """Particles, boundaries and effects of a discrete-particle simulation.
@@ -129,7 +152,7 @@ class Scene:
         Integrate particle rotation (needed for rolling with tangential forces).
     damping : float or None
         Background viscous drag coefficient b (force -b v on every flowing particle), or None.
-    walls : sequence of Wall
+    walls : sequence of Wall or CylinderWall
     timestep : float
     """
 
@@ -174,8 +197,12 @@ class Scene:
             raise ValueError(f"damping: expected a positive drag coefficient or None, got {self.damping!r}")
         self.walls = tuple(self.walls)
         for wall in self.walls:
+            if isinstance(wall, CylinderWall):
+                if dim != 3:
+                    raise ValueError("walls: a CylinderWall needs a 3D scene")
+                continue
             if not isinstance(wall, Wall):
-                raise TypeError(f"walls: expected Wall objects, got {type(wall).__name__}")
+                raise TypeError(f"walls: expected Wall or CylinderWall objects, got {type(wall).__name__}")
             if wall.axis not in self.axis_names:
                 raise ValueError(f"walls: axis {wall.axis!r} is not an axis of this {dim}D scene")
             if self.box.periodic[self.axis_names.index(wall.axis)]:
@@ -216,8 +243,10 @@ class Scene:
             out.append("background damping")
         if np.any(self.fixed):
             out.append("fixed particles")
-        if self.walls:
+        if any(isinstance(w, Wall) for w in self.walls):
             out.append("walls")
+        if any(isinstance(w, CylinderWall) for w in self.walls):
+            out.append("cylinder wall")
         out += [f"periodic {a}" for a, p in zip(self.axis_names, self.box.periodic) if p]
         return tuple(out)
 
