@@ -274,3 +274,43 @@ def test_rotation_fields_refuse_missing_data_before_work(no_work):
         cg.angular_momentum_balance_residual(spin, where, cg.Lucy(1.0), torques=np.ones((8, 2)))
     with pytest.raises(ValueError, match="external_torques"):
         cg.angular_momentum_balance_residual(spin, where, cg.Lucy(1.0), external_torques=np.ones(8))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# readers
+
+def test_mercury_data_angular_velocities(tmp_path):
+    """MercuryDPM's .data columns wx wy wz (3D) and omega (2D) become Snapshot.angular_velocities."""
+    from cgbound.readers.mercury import MercuryReader
+    from test_mercury_reader import DATA3, FSTAT3, RESTART3, write
+    f = write(tmp_path, **{"a.data": DATA3, "a.fstat": FSTAT3, "a.restart": RESTART3})
+    snap = MercuryReader(f["a.data"], f["a.fstat"], restart_path=f["a.restart"])[1]
+    np.testing.assert_array_equal(snap.angular_velocities, [[0, 0, 0], [1, 2, 3], [0, 0, 0]])
+    data2 = "2 0.5 -1 0 2 2\n0 0.45 1 -1 0.5 0.3 -2.5 0\n0.9 0.45 0 0 0.5 0 4 1\n"
+    g = write(tmp_path, **{"c.data": data2})
+    snap2 = MercuryReader(g["c.data"], density=1.0)[0]
+    np.testing.assert_array_equal(snap2.angular_velocities, [-2.5, 4.0])
+    spin = cg.rotation_fields(snap2, cg.Points(snap2.positions), cg.Lucy(2.0), "spin_density")["spin_density"]
+    assert spin.shape == (2,) and np.all(np.isfinite(spin))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_fields_scale_with_the_units_as_their_dimension_says(dim):
+    """The same data in units 2, 4 and 1/2 times smaller (length, mass, time) multiplies each rotational
+    field by 2^L 4^M (1/2)^T, the exponents of cgbound.units.DIMENSIONS."""
+    from cgbound import units as cu
+    snap = spinning(random_snapshot(51, dim=dim), 51)
+    a, b, c = 2.0, 4.0, 0.5
+    con = snap.contacts
+    big = cg.Snapshot(snap.positions * a, snap.velocities * a / c, snap.masses * b,
+                      box=cg.Box(snap.box.lower * a, snap.box.upper * a, periodic=snap.box.periodic),
+                      contacts=cg.Contacts(con.i, con.j, con.force * b * a / c ** 2, con.point * a),
+                      fixed=snap.fixed, radii=snap.radii * a, angular_velocities=snap.angular_velocities / c)
+    pts = random_points(snap, 51, 20)
+    out = cg.rotation_fields(snap, cg.Points(pts), cg.Lucy(1.3))
+    out_big = cg.rotation_fields(big, cg.Points(pts * a), cg.Lucy(1.3 * a))
+    for name in ROTATION_FIELDS:
+        m, length, t = cu.dimension(name, dim)
+        expected = out[name] * b ** m * a ** length * c ** t
+        np.testing.assert_allclose(out_big[name], expected, rtol=1e-10, atol=1e-12 * np.abs(expected).max(),
+                                   err_msg=name)
