@@ -5,12 +5,11 @@ import numpy as np
 from ._engine import core_kernel, core_target, point_target, scatter_points
 from ._memory import check_fits, core_threads
 from ._threads import get_num_threads
-from ._validate import real_array
 from .grid import Points, check_target, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
 from .primaries import longest_branch
 from .rotation import contact_halves, contact_torques, couple_stress_sum, pseudo_columns, pseudo_shape
-from .snapshot import Snapshot
+from .snapshot import Snapshot, pseudo_vector_array
 
 
 class AngularMomentumBalance:
@@ -46,17 +45,6 @@ class AngularMomentumBalance:
         return f"<AngularMomentumBalance at {self.points.size} points, max relative residual {worst:.3g}>"
 
 
-def _pseudo_argument(value, name, n, dim):
-    """(N, 3) in 3D; (N,) or (N, 1) in 2D; returned as (N, T) columns."""
-    if dim == 3:
-        return real_array(value, name, ndim=2, shape=(n, 3))
-    array = real_array(value, name)
-    if array.shape not in ((n,), (n, 1)):
-        raise ValueError(f"{name}: expected shape ({n},) or ({n}, 1) in 2D (the component perpendicular to the "
-                         f"plane), got {array.shape}")
-    return array.reshape(n, 1)
-
-
 def angular_momentum_balance_residual(snapshot, points, kernel, torques=None, external_torques=None):
     """Residual of the intrinsic angular momentum balance at points, for any data.
 
@@ -89,7 +77,7 @@ def angular_momentum_balance_residual(snapshot, points, kernel, torques=None, ex
     dim, n, P = snapshot.dim, snapshot.n_particles, target.size
     T = 3 if dim == 3 else 1
     external = (None if external_torques is None
-                else _pseudo_argument(external_torques, "external_torques", n, dim))
+                else pseudo_vector_array(external_torques, "external_torques", n, dim).reshape(n, T))
     split = snapshot.split_contacts()
     halves = contact_halves(snapshot, split)
     if torques is None:
@@ -97,7 +85,7 @@ def angular_momentum_balance_residual(snapshot, points, kernel, torques=None, ex
         if external is not None:
             torques = torques + external
     else:
-        torques = _pseudo_argument(torques, "torques", n, dim)
+        torques = pseudo_vector_array(torques, "torques", n, dim).reshape(n, T)
     largest = max(float(np.abs(torques).max(initial=0.0)), float(np.abs(halves["torque"]).max(initial=0.0)),
                   float(np.abs(halves["pair_moment"]).max(initial=0.0)),
                   float(np.abs(external).max(initial=0.0)) if external is not None else 0.0)

@@ -52,7 +52,7 @@ class Contacts:
         return f"Contacts({len(self)} contacts)"
 
 
-def _pseudo_vectors(values, name, n, dim):
+def pseudo_vector_array(values, name, n, dim):
     """Angular velocities or torques: (N, 3) in 3D; in 2D the out-of-plane component, given as (N,) or
     (N, 1), stored as (N,). None stays None."""
     if values is None:
@@ -166,8 +166,8 @@ class Snapshot:
                 k = int(np.flatnonzero(self.radii < 0)[0])
                 raise ValueError(f"radii: expected non-negative radii, got {self.radii[k]} at index {k}")
         self.time = finite_number(time, "time")
-        self.angular_velocities = _pseudo_vectors(angular_velocities, "angular_velocities", n, dim)
-        self.torques = _pseudo_vectors(torques, "torques", n, dim)
+        self.angular_velocities = pseudo_vector_array(angular_velocities, "angular_velocities", n, dim)
+        self.torques = pseudo_vector_array(torques, "torques", n, dim)
         self.moments_of_inertia = None
         if moments_of_inertia is not None:
             inertia = real_array(moments_of_inertia, "moments_of_inertia", ndim=1, shape=(n,))
