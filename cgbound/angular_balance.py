@@ -8,7 +8,7 @@ from ._threads import get_num_threads
 from .grid import Points, check_target, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
 from .primaries import longest_branch
-from .rotation import contact_halves, contact_torques, couple_stress_sum, pseudo_columns, pseudo_shape
+from .rotation import contact_halves, contact_torques, couple_stress_sum, largest_couple, pseudo_columns
 from .snapshot import Snapshot, pseudo_vector_array
 
 
@@ -89,8 +89,9 @@ def angular_momentum_balance_residual(snapshot, points, kernel, torques=None, ex
     largest = max(float(np.abs(torques).max(initial=0.0)), float(np.abs(halves["torque"]).max(initial=0.0)),
                   float(np.abs(halves["pair_moment"]).max(initial=0.0)),
                   float(np.abs(external).max(initial=0.0)) if external is not None else 0.0)
+    # the couple stress's segments carry torque x branch (checked, not part of the scale)
     check_reach(kernel, dim, periodic_resolved_lengths(snapshot.box, target),
-                max(snapshot.largest_product, largest), where="snapshot (or torques)")
+                max(snapshot.largest_product, largest, largest_couple(halves)), where="snapshot (or torques)")
     threads = core_threads(max(n, len(snapshot.contacts)))
     check_fits("points", P, threads * T * dim * dim + 8 * T, what="the angular momentum balance terms")
     where = core_target(target, snapshot.box)

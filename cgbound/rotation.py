@@ -67,6 +67,16 @@ def contact_halves(snapshot, split=None):
             "wall_point": boundary["point"], "wall_torque": cross(boundary["force"], boundary["branch"])}
 
 
+def largest_couple(halves):
+    """The largest torque x branch the couple stress sums (force x branch^2, which may overflow where
+    force x branch does not); 0 without contacts."""
+    if not halves["i"].size:
+        return 0.0
+    with np.errstate(over="ignore"):
+        arm = np.abs(halves["branch"]).max(axis=1)
+        return float((np.abs(pseudo_columns(halves["torque"])).max(axis=1) * arm).max())
+
+
 def contact_torques(snapshot, halves=None):
     """The torque on every particle from its contacts, sum_j (c_ij - r_i) x f_ij: (N, 3) in 3D, (N,) in 2D
     (fixed particles: their flowing partners' halves are not theirs, so zero)."""
@@ -124,6 +134,11 @@ def rotation_fields(snapshot, where, kernel, fields=ROTATION_FIELDS):
         spin = flowing_rows(snapshot, snapshot.angular_velocities)
         largest = max(largest, float(np.abs(flow_i * np.abs(pseudo_columns(spin)).max(axis=1,
                                                                                       initial=0.0)).max(initial=0.0)))
+    halves = None
+    if set(fields) & {"couple_stress", "stress_torque_density", "boundary_couple_density"}:
+        split = snapshot.split_contacts()
+        halves = contact_halves(snapshot, split)
+        largest = max(largest, largest_couple(halves))
     check_reach(kernel, dim, periodic_resolved_lengths(snapshot.box, target), largest, where="snapshot",
                 n_resolved=len(target.resolved), avg_extent=target.avg_extent)
     core = core_target(target, snapshot.box)
@@ -147,9 +162,7 @@ def rotation_fields(snapshot, where, kernel, fields=ROTATION_FIELDS):
             flux = (scatter_points(core, point_kernel, pos, outer(s_i, v), n_threads=nt) if pos.shape[0]
                     else np.zeros((P, s_i.shape[1] * dim)))
             out["spin_flux"] = flux.reshape((P,) + tshape + (dim,))
-    if set(fields) & {"couple_stress", "stress_torque_density", "boundary_couple_density"}:
-        split = snapshot.split_contacts()
-        halves = contact_halves(snapshot, split)
+    if halves is not None:
         line_kernel = core_kernel(kernel, target.avg_extent, longest_branch(*split))
         if "couple_stress" in fields:
             out["couple_stress"] = couple_stress_sum(snapshot, halves, core, line_kernel, P, nt)

@@ -363,3 +363,16 @@ def test_lammps_pair_torques_are_the_contact_torques(spin3d_dir):
         pts[:, 2] = np.linspace(0.2, 3.0, 30)
         assert cg.angular_momentum_balance_residual(snap, pts, cg.Lucy(1.5)).relative.max() <= 1e-10
     assert checked > 100
+
+
+def test_a_couple_stress_that_would_overflow_is_refused(no_work):
+    """force x branch within range, torque x branch (force x branch^2) not: refused by name, not inf."""
+    pos = np.array([[0.0, 0.0, 0.0], [1e110, 0.0, 0.0]])
+    snap = cg.Snapshot(pos, None, [1.0, 1.0], contacts=cg.Contacts([0], [1], [[0.0, 1e90, 0.0]], [[5e109, 0, 0]]))
+    fine = cg.Snapshot(pos, None, [1.0, 1.0], contacts=cg.Contacts([0], [1], [[0.0, 1e60, 0.0]], [[5e109, 0, 0]]))
+    with pytest.raises(ValueError, match="snapshot"):
+        cg.rotation_fields(snap, cg.Points(pos), cg.Lucy(1.0), "couple_stress")
+    with pytest.raises(AssertionError, match="ran before"):        # the same request on fine data does work
+        cg.rotation_fields(fine, cg.Points(pos), cg.Lucy(1.0), "couple_stress")
+    with pytest.raises(ValueError, match="snapshot"):
+        cg.angular_momentum_balance_residual(snap, cg.Points(pos), cg.Lucy(1.0))

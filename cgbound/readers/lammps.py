@@ -6,7 +6,8 @@ Three kinds of LAMMPS output are combined, frame by frame (matched by TIMESTEP):
   in any order (the order is read from the ``ITEM: ATOMS`` header). Positions may be plain
   (``x y z``), scaled (``xs ys zs``), unwrapped (``xu yu zu``) or scaled and unwrapped
   (``xsu ysu zsu``). ``ITEM: BOX BOUNDS`` gives the box; an axis is periodic when its flag is
-  ``pp``. Triclinic boxes are not supported.
+  ``pp``. Triclinic boxes are not supported. ``omegax omegay omegaz`` and ``tqx tqy tqz`` (2D: ``omegaz``,
+  ``tqz``), when present, become the snapshot's ``angular_velocities`` and ``torques``.
 * a contact ``dump local`` of ``compute pair/local`` and ``compute property/local patom1 patom2``
   (optional). The values verified on LAMMPS 29 Sep 2021 (Debian 20220106) output:
 
