@@ -8,6 +8,7 @@ from ._threads import get_num_threads
 from .grid import Points, check_target, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
 from .primaries import longest_branch
+from .residual import relative_residual
 from .rotation import contact_halves, contact_torques, couple_stress_sum, largest_couple, pseudo_columns
 from .snapshot import Snapshot, pseudo_vector_array
 
@@ -34,11 +35,7 @@ class AngularMomentumBalance:
             setattr(self, name, value)
         self.residual = (self.forcing - self.div_couple_stress - self.stress_torque_density
                          - self.boundary_couple_density - self.external_torque_density)
-        mags = [np.linalg.norm(v, axis=1) for v in terms.values()]
-        seen = max((m.max() if m.size else 0.0) for m in mags) if mags else 0.0
-        self.scale = float(max(seen, reach))
-        norm = np.linalg.norm(self.residual, axis=1)
-        self.relative = norm / self.scale if self.scale > 0 else norm
+        self.scale, self.relative = relative_residual(self.residual, terms, reach)
 
     def __repr__(self):
         worst = float(self.relative.max()) if self.relative.size else 0.0

@@ -12,6 +12,7 @@ import numpy as np
 
 from ._engine import core_kernel, core_target, scatter_points, scatter_segments
 from ._threads import get_num_threads
+from .fields import check_fields
 from .grid import check_target, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
 from .primaries import flowing_rows, longest_branch, outer
@@ -99,21 +100,6 @@ def check_spin(snapshot, fields):
     return snapshot.inertia(f"the field {wanted[0]!r}")
 
 
-def check_rotation_fields(fields):
-    if isinstance(fields, str):
-        fields = (fields,)
-    try:
-        fields = tuple(fields)
-    except TypeError:
-        raise TypeError(f"fields: expected a sequence of rotational field names, got {fields!r}") from None
-    if not fields:
-        raise ValueError("fields: expected at least one field name, got none")
-    for name in fields:
-        if name not in ROTATION_FIELDS:
-            raise ValueError(f"fields: expected some of {', '.join(ROTATION_FIELDS)}, got {name!r}")
-    return tuple(dict.fromkeys(fields))
-
-
 def rotation_fields(snapshot, where, kernel, fields=ROTATION_FIELDS):
     """The rotational fields of one snapshot on a Grid (with or without averaged axes) or at Points.
 
@@ -123,7 +109,7 @@ def rotation_fields(snapshot, where, kernel, fields=ROTATION_FIELDS):
     """
     if not isinstance(snapshot, Snapshot):
         raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
-    fields = check_rotation_fields(fields)
+    fields = check_fields(fields, ROTATION_FIELDS)
     kernel = check_kernel(kernel)
     target = check_target(where, snapshot.dim, name="where")
     inertia = check_spin(snapshot, fields)
