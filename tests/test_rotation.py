@@ -376,3 +376,44 @@ def test_a_couple_stress_that_would_overflow_is_refused(no_work):
         cg.rotation_fields(fine, cg.Points(pos), cg.Lucy(1.0), "couple_stress")
     with pytest.raises(ValueError, match="snapshot"):
         cg.angular_momentum_balance_residual(snap, cg.Points(pos), cg.Lucy(1.0))
+
+
+def test_lammps_2d_takes_the_z_columns(tmp_path):
+    """A 2D (x-y) LAMMPS dump: omegaz and tqz become the out-of-plane angular velocity and torque; a dump with
+    only some of the 3D columns is refused by name."""
+    from cgbound.readers import LammpsReader
+    src = os.path.join(SPIN3D, "hooke2d")
+    lines = open(os.path.join(src, "atoms.dump")).read().splitlines()
+    out, in_atoms = [], False
+    for line in lines:
+        if line.startswith("ITEM: ATOMS"):
+            out.append(line + " omegax omegaz tqz")
+            in_atoms = True
+            continue
+        if line.startswith("ITEM:"):
+            in_atoms = False
+        elif in_atoms:
+            atom = int(line.split()[0])
+            line += f" 9 {0.5 * atom} {-atom}"
+        out.append(line)
+    path = tmp_path / "atoms.dump"
+    path.write_text("\n".join(out) + "\n")
+    values = ("dist", "fx", "fy", "fz") + tuple(f"p{k}" for k in range(1, 13))
+    reader = LammpsReader(str(path), os.path.join(src, "pairs.dump"), pair_style="granular", pair_values=values,
+                          body_force=(0.0, -1.0), dimension=2, walls=["w"], fixed_types=[2])
+    frame = reader.frame(0)
+    snap, ids = frame.snapshot, frame.ids
+    np.testing.assert_array_equal(snap.angular_velocities, 0.5 * ids)
+    np.testing.assert_array_equal(snap.torques, -ids.astype(float))
+    # in 2D only the z columns count: tqx alone is no torque
+    only_x = tmp_path / "only_x.dump"
+    only_x.write_text(path.read_text().replace(" omegax omegaz tqz", " omegax omegaz tqx"))
+    assert LammpsReader(str(only_x), os.path.join(src, "pairs.dump"), pair_style="granular", pair_values=values,
+                        body_force=(0.0, -1.0), dimension=2, walls=["w"], fixed_types=[2])[0].torques is None
+    # in 3D a partial set of columns is refused by name
+    dump3 = open(os.path.join(SPIN3D, "spin3d", "atoms.dump")).read().replace(" omegay ", " omegaq ")
+    broken = tmp_path / "partial3d.dump"
+    broken.write_text(dump3)
+    with pytest.raises(ValueError, match=r"angular velocities need columns \['omegay'\]"):
+        LammpsReader(str(broken), os.path.join(SPIN3D, "spin3d", "pairs.dump"), pair_style="granular",
+                     pair_values=values, body_force=(0.0, 0.0, -1.0), walls=["w"], fixed_types=[2])[0]
