@@ -15,15 +15,17 @@ from ._threads import get_num_threads
 from .fields import check_fields
 from .grid import check_target, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
-from .primaries import flowing_rows, longest_branch, outer
+from .primaries import flowing_rows, longest_branch, outer, reference_velocity
 from .snapshot import Snapshot
 
 #: the rotational fields, each computed only when asked for
 ROTATION_FIELDS = ("spin_density", "angular_momentum_density", "spin_flux", "couple_stress",
-                   "stress_torque_density", "boundary_couple_density")
+                   "stress_torque_density", "boundary_couple_density", "kinetic_spin_flux")
 
 #: fields that need angular velocities (and moments of inertia)
-SPIN_FIELDS = ("spin_density", "angular_momentum_density", "spin_flux")
+SPIN_FIELDS = ("spin_density", "angular_momentum_density", "spin_flux", "kinetic_spin_flux")
+#: fields that also need the particles' velocities
+MOVING_FIELDS = ("spin_flux", "kinetic_spin_flux")
 
 
 def cross(a, b):
@@ -95,8 +97,9 @@ def check_spin(snapshot, fields):
     if snapshot.angular_velocities is None:
         raise ValueError(f"snapshot.angular_velocities: expected angular velocities for the field {wanted[0]!r}, "
                          f"got None")
-    if "spin_flux" in wanted and snapshot.velocities is None:
-        raise ValueError("snapshot.velocities: expected velocities for the field 'spin_flux', got None")
+    moving = [f for f in wanted if f in MOVING_FIELDS]
+    if moving and snapshot.velocities is None:
+        raise ValueError(f"snapshot.velocities: expected velocities for the field {moving[0]!r}, got None")
     return snapshot.inertia(f"the field {wanted[0]!r}")
 
 
@@ -148,6 +151,8 @@ def rotation_fields(snapshot, where, kernel, fields=ROTATION_FIELDS):
             flux = (scatter_points(core, point_kernel, pos, outer(s_i, v), n_threads=nt) if pos.shape[0]
                     else np.zeros((P, s_i.shape[1] * dim)))
             out["spin_flux"] = flux.reshape((P,) + tshape + (dim,))
+        if "kinetic_spin_flux" in fields:
+            out["kinetic_spin_flux"] = kinetic_spin_flux(snapshot, s_i, summed, core, point_kernel, P, nt)
     if halves is not None:
         line_kernel = core_kernel(kernel, target.avg_extent, longest_branch(*split))
         if "couple_stress" in fields:
@@ -159,6 +164,26 @@ def rotation_fields(snapshot, where, kernel, fields=ROTATION_FIELDS):
                                             n_threads=nt).reshape((P,) + tshape)
                              if halves[points].shape[0] else np.zeros((P,) + tshape))
     return {name: out[name].reshape(target.field_shape + out[name].shape[1:]) for name in fields}
+
+
+def kinetic_spin_flux(snapshot, s_i, spin, core, point_kernel, P, nt):
+    """J' = sum_i I_i w_i (x) (v_i - V) W_i = J - s (x) V about the local velocity V = p / rho (0 where rho = 0,
+    where every sum vanishes). Velocities are taken relative to the mass-weighted mean u_ref (J' does not
+    depend on it), so that a large uniform flow costs no digits: J_w - s (x) V_w."""
+    dim = snapshot.dim
+    T = s_i.shape[1]
+    pos = flowing_rows(snapshot, snapshot.positions)
+    if not pos.shape[0]:
+        return np.zeros((P,) + pseudo_shape(dim) + (dim,))
+    u_ref = reference_velocity(snapshot)
+    m = flowing_rows(snapshot, snapshot.masses)
+    v_w = flowing_rows(snapshot, snapshot.velocities) - u_ref
+    block = np.concatenate([m[:, None], m[:, None] * v_w, outer(s_i, v_w)], axis=1)
+    sums = scatter_points(core, point_kernel, pos, block, n_threads=nt)
+    rho, p_w, flux_w = sums[:, 0], sums[:, 1:1 + dim], sums[:, 1 + dim:].reshape(P, T, dim)
+    V_w = np.zeros((P, dim))
+    np.divide(p_w, rho[:, None], out=V_w, where=rho[:, None] > 0)
+    return (flux_w - spin[:, :, None] * V_w[:, None, :]).reshape((P,) + pseudo_shape(dim) + (dim,))
 
 
 def couple_stress_sum(snapshot, halves, core, line_kernel, P, nt, gradient=False):

@@ -151,6 +151,7 @@ DIMENSIONS = {
     "couple_stress": Dimension(1, 3, -2, True, "force"),               # torque x length per volume
     "stress_torque_density": Dimension(1, 2, -2, True, "force"),       # torque per volume
     "boundary_couple_density": Dimension(1, 2, -2, True, "force"),
+    "kinetic_spin_flux": Dimension(1, 3, -2, True, "kinetic"),         # I w v' per volume
 }
 
 #: quantities that are not fields but have units too (coordinates, times, masses)

@@ -700,7 +700,7 @@ def oracle_rotation(snap, where, kernel_obj, fields, inertia=None):
     X = np.asarray(snap.positions)
     fixed = np.asarray(snap.fixed)
     out = {}
-    if set(fields) & {"spin_density", "angular_momentum_density", "spin_flux"}:
+    if set(fields) & {"spin_density", "angular_momentum_density", "spin_flux", "kinetic_spin_flux"}:
         if inertia is None:
             r = np.asarray(snap.radii)
             inertia = (0.4 if D == 3 else 0.5) * np.asarray(snap.masses) * r * r
@@ -716,6 +716,18 @@ def oracle_rotation(snap, where, kernel_obj, fields, inertia=None):
                                            np.outer(inertia[i] * w[i], snap.velocities[i]).reshape(1, -1))
         out["spin_density"] = out["angular_momentum_density"] = s
         out["spin_flux"] = J.reshape(P, T, D)
+        if "kinetic_spin_flux" in fields:       # about each node's own velocity, particle by particle
+            flow = ~fixed
+            m = np.asarray(snap.masses)[flow]
+            rho = oracle_scatter_points(kernel, tgt, X[flow], m[:, None])[:, 0]
+            p = oracle_scatter_points(kernel, tgt, X[flow], m[:, None] * np.asarray(snap.velocities)[flow])
+            V = np.where(rho[:, None] > 0, p / np.where(rho > 0, rho, 1.0)[:, None], 0.0)
+            K = np.zeros((P, T, D))
+            for i in np.flatnonzero(flow):
+                wi = oracle_scatter_points(kernel, tgt, X[i][None], np.ones((1, 1)))[:, 0]
+                dv = snap.velocities[i][None, :] - V
+                K += (wi[:, None, None] * (inertia[i] * w[i])[None, :, None]) * dv[:, None, :]
+            out["kinetic_spin_flux"] = K
     m = np.zeros((P, T * D))
     pair = np.zeros((P, T))
     wall = np.zeros((P, T))
