@@ -21,6 +21,8 @@ from ._threads import get_num_threads, set_num_threads, threads
 from .tiled import coarse_grain_tiled
 from .truncation import gaussian_cutoff_for, gaussian_tail_fraction
 from .units import Units
+from .rotation import ROTATION_FIELDS, rotation_fields
+from .angular_balance import AngularMomentumBalance, angular_momentum_balance_residual
 
 from ._version import __version__
 
@@ -30,4 +32,5 @@ __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", 
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
            "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning",
-           "WidthScan", "width_scan", "Units", "stress_ratio"]
+           "WidthScan", "width_scan", "Units", "stress_ratio",
+           "ROTATION_FIELDS", "rotation_fields", "AngularMomentumBalance", "angular_momentum_balance_residual"]

@@ -58,7 +58,9 @@ def field_rank(name):
     return FIELDS[name][0]
 
 
-def check_fields(fields):
+def check_fields(fields, known=None):
+    """The requested field names as a tuple without repeats; ``known``: the names allowed (default FIELDS)."""
+    known = FIELDS if known is None else known
     if isinstance(fields, str):
         fields = (fields,)
     try:
@@ -70,8 +72,8 @@ def check_fields(fields):
     for name in fields:
         if not isinstance(name, str):
             raise TypeError(f"fields: expected field names (strings), got {name!r}")
-        if name not in FIELDS:
-            raise ValueError(f"fields: expected some of {', '.join(FIELDS)}, got unknown field {name!r}")
+        if name not in known:
+            raise ValueError(f"fields: expected some of {', '.join(known)}, got unknown field {name!r}")
     return tuple(dict.fromkeys(fields))
 
 

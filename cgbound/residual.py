@@ -11,6 +11,16 @@ from .snapshot import Snapshot
 from ._validate import real_array
 
 
+def relative_residual(residual, terms, reach):
+    """(scale, relative): the scale is the largest term magnitude seen or ``reach`` (what a term can reach),
+    relative is ``|residual| / scale`` per point (``|residual|`` where the scale is 0)."""
+    mags = [np.linalg.norm(v, axis=1) for v in terms.values()]
+    seen = max((m.max() if m.size else 0.0) for m in mags) if mags else 0.0
+    scale = float(max(seen, reach))
+    norm = np.linalg.norm(residual, axis=1)
+    return scale, (norm / scale if scale > 0 else norm)
+
+
 class MomentumBalance:
     """Terms of dp/dt + div(rho V V) - div(sigma) - t - b at each point.
 
@@ -33,11 +43,7 @@ class MomentumBalance:
             setattr(self, name, value)
         self.residual = (self.forcing - self.div_contact_stress - self.div_boundary_stress
                          - self.interaction_force_density - self.body_force_density)
-        mags = [np.linalg.norm(v, axis=1) for v in terms.values()]
-        seen = max((m.max() if m.size else 0.0) for m in mags) if mags else 0.0
-        self.scale = float(max(seen, reach))
-        norm = np.linalg.norm(self.residual, axis=1)
-        self.relative = norm / self.scale if self.scale > 0 else norm
+        self.scale, self.relative = relative_residual(self.residual, terms, reach)
 
     def __repr__(self):
         worst = float(self.relative.max()) if self.relative.size else 0.0

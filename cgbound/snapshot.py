@@ -52,6 +52,22 @@ class Contacts:
         return f"Contacts({len(self)} contacts)"
 
 
+def pseudo_vector_array(values, name, n, dim):
+    """Angular velocities or torques: (N, 3) in 3D; in 2D the out-of-plane component, given as (N,) or
+    (N, 1), stored as (N,). None stays None."""
+    if values is None:
+        return None
+    if dim == 3:
+        return real_array(values, name, ndim=2, shape=(n, 3))
+    array = real_array(values, name)
+    if array.shape == (n, 1):
+        return array[:, 0]
+    if array.shape != (n,):
+        raise ValueError(f"{name}: expected shape ({n},) or ({n}, 1) in 2D (the component perpendicular to the "
+                         f"plane), got {array.shape}")
+    return array
+
+
 class Snapshot:
     """Particle data at one instant (docs/theory.md, "The snapshot model").
 
@@ -74,6 +90,13 @@ class Snapshot:
     radii : (N,), optional
         Needed for the volume fraction.
     time : float
+    angular_velocities : (N, 3) array in 3D; (N,) or (N, 1) in 2D, optional
+        In 2D the component perpendicular to the plane, positive when (axis 0, axis 1, normal) is
+        right-handed (docs/theory.md, "Rotation and couple stress"). Needed for the spin density.
+    torques : like angular_velocities, optional
+        The total torque on each particle (e.g. as dumped), for ``angular_momentum_balance_residual``.
+    moments_of_inertia : (N,) array, optional
+        Default (when needed): solid spheres 2/5 m r^2 in 3D, discs 1/2 m r^2 in 2D, from masses and radii.
     units : Units, str or mapping, optional
         The units of these numbers (:mod:`cgbound.units`): a system name such as ``"si"`` or ``"lj"``,
         a mapping ``{"length": "m", "mass": "kg", "time": "s"}``, or a :class:`cgbound.Units`. Nothing
@@ -93,7 +116,8 @@ class Snapshot:
         self._units = as_units(value)
 
     def __init__(self, positions, velocities=None, masses=None, box=None, contacts=None, fixed=None,
-                 species=None, body_force=None, radii=None, time=0.0, units=None):
+                 species=None, body_force=None, radii=None, time=0.0, units=None, angular_velocities=None,
+                 torques=None, moments_of_inertia=None):
         self.units = as_units(units)
         self.positions = real_array(positions, "positions", ndim=2)
         n, dim = self.positions.shape
@@ -142,6 +166,17 @@ class Snapshot:
                 k = int(np.flatnonzero(self.radii < 0)[0])
                 raise ValueError(f"radii: expected non-negative radii, got {self.radii[k]} at index {k}")
         self.time = finite_number(time, "time")
+        self.angular_velocities = pseudo_vector_array(angular_velocities, "angular_velocities", n, dim)
+        self.torques = pseudo_vector_array(torques, "torques", n, dim)
+        self.moments_of_inertia = None
+        if moments_of_inertia is not None:
+            inertia = real_array(moments_of_inertia, "moments_of_inertia", ndim=1, shape=(n,))
+            bad = (~self.fixed) & ~(inertia > 0)
+            if np.any(bad):
+                k = int(np.flatnonzero(bad)[0])
+                raise ValueError(f"moments_of_inertia: expected positive moments of inertia for flowing particles, "
+                                 f"got {inertia[k]} at index {k}")
+            self.moments_of_inertia = inertia
         if contacts is None:
             contacts = Contacts.empty(dim)
         if not isinstance(contacts, Contacts):
@@ -322,6 +357,15 @@ class Snapshot:
         a = minimum_image(self.positions[k] - ck)
         boundary_out = {"i": k, "force": fk, "branch": a, "point": self.positions[k] - a}
         return bulk_out, boundary_out
+
+    def inertia(self, why="the spin density"):
+        """Moments of inertia (N,): as given, else solid spheres 2/5 m r^2 (3D) or discs 1/2 m r^2 (2D)."""
+        if self.moments_of_inertia is not None:
+            return self.moments_of_inertia
+        if self.radii is None:
+            raise ValueError(f"moments_of_inertia: expected moments of inertia, or radii to compute them from "
+                             f"(spheres 2/5 m r^2, discs 1/2 m r^2), for {why}, got neither")
+        return (0.4 if self.dim == 3 else 0.5) * self.masses * self.radii ** 2
 
     def particle_forces(self):
         """Total force on every particle from its contacts and body force (fixed: contacts only)."""

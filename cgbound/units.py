@@ -144,6 +144,14 @@ DIMENSIONS = {
     "shear_stress": Dimension(1, 2, -2, True, "mixed"),
     "friction": Dimension(0, 0, 0),
     "inertial_number": Dimension(0, 0, 0),
+    # rotation (cgbound.rotation_fields; docs/theory.md, "Rotation and couple stress")
+    "spin_density": Dimension(1, 2, -1, True, "kinetic"),              # I w per volume
+    "angular_momentum_density": Dimension(1, 2, -1, True, "kinetic"),  # the intrinsic part: the spin density
+    "spin_flux": Dimension(1, 3, -2, True, "kinetic"),                 # I w v per volume
+    "couple_stress": Dimension(1, 3, -2, True, "force"),               # torque x length per volume
+    "stress_torque_density": Dimension(1, 2, -2, True, "force"),       # torque per volume
+    "boundary_couple_density": Dimension(1, 2, -2, True, "force"),
+    "kinetic_spin_flux": Dimension(1, 3, -2, True, "kinetic"),         # I w v' per volume
 }
 
 #: quantities that are not fields but have units too (coordinates, times, masses)

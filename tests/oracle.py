@@ -673,3 +673,89 @@ def oracle_rheology(snap, where, kernel_obj, fields):
         else:
             raise ValueError(name)
     return out
+
+
+# ----------------------------------------------------------------------
+# rotation (docs/theory.md, "Rotation and couple stress")
+
+
+def _oracle_cross(a, b):
+    """a x b: the 3-vector in 3D; in 2D the out-of-plane scalar a_0 b_1 - a_1 b_0 as a 1-vector."""
+    if len(a) == 3:
+        return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    return np.array([a[0] * b[1] - a[1] * b[0]])
+
+
+def oracle_rotation(snap, where, kernel_obj, fields, inertia=None):
+    """Twin of cgbound.rotation_fields, flat over nodes with the pseudo-vector index always present
+    (length 3 in 3D, 1 in 2D): spin_density (P, T), spin_flux (P, T, D), couple_stress (P, T, D),
+    stress_torque_density and boundary_couple_density (P, T). Contacts are walked one by one."""
+    kernel = oracle_kernel_of(kernel_obj, snap.dim)
+    box = snap.box
+    tgt = oracle_target(where, box)
+    D = snap.dim
+    T = 3 if D == 3 else 1
+    P = tgt[0].shape[0]
+    lengths = [box.upper[d] - box.lower[d] for d in range(D)]
+    X = np.asarray(snap.positions)
+    fixed = np.asarray(snap.fixed)
+    out = {}
+    if set(fields) & {"spin_density", "angular_momentum_density", "spin_flux", "kinetic_spin_flux"}:
+        if inertia is None:
+            r = np.asarray(snap.radii)
+            inertia = (0.4 if D == 3 else 0.5) * np.asarray(snap.masses) * r * r
+        w = np.asarray(snap.angular_velocities, float).reshape(len(X), T)
+        s = np.zeros((P, T))
+        J = np.zeros((P, T * D))
+        for i in range(len(X)):
+            if fixed[i]:
+                continue
+            s += oracle_scatter_points(kernel, tgt, X[i][None], (inertia[i] * w[i])[None])
+            if "spin_flux" in fields:
+                J += oracle_scatter_points(kernel, tgt, X[i][None],
+                                           np.outer(inertia[i] * w[i], snap.velocities[i]).reshape(1, -1))
+        out["spin_density"] = out["angular_momentum_density"] = s
+        out["spin_flux"] = J.reshape(P, T, D)
+        if "kinetic_spin_flux" in fields:       # about each node's own velocity, particle by particle
+            flow = ~fixed
+            m = np.asarray(snap.masses)[flow]
+            rho = oracle_scatter_points(kernel, tgt, X[flow], m[:, None])[:, 0]
+            p = oracle_scatter_points(kernel, tgt, X[flow], m[:, None] * np.asarray(snap.velocities)[flow])
+            V = np.where(rho[:, None] > 0, p / np.where(rho > 0, rho, 1.0)[:, None], 0.0)
+            K = np.zeros((P, T, D))
+            for i in np.flatnonzero(flow):
+                wi = oracle_scatter_points(kernel, tgt, X[i][None], np.ones((1, 1)))[:, 0]
+                dv = snap.velocities[i][None, :] - V
+                K += (wi[:, None, None] * (inertia[i] * w[i])[None, :, None]) * dv[:, None, :]
+            out["kinetic_spin_flux"] = K
+    m = np.zeros((P, T * D))
+    pair = np.zeros((P, T))
+    wall = np.zeros((P, T))
+    c = snap.contacts
+    for k in range(len(c)):
+        i, j = int(c.i[k]), int(c.j[k])
+        f, pt = np.array(c.force[k]), np.array(c.point[k])
+        fi = bool(fixed[i])
+        fj = True if j < 0 else bool(fixed[j])
+        if fi and fj:
+            continue
+        if fi:                       # seen from the flowing particle j
+            i, f = j, -f
+        halves = []
+        a_i = oracle_minimum_image(X[i] - pt, box.periodic, lengths)
+        halves.append((i, f, a_i))
+        if not fi and not fj:
+            point = X[i] - a_i
+            a_j = oracle_minimum_image(X[j] - point, box.periodic, lengths)
+            halves.append((j, -f, a_j))
+            r_ij = oracle_minimum_image(X[i] - X[j], box.periodic, lengths)
+            pair += oracle_scatter_points(kernel, tgt, point[None], _oracle_cross(f, r_ij)[None])
+        else:
+            wall += oracle_scatter_points(kernel, tgt, (X[i] - a_i)[None], _oracle_cross(X[i] - a_i - X[i], f)[None])
+        for p, fp, a in halves:
+            tau = _oracle_cross(-a, fp)               # (c - r_p) x f
+            m += oracle_scatter_segments(kernel, tgt, X[p][None], -a[None], -np.outer(tau, a).reshape(1, -1))
+    out["couple_stress"] = m.reshape(P, T, D)
+    out["stress_torque_density"] = pair
+    out["boundary_couple_density"] = wall
+    return {name: out[name] for name in fields}

@@ -6,7 +6,8 @@ Three kinds of LAMMPS output are combined, frame by frame (matched by TIMESTEP):
   in any order (the order is read from the ``ITEM: ATOMS`` header). Positions may be plain
   (``x y z``), scaled (``xs ys zs``), unwrapped (``xu yu zu``) or scaled and unwrapped
   (``xsu ysu zsu``). ``ITEM: BOX BOUNDS`` gives the box; an axis is periodic when its flag is
-  ``pp``. Triclinic boxes are not supported.
+  ``pp``. Triclinic boxes are not supported. ``omegax omegay omegaz`` and ``tqx tqy tqz`` (2D: ``omegaz``,
+  ``tqz``), when present, become the snapshot's ``angular_velocities`` and ``torques``.
 * a contact ``dump local`` of ``compute pair/local`` and ``compute property/local patom1 patom2``
   (optional). The values verified on LAMMPS 29 Sep 2021 (Debian 20220106) output:
 
@@ -385,7 +386,8 @@ class LammpsReader(FrameReader):
         safe_masses = np.where(atoms.fixed & ~(atoms.masses > 0), 1.0, atoms.masses)
         snap = Snapshot(atoms.positions, velocities=atoms.velocities, masses=safe_masses, box=box, contacts=contacts,
                         fixed=atoms.fixed, species=atoms.types, body_force=self.body_force, radii=atoms.radii,
-                        time=self._time(timestep, fr))
+                        time=self._time(timestep, fr), angular_velocities=atoms.angular_velocities,
+                        torques=atoms.torques)
         frame = LammpsFrame(snap, atoms.ids, atoms.types, timestep, atoms.forces, contact_ids, overlap)
         if self.check_forces and atoms.forces is not None and pairs_offset is not None:
             check_force_balance(frame.force_balance(), atoms.ids, self.atoms_path, timestep, FORCE_BALANCE_TOLERANCE,
@@ -462,7 +464,24 @@ class LammpsReader(FrameReader):
             radii = None
         fixed = np.isin(types, self.fixed_types) | np.isin(ids, self.fixed_ids)
         self._check_selection(types, ids, timestep)
-        return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed)
+        # pseudo-vectors: (omegax, omegay, omegaz) in 3D; in 2D (x-y runs) the z component, the normal
+        # that makes cgbound's (axis 0, axis 1, normal) right-handed
+        spin = self._pseudo_vectors(tab, ("omegax", "omegay", "omegaz"), order, "angular velocities")
+        torques = self._pseudo_vectors(tab, ("tqx", "tqy", "tqz"), order, "torques")
+        return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed, spin, torques)
+
+    def _pseudo_vectors(self, tab, names, order, what):
+        """(n, 3) in 3D, the z column (n,) in 2D; None if the dump has none of the columns."""
+        wanted = names if self.dimension == 3 else names[2:]
+        present = [c for c in wanted if c in tab]
+        if not present:
+            return None
+        if len(present) < len(wanted):
+            raise ValueError(f"{self.atoms_path}: {what} need columns {[c for c in wanted if c not in tab]} "
+                             f"(has {list(tab.index)})")
+        if self.dimension == 2:
+            return np.asarray(tab[names[2]][order], float)
+        return np.stack([tab[c][order] for c in names], axis=1)
 
     def _vectors(self, tab, names, rows=slice(None)):
         """An (n, D) array of the columns ``names`` (one per LAMMPS axis) at ``rows``, cgbound axes."""
@@ -565,6 +584,8 @@ class _Atoms(NamedTuple):
     masses: np.ndarray
     radii: object
     fixed: np.ndarray
+    angular_velocities: object = None
+    torques: object = None
 
 
 def _joined_contacts(parts, dim):

@@ -255,8 +255,12 @@ class MercuryReader(FrameReader):
             contacts, wall_index, overlap = self._contacts(fstat, pos, radii, box, fixed)
         else:
             contacts, wall_index, overlap = Contacts.empty(self.dim), np.zeros(0, np.int64), np.zeros(0)
+        # the .data angular velocities (wx wy wz; in 2D omega about MercuryDPM's z, the normal of cgbound's
+        # (x, z) plane that makes it right-handed, docs/theory.md, "Rotation and couple stress")
+        omega = table[:, 10:13] if self.dim == 3 else table[:, 6]
         snap = Snapshot(pos, velocities=vel, masses=masses, box=box, contacts=contacts, fixed=fixed,
-                        species=species, body_force=self.body_force, radii=radii, time=time)
+                        species=species, body_force=self.body_force, radii=radii, time=time,
+                        angular_velocities=omega)
         return MercuryFrame(snap, wall_index, overlap, data_line, None if fstat is None else fstat[4])
 
     def _particle_columns(self, table, species, data_line):
