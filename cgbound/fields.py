@@ -58,6 +58,12 @@ def field_rank(name):
     return FIELDS[name][0]
 
 
+#: the rotational fields (docs/theory.md, "Rotation and couple stress"), computed by cgbound.rotation_fields:
+#: their pseudo-vector index (3 components in 3D, none in 2D) does not fit the FIELDS table's shapes yet
+ROTATION_FIELDS = ("spin_density", "angular_momentum_density", "spin_flux", "couple_stress",
+                   "stress_torque_density", "boundary_couple_density", "kinetic_spin_flux")
+
+
 def check_fields(fields, known=None):
     """The requested field names as a tuple without repeats; ``known``: the names allowed (default FIELDS)."""
     known = FIELDS if known is None else known
@@ -72,6 +78,9 @@ def check_fields(fields, known=None):
     for name in fields:
         if not isinstance(name, str):
             raise TypeError(f"fields: expected field names (strings), got {name!r}")
+        if name not in known and name in ROTATION_FIELDS:
+            raise ValueError(f"fields: {name!r} is a rotational field; compute it with "
+                             f"cgbound.rotation_fields(snapshot, where, kernel, fields=({name!r},))")
         if name not in known:
             raise ValueError(f"fields: expected some of {', '.join(known)}, got unknown field {name!r}")
     return tuple(dict.fromkeys(fields))

@@ -12,15 +12,12 @@ import numpy as np
 
 from ._engine import core_kernel, core_target, scatter_points, scatter_segments
 from ._threads import get_num_threads
-from .fields import check_fields
+from .fields import ROTATION_FIELDS, check_fields
 from .grid import check_target, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
 from .primaries import flowing_rows, longest_branch, outer, reference_velocity
 from .snapshot import Snapshot
 
-#: the rotational fields, each computed only when asked for
-ROTATION_FIELDS = ("spin_density", "angular_momentum_density", "spin_flux", "couple_stress",
-                   "stress_torque_density", "boundary_couple_density", "kinetic_spin_flux")
 
 #: fields that need angular velocities (and moments of inertia)
 SPIN_FIELDS = ("spin_density", "angular_momentum_density", "spin_flux", "kinetic_spin_flux")
