@@ -14,7 +14,8 @@ from cgbound.readers.hdf5 import HDF5Snapshots, write_snapshots  # noqa: E402
 
 
 def same_snapshot(a, b):
-    for name in ("positions", "velocities", "masses", "fixed", "radii", "body_force", "species"):
+    for name in ("positions", "velocities", "masses", "fixed", "radii", "body_force", "species", "angular_velocities",
+                 "torques", "moments_of_inertia"):
         x, y = getattr(a, name), getattr(b, name)
         if x is None or y is None:
             assert x is None and y is None, name
@@ -46,6 +47,24 @@ def test_snapshot_file_round_trip_lazy_and_picklable(tmp_path):
     direct = cg.CoarseGrain(snaps, cg.Grid(snaps[0].box, (1, 1, 8), average=("x", "y")), cg.Lucy(1.0),
                             fields=("density",)).run()
     np.testing.assert_array_equal(avg.results.density, direct.results.density)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_snapshot_file_keeps_angular_velocities_torques_and_moments_of_inertia(tmp_path, dim):
+    rng = np.random.default_rng(dim)
+    base = random_snapshot(5, dim=dim)
+    n, spin = base.n_particles, (3,) if dim == 3 else ()
+    snap = cg.Snapshot(base.positions, base.velocities, base.masses, box=base.box, contacts=base.contacts,
+                       fixed=base.fixed, radii=base.radii, time=1.5, angular_velocities=rng.normal(size=(n,) + spin),
+                       torques=rng.normal(size=(n,) + spin), moments_of_inertia=rng.uniform(0.1, 1.0, n))
+    path = tmp_path / "spin.h5"
+    write_snapshots(path, [snap, base])
+    back = HDF5Snapshots(path)
+    same_snapshot(back[0], snap)
+    same_snapshot(back[1], base)          # absent stays absent
+    where = cg.Points(base.positions[:3])
+    np.testing.assert_array_equal(cg.rotation_fields(back[0], where, cg.Lucy(1.5), ("spin_density",))["spin_density"],
+                                  cg.rotation_fields(snap, where, cg.Lucy(1.5), ("spin_density",))["spin_density"])
 
 
 def test_snapshot_file_rejects_foreign_files(tmp_path):

@@ -13,6 +13,8 @@ Schema (version 1)::
         species     (N,)    int64     optional
         radii       (N,)    float64   optional
         body_force  (N, D)  float64   optional
+        angular_velocities, torques   (N, 3) in 3D, (N,) in 2D   float64   optional
+        moments_of_inertia  (N,)      float64   optional (as given to the Snapshot)
         contacts/i, contacts/j (M,) int64; contacts/force, contacts/point (M, D) float64
 
 Datasets are chunked and gzip-compressed. A frame with another box than /box stores its
@@ -30,7 +32,8 @@ from ._sequence import FrameSequence
 
 FORMAT = "cgbound-snapshots"
 SCHEMA_VERSION = 1
-_OPTIONAL = ("velocities", "fixed", "species", "radii", "body_force")
+_OPTIONAL = ("velocities", "fixed", "species", "radii", "body_force", "angular_velocities", "torques",
+             "moments_of_inertia")
 
 
 def _h5py():
@@ -186,7 +189,8 @@ class HDF5Snapshots(FrameSequence):
         return Snapshot(self._member(g, "positions", where)[()], data.get("velocities"),
                         self._member(g, "masses", where)[()], box=box, contacts=contacts, fixed=data.get("fixed"),
                         species=data.get("species"), body_force=data.get("body_force"), radii=data.get("radii"),
-                        time=time)
+                        time=time, angular_velocities=data.get("angular_velocities"), torques=data.get("torques"),
+                        moments_of_inertia=data.get("moments_of_inertia"))
 
     def _describe(self):
         return [repr(self.path)], []
