@@ -15,7 +15,7 @@ from .kernels import Gaussian, Heaviside, Lucy
 from .residual import MomentumBalance, momentum_balance_residual
 from .result import Result
 from .scale_separation import WidthScan, width_scan
-from .rheology import stress_ratio
+from .rheology import MuOfIFit, fit_mu_of_i, mu_of_i, stress_ratio
 from .snapshot import Contacts, Snapshot
 from ._threads import get_num_threads, set_num_threads, threads
 from .tiled import coarse_grain_tiled
@@ -30,4 +30,5 @@ __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", 
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
            "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning",
-           "WidthScan", "width_scan", "Units", "stress_ratio"]
+           "WidthScan", "width_scan", "Units", "stress_ratio",
+           "MuOfIFit", "fit_mu_of_i", "mu_of_i"]

@@ -3,8 +3,10 @@
 A :class:`Scene` lists particles, boundaries and the effects it needs; :func:`run_scene`
 writes LAMMPS input containing exactly those effects, runs ``lmp`` and reads back thermo
 output and snapshots with consistent per-contact forces (dumped inside ``run 0``).
-The paper's scenes are :func:`boundary_2d` (Fig. 1) and :func:`chute` (Figs. 2-3).
+The paper's scenes are :func:`boundary_2d` (Fig. 1) and :func:`chute` (Figs. 2-3);
+:func:`inclined_chute` is the chute sized for mu(I) at several inclinations (notebook 05).
 """
+from .inclined import RHEOLOGY_CONTACT_MODEL, RHEOLOGY_TIMESTEP, inclined_chute
 from .lammps import Frames, Run, Settle, Trace, data_file, input_script
 from .paper import binary_collision, boundary_2d, chute, measure_collision
 from .runner import LammpsError, SceneRun, find_lammps, run_scene
@@ -12,4 +14,5 @@ from .scene import PAPER_COLLISION_TIME, PAPER_CONTACT_MODEL, PAPER_TIMESTEP, Co
 
 __all__ = ["ContactModel", "Frames", "LammpsError", "PAPER_COLLISION_TIME", "PAPER_CONTACT_MODEL", "PAPER_TIMESTEP",
            "Run", "Scene", "SceneRun", "Settle", "Trace", "Wall", "binary_collision", "boundary_2d", "chute",
-           "data_file", "find_lammps", "input_script", "measure_collision", "run_scene"]
+           "data_file", "find_lammps", "input_script", "measure_collision", "run_scene",
+           "RHEOLOGY_CONTACT_MODEL", "RHEOLOGY_TIMESTEP", "inclined_chute"]
