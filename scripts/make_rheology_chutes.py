@@ -32,13 +32,14 @@ def main(argv=None):
     q = sub.add_parser("profiles", help="coarse grain the frames of every inclination into the shipped profiles")
     q.add_argument("--frames-dir", required=True)
     q.add_argument("--out", default=os.path.join(DATA, "rheology_chutes.h5"))
+    q.add_argument("--angles", type=float, nargs="+", default=None, help="only these inclinations (default: all)")
     args = p.parse_args(argv)
     if args.step == "simulate":
         path = chute_rheology.simulate(args.angle, args.frames_dir, spinup=args.spinup, window=args.window,
                                        interval=args.interval, seed=args.seed, workdir=args.workdir)
         print(f"wrote {path}")
         return 0
-    chutes = chute_rheology.profiles_from_frames(args.frames_dir)
+    chutes = chute_rheology.profiles_from_frames(args.frames_dir, angles=args.angles)
     chute_rheology.write_profiles(args.out, chutes)
     for c in chutes:
         print(c.summary())

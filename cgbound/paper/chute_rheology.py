@@ -31,10 +31,16 @@ def _lammps_version(workdir):
         return "unknown"
 
 
+def _cpu(usage):
+    return usage.ru_utime + usage.ru_stime
+
+
 def simulate(angle, frames_dir, spinup=SPINUP, window=WINDOW, interval=INTERVAL, seed=SEED, workdir=None,
              executable=None):
     """Run the chute inclined at ``angle`` degrees with LAMMPS; write its frames (cgbound HDF5, with the
     provenance and the kinetic energy of the flow at every time unit) to :func:`frames_path`; returns the path."""
+    import resource   # CPU time of LAMMPS (a child process); POSIX only, like running lmp here
+
     from ..readers.hdf5 import write_snapshots
     from .scenes import Frames, Run, inclined_chute, run_scene
     scene = inclined_chute(angle, seed=seed)
@@ -43,7 +49,7 @@ def simulate(angle, frames_dir, spinup=SPINUP, window=WINDOW, interval=INTERVAL,
     workdir = tempfile.mkdtemp(prefix=f"cgbound-{scene.name}-") if own else workdir
     os.makedirs(frames_dir, exist_ok=True)
     try:
-        start = time.process_time()
+        start, children = time.process_time(), resource.getrusage(resource.RUSAGE_CHILDREN)
         run = run_scene(scene, [Run(spinup, thermo_every=1.0), Frames(count, interval)], workdir=workdir,
                         executable=executable)
         info = {"script": "scripts/make_rheology_chutes.py simulate", "angle_deg": float(angle), "seed": seed,
@@ -51,6 +57,7 @@ def simulate(angle, frames_dir, spinup=SPINUP, window=WINDOW, interval=INTERVAL,
                 "n_particles": scene.n_particles, "n_fixed": int(scene.fixed.sum()), "effects": list(scene.effects),
                 "engine": "LAMMPS", "lammps_version": _lammps_version(workdir),
                 "lammps_wall_time_s": round(run.wall_time, 1),
+                "lammps_cpu_time_s": round(_cpu(resource.getrusage(resource.RUSAGE_CHILDREN)) - _cpu(children), 1),
                 "python_cpu_time_s": round(time.process_time() - start, 1),
                 "kinetic_energy_time": run.thermo["time"].tolist(),
                 "kinetic_energy": run.thermo["kinetic_energy"].tolist(), "input_script": run.input_script}
@@ -83,12 +90,14 @@ class ChuteProfiles:
     n_blocks : int
         Blocks of consecutive frames for the standard errors (``CoarseGrain(errors="blocks")``).
 
-    Attributes (after :meth:`run` or :func:`read_profiles`)
-    ----------------------------------------------------------
-    z : (nz,) node heights; fields, errors : {name: (nz, ...) array} (stress tension-positive, the
-    paper's convention); surface : height where the volume fraction falls to half its bulk median;
-    bulk : bool mask of nodes at least BULK_MARGIN above the base top (z = 0.5) and below the surface;
-    n_frames, provenance (dict), kinetic_energy : (time, energy) of the flow from t = 0.
+    Notes
+    -----
+    After :meth:`run` (or :func:`read_profiles`): ``z`` the node heights; ``fields`` and ``errors``
+    ({name: (nz, ...) array}: the profiles and their standard errors; stresses tension-positive, the
+    paper's convention); ``n_frames``; ``provenance`` (dict: how the frames were made);
+    ``kinetic_energy`` ((time, energy) of the flow from t = 0). :attr:`surface` is where the volume
+    fraction falls to half its bulk median, :attr:`bulk` the nodes at least BULK_MARGIN above the top
+    of the base (z = 0.5) and below the surface.
     """
 
     def __init__(self, angle, width=0.5, spacing=0.1, n_blocks=8):
@@ -109,6 +118,10 @@ class ChuteProfiles:
         from ..coarse import CoarseGrain
         from ..grid import Grid
         from ..kernels import Gaussian
+        if not (hasattr(frames, "__len__") and hasattr(frames, "__getitem__")):
+            raise TypeError(f"frames: expected a sequence of cg.Snapshot (a list or a reader), got {type(frames).__name__}")
+        if len(frames) < self.n_blocks:
+            raise ValueError(f"frames: expected at least n_blocks = {self.n_blocks} frames, got {len(frames)}")
         first = frames[0]
         top = first.positions[first.flowing, 2].max()
         lo, hi = -1.0, top + 2.0
@@ -133,6 +146,7 @@ class ChuteProfiles:
     # -- what the checks and figures read --------------------------------------------------------------
     @property
     def surface(self):
+        """Height where the volume fraction falls to half its median in the flow (linear between nodes)."""
         phi = self.fields["volume_fraction"]
         inside = self.z > 0.5 + BULK_MARGIN
         half = 0.5 * np.median(phi[inside & (phi > 0.5 * phi.max())])
@@ -142,10 +156,12 @@ class ChuteProfiles:
 
     @property
     def bulk(self):
+        """Nodes at least BULK_MARGIN above the top of the base (z = 0.5) and below the surface (bool mask)."""
         return (self.z >= 0.5 + BULK_MARGIN) & (self.z <= self.surface - BULK_MARGIN)
 
     @property
     def tan_angle(self):
+        """tan(angle): the stress ratio -sigma_xz / sigma_zz of steady uniform flow."""
         return float(np.tan(np.radians(self.angle)))
 
     def stress_ratio(self):
@@ -252,13 +268,15 @@ def read_profiles(path):
     return sorted(out, key=lambda c: c.angle)
 
 
-def profiles_from_frames(frames_dir, **options):
-    """ChuteProfiles of every frames file written by :func:`simulate` in ``frames_dir``."""
+def profiles_from_frames(frames_dir, angles=None, **options):
+    """ChuteProfiles of every frames file written by :func:`simulate` in ``frames_dir`` (or of ``angles`` only)."""
     from ..readers.hdf5 import HDF5Snapshots
     out = []
     for name in sorted(os.listdir(frames_dir)):
         if name.startswith("chute_") and name.endswith("deg.h5"):
             frames = HDF5Snapshots(os.path.join(frames_dir, name))
             angle = json.loads(frames.provenance)["angle_deg"]
+            if angles is not None and not any(abs(angle - a) < 1e-9 for a in angles):
+                continue
             out.append(ChuteProfiles(angle, **options).run(frames))
     return sorted(out, key=lambda c: c.angle)

@@ -53,7 +53,7 @@ for c in chutes:
 fig, ax = plt.subplots(figsize=(7, 3.2), constrained_layout=True)
 for c in chutes:
     t, ke = c.kinetic_energy
-    ax.plot(t, ke / info["n_particles"], lw=0.8, label=f"θ = {c.angle:g}°")
+    ax.plot(t, ke / (info["n_particles"] - info["n_fixed"]), lw=0.8, label=f"θ = {c.angle:g}°")
     drift = c.kinetic_energy_drift()
     print(f"theta = {c.angle:4g}: kinetic energy drift over the window {100 * drift:+.1f} %")
     assert abs(drift) < 0.05
