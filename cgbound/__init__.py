@@ -15,7 +15,7 @@ from .kernels import Gaussian, Heaviside, Lucy
 from .residual import MomentumBalance, momentum_balance_residual
 from .result import Result
 from .scale_separation import WidthScan, width_scan
-from .rheology import stress_ratio
+from .rheology import MuOfIFit, fit_mu_of_i, mu_of_i, stress_ratio
 from .snapshot import Contacts, Snapshot
 from ._threads import get_num_threads, set_num_threads, threads
 from .tiled import coarse_grain_tiled
@@ -33,4 +33,5 @@ __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", 
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
            "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning",
            "WidthScan", "width_scan", "Units", "stress_ratio",
-           "ROTATION_FIELDS", "rotation_fields", "AngularMomentumBalance", "angular_momentum_balance_residual"]
+           "ROTATION_FIELDS", "rotation_fields", "AngularMomentumBalance", "angular_momentum_balance_residual",
+           "MuOfIFit", "fit_mu_of_i", "mu_of_i"]

@@ -4,6 +4,7 @@
 * :func:`chute_kinetic_energy`: the chute's kinetic energy from t = 0 (shows the window is steady).
 * :func:`chute_dense_profiles`: Fig. 3 profiles of the chute sampled as in the paper (every t_c / 2).
 * :func:`boundary_2d`: the paper's Fig. 1 configuration, relaxed until static.
+* :func:`rheology_chutes`: depth profiles of steady chute flows at several inclinations, for mu(I) (notebook 05).
 
 All of them are in the paper's units (flowing particle diameter d = 1, mass m = 1, gravity g = 1: the
 ``"mercury"`` system of :mod:`cgbound.units`), and say so (``units``).
@@ -53,3 +54,10 @@ def boundary_2d():
     """The relaxed Fig. 1 scene (a :class:`cgbound.Snapshot`)."""
     from ..readers.hdf5 import HDF5Snapshots
     return HDF5Snapshots(path("boundary_2d.h5"), units=PAPER_UNITS)[0]
+
+
+def rheology_chutes():
+    """Depth profiles of the steady chutes at several inclinations (a list of
+    :class:`cgbound.paper.chute_rheology.ChuteProfiles`, by angle; made by scripts/make_rheology_chutes.py)."""
+    from .chute_rheology import read_profiles
+    return read_profiles(path("rheology_chutes.h5"))

@@ -103,14 +103,23 @@ def boundary_2d(contacts=PAPER_CONTACT_MODEL, timestep=PAPER_TIMESTEP, seed=3):
 
 
 def chute(n_flowing=1000, length=20.0, width=10.0, angle=26.0, base_diameter=2.0, contacts=PAPER_CONTACT_MODEL,
-          timestep=PAPER_TIMESTEP, seed=2012):
+          timestep=PAPER_TIMESTEP, seed=2012, flowing_diameters=None):
     """Figs. 2-3: a 3D chute periodic in x and y, inclined at ``angle`` degrees (gravity tilted).
 
     The rough base: fixed particles of diameter ``base_diameter`` with centres placed at random
     in the slab -d_base/2 <= z <= 0 with horizontal spacing at least 0.6 d_base, dense enough
     that a flowing particle cannot pass (checked). The flowing particles (d = 1, m = 1) start
     at random non-overlapping positions above the base, at rest.
+
+    ``flowing_diameters=(low, high)`` draws the flowing diameters uniformly from [low, high] instead
+    (masses d^3, the density of the d = 1, m = 1 particles; positions at least ``high`` apart).
     """
+    if flowing_diameters is None:
+        low = high = 1.0
+    else:
+        low, high = (float(v) for v in flowing_diameters)
+        if not (np.isfinite(low) and np.isfinite(high) and 0 < low <= high):
+            raise ValueError(f"flowing_diameters: expected (low, high) with 0 < low <= high, got {flowing_diameters!r}")
     rng = np.random.default_rng(seed)
     lengths = (length, width, None)
     rb = 0.5 * base_diameter
@@ -124,14 +133,15 @@ def chute(n_flowing=1000, length=20.0, width=10.0, angle=26.0, base_diameter=2.0
     for b in base:
         d = _periodic_delta(probe - b, (length, width, 1.0), (True, True, False))
         nearest = np.minimum(nearest, np.einsum("ij,ij->i", d, d))
-    if np.sqrt(nearest.max()) >= rb + 0.5:
+    if np.sqrt(nearest.max()) >= rb + 0.5 * low:
         raise RuntimeError("chute: the base has a hole a flowing particle can fall through")
     top = 0.0 + rb
-    height = n_flowing * (np.pi / 6) / (0.3 * length * width)  # start at volume fraction ~0.3
-    flow = _random_sequential(rng, n_flowing, [0, 0, top + 0.6], [length, width, top + 0.6 + height], 1.0, lengths,
-                              existing=base, existing_distance=rb + 0.5)
+    height = n_flowing * (np.pi / 6) * high ** 3 / (0.3 * length * width)  # start at volume fraction ~0.3
+    flow = _random_sequential(rng, n_flowing, [0, 0, top + 0.6], [length, width, top + 0.6 + height], high, lengths,
+                              existing=base, existing_distance=rb + 0.5 * high)
     positions = np.concatenate([base, flow])
-    radii = np.concatenate([np.full(len(base), rb), np.full(n_flowing, 0.5)])
+    flowing_radii = np.full(n_flowing, 0.5) if flowing_diameters is None else 0.5 * rng.uniform(low, high, n_flowing)
+    radii = np.concatenate([np.full(len(base), rb), flowing_radii])
     masses = (2 * radii) ** 3
     fixed = np.arange(len(positions)) < len(base)
     theta = np.radians(angle)
