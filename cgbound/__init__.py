@@ -9,6 +9,7 @@ from ._engine import have_openmp
 from .block_errors import CorrelatedBlocksWarning
 from .box import Box
 from .coarse import CoarseGrain, coarse_grain
+from .cylindrical import CylindricalGrid
 from .fields import FIELDS
 from .grid import Grid, Points
 from .kernels import Gaussian, Heaviside, Lucy
@@ -30,4 +31,4 @@ __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", 
            "MomentumBalance", "Points", "Result", "Snapshot", "coarse_grain", "momentum_balance_residual",
            "have_openmp", "get_num_threads", "set_num_threads", "threads", "coarse_grain_tiled",
            "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning",
-           "WidthScan", "width_scan", "Units", "stress_ratio"]
+           "WidthScan", "width_scan", "Units", "stress_ratio", "CylindricalGrid"]
