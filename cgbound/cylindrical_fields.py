@@ -5,7 +5,8 @@ rotated into the local basis (e_r, e_θ, e_z). The primary sums (density, moment
 interaction force density, ...) are linear in the kernel, so they are evaluated exactly by the Cartesian
 engine at :class:`~cgbound.grid.Points` on the rings, rotated per point, averaged with the quadrature
 weights, and only then turned into fields by the same :func:`~cgbound.fields.derive` as on a Grid
-(velocity = averaged momentum / averaged density, never an average of ratios).
+(velocity = averaged momentum / averaged density, never an average of ratios; the kinetic stress is the
+spread about the averaged velocity, -(k - p p / rho) of the averaged primaries, as on a Grid's averaged axes).
 
 Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
 smooth integrand: exact to round-off for a Gaussian whose cutoff jump is below round-off, cutoff >= 9 w;
@@ -36,7 +37,9 @@ def theta_points(r, kernel):
     exp(-k² w² / 2 r ρ) for particles out to ρ = r + cutoff, so k ~ sqrt(80 r ρ) / w leaves < 1e-17."""
     w = kernel_scale(kernel)
     rho = r + float(kernel.radius)
-    return int(max(16, math.ceil(math.sqrt(80.0 * r * rho) / w) + 16))
+    n = int(max(16, math.ceil(math.sqrt(80.0 * r * rho) / w) + 16))
+    # compact kernels (Lucy, Heaviside) are finitely smooth in θ: the rule converges algebraically; twice the points
+    return n if getattr(kernel, "width", None) is not None and kernel.__class__.__name__ == "Gaussian" else 2 * n
 
 
 def z_points(length, kernel):
@@ -105,7 +108,10 @@ def coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention="tension
     positions, angles, weights, starts = quadrature(grid, probe.kernel)
     job = prepare(snapshot, Points(positions), kernel, fields, convention, species)
     zero = np.zeros(3)       # a reference velocity constant in Cartesian components is not one in (r, θ, z)
-    sums = compute_primaries(job.snapshot, job.target, job.kernel, job.needed, zero, job.split)
+    # the kinetic stress of a ring is the velocity spread about the ring's averaged velocity (as on a Grid's
+    # averaged axes): -(k - p p / rho) from the averaged primaries, not the average of pointwise spreads
+    needed = (job.needed - {"sk"}) | ({"k", "p_w", "rho"} if "sk" in job.needed else set())
+    sums = compute_primaries(job.snapshot, job.target, job.kernel, needed, zero, job.split)
     basis = grid.basis(angles)
     averaged = {}
     for name, value in sums.items():
@@ -114,6 +120,11 @@ def coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention="tension
         local = local * weights.reshape((-1,) + (1,) * rank)
         averaged[name] = np.ascontiguousarray(np.add.reduceat(local, starts, axis=0).reshape(len(starts), -1)
                                               if rank else np.add.reduceat(local, starts, axis=0))
+    if "sk" in job.needed:
+        rho, p = averaged["rho"], averaged["p_w"]
+        spread = np.einsum("ni,nj->nij", p, p)
+        np.divide(spread, rho[:, None, None], out=spread, where=rho[:, None, None] > 0)
+        averaged["sk"] = np.ascontiguousarray(spread.reshape(len(rho), -1) - averaged["k"])
     flat = derive(averaged, job.fields, zero, 3, job.convention)
     flat = {name: np.ascontiguousarray(v) for name, v in flat.items()}
     return Result(shape_fields(flat, grid, 3), grid, job.kernel, job.convention, [job.snapshot.time],
