@@ -75,7 +75,7 @@ def test_ring_average_equals_brute_force_oracle(z_resolved):
 
 def test_lucy_ring_average_accuracy():
     """Lucy is only finitely smooth in θ (a jump in its third derivative at the support's edge, so the
-    trapezoidal rule converges like N^-4): measured 7.7e-6 of the largest density against a rule with 4000 points."""
+    trapezoidal rule converges like N^-4): measured 4.7e-7 (density) and 1.1e-6 (stress) of the largest value against a rule with 4000 points."""
     snap = snapshot()
     kernel = cg.Lucy(1.0)
     c = centre(snap)
@@ -85,7 +85,7 @@ def test_lucy_ring_average_accuracy():
     want = oracle(snap, kernel, c, grid.r, grid.z, np.ones(1), n_theta=4000)
     for f in ("density", "stress"):
         scale = np.abs(want[f]).max()
-        assert np.abs(getattr(out, f)[:, 0, 0] - want[f]).max() < 1e-5 * scale, f
+        assert np.abs(getattr(out, f)[:, 0, 0] - want[f]).max() < 2e-6 * scale, f
 
 
 def test_mass_integral():
