@@ -20,6 +20,7 @@ import numpy as np
 from .cylindrical import CylindricalGrid
 from .fields import derive
 from .grid import Points
+from .kernels import Gaussian
 from .pipeline import prepare, shape_fields
 from .primaries import GRADIENT_PRIMARIES, PRIMARIES, compute_primaries
 from .result import Result
@@ -39,7 +40,7 @@ def theta_points(r, kernel):
     rho = r + float(kernel.radius)
     n = int(max(16, math.ceil(math.sqrt(80.0 * r * rho) / w) + 16))
     # compact kernels (Lucy, Heaviside) are finitely smooth in θ: the rule converges algebraically; twice the points
-    return n if getattr(kernel, "width", None) is not None and kernel.__class__.__name__ == "Gaussian" else 2 * n
+    return n if isinstance(kernel, Gaussian) else 2 * n
 
 
 def z_points(length, kernel):
