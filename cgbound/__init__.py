@@ -9,6 +9,7 @@ from ._engine import have_openmp
 from .block_errors import CorrelatedBlocksWarning
 from .box import Box
 from .coarse import CoarseGrain, coarse_grain
+from .cylindrical import CylindricalGrid
 from .fields import FIELDS
 from .grid import Grid, Points
 from .kernels import Gaussian, Heaviside, Lucy
@@ -34,4 +35,4 @@ __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", 
            "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning",
            "WidthScan", "width_scan", "Units", "stress_ratio",
            "ROTATION_FIELDS", "rotation_fields", "AngularMomentumBalance", "angular_momentum_balance_residual",
-           "MuOfIFit", "fit_mu_of_i", "mu_of_i"]
+           "MuOfIFit", "fit_mu_of_i", "mu_of_i", "CylindricalGrid"]

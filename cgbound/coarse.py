@@ -8,6 +8,8 @@ from ._memory import core_threads
 from ._validate import flag, integer, positive_number, real_array
 from .averaging import FramePlan, fill_partial, read_frame, run_blocks
 from .block_errors import block_assignment, block_errors, check_block_memory
+from .cylindrical import CylindricalGrid
+from .cylindrical_fields import coarse_grain_cylindrical
 from .executors import check_backend, executor
 from .fields import check_convention, check_differentiable, check_fields
 from .grid import Grid, Points
@@ -25,7 +27,7 @@ def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tens
     Parameters
     ----------
     snapshot : Snapshot
-    grid : Grid, Points or (P, D) array of evaluation points
+    grid : Grid, Points, CylindricalGrid or (P, D) array of evaluation points
     kernel : Gaussian, Lucy or Heaviside
     fields : sequence of str
         Any of density, momentum, velocity, momentum_flux, kinetic_stress,
@@ -43,6 +45,8 @@ def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tens
     -------
     Result
     """
+    if isinstance(grid, CylindricalGrid):
+        return coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention, species)
     job = prepare(snapshot, grid, kernel, fields, convention, species)
     if species is not None and not np.any(snapshot.species == species):
         raise ValueError(f"species: {species} is not in the snapshot (species present: "

@@ -60,6 +60,7 @@ LAYERS = {
     "__init__": 7, "__main__": 7, "cli": 7, "paper": 7,
     "scenes": 7, "profiles": 7, "datasets": 7, "blobs": 7,        # today (the paper wing, before cgbound/paper/)
     "rotation": 4, "angular_balance": 4,                          # spin, couple stress; their balance
+    "cylindrical": 3, "cylindrical_fields": 5,                    # cylindrical grids; their fields from ring quadrature
 }
 
 #: packages drawn as one node
