@@ -119,13 +119,12 @@ def coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention="tension
         rank = PRIMARIES[name].rank
         local = rotate(np.asarray(value).reshape((len(positions),) + (3,) * rank), rank, basis)
         local = local * weights.reshape((-1,) + (1,) * rank)
-        averaged[name] = np.ascontiguousarray(np.add.reduceat(local, starts, axis=0).reshape(len(starts), -1)
-                                              if rank else np.add.reduceat(local, starts, axis=0))
+        averaged[name] = np.ascontiguousarray(np.add.reduceat(local, starts, axis=0))   # (nodes,) + (3,) * rank
     if "sk" in job.needed:
         rho, p = averaged["rho"], averaged["p_w"]
         spread = np.einsum("ni,nj->nij", p, p)
         np.divide(spread, rho[:, None, None], out=spread, where=rho[:, None, None] > 0)
-        averaged["sk"] = np.ascontiguousarray(spread.reshape(len(rho), -1) - averaged["k"])
+        averaged["sk"] = np.ascontiguousarray(spread - averaged["k"].reshape(spread.shape))
     flat = derive(averaged, job.fields, zero, 3, job.convention)
     flat = {name: np.ascontiguousarray(v) for name, v in flat.items()}
     return Result(shape_fields(flat, grid, 3), grid, job.kernel, job.convention, [job.snapshot.time],

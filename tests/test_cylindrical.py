@@ -154,6 +154,27 @@ def test_shapes_and_axis_vector():
     np.testing.assert_allclose(g.theta, (np.arange(4) + 0.5) * np.pi / 2)
 
 
+@pytest.mark.parametrize("theta", [None, 4])
+def test_every_field_has_its_shape_and_the_derived_ones_follow_from_the_averaged(theta):
+    # the derived fields (pressure, temperature, extended stress, volume fraction ...) from the averaged
+    # primaries: shapes like the grid's, pressure = -tr(stress)/3 and velocity = momentum/density node by node
+    snap = snapshot()
+    g = cg.CylindricalGrid(snap.box, centre(snap), "z", r=(0.5, 2.0, 3), theta=theta, z=(-1, 1, 2))
+    names = tuple(f for f in cg.FIELD_NAMES if f not in cg.fields.GRADIENT_FIELDS and f not in
+                  ("shear_stress", "friction") and not f.startswith(("fabric", "coordination", "size_moment",
+                                                                       "mean_radius", "radius_", "number_density")))
+    out = cg.coarse_grain(snap, g, cg.Gaussian(0.4, cutoff=3.6), fields=names)
+    nodes = g.shape
+    for name in names:
+        rank = cg.fields.field_rank(name)
+        assert out[name].shape == nodes + (3,) * rank, name
+    np.testing.assert_allclose(out.pressure, -np.trace(out.stress, axis1=-2, axis2=-1) / 3, rtol=1e-12, atol=1e-14)
+    has = out.density > 0
+    np.testing.assert_allclose(out.velocity[has], out.momentum[has] / out.density[has][:, None], rtol=1e-12)
+    np.testing.assert_allclose(out.stress, out.kinetic_stress + out.contact_stress + out.boundary_stress,
+                               rtol=1e-12, atol=1e-12 * np.abs(out.stress).max())
+
+
 @pytest.mark.parametrize("kwargs, name", [
     (dict(box="box"), "box"),
     (dict(axis_point=(0, 0)), "axis_point"),
