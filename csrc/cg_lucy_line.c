@@ -17,12 +17,11 @@
  * Across the closest approach these sums have terms of both signs, but their
  * cancelled part is at most the size of the result (t1 < 0 makes
  * t0 r0 - t1 r1 a sum of two positives), so nothing is lost but a few
- * roundings. asinh(t0/a) - asinh(t1/a) = log1p(X) with
- *   X = (d + r0 - r1) / (t1 + r1)           (0 <= t1),
- *   X = x + y + x y, x = (t0 + r0 - a)/a,    (t1 < 0: the product of the two
- *       y = (|t1| + r1 - a)/a                 halves' ratios (t + r)/a),
- * every term positive; r - a = t^2/(r + a). Its factor a^4 makes it vanish
- * with a, so for a^2 < 1e-200 R^2 (where a^4 underflows) it is left out.
+ * roundings. asinh(t0/a) - asinh(t1/a) = log((t0 + r0)/(t1 + r1)) = log1p(X),
+ *   X = (d + r0 - r1) / (t1 + r1),
+ * a ratio of positives (r0 >= r1 after the reflection), with t1 + r1 taken
+ * as a^2 / (r1 - t1) when t1 < 0. Its factor a^4 makes the term vanish with
+ * a, so for a^2 < 1e-200 R^2 (where a^4 underflows) it is left out.
  * The log1p is fdlibm's (musl's) in branch-free form: the same bits as a
  * scalar evaluation on every instruction set (ISO C: no FMA contraction).
  * What cancellation remains is that of W itself near the support's edge: an
@@ -124,11 +123,8 @@ INLINE double lucy_value_units(double q0, double q1, double q2, const double *n,
     const double D1 = d * r0 * r0 * r0 + t1 * dr * rr;
     /* asinh(t0/a) - asinh(t1/a) */
     const int with_log = s2 > 1e-200;
-    const double a = sqrt(s2), ia = 1.0 / (with_log ? a : 1.0);
-    const double x = (t0 + q2_ / (r0 + a)) * ia, y = (-t1 + p2_ / (r1 + a)) * ia;
-    const double den = t1 + r1;
-    const double X_one = (d + dr) / (den > 0.0 ? den : 1.0);
-    const double X = t1 < 0.0 ? x + y + x * y : X_one;
+    const double den = t1 >= 0.0 ? t1 + r1 : s2 / (r1 - t1); /* t1 + r1 without its cancellation */
+    const double X = (d + dr) / (den > 0.0 ? den : 1.0);
     const double D3 = with_log ? lucy_log1p(X) : 0.0;
     const double Jr3 = 0.25 * D1 + 0.375 * s2 * D2 + 0.375 * s2 * s2 * D3;
     const double acc = d - 6.0 * Jr2 + 8.0 * Jr3 - 3.0 * Jr4;
