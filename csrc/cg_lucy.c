@@ -94,31 +94,96 @@ double cg_lucy_segment(const cg_kernel *k, const segment_axis *ax, const double 
     return psi;
 }
 
-/* nodes per batch of cg_visit_lucy */
+/* nodes and rows per batch of cg_visit_lucy */
 #define LUCY_BATCH 256
+#define LUCY_ROWS 64
 
-/* the batch's weights (cg_lucy_line.c), then each non-zero one into out */
-static void lucy_flush(const job *jb, double *out, cg_index obj, double (*qb)[LUCY_BATCH], const cg_index *node,
-                       double *w, int count, const double *n3, const double *e3, double L, double R, double factor,
-                       double scale, int wide)
+/* cg_visit_lucy's state for one object: the rows gathered (offsets along the
+   axes before the row axis, unused ones 0) and the candidate nodes gathered
+   (offsets along every axis, unused ones 0), each evaluated a batch at a time */
+typedef struct lucy_visit {
+    const job *jb;
+    double *out;
+    cg_index obj;
+    int nr, row, narrow, wide;
+    cg_index k_first, k_last;   /* the stencil box along the row axis */
+    const double *zc;           /* the row axis' coordinates */
+    double x_row, L, R, factor, scale;
+    double n3[3], e3[3];
+    lucy_row_params P;
+    int nrows, count;
+    double f[2][LUCY_ROWS], klo[LUCY_ROWS], khi[LUCY_ROWS];
+    cg_index rbase[LUCY_ROWS];
+    double qb[3][LUCY_BATCH], w[LUCY_BATCH];
+    cg_index node[LUCY_BATCH];
+} lucy_visit;
+
+/* the gathered nodes' weights (cg_lucy_line.c), then each non-zero one into out */
+static void lucy_values_flush(lucy_visit *v)
 {
-    if (count == 0) return;
-    cg_lucy_values(count, qb[0], qb[1], qb[2], n3, e3, L, R, factor, w, wide);
-    for (int i = 0; i < count; ++i) {
-        const double wi = w[i] * scale;
-        if (wi != 0.0) cg_accumulate(jb, out, obj, node[i], wi, NULL);
+    if (v->count == 0) return;
+    cg_lucy_values(v->count, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->L, v->R, v->factor, v->w, v->wide);
+    const job *jb = v->jb;
+    if (jb->n_values == 9 && jb->out_width == 9) {
+        /* a 3-D tensor (the contact stress): cg_accumulate's MODE_VALUE sums, unrolled */
+        const double *val = jb->values + v->obj * 9;
+        for (int i = 0; i < v->count; ++i) {
+            const double wi = v->w[i] * v->scale;
+            if (wi == 0.0) continue;
+            double *o = v->out + v->node[i] * 9;
+            for (int k = 0; k < 9; ++k) o[k] += wi * val[k];
+        }
+    } else {
+        for (int i = 0; i < v->count; ++i) {
+            const double wi = v->w[i] * v->scale;
+            if (wi != 0.0) cg_accumulate(jb, v->out, v->obj, v->node[i], wi, NULL);
+        }
     }
+    v->count = 0;
 }
 
-/* rows per batch of cg_visit_lucy */
-#define LUCY_ROWS 64
+/* the gathered rows' candidate nodes, gathered in turn */
+static void lucy_rows_flush(lucy_visit *v)
+{
+    if (v->nrows == 0) return;
+    if (v->narrow) cg_lucy_rows(v->nrows, v->f[0], v->f[1], &v->P, v->klo, v->khi, v->wide);
+    const int row = v->row;
+    for (int r = 0; r < v->nrows; ++r) {
+        cg_index k0 = v->k_first, k1 = v->k_last;
+        if (v->narrow) {
+            const double lo = v->klo[r], hi = v->khi[r];
+            if (!(lo <= hi && lo <= (double)k1 && hi >= (double)k0)) continue;
+            if (lo > (double)k0) k0 = (cg_index)lo;
+            if (hi < (double)k1) k1 = (cg_index)hi;
+        }
+        for (cg_index k = k0; k <= k1; ++k) {
+            if (v->count == LUCY_BATCH) lucy_values_flush(v);
+            const int c = v->count++;
+            for (int a = 0; a < row; ++a) v->qb[a][c] = v->f[a][r];
+            v->qb[row][c] = v->zc[k] - v->x_row;
+            v->node[c] = v->rbase[r] + k;
+        }
+    }
+    v->nrows = 0;
+}
+
+static void lucy_add_row(lucy_visit *v, double f0, double f1, cg_index base)
+{
+    if (v->nrows == LUCY_ROWS) lucy_rows_flush(v);
+    v->f[0][v->nrows] = f0;
+    v->f[1][v->nrows] = f1;
+    v->rbase[v->nrows++] = base;
+}
 
 /* The node-by-node path (cg_scatter.c, visit_nodes) over the same stencil box,
    with the segment's axis computed once per object instead of once per node:
-   each row narrowed to the nodes the capsule can reach (cg_lucy_rows), their
-   values computed in batches (vectorised, cg_lucy_line.c) as the node-by-node
-   path computes each one. Every node gets one term per object, so the order
-   of the nodes within an object does not change the sums. */
+   in 3-D the planes of the first axis narrowed to the rows the capsule's
+   shadow on the first two axes (the 2-D capsule of the projected segment)
+   covers, each row narrowed to the nodes the capsule can reach (both by
+   cg_lucy_rows), their values computed in batches (vectorised,
+   cg_lucy_line.c) as the node-by-node path computes each one. Every node gets
+   one term per object, so the order of the nodes within an object does not
+   change the sums. */
 int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale)
 {
     const cg_target *t = jb->target;
@@ -138,73 +203,87 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
     }
     cg_index first[3], last[3], stride[3];
     if (!stencil_range(jb, bmin, bmax, first, last, stride)) return 1;
+    lucy_visit vs;
+    lucy_visit *v = &vs;
     const int row = nr - 1; /* the last resolved axis: contiguous in the output */
-    const double *zc = t->coords[row];
-    const double h = jb->spacing[row];
+    v->jb = jb;
+    v->out = out;
+    v->obj = obj;
+    v->nr = nr;
+    v->row = row;
+    v->k_first = first[row];
+    v->k_last = last[row];
+    v->zc = t->coords[row];
+    v->x_row = x[row];
+    v->L = ax.L;
+    v->R = R;
+    v->factor = jb->kernel->prefactor * (R / ax.L);
+    v->scale = scale;
+    v->wide = cg_separable_wide_available();
+    v->nrows = v->count = 0;
+    for (int a = 0; a < 3; ++a) v->n3[a] = v->e3[a] = 0.0;
+    for (int a = 0; a < nr; ++a) {
+        v->n3[a] = ax.unit[a];
+        v->e3[a] = e[a];
+    }
+    for (int a = row; a < 2; ++a)
+        for (int i = 0; i < LUCY_ROWS; ++i) v->f[a][i] = 0.0;
+    for (int a = nr; a < 3; ++a)
+        for (int i = 0; i < LUCY_BATCH; ++i) v->qb[a][i] = 0.0;
+    /* the narrowing's margins: for the rounding of a^2 (>> at any node of the
+       box), of u, and of the node positions; none where they would not be small */
     double reach = R + ax.L; /* the stencil box's nodes are within reach (plus a spacing) of the start */
     for (int a = 0; a < nr; ++a) reach += jb->spacing[a];
-    /* the rows' narrowing: margins for the rounding of a^2 (>> at any node of
-       the box), of u, and of the node positions; none where they would not be small */
-    const double rounding = 1e-12 * reach * reach;
-    const int narrow = h > 0.0 && rounding < 1e-8 * R * R;
-    lucy_row_params P = {{0.0, 0.0}, {0.0, 0.0}, ax.unit[row], e[row], ax.L, R * R * (1.0 + 1e-6) + rounding,
-                         1e-6 * R + 1e-12 * reach, zc[0], h, x[row], 0.0};
+    const double rounding = 1e-12 * reach * reach, bound = R * R * (1.0 + 1e-6) + rounding;
+    const double mu = 1e-6 * R + 1e-12 * reach;
+    const double h = jb->spacing[row];
+    v->narrow = h > 0.0 && rounding < 1e-8 * R * R;
+    const lucy_row_params P = {{0.0, 0.0}, {0.0, 0.0}, ax.unit[row], e[row], ax.L, bound, mu, v->zc[0], h, x[row],
+                               1e-9 + 1e-12 * (fabs(v->zc[0]) + fabs(v->zc[t->shape[row] - 1]) + fabs(x[row]) + reach) / h};
+    v->P = P;
     for (int a = 0; a < row; ++a) {
-        P.n[a] = ax.unit[a];
-        P.e[a] = e[a];
+        v->P.n[a] = ax.unit[a];
+        v->P.e[a] = e[a];
     }
-    if (narrow) P.slack = 1e-9 + 1e-12 * (fabs(zc[0]) + fabs(zc[t->shape[row] - 1]) + fabs(x[row]) + reach) / h;
-    double n3[3] = {0.0, 0.0, 0.0}, e3[3] = {0.0, 0.0, 0.0};
-    for (int a = 0; a < nr; ++a) {
-        n3[a] = ax.unit[a];
-        e3[a] = e[a];
-    }
-    const double factor = jb->kernel->prefactor * (R / ax.L);
-    const int wide = cg_separable_wide_available();
-    /* rows (fixed offsets along the axes before the row axis, unused ones 0)
-       and candidate nodes (offsets along every axis, unused ones 0) in batches */
-    double f[2][LUCY_ROWS], klo[LUCY_ROWS], khi[LUCY_ROWS];
-    cg_index rbase[LUCY_ROWS];
-    double qb[3][LUCY_BATCH], w[LUCY_BATCH];
-    cg_index node[LUCY_BATCH];
-    for (int a = row; a < 2; ++a)
-        for (int i = 0; i < LUCY_ROWS; ++i) f[a][i] = 0.0;
-    for (int a = nr; a < 3; ++a)
-        for (int i = 0; i < LUCY_BATCH; ++i) qb[a][i] = 0.0;
-    int count = 0;
-    cg_index idx[3] = {first[0], first[1], first[2]};
-    int more = 1;
-    while (more) {
-        int nrows = 0;
-        while (more && nrows < LUCY_ROWS) {
+    const double h1 = nr == 3 ? jb->spacing[1] : 0.0;
+    if (nr == 3 && h1 > 0.0 && rounding < 1e-8 * R * R) {
+        /* planes i: the rows j inside the shadow, a 2-D capsule around the
+           projected segment (unit m, length Lp; a disk when Lp = 0) */
+        const double Lp = sqrt(e[0] * e[0] + e[1] * e[1]);
+        const double m0 = Lp > 0.0 ? e[0] / Lp : 0.0, m1 = Lp > 0.0 ? e[1] / Lp : 0.0;
+        const double *yc = t->coords[1];
+        const lucy_row_params S = {{m0, 0.0}, {e[0], 0.0}, m1, e[1], Lp, bound, mu, yc[0], h1, x[1],
+                                   1e-9 + 1e-12 * (fabs(yc[0]) + fabs(yc[t->shape[1] - 1]) + fabs(x[1]) + reach) / h1};
+        double g0[LUCY_ROWS], zero[LUCY_ROWS], jlo[LUCY_ROWS], jhi[LUCY_ROWS];
+        for (int i = 0; i < LUCY_ROWS; ++i) zero[i] = 0.0;
+        for (cg_index i0 = first[0]; i0 <= last[0]; i0 += LUCY_ROWS) {
+            const int ni = (int)(last[0] - i0 + 1 < LUCY_ROWS ? last[0] - i0 + 1 : LUCY_ROWS);
+            for (int ii = 0; ii < ni; ++ii) g0[ii] = t->coords[0][i0 + ii] - x[0];
+            cg_lucy_rows(ni, g0, zero, &S, jlo, jhi, v->wide);
+            for (int ii = 0; ii < ni; ++ii) {
+                const double lo = jlo[ii], hi = jhi[ii];
+                if (!(lo <= hi && lo <= (double)last[1] && hi >= (double)first[1])) continue;
+                const cg_index j0 = lo > (double)first[1] ? (cg_index)lo : first[1];
+                const cg_index j1 = hi < (double)last[1] ? (cg_index)hi : last[1];
+                for (cg_index j = j0; j <= j1; ++j)
+                    lucy_add_row(v, g0[ii], yc[j] - x[1], (i0 + ii) * stride[0] + j * stride[1]);
+            }
+        }
+    } else {
+        cg_index idx[3] = {first[0], first[1], first[2]};
+        for (int more = 1; more;) {
+            double fa[2] = {0.0, 0.0};
             cg_index base = 0;
             for (int a = 0; a < row; ++a) {
-                f[a][nrows] = t->coords[a][idx[a]] - x[a];
+                fa[a] = t->coords[a][idx[a]] - x[a];
                 base += idx[a] * stride[a];
             }
-            rbase[nrows++] = base;
+            lucy_add_row(v, fa[0], fa[1], base);
             more = stencil_next(idx, first, last, row);
         }
-        if (narrow) cg_lucy_rows(nrows, f[0], f[1], &P, klo, khi, wide);
-        for (int r = 0; r < nrows; ++r) {
-            cg_index k0 = first[row], k1 = last[row];
-            if (narrow) {
-                if (!(klo[r] <= khi[r] && klo[r] <= (double)k1 && khi[r] >= (double)k0)) continue;
-                if (klo[r] > (double)k0) k0 = (cg_index)klo[r];
-                if (khi[r] < (double)k1) k1 = (cg_index)khi[r];
-            }
-            for (cg_index k = k0; k <= k1; ++k) {
-                if (count == LUCY_BATCH) {
-                    lucy_flush(jb, out, obj, qb, node, w, count, n3, e3, ax.L, R, factor, scale, wide);
-                    count = 0;
-                }
-                for (int a = 0; a < row; ++a) qb[a][count] = f[a][r];
-                qb[row][count] = zc[k] - x[row];
-                node[count++] = rbase[r] + k;
-            }
-        }
     }
-    lucy_flush(jb, out, obj, qb, node, w, count, n3, e3, ax.L, R, factor, scale, wide);
+    lucy_rows_flush(v);
+    lucy_values_flush(v);
     return 1;
 }
 
