@@ -1,7 +1,7 @@
 /*
  * cg_internal.h -- what cg_scatter.c (loops over objects, images, threads)
  * shares with cg_separable.c (the Gaussian on grids as outer products),
- * cg_lucy.c (Lucy's closed-form line integrals, rows of Lucy's and
+ * cg_lucy.c and cg_lucy_line.c (Lucy's closed-form line integrals, rows of Lucy's and
  * Heaviside's stencils) and cg_kernels.c. Not part of the public interface
  * (cg.h).
  */
@@ -133,6 +133,31 @@ double cg_lucy_segment(const cg_kernel *kernel, const segment_axis *ax, const do
    acc[2] = int (t/R)(1 - x)^2 dt/R (else 0). Needs |t0|, |t1| and a2 inside
    the support (the caller clips). */
 void cg_lucy_line(double a2, double t0, double t1, double span, double R, int want_grad, double *acc);
+
+/* Lucy's line integral, value only (cg_lucy_line.c): int P(x) dt/R as
+   cg_lucy_line's acc[0], from the node offset q, the segment e of length L
+   and direction n (3 components each, the unused ones 0); 0 outside the
+   support. cg_lucy_values does so for count nodes (offsets q0[i], q1[i],
+   q2[i]) into w[i] = factor * value, vectorised (wide: the AVX-512 build, if
+   compiled); the same bits as cg_lucy_value at every node. */
+double cg_lucy_value(const double *q, const double *n, const double *e, double L, double R);
+void cg_lucy_values(int count, const double *q0, const double *q1, const double *q2, const double *n,
+                    const double *e, double L, double R, double factor, double *w, int wide);
+
+/* A segment seen from the rows of a grid (cg_lucy_line.c, cg_lucy_rows):
+   n, e along the (up to two) axes before the row axis (0 where absent), nz,
+   ez along the row axis; the squared radius with margins bound, the margin
+   mu of u; the row's nodes z0 + k h, x_row the segment start's coordinate
+   along it, slack the rounding of the node positions in nodes. */
+typedef struct lucy_row_params {
+    double n[2], e[2], nz, ez, L, bound, mu, z0, h, x_row, slack;
+} lucy_row_params;
+
+/* For count rows (offsets f0[i], f1[i] of the row from the segment's start
+   along the axes before the row axis): the indices klo[i]..khi[i] (doubles;
+   empty if klo > khi) of the row's nodes that can be inside the capsule */
+void cg_lucy_rows(int count, const double *f0, const double *f1, const lucy_row_params *P, double *klo,
+                  double *khi, int wide);
 
 /* Gradient of Lucy's marginal over one or two averaged axes (D_avg > 0,
    D_res > 0) at resolved offset x into grad; returns M(x) (cg_gradient.c). */

@@ -21,6 +21,7 @@
 #include "cg_internal.h"
 
 #include <math.h>
+#include <string.h>
 
 /* one piece [p, q] (units of R, 0 <= p <= q, d = q - p given accurately),
    added into acc: [0] += int P, [1] += int (1 - x)^2, [2] += sign int t (1 - x)^2 */
@@ -66,78 +67,123 @@ void cg_lucy_line(double a2, double t0, double t1, double span, double R, int wa
     }
 }
 
-/* psi (and its gradient) at a node given its frame */
-static inline double lucy_at_frame(const cg_kernel *k, const segment_frame *fr, double *grad)
-{
-    const segment_frame f = *fr;
-    const int n = f.n;
-    const double R = k->radius;
-    if (grad) for (int d = 0; d < n; ++d) grad[d] = 0.0;
-    double s0, s1, b;
-    if (!clip_to_support(&f, R, &s0, &s1, &b)) return 0.0;
-    double acc[3];
-    cg_lucy_line(f.a2, t_at(&f, s0), t_at(&f, s1), (s1 - s0) * f.L, R, grad != NULL, acc);
-    if (grad) {
-        /* grad W = -12 C (1 - x)^2 (r_vec) / R^2, r_vec = q_perp + t n */
-        const double factor = -12.0 * k->prefactor / (R * R);
-        const double g_perp = R / f.L * acc[1], g_along = R * R / f.L * acc[2];
-        for (int d = 0; d < n; ++d) grad[d] = factor * (f.qperp[d] * g_perp + f.unit[d] * g_along);
-    }
-    return k->prefactor * (R / f.L) * acc[0];
-}
-
 double cg_lucy_segment(const cg_kernel *k, const segment_axis *ax, const double *q, const double *e, double *grad)
 {
-    segment_frame f;
-    node_frame(k->n_resolved, ax, q, e, &f);
-    return lucy_at_frame(k, &f, grad);
-}
-
-/* Narrow the row of nodes at offsets q[0..row-1] (fixed) and q_row = z_k - x_row,
-   z_k = z0 + k h, to the nodes that can be inside the cylinder of radius R
-   around the segment's line: a^2(q_row) = |q|^2 - (q.n)^2 is a quadratic in
-   q_row, A q_row^2 - 2 B q_row + C with A = 1 - n_row^2. The interval where it
-   is below R^2 (1 + 1e-6) plus a margin for its rounding, widened by one node
-   each way, holds every node the exact test can accept; the exact test still
-   decides each node. Returns 0 when no node of the row can be inside; leaves
-   [*k0, *k1] alone when the quadratic is too flat to narrow it safely. */
-static int row_candidates(int nr, const segment_axis *ax, const double *q, double x_row, double z0, double h,
-                          double R, double reach, cg_index *k0, cg_index *k1)
-{
-    const int row = nr - 1;
-    if (!(h > 0.0)) return 1;
-    const double nz = ax->unit[row];
-    double c = 0.0, p2 = 0.0;
-    for (int a = 0; a < row; ++a) {
-        c += q[a] * ax->unit[a];
-        p2 += q[a] * q[a];
+    const int n = k->n_resolved;
+    const double R = k->radius;
+    double q3[3] = {0.0, 0.0, 0.0}, n3[3] = {0.0, 0.0, 0.0}, e3[3] = {0.0, 0.0, 0.0};
+    for (int d = 0; d < n; ++d) {
+        q3[d] = q[d];
+        n3[d] = ax->unit[d];
+        e3[d] = e[d];
     }
-    const double A = 1.0 - nz * nz;
-    const double rounding = 1e-12 * reach * reach; /* >> the rounding of a^2 at any node of the box */
-    if (!(rounding < 1e-8 * R * R)) return 1;
-    const double bound = R * R * (1.0 + 1e-6) + rounding;
-    /* A z^2 - 2 c nz z + (p2 - c^2) <= bound */
-    const double B = c * nz, C = p2 - c * c - bound;
-    /* the row misses the cylinder if the quadratic's least value over the box's nodes is above the bound */
-    const double zfirst = z0 + (double)*k0 * h - x_row, zlast = z0 + (double)*k1 * h - x_row;
-    double zmin = A > 0.0 ? B / A : zfirst;
-    zmin = zmin < zfirst ? zfirst : (zmin > zlast ? zlast : zmin);
-    if (A * zmin * zmin - 2.0 * B * zmin + C > 0.0) return 0;
-    if (!(A > 1e-3)) return 1; /* nearly parallel to the row: the roots are ill-conditioned */
-    const double disc = B * B - A * C;
-    if (!(disc > 0.0)) return 0;
-    const double root = sqrt(disc);
-    const double zlo = (B - root) / A, zhi = (B + root) / A;
-    const double klo = floor((x_row + zlo - z0) / h) - 1.0, khi = ceil((x_row + zhi - z0) / h) + 1.0;
-    if (klo > (double)*k0) *k0 = (cg_index)klo;
-    if (khi < (double)*k1) *k1 = (cg_index)khi;
-    return *k0 <= *k1;
+    /* the value as the row path (cg_visit_lucy) computes it (cg_lucy_line.c) */
+    const double psi = k->prefactor * (R / ax->L) * cg_lucy_value(q3, n3, e3, ax->L, R);
+    if (!grad) return psi;
+    for (int d = 0; d < n; ++d) grad[d] = 0.0;
+    segment_frame f;
+    node_frame(n, ax, q, e, &f);
+    double s0, s1, b;
+    if (!clip_to_support(&f, R, &s0, &s1, &b)) return psi;
+    double acc[3];
+    cg_lucy_line(f.a2, t_at(&f, s0), t_at(&f, s1), (s1 - s0) * f.L, R, 1, acc);
+    /* grad W = -12 C (1 - x)^2 (r_vec) / R^2, r_vec = q_perp + t n */
+    const double factor = -12.0 * k->prefactor / (R * R);
+    const double g_perp = R / f.L * acc[1], g_along = R * R / f.L * acc[2];
+    for (int d = 0; d < n; ++d) grad[d] = factor * (f.qperp[d] * g_perp + f.unit[d] * g_along);
+    return psi;
 }
 
-/* The node-by-node path (cg_scatter.c, visit_nodes) over the same stencil box
-   in the same order, with the segment's axis computed once per object instead
-   of once per node, and the nodes outside the capsule rejected before the
-   closed form. */
+/* nodes and rows per batch of cg_visit_lucy */
+#define LUCY_BATCH 256
+#define LUCY_ROWS 64
+
+/* cg_visit_lucy's state for one object: the rows gathered (offsets along the
+   axes before the row axis, unused ones 0) and the candidate nodes gathered
+   (offsets along every axis, unused ones 0), each evaluated a batch at a time */
+typedef struct lucy_visit {
+    const job *jb;
+    double *out;
+    cg_index obj;
+    int nr, row, narrow, wide;
+    cg_index k_first, k_last;   /* the stencil box along the row axis */
+    const double *zc;           /* the row axis' coordinates */
+    double x_row, L, R, factor, scale;
+    double n3[3], e3[3];
+    lucy_row_params P;
+    int nrows, count;
+    double f[2][LUCY_ROWS], klo[LUCY_ROWS], khi[LUCY_ROWS];
+    cg_index rbase[LUCY_ROWS];
+    double qb[3][LUCY_BATCH], w[LUCY_BATCH];
+    cg_index node[LUCY_BATCH];
+} lucy_visit;
+
+/* the gathered nodes' weights (cg_lucy_line.c), then each non-zero one into out */
+static void lucy_values_flush(lucy_visit *v)
+{
+    if (v->count == 0) return;
+    cg_lucy_values(v->count, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->L, v->R, v->factor, v->w, v->wide);
+    const job *jb = v->jb;
+    if (jb->n_values == 9 && jb->out_width == 9) {
+        /* a 3-D tensor (the contact stress): cg_accumulate's MODE_VALUE sums, unrolled */
+        const double *val = jb->values + v->obj * 9;
+        for (int i = 0; i < v->count; ++i) {
+            const double wi = v->w[i] * v->scale;
+            if (wi == 0.0) continue;
+            double *o = v->out + v->node[i] * 9;
+            for (int k = 0; k < 9; ++k) o[k] += wi * val[k];
+        }
+    } else {
+        for (int i = 0; i < v->count; ++i) {
+            const double wi = v->w[i] * v->scale;
+            if (wi != 0.0) cg_accumulate(jb, v->out, v->obj, v->node[i], wi, NULL);
+        }
+    }
+    v->count = 0;
+}
+
+/* the gathered rows' candidate nodes, gathered in turn */
+static void lucy_rows_flush(lucy_visit *v)
+{
+    if (v->nrows == 0) return;
+    if (v->narrow) cg_lucy_rows(v->nrows, v->f[0], v->f[1], &v->P, v->klo, v->khi, v->wide);
+    const int row = v->row;
+    for (int r = 0; r < v->nrows; ++r) {
+        cg_index k0 = v->k_first, k1 = v->k_last;
+        if (v->narrow) {
+            const double lo = v->klo[r], hi = v->khi[r];
+            if (!(lo <= hi && lo <= (double)k1 && hi >= (double)k0)) continue;
+            if (lo > (double)k0) k0 = (cg_index)lo;
+            if (hi < (double)k1) k1 = (cg_index)hi;
+        }
+        for (cg_index k = k0; k <= k1; ++k) {
+            if (v->count == LUCY_BATCH) lucy_values_flush(v);
+            const int c = v->count++;
+            for (int a = 0; a < row; ++a) v->qb[a][c] = v->f[a][r];
+            v->qb[row][c] = v->zc[k] - v->x_row;
+            v->node[c] = v->rbase[r] + k;
+        }
+    }
+    v->nrows = 0;
+}
+
+static void lucy_add_row(lucy_visit *v, double f0, double f1, cg_index base)
+{
+    if (v->nrows == LUCY_ROWS) lucy_rows_flush(v);
+    v->f[0][v->nrows] = f0;
+    v->f[1][v->nrows] = f1;
+    v->rbase[v->nrows++] = base;
+}
+
+/* The node-by-node path (cg_scatter.c, visit_nodes) over the same stencil box,
+   with the segment's axis computed once per object instead of once per node:
+   in 3-D the planes of the first axis narrowed to the rows the capsule's
+   shadow on the first two axes (the 2-D capsule of the projected segment)
+   covers, each row narrowed to the nodes the capsule can reach (both by
+   cg_lucy_rows), their values computed in batches (vectorised,
+   cg_lucy_line.c) as the node-by-node path computes each one. Every node gets
+   one term per object, so the order of the nodes within an object does not
+   change the sums. */
 int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale)
 {
     const cg_target *t = jb->target;
@@ -157,33 +203,87 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
     }
     cg_index first[3], last[3], stride[3];
     if (!stencil_range(jb, bmin, bmax, first, last, stride)) return 1;
+    lucy_visit vs;
+    lucy_visit *v = &vs;
     const int row = nr - 1; /* the last resolved axis: contiguous in the output */
-    const double *zc = t->coords[row];
-    const double R2 = R * R;
+    v->jb = jb;
+    v->out = out;
+    v->obj = obj;
+    v->nr = nr;
+    v->row = row;
+    v->k_first = first[row];
+    v->k_last = last[row];
+    v->zc = t->coords[row];
+    v->x_row = x[row];
+    v->L = ax.L;
+    v->R = R;
+    v->factor = jb->kernel->prefactor * (R / ax.L);
+    v->scale = scale;
+    v->wide = cg_separable_wide_available();
+    v->nrows = v->count = 0;
+    for (int a = 0; a < 3; ++a) v->n3[a] = v->e3[a] = 0.0;
+    for (int a = 0; a < nr; ++a) {
+        v->n3[a] = ax.unit[a];
+        v->e3[a] = e[a];
+    }
+    for (int a = row; a < 2; ++a)
+        for (int i = 0; i < LUCY_ROWS; ++i) v->f[a][i] = 0.0;
+    for (int a = nr; a < 3; ++a)
+        for (int i = 0; i < LUCY_BATCH; ++i) v->qb[a][i] = 0.0;
+    /* the narrowing's margins: for the rounding of a^2 (>> at any node of the
+       box), of u, and of the node positions; none where they would not be small */
     double reach = R + ax.L; /* the stencil box's nodes are within reach (plus a spacing) of the start */
     for (int a = 0; a < nr; ++a) reach += jb->spacing[a];
-    cg_index idx[3] = {first[0], first[1], first[2]};
-    double q[3];
-    for (;;) {
-        cg_index base = 0;
-        for (int a = 0; a < row; ++a) {
-            q[a] = t->coords[a][idx[a]] - x[a];
-            base += idx[a] * stride[a];
-        }
-        cg_index k0 = first[row], k1 = last[row];
-        if (!row_candidates(nr, &ax, q, x[row], zc[0], jb->spacing[row], R, reach, &k0, &k1)) k1 = k0 - 1;
-        for (cg_index k = k0; k <= k1; ++k) {
-            q[row] = zc[k] - x[row];
-            /* outside the cylinder: clip_to_support's first test, without its sqrt and divisions */
-            segment_frame f;
-            if (nr == 3) node_frame(3, &ax, q, e, &f);
-            else node_frame(nr, &ax, q, e, &f);
-            if (!(R2 - f.a2 > 0.0)) continue;
-            const double w = lucy_at_frame(jb->kernel, &f, NULL) * scale;
-            if (w != 0.0) cg_accumulate(jb, out, obj, base + k, w, NULL);
-        }
-        if (!stencil_next(idx, first, last, row)) break;
+    const double rounding = 1e-12 * reach * reach, bound = R * R * (1.0 + 1e-6) + rounding;
+    const double mu = 1e-6 * R + 1e-12 * reach;
+    const double h = jb->spacing[row];
+    v->narrow = h > 0.0 && rounding < 1e-8 * R * R;
+    const lucy_row_params P = {{0.0, 0.0}, {0.0, 0.0}, ax.unit[row], e[row], ax.L, bound, mu, v->zc[0], h, x[row],
+                               1e-9 + 1e-12 * (fabs(v->zc[0]) + fabs(v->zc[t->shape[row] - 1]) + fabs(x[row]) + reach) / h};
+    v->P = P;
+    for (int a = 0; a < row; ++a) {
+        v->P.n[a] = ax.unit[a];
+        v->P.e[a] = e[a];
     }
+    const double h1 = nr == 3 ? jb->spacing[1] : 0.0;
+    if (nr == 3 && h1 > 0.0 && rounding < 1e-8 * R * R) {
+        /* planes i: the rows j inside the shadow, a 2-D capsule around the
+           projected segment (unit m, length Lp; a disk when Lp = 0) */
+        const double Lp = sqrt(e[0] * e[0] + e[1] * e[1]);
+        const double m0 = Lp > 0.0 ? e[0] / Lp : 0.0, m1 = Lp > 0.0 ? e[1] / Lp : 0.0;
+        const double *yc = t->coords[1];
+        const lucy_row_params S = {{m0, 0.0}, {e[0], 0.0}, m1, e[1], Lp, bound, mu, yc[0], h1, x[1],
+                                   1e-9 + 1e-12 * (fabs(yc[0]) + fabs(yc[t->shape[1] - 1]) + fabs(x[1]) + reach) / h1};
+        double g0[LUCY_ROWS], zero[LUCY_ROWS], jlo[LUCY_ROWS], jhi[LUCY_ROWS];
+        for (int i = 0; i < LUCY_ROWS; ++i) zero[i] = 0.0;
+        for (cg_index i0 = first[0]; i0 <= last[0]; i0 += LUCY_ROWS) {
+            const int ni = (int)(last[0] - i0 + 1 < LUCY_ROWS ? last[0] - i0 + 1 : LUCY_ROWS);
+            for (int ii = 0; ii < ni; ++ii) g0[ii] = t->coords[0][i0 + ii] - x[0];
+            cg_lucy_rows(ni, g0, zero, &S, jlo, jhi, v->wide);
+            for (int ii = 0; ii < ni; ++ii) {
+                const double lo = jlo[ii], hi = jhi[ii];
+                if (!(lo <= hi && lo <= (double)last[1] && hi >= (double)first[1])) continue;
+                const cg_index j0 = lo > (double)first[1] ? (cg_index)lo : first[1];
+                const cg_index j1 = hi < (double)last[1] ? (cg_index)hi : last[1];
+                for (cg_index j = j0; j <= j1; ++j)
+                    lucy_add_row(v, g0[ii], yc[j] - x[1], (i0 + ii) * stride[0] + j * stride[1]);
+            }
+        }
+    } else {
+        cg_index idx[3] = {first[0], first[1], first[2]};
+        for (int more = 1; more;) {
+            double fa[2] = {0.0, 0.0};
+            cg_index base = 0;
+            for (int a = 0; a < row; ++a) {
+                fa[a] = t->coords[a][idx[a]] - x[a];
+                base += idx[a] * stride[a];
+            }
+            lucy_add_row(v, fa[0], fa[1], base);
+            more = stencil_next(idx, first, last, row);
+        }
+    }
+    lucy_rows_flush(v);
+    lucy_values_flush(v);
     return 1;
 }
 

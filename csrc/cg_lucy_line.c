@@ -1,0 +1,264 @@
+/*
+ * cg_lucy_line.c -- Lucy's line integral (value only) for a batch of nodes,
+ * written without branches so that the compiler vectorises it over the nodes.
+ *
+ * psi = int_0^1 W(|q - s e|) ds with W = C (1 - 6x^2 + 8x^3 - 3x^4), x = r/R,
+ * r^2 = a^2 + t^2 along the segment's line (a: the node's distance from the
+ * line, t = u - s L). The part inside the support ball, t1 <= t <= t0
+ * (|t| <= b = sqrt(R^2 - a^2)), is reflected so that t0 >= |t1| (W is even in
+ * t); then either 0 <= t1 (one side of the closest approach) or t1 < 0 < t0
+ * (across it). In units of R, with d = t0 - t1 given accurately (L itself
+ * when the segment is not clipped), every difference F(t0) - F(t1) of an
+ * antiderivative is taken in a divided form:
+ *   int t^2 = d (t0^2 + t0 t1 + t1^2)/3,  int t^4 = d (t0^4 + ... + t1^4)/5,
+ *   t0 r0 - t1 r1       = d r0 + t1 (r0 - r1),
+ *   t0 r0^3 - t1 r1^3   = d r0^3 + t1 (r0 - r1)(r0^2 + r0 r1 + r1^2),
+ *   r0 - r1             = d (t0 + t1) / (r0 + r1).
+ * Across the closest approach these sums have terms of both signs, but their
+ * cancelled part is at most the size of the result (t1 < 0 makes
+ * t0 r0 - t1 r1 a sum of two positives), so nothing is lost but a few
+ * roundings. asinh(t0/a) - asinh(t1/a) = log((t0 + r0)/(t1 + r1)) = log1p(X),
+ *   X = (d + r0 - r1) / (t1 + r1),
+ * a ratio of positives (r0 >= r1 after the reflection), with t1 + r1 taken
+ * as a^2 / (r1 - t1) when t1 < 0. Its factor a^4 makes the term vanish with
+ * a, so for a^2 < 1e-200 R^2 (where a^4 underflows) it is left out.
+ * The log1p is fdlibm's (musl's) in branch-free form: the same bits as a
+ * scalar evaluation on every instruction set (ISO C: no FMA contraction).
+ * What cancellation remains is that of W itself near the support's edge: an
+ * absolute error of order eps C (the field's scale).
+ *
+ * cg_lucy.c computes the gradient terms (the residual's segment term) and
+ * visits grid rows; both it and the node-by-node path (cg_kernels.c) take the
+ * value from here, so the two agree bit for bit.
+ */
+#include "cg_internal.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#if defined(__GNUC__)
+#define INLINE static inline __attribute__((always_inline))
+#else
+#define INLINE static inline
+#endif
+
+static inline uint64_t bits_of(double x)
+{
+    uint64_t u;
+    memcpy(&u, &x, sizeof u);
+    return u;
+}
+
+static inline double double_of(uint64_t u)
+{
+    double x;
+    memcpy(&x, &u, sizeof x);
+    return x;
+}
+
+/* log1p(X) for X >= 0 (finite; other X give garbage, which callers mask):
+   musl's log1p without its branches, error < 1 ulp */
+INLINE double lucy_log1p(double X)
+{
+    const double ln2_hi = 6.93147180369123816490e-01, ln2_lo = 1.90821492927058770002e-10;
+    const double Lg1 = 6.666666666666735130e-01, Lg2 = 3.999999999940941908e-01, Lg3 = 2.857142874366239149e-01,
+                 Lg4 = 2.222219843214978396e-01, Lg5 = 1.818357216161805012e-01, Lg6 = 1.531383769920937332e-01,
+                 Lg7 = 1.479819860511658591e-01;
+    const double u = 1.0 + X;
+    const uint64_t ub = bits_of(u);
+    /* k such that u / 2^k is in [sqrt(2)/2, sqrt(2)) */
+    const uint64_t hu = ub + ((uint64_t)(0x3ff00000 - 0x3fe6a09e) << 32);
+    const uint64_t kb = hu >> 52; /* k + 1023 */
+    /* k as a double, exactly: 2^52 + (k + 1023) - (2^52 + 1023) */
+    const double dk = double_of(UINT64_C(0x4330000000000000) | kb) - 4503599627371519.0;
+    const double m = double_of(((hu & UINT64_C(0x000fffff00000000)) + ((uint64_t)0x3fe6a09e << 32)) |
+                               (ub & UINT64_C(0xffffffff)));
+    /* k = 0: f = X exactly; else f = m - 1 with the correction c ~ log(1+X) - log(u) */
+    const int small = kb == 1023;
+    const double c_big = (kb >= 1025 ? 1.0 - (u - X) : X - (u - 1.0)) / u;
+    const double f = small ? X : m - 1.0;
+    const double c = small || kb >= 1023 + 54 ? 0.0 : c_big;
+    const double hfsq = 0.5 * f * f;
+    const double s = f / (2.0 + f);
+    const double z = s * s, w = z * z;
+    const double t1 = w * (Lg2 + w * (Lg4 + w * Lg6));
+    const double t2 = z * (Lg1 + w * (Lg3 + w * (Lg5 + w * Lg7)));
+    return s * (hfsq + (t2 + t1)) + (dk * ln2_lo + c) - hfsq + f + dk * ln2_hi;
+}
+
+/* int P(x) dt / R over the part of the line inside the support (units of R),
+   P = (1 + 3x)(1 - x)^3, for a node at offset q (3 components, the unused
+   ones 0) from the start of a segment e of length L and direction n; 0
+   outside the support. The frame as node_frame (cg_internal.h) computes it. */
+INLINE double lucy_value_units(double q0, double q1, double q2, const double *n, const double *e, double L,
+                               double R, double inv)
+{
+    const double u = q0 * n[0] + q1 * n[1] + q2 * n[2];
+    const double t_far = (q0 - e[0]) * n[0] + (q1 - e[1]) * n[1] + (q2 - e[2]) * n[2];
+    const double p0 = q0 - u * n[0], p1 = q1 - u * n[1], p2 = q2 - u * n[2];
+    const double a2 = p0 * p0 + p1 * p1 + p2 * p2;
+    const double b2 = R * R - a2;
+    const int inside = b2 > 0.0;
+    const double b = sqrt(inside ? b2 : 0.0);
+    const double hi = u < b ? u : b, lo = t_far > -b ? t_far : -b;
+    const int clipped = !(u <= b) || !(t_far >= -b);
+    const int valid = inside && hi > lo;
+    /* units of R; reflected so that t0 >= |t1| */
+    const double span = (clipped ? hi - lo : L) * inv;
+    const int flip = hi <= 0.0;
+    const double t0 = (flip ? -lo : hi) * inv, t1 = (flip ? -hi : lo) * inv;
+    const double s2 = a2 * inv * inv;
+    const double d = span;
+    const double q2_ = t0 * t0, p2_ = t1 * t1, qp = t0 * t1, sum = t0 + t1;
+    const double r0 = sqrt(s2 + q2_), r1 = sqrt(s2 + p2_);
+    const double J2 = d * (q2_ + qp + p2_) * (1.0 / 3.0);
+    const double J4 = d * (q2_ * q2_ + qp * (q2_ + p2_) + qp * qp + p2_ * p2_) * 0.2;
+    const double Jr2 = s2 * d + J2;
+    const double Jr4 = s2 * s2 * d + 2.0 * s2 * J2 + J4;
+    const double rsum = r0 + r1;
+    const double dr = d * sum / (rsum > 0.0 ? rsum : 1.0);
+    const double rr = r0 * r0 + r0 * r1 + r1 * r1;
+    const double D2 = d * r0 + t1 * dr;
+    const double D1 = d * r0 * r0 * r0 + t1 * dr * rr;
+    /* asinh(t0/a) - asinh(t1/a) */
+    const int with_log = s2 > 1e-200;
+    const double den = t1 >= 0.0 ? t1 + r1 : s2 / (r1 - t1); /* t1 + r1 without its cancellation */
+    const double X = (d + dr) / (den > 0.0 ? den : 1.0);
+    const double D3 = with_log ? lucy_log1p(X) : 0.0;
+    const double Jr3 = 0.25 * D1 + 0.375 * s2 * D2 + 0.375 * s2 * s2 * D3;
+    const double acc = d - 6.0 * Jr2 + 8.0 * Jr3 - 3.0 * Jr4;
+    return valid && d > 0.0 ? acc : 0.0;
+}
+
+INLINE void lucy_values_body(int count, const double *restrict q0, const double *restrict q1,
+                             const double *restrict q2, const double *n, const double *e, double L, double R,
+                             double factor, double *restrict w)
+{
+    const double inv = 1.0 / R;
+    const double nn[3] = {n[0], n[1], n[2]}, ee[3] = {e[0], e[1], e[2]};
+    for (int i = 0; i < count; ++i) w[i] = factor * lucy_value_units(q0[i], q1[i], q2[i], nn, ee, L, R, inv);
+}
+
+/* The candidate nodes of a row: the row (fixed offsets f0, f1 from the
+   segment's start along the axes before the row axis, z along it) meets the
+   capsule (convex) in one interval, the hull of its meets with the ball at
+   the start (|q|^2 <= bound), the ball at the end (|q - e|^2 <= bound) and
+   the cylinder piece (a^2(z) <= bound, a quadratic in z, and
+   -mu <= u(z) = c + z nz <= L + mu). bound = R^2 (1 + 1e-6) plus the rounding
+   of a^2 and mu a margin for that of u (lucy_row_params): every node the
+   exact test of lucy_value_units can accept is inside. Where the quadratic is
+   too flat (the segment nearly along the row) its roots are ill-conditioned
+   and the cylinder piece is taken as the whole slab. Out: the node indices
+   klo..khi (as doubles; klo > khi: none) on the row's coordinates
+   z0 + k h, widened by slack nodes for their rounding. */
+INLINE void lucy_rows_body(int count, const double *restrict f0, const double *restrict f1,
+                           const lucy_row_params *restrict P, double *restrict klo, double *restrict khi)
+{
+    const double n0 = P->n[0], n1 = P->n[1], nz = P->nz, e0 = P->e[0], e1 = P->e[1], ez = P->ez;
+    const double A = 1.0 - nz * nz, bound = P->bound, mu = P->mu, L = P->L;
+    const int flat = !(A > 1e-3);
+    const double inv_a = 1.0 / (flat ? 1.0 : A), inv_nz = 1.0 / (nz != 0.0 ? nz : 1.0);
+    const double inv_h = 1.0 / P->h, shift = P->x_row - P->z0, slack = P->slack;
+    for (int i = 0; i < count; ++i) {
+        const double c = f0[i] * n0 + f1[i] * n1;
+        const double p2 = f0[i] * f0[i] + f1[i] * f1[i];
+        const double g0 = f0[i] - e0, g1 = f1[i] - e1;
+        const double pe2 = g0 * g0 + g1 * g1;
+        const double hs = sqrt(p2 < bound ? bound - p2 : 0.0), he = sqrt(pe2 < bound ? bound - pe2 : 0.0);
+        double lo = p2 < bound ? -hs : INFINITY, hi = p2 < bound ? hs : -INFINITY;
+        const double elo = pe2 < bound ? ez - he : INFINITY, ehi = pe2 < bound ? ez + he : -INFINITY;
+        lo = elo < lo ? elo : lo;
+        hi = ehi > hi ? ehi : hi;
+        /* the slab -mu <= c + z nz <= L + mu */
+        const double za = (-mu - c) * inv_nz, zb = (L + mu - c) * inv_nz;
+        const int c_in = c >= -mu && c <= L + mu;
+        double slo = nz > 0.0 ? za : zb, shi = nz > 0.0 ? zb : za;
+        slo = nz != 0.0 ? slo : (c_in ? -INFINITY : INFINITY);
+        shi = nz != 0.0 ? shi : (c_in ? INFINITY : -INFINITY);
+        /* A z^2 - 2 B z + C <= 0 */
+        const double B = c * nz, C = p2 - c * c - bound;
+        const double disc = B * B - A * C;
+        const double root = sqrt(disc > 0.0 ? disc : 0.0);
+        double clo = flat ? slo : (disc > 0.0 ? (B - root) * inv_a : INFINITY);
+        double chi = flat ? shi : (disc > 0.0 ? (B + root) * inv_a : -INFINITY);
+        clo = slo > clo ? slo : clo;
+        chi = shi < chi ? shi : chi;
+        const int cyl = clo <= chi;
+        lo = cyl && clo < lo ? clo : lo;
+        hi = cyl && chi > hi ? chi : hi;
+        klo[i] = ceil((shift + lo) * inv_h - slack);
+        khi[i] = floor((shift + hi) * inv_h + slack);
+    }
+}
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__has_attribute)
+#if __has_attribute(target_clones) && defined(__x86_64__) && !defined(CGBOUND_NO_CLONES)
+#define LUCY_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+#endif
+#ifndef LUCY_CLONES
+#define LUCY_CLONES
+#endif
+
+LUCY_CLONES static void lucy_values_narrow(int count, const double *q0, const double *q1, const double *q2,
+                                           const double *n, const double *e, double L, double R, double factor,
+                                           double *w)
+{
+    lucy_values_body(count, q0, q1, q2, n, e, L, R, factor, w);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void lucy_values_wide(int count, const double *q0, const double *q1,
+                                                                  const double *q2, const double *n, const double *e,
+                                                                  double L, double R, double factor, double *w)
+{
+    lucy_values_body(count, q0, q1, q2, n, e, L, R, factor, w);
+}
+#endif
+
+LUCY_CLONES static void lucy_rows_narrow(int count, const double *f0, const double *f1, const lucy_row_params *P,
+                                         double *klo, double *khi)
+{
+    lucy_rows_body(count, f0, f1, P, klo, khi);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void lucy_rows_wide(int count, const double *f0, const double *f1,
+                                                                const lucy_row_params *P, double *klo, double *khi)
+{
+    lucy_rows_body(count, f0, f1, P, klo, khi);
+}
+#endif
+
+void cg_lucy_rows(int count, const double *f0, const double *f1, const lucy_row_params *P, double *klo,
+                  double *khi, int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        lucy_rows_wide(count, f0, f1, P, klo, khi);
+        return;
+    }
+#endif
+    (void)wide;
+    lucy_rows_narrow(count, f0, f1, P, klo, khi);
+}
+
+void cg_lucy_values(int count, const double *q0, const double *q1, const double *q2, const double *n,
+                    const double *e, double L, double R, double factor, double *w, int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        lucy_values_wide(count, q0, q1, q2, n, e, L, R, factor, w);
+        return;
+    }
+#endif
+    (void)wide;
+    lucy_values_narrow(count, q0, q1, q2, n, e, L, R, factor, w);
+}
+
+double cg_lucy_value(const double *q, const double *n, const double *e, double L, double R)
+{
+    const double inv = 1.0 / R;
+    return lucy_value_units(q[0], q[1], q[2], n, e, L, R, inv);
+}
