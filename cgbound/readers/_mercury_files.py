@@ -46,22 +46,57 @@ def _remember_checkpoints(path, checkpoints):
     _GZIP_CHECKPOINTS[_gzip_key(path)] = checkpoints
 
 
-@contextlib.contextmanager
-def file_bytes(path):
-    """The whole file's bytes: memory-mapped if plain, decompressed as a zlib stream if gzip."""
+#: bytes per window of a scan: the scan holds one window (and its line offsets), never the whole file
+SCAN_WINDOW = 1 << 24
+
+
+def scan_windows(path, size=None):
+    """The file as windows of whole lines: yields (data, lo, hi, base, first_line, starts).
+
+    ``data[lo:hi]`` is the window (an mmap of a plain file, or a decompressed piece of a gzip file), ``base``
+    its offset in data's coordinates subtracted from the file's (0 for an mmap), ``first_line`` the 1-based
+    line number of ``lo``, ``starts`` the offsets in data of the window's line starts. Each window but the
+    last ends with a newline; a line longer than ``size`` makes a longer window. Memory: one window.
+    """
+    size = SCAN_WINDOW if size is None else size
+    line = 1
     if is_gzip(path):
-        checkpoints = []
-        data = b"".join(iter_chunks(path, checkpoints=checkpoints))
+        checkpoints, buf, base = [], bytearray(), 0
+        for chunk in iter_chunks(path, checkpoints=checkpoints):
+            buf += chunk
+            if len(buf) < size:
+                continue
+            cut = buf.rfind(b"\n") + 1
+            if cut == 0:       # no line ends in the window yet: read on
+                continue
+            window = bytes(buf[:cut])
+            del buf[:cut]
+            starts = find_lines(window, b"")
+            yield window, 0, cut, base, line, starts
+            base, line = base + cut, line + len(starts)
         _remember_checkpoints(path, checkpoints)
-        yield data
+        if buf:
+            window = bytes(buf)
+            yield window, 0, len(window), base, line, find_lines(window, b"")
         return
     with open(path, "rb") as fh:
-        if os.fstat(fh.fileno()).st_size == 0:
-            yield b""
+        total = os.fstat(fh.fileno()).st_size
+        if total == 0:
             return
         mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
         try:
-            yield mm
+            lo = 0
+            while lo < total:
+                hi = min(lo + size, total)
+                if hi < total:
+                    cut = mm.rfind(b"\n", lo, hi)
+                    if cut < 0:
+                        cut = mm.find(b"\n", hi)
+                    hi = total if cut < 0 else cut + 1
+                starts = find_lines(mm, b"", lo, hi)
+                yield mm, lo, hi, 0, line, starts
+                line += len(starts)
+                lo = hi
         finally:
             try:
                 mm.close()
@@ -85,120 +120,136 @@ def _empty_file_error(path, what):
                       f"not yet written? write it again)")
 
 
-def _line_numbers(data, offsets):
-    """1-based line number of each byte offset (increasing) of data: newlines counted between them."""
-    view = np.frombuffer(data, dtype=np.uint8)
-    out, line, last = [], 1, 0
-    for off in offsets:
-        line += int(np.count_nonzero(view[last:off] == 10))
-        last = off
-        out.append(line)
-    del view
-    return out
-
-
 def _words(data, start, stop):
     return bytes(data[start:stop]).split()
 
 
 def scan_data(path, dim):
     """Frames of a .data file: list of (header offset, header line number, n, time, dim, header values,
-    first particle line's offset, end of the frame's lines)."""
+    first particle line's offset, end of the frame's lines). One pass over windows of the file."""
     frames = []
-    with file_bytes(path) as data:
-        size = len(data)
-        starts = find_lines(data, b"")
-        nlines = len(starts)
-        k = 0
-        while k < nlines:
-            a = int(starts[k])
-            b = int(starts[k + 1]) if k + 1 < nlines else size
-            words = _words(data, a, b)
-            if not words or words[0].startswith(b"#"):
-                k += 1
-                continue
-            lineno = k + 1
-            if len(words) not in (6, 8):
-                raise ValueError(f"{path}:{lineno}: expected a header 'N time xmin ymin [zmin] xmax ymax [zmax]' "
-                                 f"(6 values in 2D, 8 in 3D), got {len(words)} values")
-            head = parse_table(data, a, b, len(words), int_columns=(0,), name=path, frame="a frame header",
-                               first_line=lineno)
-            d = 3 if len(words) == 8 else 2
-            if dim is not None and d != dim:
-                raise ValueError(f"{path}:{lineno}: a {d}D header, but dim={dim} was given")
-            n, time = int(head.ints[0, 0]), float(head.values[0, 1])
-            if n < 0:
-                raise ValueError(f"{path}:{lineno}: expected a particle count, got {words[0].decode()!r}")
-            if k + n >= nlines:
-                raise ValueError(f"{path}:{lineno}: the frame at t = {time:g} declares {n} particles but only "
-                                 f"{nlines - k - 1} lines follow: the file is truncated (cut off while being "
-                                 f"written or copied); write it again or drop its last frame")
-            rows_start = int(starts[k + 1]) if n else b
-            rows_stop = int(starts[k + n + 1]) if k + n + 1 < nlines else size
-            frames.append((a, lineno, n, time, d, tuple(head.values[0].tolist()), rows_start, rows_stop))
-            k += n + 1
-        del starts
-        if not frames:   # only blank and '#' lines
-            if not bytes(data).strip():
-                raise _empty_file_error(path, "MercuryDPM .data frames ('N time xmin ...' headers)")
-            raise ValueError(f"{path}: no frame header 'N time xmin ymin [zmin] xmax ymax [zmax]', only comment "
-                             f"lines; expected a MercuryDPM .data file")
+    text_seen = False
+    open_frame, remaining = None, 0       # a frame whose particle lines run on into the next window
+    with contextlib.closing(scan_windows(path)) as windows:
+        for data, lo, hi, base, first_line, starts in windows:
+            nlines = len(starts)
+            k = 0
+            if open_frame is not None:
+                k = min(remaining, nlines)
+                remaining -= k
+            while True:
+                if open_frame is not None:
+                    if remaining:
+                        break
+                    rows_stop = base + (int(starts[k]) if k < nlines else hi)
+                    frames.append(open_frame + (rows_stop,))
+                    open_frame = None
+                if k >= nlines:
+                    break
+                a = int(starts[k])
+                b = int(starts[k + 1]) if k + 1 < nlines else hi
+                words = _words(data, a, b)
+                if not words or words[0].startswith(b"#"):
+                    text_seen = text_seen or bool(words)
+                    k += 1
+                    continue
+                text_seen = True
+                lineno = first_line + k
+                if len(words) not in (6, 8):
+                    raise ValueError(f"{path}:{lineno}: expected a header 'N time xmin ymin [zmin] xmax ymax [zmax]' "
+                                     f"(6 values in 2D, 8 in 3D), got {len(words)} values")
+                head = parse_table(data, a, b, len(words), int_columns=(0,), name=path, frame="a frame header",
+                                   first_line=lineno)
+                d = 3 if len(words) == 8 else 2
+                if dim is not None and d != dim:
+                    raise ValueError(f"{path}:{lineno}: a {d}D header, but dim={dim} was given")
+                n, time = int(head.ints[0, 0]), float(head.values[0, 1])
+                if n < 0:
+                    raise ValueError(f"{path}:{lineno}: expected a particle count, got {words[0].decode()!r}")
+                open_frame = (base + a, lineno, n, time, d, tuple(head.values[0].tolist()), base + b)
+                taken = min(n, nlines - k - 1)
+                remaining = n - taken
+                k += 1 + taken
+    if open_frame is not None:
+        a, lineno, n, time = open_frame[:4]
+        raise ValueError(f"{path}:{lineno}: the frame at t = {time:g} declares {n} particles but only "
+                         f"{n - remaining} lines follow: the file is truncated (cut off while being "
+                         f"written or copied); write it again or drop its last frame")
+    if not frames:   # only blank and '#' lines
+        if not text_seen:
+            raise _empty_file_error(path, "MercuryDPM .data frames ('N time xmin ...' headers)")
+        raise ValueError(f"{path}: no frame header 'N time xmin ymin [zmin] xmax ymax [zmax]', only comment "
+                         f"lines; expected a MercuryDPM .data file")
     return frames
 
 
 def scan_fstat(path):
     """Frames of a .fstat file: list of (offset of the first header line, its line number, time, marker,
-    offset of the frame's first interaction line, end of its lines, line number of that offset)."""
-    with file_bytes(path) as data:
-        size = len(data)
-        heads = [int(h) for h in find_lines(data, b"#")]
-        if not heads:
-            if not bytes(data).strip():
-                raise _empty_file_error(path, "MercuryDPM .fstat frames ('# time marker' headers)")
-            raise ValueError(f"{path}:1: contact line before the first '# time' header")
-        if bytes(data[:heads[0]]).strip():
-            line = _line_numbers(data, [heads[0]])[0]
-            first = next(k for k, w in enumerate(bytes(data[:heads[0]]).split(b"\n")) if w.strip())
-            raise ValueError(f"{path}:{first + 1}: contact line before the first '# time' header "
-                             f"(the first header is on line {line})")
-        ends = []
-        for h in heads:
-            e = data.find(b"\n", h)
-            ends.append(size if e < 0 else e + 1)
-        lines = _line_numbers(data, heads)
-        # runs of consecutive header lines: 3 per frame (a frame without contacts is followed at once by the next)
-        runs, k = [], 0
-        while k < len(heads):
-            m = k
-            while m + 1 < len(heads) and heads[m + 1] == ends[m]:
-                m += 1
-            runs.append((k, m + 1))
-            k = m + 1
-        frames = []
-        for r, (a, b) in enumerate(runs):
-            if (b - a) % FSTAT_HEADER_LINES:
-                raise ValueError(f"{path}:{lines[a]}: {b - a} '#' header line{'s' if b - a > 1 else ''} in a row "
-                                 f"where .fstat frames have {FSTAT_HEADER_LINES} ('# time marker', '# xmin ymin zmin "
-                                 f"xmax ymax zmax', '# rmin rmax ...'): a header line is missing, or a line was "
-                                 f"inserted into a header (a damaged file; write it again)")
-            for f in range(a, b, FSTAT_HEADER_LINES):
-                words = _words(data, heads[f] + 1, ends[f])
-                if not words:
-                    raise ValueError(f"{path}:{lines[f]}: expected '# time marker', got an empty header line")
-                head = parse_table(data, heads[f] + 1, ends[f], len(words), name=path, frame="a frame header",
-                                   first_line=lines[f]).values[0]
-                marker = int(head[1]) if len(head) > 1 else 0
-                last = f + FSTAT_HEADER_LINES - 1
-                rows_start = ends[last]
-                rows_stop = heads[runs[r + 1][0]] if f + FSTAT_HEADER_LINES == b and r + 1 < len(runs) else \
-                    (heads[f + FSTAT_HEADER_LINES] if f + FSTAT_HEADER_LINES < b else size)
-                frames.append((heads[f], lines[f], float(head[0]), marker, rows_start, rows_stop, lines[last] + 1))
-        last = frames[-1]
-        if not _TEXT.search(data, last[4], last[5]) and any(f[5] > f[4] for f in frames[:-1]):
-            raise ValueError(f"{path}:{last[1]}: the last frame (t = {last[2]:g}) has no interaction lines while "
-                             f"earlier frames have some: the file is truncated (cut off while being written or "
-                             f"copied); write it again, or delete that frame's three header lines if the run "
-                             f"really ended without contacts")
+    offset of the frame's first interaction line, end of its lines, line number of that offset).
+    One pass over windows of the file, keeping only the '#' lines."""
+    heads, ends, lines, texts = [], [], [], []
+    size, text_line = 0, None         # text_line: the line of the first text before the first header
+    text_after = False                # whether the lines after the last header hold text
+    with contextlib.closing(scan_windows(path)) as windows:
+        for data, lo, hi, base, first_line, starts in windows:
+            size = base + hi
+            found = find_lines(data, b"#", lo, hi)
+            if not heads and text_line is None:
+                text = _TEXT.search(data, lo, int(found[0]) if len(found) else hi)
+                if text is not None:
+                    text_line = first_line + int(np.searchsorted(starts, text.start(), side="right")) - 1
+            for h, k in zip(found.tolist(), np.searchsorted(starts, found).tolist()):
+                e = data.find(b"\n", h, hi)
+                e = hi if e < 0 else e + 1
+                heads.append(base + h)
+                ends.append(base + e)
+                lines.append(first_line + k)
+                texts.append(bytes(data[h + 1:e]))
+            # whether the lines after the last header so far hold text (the search stops at the first)
+            if len(found):
+                text_after = _TEXT.search(data, ends[-1] - base, hi) is not None
+            elif heads and not text_after:
+                text_after = _TEXT.search(data, lo, hi) is not None
+    if not heads:
+        if text_line is None:
+            raise _empty_file_error(path, "MercuryDPM .fstat frames ('# time marker' headers)")
+        raise ValueError(f"{path}:1: contact line before the first '# time' header")
+    if text_line is not None:
+        raise ValueError(f"{path}:{text_line}: contact line before the first '# time' header "
+                         f"(the first header is on line {lines[0]})")
+    # runs of consecutive header lines: 3 per frame (a frame without contacts is followed at once by the next)
+    runs, k = [], 0
+    while k < len(heads):
+        m = k
+        while m + 1 < len(heads) and heads[m + 1] == ends[m]:
+            m += 1
+        runs.append((k, m + 1))
+        k = m + 1
+    frames = []
+    for r, (a, b) in enumerate(runs):
+        if (b - a) % FSTAT_HEADER_LINES:
+            raise ValueError(f"{path}:{lines[a]}: {b - a} '#' header line{'s' if b - a > 1 else ''} in a row "
+                             f"where .fstat frames have {FSTAT_HEADER_LINES} ('# time marker', '# xmin ymin zmin "
+                             f"xmax ymax zmax', '# rmin rmax ...'): a header line is missing, or a line was "
+                             f"inserted into a header (a damaged file; write it again)")
+        for f in range(a, b, FSTAT_HEADER_LINES):
+            words = texts[f].split()
+            if not words:
+                raise ValueError(f"{path}:{lines[f]}: expected '# time marker', got an empty header line")
+            head = parse_table(texts[f], 0, len(texts[f]), len(words), name=path, frame="a frame header",
+                               first_line=lines[f]).values[0]
+            marker = int(head[1]) if len(head) > 1 else 0
+            last = f + FSTAT_HEADER_LINES - 1
+            rows_start = ends[last]
+            rows_stop = heads[runs[r + 1][0]] if f + FSTAT_HEADER_LINES == b and r + 1 < len(runs) else \
+                (heads[f + FSTAT_HEADER_LINES] if f + FSTAT_HEADER_LINES < b else size)
+            frames.append((heads[f], lines[f], float(head[0]), marker, rows_start, rows_stop, lines[last] + 1))
+    last = frames[-1]
+    if not text_after and any(f[5] > f[4] for f in frames[:-1]):
+        raise ValueError(f"{path}:{last[1]}: the last frame (t = {last[2]:g}) has no interaction lines while "
+                         f"earlier frames have some: the file is truncated (cut off while being written or "
+                         f"copied); write it again, or delete that frame's three header lines if the run "
+                         f"really ended without contacts")
     return frames
 
 
