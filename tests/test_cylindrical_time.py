@@ -11,8 +11,8 @@ from helpers import random_snapshot
 
 #: primaries as fields (linear in the data: their time average is the average of the frames' values)
 LINEAR = ("density", "momentum", "momentum_flux", "contact_stress", "boundary_stress",
-          "interaction_force_density", "body_force_density")
-DERIVED = ("velocity", "kinetic_stress", "stress", "pressure", "temperature")
+          "interaction_force_density", "body_force_density", "density_gradient", "momentum_gradient")
+DERIVED = ("velocity", "kinetic_stress", "stress", "pressure", "temperature", "velocity_gradient")
 
 
 def frames(n=5):
@@ -45,6 +45,9 @@ def by_hand(snaps, grid, kernel):
     mean["stress"] = mean["kinetic_stress"] + mean["contact_stress"] + mean["boundary_stress"]
     mean["pressure"] = -np.trace(mean["stress"], axis1=-2, axis2=-1) / 3
     mean["temperature"] = -np.trace(mean["kinetic_stress"], axis1=-2, axis2=-1) / (3 * rho)
+    V = mean["velocity"]
+    mean["velocity_gradient"] = (mean["momentum_gradient"] - V[..., :, None] * mean["density_gradient"][..., None, :]) \
+        / rho[..., None, None]
     return mean
 
 
