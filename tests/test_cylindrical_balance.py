@@ -13,8 +13,8 @@ EXACT = cg.Gaussian(0.4, cutoff=4.0)       # cutoff 10 w: the θ rule is exact t
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "lammps", "silo")
 
 
-def snapshot():
-    return random_snapshot(3, n=40, n_bulk=30, lengths=[6.0, 6.0, 5.0], periodic=(False, False, False))
+def snapshot(periodic=(False, False, False)):
+    return random_snapshot(3, n=40, n_bulk=30, lengths=[6.0, 6.0, 5.0], periodic=periodic)
 
 
 def axis_point(snap):
@@ -32,9 +32,12 @@ def without_hoop(balance, component=slice(None)):
     return out
 
 
-@pytest.mark.parametrize("z", [(-1.0, 1.5, 4), None])
-def test_random_data_balance_is_round_off_and_needs_the_hoop_terms(z):
-    snap = snapshot()
+@pytest.mark.parametrize("z, periodic", [((-1.0, 1.5, 4), (False, False, False)), (None, (False, False, False)),
+                                         ((-1.0, 1.5, 4), (True, True, False))])
+def test_random_data_balance_is_round_off_and_needs_the_hoop_terms(z, periodic):
+    """Any data (random contact forces: no balance of the particles themselves); periodic images across the
+    box's x and y sides break the axial symmetry, not the identity."""
+    snap = snapshot(periodic)
     grid = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.0, 2.5, 6), z=z)
     b = cg.cylindrical_momentum_balance_residual(snap, grid, EXACT)
     assert b.residual.shape == grid.shape + (3,) and b.contact_stress.shape == grid.shape + (3, 3)
