@@ -143,3 +143,22 @@ def test_writers_on_cylindrical_results(tmp_path):
     np.testing.assert_array_equal(ds["r"].values, grid.r)
     with pytest.raises(TypeError, match="VTK"):
         res.to_vtk(tmp_path / "cyl.vtk")
+
+
+def test_reader_frames_read_ahead_on_the_silo():
+    """A reader (frames read one ahead in a thread): the genuine silo frames, averaged by hand."""
+    import os
+    from cgbound.paper.scenes import SILO_TIMESTEP
+    from cgbound.paper.scenes.lammps import PAIR_VALUES
+    from cgbound.readers.lammps import LammpsReader
+    data = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "lammps", "silo")
+    reader = LammpsReader(os.path.join(data, "frames.atoms.dump.gz"), os.path.join(data, "frames.pairs.dump.gz"),
+                          pair_values=PAIR_VALUES, walls=["wall0", "wall1"], body_force=(0.0, 0.0, -1.0),
+                          dt=SILO_TIMESTEP)
+    grid = cg.CylindricalGrid(reader[0].box, (0.0, 0.0, 0.0), "z", r=(0.0, 4.5, 5), z=(0.0, 8.0, 3))
+    kernel = cg.Gaussian(0.5)
+    got = cg.CoarseGrain(reader, grid, kernel, fields=LINEAR + DERIVED).run().results
+    want = by_hand([reader[k] for k in range(len(reader))], grid, kernel)
+    assert got.n_frames == len(reader) == 2
+    for f in LINEAR + DERIVED:
+        np.testing.assert_allclose(getattr(got, f), want[f], rtol=0, atol=1e-13 * np.abs(want[f]).max(), err_msg=f)
