@@ -184,12 +184,11 @@ class Partial:
                 self.u_ref, self.dim = reference_velocity(snap), snap.dim
             elif snap.dim != self.dim:
                 raise ValueError(f"snapshot: expected a {self.dim}D snapshot like the first frame, got {snap.dim}D")
-        if plan.species is not None:
-            self.species_seen.update(np.unique(snapshot.species).tolist())
-        if not isinstance(plan.grid, CylindricalGrid):
             job = Job(snap, target, kernel, plan.fields, plan.convention, plan.needed,
                       check_computable(snap, plan.needed))
             prim = whole_target_sums(job, self.u_ref)
+        if plan.species is not None:
+            self.species_seen.update(np.unique(snapshot.species).tolist())
         if self.target is None:
             self.target, self.kernel, self.box = target, kernel, snap.box
             self.units = snap.units
