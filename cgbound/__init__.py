@@ -10,6 +10,7 @@ from .block_errors import CorrelatedBlocksWarning
 from .box import Box
 from .coarse import CoarseGrain, coarse_grain
 from .cylindrical import CylindricalGrid
+from .cylindrical_balance import CylindricalMomentumBalance, cylindrical_momentum_balance_residual
 from .fields import FIELDS
 from .grid import Grid, Points
 from .kernels import Gaussian, Heaviside, Lucy
@@ -35,4 +36,5 @@ __all__ = ["Box", "CoarseGrain", "Contacts", "FIELD_NAMES", "Gaussian", "Grid", 
            "gaussian_cutoff_for", "gaussian_tail_fraction", "CorrelatedBlocksWarning",
            "WidthScan", "width_scan", "Units", "stress_ratio",
            "ROTATION_FIELDS", "rotation_fields", "AngularMomentumBalance", "angular_momentum_balance_residual",
-           "MuOfIFit", "fit_mu_of_i", "mu_of_i", "CylindricalGrid"]
+           "MuOfIFit", "fit_mu_of_i", "mu_of_i", "CylindricalGrid",
+           "CylindricalMomentumBalance", "cylindrical_momentum_balance_residual"]

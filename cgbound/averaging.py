@@ -8,6 +8,8 @@ the blocks to an executor (:mod:`cgbound.executors`).
 """
 import numpy as np
 
+from .cylindrical import CylindricalGrid
+from .cylindrical_fields import check_ring_arguments, ring_primaries
 from .fields import derive, needed_primaries
 from .pipeline import Job, check_arguments, whole_target_sums
 from .primaries import check_computable, reference_velocity
@@ -123,6 +125,10 @@ class FramePlan:
     def first_frame(self, snapshot, index=0):
         """The reference velocity and dimension every frame of the run is computed with."""
         try:
+            if isinstance(self.grid, CylindricalGrid):
+                # ring primaries are summed about 0 (a constant Cartesian velocity is not one in (r, θ, z))
+                check_ring_arguments(snapshot, self.grid, self.kernel, self.fields, self.convention, self.species)
+                return np.zeros(3), 3
             snap = check_arguments(snapshot, self.grid, self.kernel, self.fields, self.convention, self.species)[0]
         except Exception as exc:
             raise name_frame(exc, index) from exc
@@ -165,17 +171,24 @@ class Partial:
 
     def _add(self, snapshot):
         plan = self.plan
-        snap, target, kernel, _, _ = check_arguments(snapshot, plan.grid, plan.kernel, plan.fields, plan.convention,
-                                                     plan.species)
-        if self.u_ref is None:
-            self.u_ref, self.dim = reference_velocity(snap), snap.dim
-        elif snap.dim != self.dim:
-            raise ValueError(f"snapshot: expected a {self.dim}D snapshot like the first frame, got {snap.dim}D")
+        if isinstance(plan.grid, CylindricalGrid):
+            # the ring averages of the primaries in (e_r, e_θ, e_z), always about the reference velocity 0
+            job, prim = ring_primaries(snapshot, plan.grid, plan.kernel, plan.fields, plan.convention, plan.species)
+            snap, target, kernel = job.snapshot, plan.grid, job.kernel
+            if self.u_ref is None:
+                self.u_ref, self.dim = np.zeros(3), 3
+        else:
+            snap, target, kernel, _, _ = check_arguments(snapshot, plan.grid, plan.kernel, plan.fields,
+                                                         plan.convention, plan.species)
+            if self.u_ref is None:
+                self.u_ref, self.dim = reference_velocity(snap), snap.dim
+            elif snap.dim != self.dim:
+                raise ValueError(f"snapshot: expected a {self.dim}D snapshot like the first frame, got {snap.dim}D")
+            job = Job(snap, target, kernel, plan.fields, plan.convention, plan.needed,
+                      check_computable(snap, plan.needed))
+            prim = whole_target_sums(job, self.u_ref)
         if plan.species is not None:
             self.species_seen.update(np.unique(snapshot.species).tolist())
-        job = Job(snap, target, kernel, plan.fields, plan.convention, plan.needed,
-                  check_computable(snap, plan.needed))
-        prim = whole_target_sums(job, self.u_ref)
         if self.target is None:
             self.target, self.kernel, self.box = target, kernel, snap.box
             self.units = snap.units

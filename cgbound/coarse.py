@@ -96,7 +96,7 @@ class CoarseGrain:
             raise TypeError(f"snapshots: expected a sequence or iterable of cg.Snapshot, got {type(snapshots).__name__}")
         self.snapshots = snapshots
         self.grid = grid
-        self._target = grid if isinstance(grid, (Grid, Points)) else Points(grid, _name="grid")
+        self._target = grid if isinstance(grid, (Grid, Points, CylindricalGrid)) else Points(grid, _name="grid")
         self.kernel = check_kernel(kernel)
         self.fields = check_fields(fields)
         self.convention = check_convention(convention)

@@ -20,7 +20,7 @@ import numpy as np
 from .cylindrical import CylindricalGrid
 from .fields import derive
 from .grid import Points
-from .kernels import Gaussian
+from .kernels import Gaussian, check_kernel
 from .pipeline import prepare, shape_fields
 from .primaries import GRADIENT_PRIMARIES, PRIMARIES, compute_primaries
 from .result import Result
@@ -94,8 +94,9 @@ def rotate(values, rank, basis):
     return np.einsum("qia,qab,qjb->qij", basis, values, basis)
 
 
-def coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention="tension", species=None):
-    """Fields of one snapshot on a CylindricalGrid (see :func:`cgbound.coarse_grain`)."""
+def check_ring_arguments(snapshot, grid, kernel, fields, convention="tension", species=None):
+    """Raise before any work if the fields of ``snapshot`` cannot be computed on ``grid``; returns the
+    checked job of a one-point target (its kernel, fields, convention)."""
     if not isinstance(grid, CylindricalGrid):
         raise TypeError(f"grid: expected a cg.CylindricalGrid, got {type(grid).__name__}")
     if not isinstance(snapshot, Snapshot):
@@ -103,10 +104,23 @@ def coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention="tension
     if snapshot.dim != 3:
         raise ValueError(f"snapshot: expected a 3-D snapshot for a CylindricalGrid, got a {snapshot.dim}-D one")
     # checks every argument (kernel, fields, convention, species) on a one-point target before the work
-    probe = prepare(snapshot, Points(grid.axis_point[None, :]), kernel, fields, convention, species)
-    if probe.needed & GRADIENT_PRIMARIES:
-        raise ValueError(f"fields: gradient fields are not available on a CylindricalGrid yet, got {tuple(fields)}")
-    positions, angles, weights, starts = quadrature(grid, probe.kernel)
+    return prepare(snapshot, Points(grid.axis_point[None, :]), kernel, fields, convention, species)
+
+
+def ring_primaries(snapshot, grid, kernel, fields, convention="tension", species=None):
+    """The checked job and the primaries the fields need, averaged over each node's quadrature points and
+    rotated into (e_r, e_θ, e_z): a dict flat over nodes (shape (n_nodes,) + (3,) * rank), about the
+    reference velocity 0. What :func:`coarse_grain_cylindrical` derives one snapshot's fields from, and
+    what time averages (:mod:`cgbound.averaging`) sum over frames.
+
+    The gradient primaries are the Cartesian gradients rotated on every index and averaged: the ring
+    average of e_a · ∇p · e_b is the cylindrical gradient of the θ-averaged field in physical components
+    (∂/∂r and ∂/∂z of the averaged components, and the hoop terms -p_θ/r, p_r/r in the θ column; see
+    docs/guide/cylindrical.md). On a z-averaged grid the fields do not depend on z: the z column is zero,
+    as along a Grid's averaged axes.
+    """
+    check_ring_arguments(snapshot, grid, kernel, fields, convention, species)
+    positions, angles, weights, starts = quadrature(grid, check_kernel(kernel))
     job = prepare(snapshot, Points(positions), kernel, fields, convention, species)
     zero = np.zeros(3)       # a reference velocity constant in Cartesian components is not one in (r, θ, z)
     # the kinetic stress of a ring is the velocity spread about the ring's averaged velocity (as on a Grid's
@@ -125,6 +139,16 @@ def coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention="tension
         spread = np.einsum("ni,nj->nij", p, p)
         np.divide(spread, rho[:, None, None], out=spread, where=rho[:, None, None] > 0)
         averaged["sk"] = np.ascontiguousarray(spread - averaged["k"].reshape(spread.shape))
+    if grid.z_averaged:
+        for name in job.needed & GRADIENT_PRIMARIES:
+            averaged[name][..., 2] = 0.0
+    return job, averaged
+
+
+def coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention="tension", species=None):
+    """Fields of one snapshot on a CylindricalGrid (see :func:`cgbound.coarse_grain`)."""
+    job, averaged = ring_primaries(snapshot, grid, kernel, fields, convention, species)
+    zero = np.zeros(3)
     flat = derive(averaged, job.fields, zero, 3, job.convention)
     flat = {name: np.ascontiguousarray(v) for name, v in flat.items()}
     return Result(shape_fields(flat, grid, 3), grid, job.kernel, job.convention, [job.snapshot.time],

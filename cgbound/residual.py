@@ -117,10 +117,18 @@ def momentum_balance_residual(snapshot, points, kernel, forces=None):
         terms["interaction_force_density"] = zero
     terms["body_force_density"] = (points_value(pos, m[:, None] * snapshot.body_force[flow])
                                    if snapshot.body_force is not None else zero)
-    # largest possible term magnitude: peak kernel value times the largest force
+    return MomentumBalance(target, terms, reach=largest_term(snapshot, point_kernel, forces))
+
+
+def largest_term(snapshot, point_kernel, forces):
+    """The largest magnitude a term of the balance can reach: the peak kernel value (``point_kernel``, the
+    core's description) times the largest particle, contact or body force."""
+    dim = snapshot.dim
+    flow = snapshot.flowing
+    m = snapshot.masses[flow]
     origin = np.zeros((1, dim))
     peak = scatter_points(point_target(origin), point_kernel, origin, np.ones((1, 1)))[0, 0]
     largest = max(np.abs(forces[flow]).max(initial=0.0), np.abs(snapshot.contacts.force).max(initial=0.0),
                   np.abs(m[:, None] * snapshot.body_force[flow]).max(initial=0.0) if snapshot.body_force is not None
                   else 0.0)
-    return MomentumBalance(target, terms, reach=peak * largest)
+    return peak * largest

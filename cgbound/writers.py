@@ -12,6 +12,7 @@ import json
 import numpy as np
 
 from ._atomic import atomic_write
+from .cylindrical import CylindricalGrid
 from .fields import FIELDS
 from .grid import Grid
 from .units import unit
@@ -42,7 +43,23 @@ def _metadata(result):
     g = result.grid
     if isinstance(g, Grid):
         meta.update(grid_shape=list(g.shape), averaged=[g.box.axis_names[d] for d in g.averaged])
+    if isinstance(g, CylindricalGrid):
+        # vectors and tensors are in the local basis (e_r, e_θ, e_z) of docs/guide/cylindrical.md
+        meta.update(grid_shape=list(g.shape), components=list(CYLINDRICAL_AXES), cylindrical=json.dumps({
+            "axis_point": g.axis_point.tolist(), "axis": g.e_z.tolist(), "angle_origin": g.e_1.tolist(),
+            "theta_averaged": g.theta_averaged, "z_averaged": g.z_averaged}))
     return meta
+
+
+#: the coordinates of a CylindricalGrid's axes, and the names of vector and tensor components on it
+CYLINDRICAL_AXES = ("r", "theta", "z")
+
+
+def axis_coordinates(grid):
+    """[(name, node coordinates)] of a Grid's or a CylindricalGrid's axes (an averaged axis: its centre)."""
+    if isinstance(grid, CylindricalGrid):
+        return [(name, getattr(grid, name)) for name in CYLINDRICAL_AXES]
+    return list(zip(grid.box.axis_names, grid.axis_coordinates))
 
 
 def write_hdf5(result, path, provenance=None):
@@ -61,11 +78,11 @@ def write_hdf5(result, path, provenance=None):
             coordinates = f.create_dataset("coordinates", data=result.coordinates)
             if length is not None:
                 coordinates.attrs["units"] = length
-            if isinstance(result.grid, Grid):
-                for name, axis in zip(result.box.axis_names, result.grid.axis_coordinates):
+            if isinstance(result.grid, (Grid, CylindricalGrid)):
+                for name, axis in axis_coordinates(result.grid):
                     data = f.create_dataset(f"axes/{name}", data=axis)
                     if length is not None:
-                        data.attrs["units"] = length
+                        data.attrs["units"] = "radian" if name == "theta" else length
             fields = f.create_group("fields")
             for name in result.fields:
                 data = fields.create_dataset(name, data=result[name], chunks=True if result[name].size > 1 else None,
@@ -96,7 +113,8 @@ def write_vtk(result, path, frame=None):
     """
     grid = result.grid
     if not isinstance(grid, Grid):
-        raise TypeError("result: VTK output needs a result on a cg.Grid, not on points")
+        raise TypeError(f"result: VTK output needs a result on a cg.Grid (a rectilinear grid), got one on "
+                        f"{type(grid).__name__}")
     dim = grid.dim
     leading = result[result.fields[0]].ndim - len(grid.shape) - FIELDS[result.fields[0]][0]
     if leading and frame is None:
@@ -163,7 +181,8 @@ def to_xarray(result):
     except ImportError as exc:
         raise ImportError("to_xarray needs xarray: pip install xarray") from exc
     grid = result.grid
-    names = result.box.axis_names
+    cylindrical = isinstance(grid, CylindricalGrid)
+    names = CYLINDRICAL_AXES if cylindrical else result.box.axis_names
     comp = list(names)
     data_vars = {}
     coords = {}
@@ -172,7 +191,7 @@ def to_xarray(result):
     for name in result.fields:
         value = result[name]
         rank = FIELDS[name][0]
-        if isinstance(grid, Grid):
+        if isinstance(grid, (Grid, CylindricalGrid)):
             space = tuple(names)
         else:
             space = ("point",)
@@ -182,9 +201,9 @@ def to_xarray(result):
         data_vars[name] = (dims, value, {"units": result.unit(name)} if result.units is not None else {})
     length = unit("length", result.units, result.box.dim)
     length_attrs = {"units": length} if length is not None else {}
-    if isinstance(grid, Grid):
-        for name, axis in zip(names, grid.axis_coordinates):
-            coords[name] = (name, axis, length_attrs)
+    if isinstance(grid, (Grid, CylindricalGrid)):
+        for name, axis in axis_coordinates(grid):
+            coords[name] = (name, axis, {"units": "radian"} if name == "theta" and length is not None else length_attrs)
     else:
         for d, name in enumerate(names):
             coords[name] = ("point", grid.positions[:, d], length_attrs)

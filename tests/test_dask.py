@@ -355,3 +355,13 @@ def test_tiled_without_contact_fields(kernel):
     tiled = cg.coarse_grain_tiled(snap, grid, kernel, fields=fields, tiles=(3, 2, 4), backend="serial")
     assert_same(cg.coarse_grain(snap, grid, kernel, fields=fields), tiled, fields, "no contacts")
     assert getattr(tiled.kernel, "line_quadrature", None) == getattr(kernel, "line_quadrature", None)
+
+
+@needs_dask
+@pytest.mark.parametrize("average", ["mean", "none"])
+def test_cylindrical_grid_on_dask_equals_serial(client, average):
+    snaps = frames(5)
+    centre = 0.5 * (snaps[0].box.lower + snaps[0].box.upper)
+    grid = cg.CylindricalGrid(snaps[0].box, centre, "z", r=(0.0, 1.5, 3), z=(-0.5, 0.5, 2))
+    serial, dask = run_both(snaps, client, grid, cg.Gaussian(0.6), **AVERAGES[average])
+    assert_same(serial, dask, FIELDS, average)

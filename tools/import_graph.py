@@ -61,6 +61,7 @@ LAYERS = {
     "scenes": 7, "profiles": 7, "datasets": 7, "blobs": 7,        # today (the paper wing, before cgbound/paper/)
     "rotation": 4, "angular_balance": 4,                          # spin, couple stress; their balance
     "cylindrical": 3, "cylindrical_fields": 5,                    # cylindrical grids; their fields from ring quadrature
+    "cylindrical_balance": 5,                                     # the momentum balance on ring averages (hoop terms)
 }
 
 #: packages drawn as one node

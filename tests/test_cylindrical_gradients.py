@@ -1,0 +1,105 @@
+"""Gradient fields on a CylindricalGrid: the ring average of the rotated Cartesian gradient is the cylindrical
+gradient of the θ-averaged field (∂/∂r, ∂/∂z of the averaged components; hoop terms in the θ column)."""
+import numpy as np
+import pytest
+
+import cgbound as cg
+from helpers import random_snapshot
+
+GRADIENTS = ("density_gradient", "momentum_gradient")
+KERNEL = cg.Gaussian(0.3, cutoff=3.0)          # cutoff 10 w: the θ rule is exact to round-off
+
+
+def snapshot():
+    return random_snapshot(3, n=40, n_bulk=30, lengths=[6.0, 6.0, 5.0], periodic=(False, False, False))
+
+
+def axis_point(snap):
+    return 0.5 * (snap.box.lower + snap.box.upper)
+
+
+def test_ring_average_of_rotated_cartesian_gradients():
+    """Brute force: the Cartesian gradients at 720 ring points rotated on every index and averaged."""
+    snap = snapshot()
+    a = axis_point(snap)
+    grid = cg.CylindricalGrid(snap.box, a, "z", r=(0.0, 2.0, 4), z=(-0.5, 0.5, 2))
+    out = cg.coarse_grain(snap, grid, KERNEL, fields=GRADIENTS)
+    n = 720
+    theta = (np.arange(n) + 0.5) * 2 * np.pi / n
+    B = grid.basis(theta)
+    for i, r in enumerate(grid.r):
+        for k, z in enumerate(grid.z):
+            pts = grid.cartesian(r, theta, np.full(n, z))
+            cart = cg.coarse_grain(snap, cg.Points(pts), KERNEL, fields=GRADIENTS)
+            want_rho = np.einsum("qia,qa->qi", B, cart.density_gradient).mean(axis=0)
+            want_p = np.einsum("qia,qab,qjb->qij", B, cart.momentum_gradient, B).mean(axis=0)
+            for got, want in ((out.density_gradient[i, 0, k], want_rho), (out.momentum_gradient[i, 0, k], want_p)):
+                np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+
+
+def fourth_order(f, h):
+    """Central difference of values at -2h, -h, 0, h, 2h (leading axis) at 0."""
+    return (f[0] - 8 * f[1] + 8 * f[3] - f[4]) / (12 * h)
+
+
+@pytest.mark.parametrize("theta", [None, 4])
+def test_radial_and_axial_derivatives_and_hoop_terms(theta):
+    snap = snapshot()
+    a = axis_point(snap)
+    h, r0, z0 = 0.01, 1.1, 0.3
+    stencil = dict(r=(r0 - 2.5 * h, r0 + 2.5 * h, 5), z=(z0 - 2.5 * h, z0 + 2.5 * h, 5), theta=theta)
+    fields = ("density", "momentum", "velocity") + GRADIENTS + ("velocity_gradient",)
+    out = cg.coarse_grain(snap, cg.CylindricalGrid(snap.box, a, "z", **stencil), KERNEL, fields=fields)
+    r = out.grid.r[:, None, None]
+    c = (2, slice(None), 2)                         # the stencil's centre (r0, every θ, z0)
+    scale_rho = np.abs(out.density_gradient).max()
+    scale_p = np.abs(out.momentum_gradient).max()
+    scale_v = np.abs(out.velocity_gradient[c]).max()
+    # ∂/∂r and ∂/∂z against 4th-order differences ((h / w)^4 ~ 1e-6)
+    np.testing.assert_allclose(out.density_gradient[c][..., 0], fourth_order(out.density[:, :, 2], h),
+                               rtol=0, atol=1e-6 * scale_rho)
+    np.testing.assert_allclose(out.density_gradient[c][..., 2], fourth_order(out.density[2, :, :].T, h),
+                               rtol=0, atol=1e-6 * scale_rho)
+    np.testing.assert_allclose(out.momentum_gradient[c][..., 0], fourth_order(out.momentum[:, :, 2], h),
+                               rtol=0, atol=1e-6 * scale_p)
+    np.testing.assert_allclose(out.momentum_gradient[c][..., 2], fourth_order(np.moveaxis(out.momentum[2], 1, 0), h),
+                               rtol=0, atol=1e-6 * scale_p)
+    np.testing.assert_allclose(out.velocity_gradient[c][..., 0], fourth_order(out.velocity[:, :, 2], h),
+                               rtol=0, atol=1e-6 * scale_v)
+    if theta is None:
+        # the θ column of the averaged fields: only the hoop terms, at round-off
+        p, V = out.momentum, out.velocity
+        G, L = out.momentum_gradient, out.velocity_gradient
+        assert np.abs(out.density_gradient[..., 1]).max() < 1e-13 * scale_rho
+        np.testing.assert_allclose(G[..., 0, 1], -p[..., 1] / r, rtol=0, atol=1e-13 * scale_p)
+        np.testing.assert_allclose(G[..., 1, 1], p[..., 0] / r, rtol=0, atol=1e-13 * scale_p)
+        assert np.abs(G[..., 2, 1]).max() < 1e-13 * scale_p
+        np.testing.assert_allclose(L[..., 0, 1], -V[..., 1] / r, rtol=0, atol=1e-12 * np.abs(L).max())
+        np.testing.assert_allclose(L[..., 1, 1], V[..., 0] / r, rtol=0, atol=1e-12 * np.abs(L).max())
+        # and they are not small here (the checks above could fail)
+        assert np.abs(p[..., 1] / r).max() > 1e-2 * scale_p and np.abs(p[..., 0] / r).max() > 1e-2 * scale_p
+
+
+def test_z_averaged_grid_has_no_z_derivative():
+    snap = snapshot()
+    grid = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.0, 2.0, 4))
+    out = cg.coarse_grain(snap, grid, KERNEL, fields=GRADIENTS + ("density",))
+    assert np.all(out.density_gradient[..., 2] == 0) and np.all(out.momentum_gradient[..., 2] == 0)
+    assert np.abs(out.density_gradient[..., 0]).max() > 0
+    # the r column is still the ring average (z-averaged): the same as the z-average of z-resolved nodes
+    lo, hi = grid.z_extent
+    x, w = np.polynomial.legendre.leggauss(80)
+    zs = 0.5 * (hi + lo) + 0.5 * (hi - lo) * x
+    acc = 0.0
+    for zq, wq in zip(zs, w):
+        one = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.0, 2.0, 4), z=(zq - 1e-3, zq + 1e-3, 1))
+        acc = acc + 0.5 * wq * cg.coarse_grain(snap, one, KERNEL, fields=("density_gradient",)).density_gradient
+    np.testing.assert_allclose(out.density_gradient[..., 0], acc[..., 0], rtol=0,
+                               atol=1e-12 * np.abs(acc).max())
+
+
+def test_heaviside_gradient_refused():
+    snap = snapshot()
+    grid = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.0, 2.0, 4))
+    with pytest.raises(ValueError, match="kernel: expected a differentiable kernel"):
+        cg.coarse_grain(snap, grid, cg.Heaviside(0.5), fields=("density_gradient",))
