@@ -7,9 +7,9 @@ from ._memory import check_fits, core_threads
 from ._threads import get_num_threads
 from .grid import Points, check_target, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
-from .primaries import longest_branch
+from .primaries import contact_halves, couple_stress_sum, largest_couple, longest_branch, pseudo_columns
 from .residual import relative_residual
-from .rotation import contact_halves, contact_torques, couple_stress_sum, largest_couple, pseudo_columns
+from .rotation import contact_torques
 from .snapshot import Snapshot, pseudo_vector_array
 
 

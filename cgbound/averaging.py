@@ -8,7 +8,7 @@ the blocks to an executor (:mod:`cgbound.executors`).
 """
 import numpy as np
 
-from .fields import derive, needed_primaries
+from .fields import DEFAULT_COUPLE_STRESS_FORM, derive, needed_primaries
 from .pipeline import Job, check_arguments, whole_target_sums
 from .primaries import check_computable, reference_velocity
 from .progress import NoProgress
@@ -106,10 +106,11 @@ class FramePlan:
     """
 
     def __init__(self, grid, kernel, fields, convention, species, mode, width=None, out_times=None,
-                 u_ref=None, dim=None):
+                 u_ref=None, dim=None, couple_stress_form=DEFAULT_COUPLE_STRESS_FORM):
         self.grid, self.kernel, self.fields = grid, kernel, fields
         self.convention, self.species = convention, species
-        self.needed = needed_primaries(fields)
+        self.couple_stress_form = couple_stress_form
+        self.needed = needed_primaries(fields, couple_stress_form)
         self.mode, self.width = mode, width
         self.out_times = None if out_times is None else np.asarray(out_times, dtype=float)
         self.u_ref, self.dim = u_ref, dim
@@ -117,13 +118,14 @@ class FramePlan:
 
     def smoothing_at(self, out_times):
         plan = FramePlan(self.grid, self.kernel, self.fields, self.convention, self.species, "smooth",
-                         self.width, out_times, self.u_ref, self.dim)
+                         self.width, out_times, self.u_ref, self.dim, self.couple_stress_form)
         return plan
 
     def first_frame(self, snapshot, index=0):
         """The reference velocity and dimension every frame of the run is computed with."""
         try:
-            snap = check_arguments(snapshot, self.grid, self.kernel, self.fields, self.convention, self.species)[0]
+            snap = check_arguments(snapshot, self.grid, self.kernel, self.fields, self.convention, self.species,
+                                   self.couple_stress_form)[0]
         except Exception as exc:
             raise name_frame(exc, index) from exc
         return reference_velocity(snap), snap.dim
@@ -166,7 +168,7 @@ class Partial:
     def _add(self, snapshot):
         plan = self.plan
         snap, target, kernel, _, _ = check_arguments(snapshot, plan.grid, plan.kernel, plan.fields, plan.convention,
-                                                     plan.species)
+                                                     plan.species, plan.couple_stress_form)
         if self.u_ref is None:
             self.u_ref, self.dim = reference_velocity(snap), snap.dim
         elif snap.dim != self.dim:
