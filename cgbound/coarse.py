@@ -15,7 +15,7 @@ from .fields import (DEFAULT_COUPLE_STRESS_FORM, ROTATION_FIELDS, check_conventi
                      check_differentiable, check_fields)
 from .grid import Grid, Points
 from .kernels import check_kernel
-from .pipeline import DEFAULT_FIELDS, check_memory, prepare, run_snapshot, shape_fields
+from .pipeline import DEFAULT_FIELDS, check_branch_line, check_memory, prepare, run_snapshot, shape_fields
 from .progress import progress, progress_bar
 from .readahead import read_ahead
 from .result import Result
@@ -118,6 +118,7 @@ class CoarseGrain:
         self.convention = check_convention(convention)
         check_differentiable(self.kernel, self.fields)
         self.couple_stress_form = check_couple_stress_form(couple_stress_form)
+        check_branch_line(self.couple_stress_form, self.fields, self._target, self.kernel)
         self.species = integer(species, "species", allow_none=True)
         if isinstance(time_average, str):
             if time_average not in ("mean", "none"):

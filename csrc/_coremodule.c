@@ -479,7 +479,12 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
                                gradient, PyArray_DATA(out));
     Py_END_ALLOW_THREADS
     sigint_end(&guard);
-    if (st != CG_OK) {
+    if (st == CG_ERR_UNSUPPORTED && segments == 2) {
+        PyErr_SetString(PyExc_NotImplementedError,
+                        "first moments along segments are available for the Gaussian (any averaged axes) and for "
+                        "full-dimensional Lucy and Heaviside kernels (no gradient for Heaviside)");
+        Py_CLEAR(out);
+    } else if (st != CG_OK) {
         raise_status(st);
         Py_CLEAR(out);
     }
