@@ -191,3 +191,11 @@ def test_cli_writes_a_rotational_field_of_lammps_data(tmp_path):
             assert got.shape == (1, 1, 12) + field_shape(name, 3)
             np.testing.assert_allclose(got, want[name], rtol=1e-13, atol=1e-15 * np.abs(want[name]).max())
             assert np.abs(got).max() > 0
+
+
+def test_tiles_refuse_rotational_fields_before_work(no_work):
+    from cgbound.tiled import coarse_grain_tiled
+    snap = frames(3, 1)[0]
+    with pytest.raises(ValueError, match="fields: expected fields without a pseudo-vector index for tiling"):
+        coarse_grain_tiled(snap, cg.Grid(snap.box, (4, 2, 4)), cg.Lucy(1.3), fields=("density", "couple_stress"),
+                           tiles=(2, 1, 2), backend="serial")
