@@ -419,7 +419,7 @@ def contact_halves(snapshot, split=None):
     Returns a dict: ``i`` (the flowing particle), ``force`` (on it), ``branch`` a = r_i - c (minimum image; c the
     contact point), ``torque`` (c - r_i) x f = f x a; then ``pair_point`` (one contact point per bulk contact,
     r_i - a_i) and ``pair_moment`` f_ij x r_ij (r_ij = r_i - r_j, minimum image) per bulk contact; ``wall_point``
-    and ``wall_torque`` per boundary contact. A bulk contact gives two halves: (i, f, a_i) and (j, -f, a_j) with
+    and ``wall_torque`` per boundary contact; ``bulk_lever`` a_i per bulk contact. A bulk contact gives two halves: (i, f, a_i) and (j, -f, a_j) with
     a_j = a_i - r_ij, so that both halves meet at one contact point whatever the periodic images.
     """
     bulk, boundary = snapshot.split_contacts() if split is None else split
