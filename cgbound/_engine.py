@@ -77,6 +77,13 @@ def scatter_segments(target, kernel, starts, vectors, values, ray=False, gradien
                                   n_threads=n_threads)
 
 
+def scatter_segment_moments(target, kernel, starts, vectors, values, gradient=False, n_threads=0):
+    """sum_c values_c times the kernel's first moment along starts_c + s vectors_c, int_0^1 s W(r - starts_c
+    - s vectors_c) ds, or its gradient (the full-dimensional kernel: no averaged axis)."""
+    return _core.scatter_segment_moments(target, kernel, starts, vectors, values, gradient=gradient,
+                                         n_threads=n_threads)
+
+
 def scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity, n_threads=0):
     """The kinetic stress in fluctuation form, -sum_i m_i v'_i v'_i W_i, shape (P, D, D)."""
     return _core.scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity,

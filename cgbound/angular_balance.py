@@ -7,9 +7,11 @@ from ._memory import check_fits, core_threads
 from ._threads import get_num_threads
 from .grid import Points, check_target, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
-from .primaries import longest_branch
+from .fields import DEFAULT_COUPLE_STRESS_FORM, check_couple_stress_form
+from .primaries import (branch_line_couple_sum, contact_halves, contact_torque_sums, couple_stress_sum, largest_couple,
+                        longest_branch, pseudo_columns)
 from .residual import relative_residual
-from .rotation import contact_halves, contact_torques, couple_stress_sum, largest_couple, pseudo_columns
+from .rotation import contact_torques
 from .snapshot import Snapshot, pseudo_vector_array
 
 
@@ -42,7 +44,8 @@ class AngularMomentumBalance:
         return f"<AngularMomentumBalance at {self.points.size} points, max relative residual {worst:.3g}>"
 
 
-def angular_momentum_balance_residual(snapshot, points, kernel, torques=None, external_torques=None):
+def angular_momentum_balance_residual(snapshot, points, kernel, torques=None, external_torques=None,
+                                      couple_stress_form=DEFAULT_COUPLE_STRESS_FORM):
     """Residual of the intrinsic angular momentum balance at points, for any data.
 
     I_i dw_i/dt = tau_i (the total torque on particle i) is the rate of the spin; the balance
@@ -60,10 +63,15 @@ def angular_momentum_balance_residual(snapshot, points, kernel, torques=None, ex
         torques plus ``external_torques``, which makes the residual a test of the coarse graining itself.
     external_torques : like torques, optional
         Torques not from the contacts (e.g. a driving motor); their density is a term of the balance.
+    couple_stress_form : "contact_point" or "branch_line"
+        The split of the contact torques whose terms are checked (docs/theory.md): with "branch_line" the
+        stress torque density is eps : sigma of the contact stress and the boundary term eps : sigma of the
+        boundary stress, both along the same lines as the stresses.
     """
     if not isinstance(snapshot, Snapshot):
         raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
     kernel = check_kernel(kernel)
+    check_couple_stress_form(couple_stress_form)
     if not kernel.differentiable:
         raise ValueError(f"kernel: expected a differentiable kernel (Gaussian or Lucy) for the angular momentum "
                          f"balance, got {kernel!r}")
@@ -103,10 +111,16 @@ def angular_momentum_balance_residual(snapshot, points, kernel, torques=None, ex
         return scatter_points(where, k, x, pseudo_columns(values), n_threads=nt) if x.shape[0] else zero
 
     terms = {"forcing": points_value(pos, torques[flow])}
-    grad = couple_stress_sum(snapshot, halves, where, line_kernel, P, nt, gradient=True)   # (P, [T,] D, D)
-    terms["div_couple_stress"] = np.einsum("p...bb->p...", grad).reshape(P, T)
-    terms["stress_torque_density"] = points_value(halves["pair_point"], halves["pair_moment"], line_kernel)
-    terms["boundary_couple_density"] = points_value(halves["wall_point"], halves["wall_torque"], line_kernel)
+    if couple_stress_form == "contact_point":
+        grad = couple_stress_sum(snapshot, halves, where, line_kernel, P, nt, gradient=True)   # (P, T, D, D)
+        terms["stress_torque_density"] = points_value(halves["pair_point"], halves["pair_moment"], line_kernel)
+        terms["boundary_couple_density"] = points_value(halves["wall_point"], halves["wall_torque"], line_kernel)
+    else:
+        grad = branch_line_couple_sum(snapshot, split, halves, where, line_kernel, P, nt, gradient=True)
+        sums = contact_torque_sums(snapshot, split, {"pair_torque_bl", "wall_couple_bl"}, where, line_kernel, P, nt)
+        terms["stress_torque_density"] = sums["pair_torque_bl"]
+        terms["boundary_couple_density"] = sums["wall_couple_bl"]
+    terms["div_couple_stress"] = np.einsum("ptbb->pt", grad)
     terms["external_torque_density"] = points_value(pos, external[flow]) if external is not None else zero
     origin = np.zeros((1, dim))
     peak = scatter_points(point_target(origin), point_kernel, origin, np.ones((1, 1)))[0, 0]

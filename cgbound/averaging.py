@@ -10,7 +10,7 @@ import numpy as np
 
 from .cylindrical import CylindricalGrid
 from .cylindrical_fields import check_ring_arguments, ring_primaries
-from .fields import derive, needed_primaries
+from .fields import DEFAULT_COUPLE_STRESS_FORM, derive, needed_primaries
 from .pipeline import Job, check_arguments, whole_target_sums
 from .primaries import check_computable, reference_velocity
 from .progress import NoProgress
@@ -108,10 +108,11 @@ class FramePlan:
     """
 
     def __init__(self, grid, kernel, fields, convention, species, mode, width=None, out_times=None,
-                 u_ref=None, dim=None):
+                 u_ref=None, dim=None, couple_stress_form=DEFAULT_COUPLE_STRESS_FORM):
         self.grid, self.kernel, self.fields = grid, kernel, fields
         self.convention, self.species = convention, species
-        self.needed = needed_primaries(fields)
+        self.couple_stress_form = couple_stress_form
+        self.needed = needed_primaries(fields, couple_stress_form)
         self.mode, self.width = mode, width
         self.out_times = None if out_times is None else np.asarray(out_times, dtype=float)
         self.u_ref, self.dim = u_ref, dim
@@ -119,7 +120,7 @@ class FramePlan:
 
     def smoothing_at(self, out_times):
         plan = FramePlan(self.grid, self.kernel, self.fields, self.convention, self.species, "smooth",
-                         self.width, out_times, self.u_ref, self.dim)
+                         self.width, out_times, self.u_ref, self.dim, self.couple_stress_form)
         return plan
 
     def first_frame(self, snapshot, index=0):
@@ -129,7 +130,8 @@ class FramePlan:
                 # ring primaries are summed about 0 (a constant Cartesian velocity is not one in (r, θ, z))
                 check_ring_arguments(snapshot, self.grid, self.kernel, self.fields, self.convention, self.species)
                 return np.zeros(3), 3
-            snap = check_arguments(snapshot, self.grid, self.kernel, self.fields, self.convention, self.species)[0]
+            snap = check_arguments(snapshot, self.grid, self.kernel, self.fields, self.convention, self.species,
+                                   self.couple_stress_form)[0]
         except Exception as exc:
             raise name_frame(exc, index) from exc
         return reference_velocity(snap), snap.dim
@@ -179,7 +181,7 @@ class Partial:
                 self.u_ref, self.dim = np.zeros(3), 3
         else:
             snap, target, kernel, _, _ = check_arguments(snapshot, plan.grid, plan.kernel, plan.fields,
-                                                         plan.convention, plan.species)
+                                                         plan.convention, plan.species, plan.couple_stress_form)
             if self.u_ref is None:
                 self.u_ref, self.dim = reference_velocity(snap), snap.dim
             elif snap.dim != self.dim:

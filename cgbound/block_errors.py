@@ -20,7 +20,7 @@ import warnings
 import numpy as np
 
 from ._memory import check_fits
-from .fields import derive, field_rank, needed_primaries
+from .fields import derive, field_size, needed_primaries
 from .primaries import PRIMARIES
 
 #: the lag-1 correlation of consecutive block means, in units of 1/sqrt(n_blocks), above which a warning is given
@@ -41,7 +41,7 @@ def check_block_memory(target, fields, dim, n_blocks):
     """Raise MemoryError naming ``n_blocks`` if the blocks' running sums and fields cannot fit (before any work)."""
     needed = needed_primaries(fields)
     per_block = (sum(dim ** PRIMARIES[p].rank for p in needed) + (dim * dim if "sk" in needed else 0)
-                 + sum(dim ** field_rank(f) for f in fields))
+                 + sum(field_size(f, dim) for f in fields))
     check_fits("n_blocks", target.size, n_blocks * per_block, what=f"the running sums and fields of {n_blocks} blocks")
 
 

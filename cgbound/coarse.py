@@ -11,17 +11,19 @@ from .block_errors import block_assignment, block_errors, check_block_memory
 from .cylindrical import CylindricalGrid
 from .cylindrical_fields import coarse_grain_cylindrical
 from .executors import check_backend, executor
-from .fields import check_convention, check_differentiable, check_fields
+from .fields import (DEFAULT_COUPLE_STRESS_FORM, check_convention, check_couple_stress_form,
+                     check_differentiable, check_fields)
 from .grid import Grid, Points
 from .kernels import check_kernel
-from .pipeline import DEFAULT_FIELDS, check_memory, prepare, run_snapshot, shape_fields
+from .pipeline import DEFAULT_FIELDS, check_branch_line, check_memory, prepare, run_snapshot, shape_fields
 from .progress import progress, progress_bar
 from .readahead import read_ahead
 from .result import Result
 from .snapshot import Snapshot
 
 
-def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None):
+def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None,
+                 couple_stress_form=DEFAULT_COUPLE_STRESS_FORM):
     """Coarse-grained fields of one snapshot.
 
     Parameters
@@ -33,13 +35,22 @@ def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tens
         Any of density, momentum, velocity, momentum_flux, kinetic_stress,
         contact_stress, boundary_stress, interaction_force_density,
         body_force_density, stress, extended_stress, volume_fraction, pressure,
-        temperature. Only what these need is computed.
+        temperature, and the others of ``cg.FIELD_NAMES`` (structure, gradients and
+        rheology, rotation: spin_density, angular_momentum_density, spin_flux,
+        kinetic_spin_flux, couple_stress, stress_torque_density,
+        boundary_couple_density, which need angular velocities where they sum spins).
+        Only what these need is computed.
     convention : {"tension", "compression"}
         Sign of stresses: the paper's tension-positive Cauchy stress, or MercuryCG's
         compression-positive one. Pressure is compression-positive in both.
     species : int, optional
         Partial fields of one species; other species act as boundary, so the
         interaction force density is the force density they exert.
+    couple_stress_form : {"contact_point", "branch_line"}
+        How couple_stress, stress_torque_density and boundary_couple_density split the
+        contact torques (docs/theory.md, "Rotation and couple stress"): torque densities at
+        the contact points (the default), or the antisymmetric part of the paper's stress
+        spread along the branch lines (at points and on grids without averaged axes).
 
     Returns
     -------
@@ -47,7 +58,7 @@ def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tens
     """
     if isinstance(grid, CylindricalGrid):
         return coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention, species)
-    job = prepare(snapshot, grid, kernel, fields, convention, species)
+    job = prepare(snapshot, grid, kernel, fields, convention, species, couple_stress_form=couple_stress_form)
     if species is not None and not np.any(snapshot.species == species):
         raise ValueError(f"species: {species} is not in the snapshot (species present: "
                          f"{sorted(set(np.asarray(snapshot.species).tolist()))}); partial fields of it would be zero")
@@ -77,6 +88,7 @@ class CoarseGrain:
         small). See docs/theory.md, "Error bars on time averages".
     n_blocks : int
         Blocks for ``errors="blocks"`` (at least 2; default 10), at most the number of frames.
+    couple_stress_form : as for :func:`coarse_grain`
 
     Notes
     -----
@@ -88,7 +100,8 @@ class CoarseGrain:
     """
 
     def __init__(self, snapshots, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None,
-                 time_average="mean", times=None, errors=None, n_blocks=10):
+                 time_average="mean", times=None, errors=None, n_blocks=10,
+                 couple_stress_form=DEFAULT_COUPLE_STRESS_FORM):
         if isinstance(snapshots, Snapshot):
             raise TypeError("snapshots: expected a sequence or iterable of cg.Snapshot, got a single cg.Snapshot "
                             "(use cg.coarse_grain, or wrap it in a list)")
@@ -101,6 +114,8 @@ class CoarseGrain:
         self.fields = check_fields(fields)
         self.convention = check_convention(convention)
         check_differentiable(self.kernel, self.fields)
+        self.couple_stress_form = check_couple_stress_form(couple_stress_form)
+        check_branch_line(self.couple_stress_form, self.fields, self._target, self.kernel)
         self.species = integer(species, "species", allow_none=True)
         if isinstance(time_average, str):
             if time_average not in ("mean", "none"):
@@ -148,7 +163,7 @@ class CoarseGrain:
         if mode == "smooth" and self.times is None:
             mode = "store"  # the output times are the frames' own: known once every frame is read
         return FramePlan(self.grid, self.kernel, self.fields, self.convention, self.species, mode,
-                         self.time_width, self.times)
+                         self.time_width, self.times, couple_stress_form=self.couple_stress_form)
 
     def run(self, start=None, stop=None, step=None, verbose=False, *, backend="serial", client=None, n_workers=None):
         """Coarse-grain frames ``start:stop:step``; returns self, with the fields in ``results``.

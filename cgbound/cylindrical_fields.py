@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from .cylindrical import CylindricalGrid
-from .fields import derive
+from .fields import ROTATION_FIELDS, check_fields, derive
 from .grid import Points
 from .kernels import Gaussian, check_kernel
 from .pipeline import prepare, shape_fields
@@ -103,6 +103,10 @@ def check_ring_arguments(snapshot, grid, kernel, fields, convention="tension", s
         raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
     if snapshot.dim != 3:
         raise ValueError(f"snapshot: expected a 3-D snapshot for a CylindricalGrid, got a {snapshot.dim}-D one")
+    rotational = [name for name in check_fields(fields) if name in ROTATION_FIELDS]
+    if rotational:
+        raise ValueError(f"fields: expected fields without a pseudo-vector index on a cg.CylindricalGrid, got "
+                         f"{rotational} (use a Grid or Points)")
     # checks every argument (kernel, fields, convention, species) on a one-point target before the work
     return prepare(snapshot, Points(grid.axis_point[None, :]), kernel, fields, convention, species)
 

@@ -41,6 +41,16 @@ FIELDS = {
     "shear_stress": (0, ("rho", "p_w", "sk", "sb", "sw")),
     "friction": (0, ("rho", "p_w", "sk", "sb", "sw")),
     "inertial_number": (0, ("rho", "p_w", "grad_rho", "grad_p_w", "sk", "sb", "sw", "phi", "phi_d")),
+    # rotation (docs/theory.md, "Rotation and couple stress"): the rank counts pseudo-vector indices too,
+    # whose length is 3 in 3D and which vanish in 2D (see field_shape); the couple stress and the torque
+    # densities are given in the contact-point form here (COUPLE_STRESS_FORMS for the other)
+    "spin_density": (1, ("spin",)),
+    "angular_momentum_density": (1, ("spin",)),
+    "spin_flux": (2, ("spin_flux",)),
+    "kinetic_spin_flux": (2, ("rho", "p_w", "spin", "spin_flux_w")),
+    "couple_stress": (2, ("couple",)),
+    "stress_torque_density": (1, ("pair_torque",)),
+    "boundary_couple_density": (1, ("wall_couple",)),
 }
 
 #: fields that need the kernel's gradient (a differentiable kernel: Gaussian or Lucy)
@@ -54,14 +64,59 @@ CONVENTIONS = ("tension", "compression")
 
 
 def field_rank(name):
-    """Rank per node of field ``name``."""
+    """Number of indices per node of field ``name`` in 3D (pseudo-vector indices included; see field_shape)."""
     return FIELDS[name][0]
 
 
-#: the rotational fields (docs/theory.md, "Rotation and couple stress"), computed by cgbound.rotation_fields:
-#: their pseudo-vector index (3 components in 3D, none in 2D) does not fit the FIELDS table's shapes yet
+#: the rotational fields (docs/theory.md, "Rotation and couple stress")
 ROTATION_FIELDS = ("spin_density", "angular_momentum_density", "spin_flux", "couple_stress",
                    "stress_torque_density", "boundary_couple_density", "kinetic_spin_flux")
+
+#: fields with a pseudo-vector index (angular velocities, torques: 3 components in 3D, one out-of-plane
+#: component in 2D, stored without an index): name -> the kind of each index, "pseudo" or "vector" (D)
+FIELD_INDICES = {
+    "spin_density": ("pseudo",),
+    "angular_momentum_density": ("pseudo",),
+    "spin_flux": ("pseudo", "vector"),
+    "kinetic_spin_flux": ("pseudo", "vector"),
+    "couple_stress": ("pseudo", "vector"),
+    "stress_torque_density": ("pseudo",),
+    "boundary_couple_density": ("pseudo",),
+}
+
+
+def field_shape(name, dim):
+    """Shape per node of field ``name`` in ``dim`` dimensions: (D,) per vector index, (3,) per pseudo-vector
+    index in 3D and nothing for it in 2D. E.g. stress (D, D); spin_density (3,) in 3D, () in 2D;
+    couple_stress (3, 3) in 3D, (2,) in 2D."""
+    kinds = FIELD_INDICES.get(name, ("vector",) * FIELDS[name][0])
+    shape = ()
+    for kind in kinds:
+        if kind == "vector":
+            shape += (dim,)
+        elif dim == 3:
+            shape += (3,)
+    return shape
+
+
+def field_size(name, dim):
+    """Doubles per node of field ``name`` in ``dim`` dimensions."""
+    return int(np.prod(field_shape(name, dim), dtype=int))
+
+
+#: how the couple stress splits the contact torques (docs/theory.md, "Rotation and couple stress"):
+#: "contact_point" puts the torque densities at the contact points; "branch_line" makes the torque
+#: density the antisymmetric part of the paper's stress (eps : sigma), spread along the branch lines
+COUPLE_STRESS_FORMS = ("contact_point", "branch_line")
+DEFAULT_COUPLE_STRESS_FORM = "contact_point"
+#: the primaries of the branch-line form in place of those of the contact-point form
+BRANCH_LINE_PRIMARIES = {"couple": "couple_bl", "pair_torque": "pair_torque_bl", "wall_couple": "wall_couple_bl"}
+
+
+def check_couple_stress_form(form):
+    if not isinstance(form, str) or form not in COUPLE_STRESS_FORMS:
+        raise ValueError(f"couple_stress_form: expected 'contact_point' or 'branch_line', got {form!r}")
+    return form
 
 
 def check_fields(fields, known=None):
@@ -78,9 +133,6 @@ def check_fields(fields, known=None):
     for name in fields:
         if not isinstance(name, str):
             raise TypeError(f"fields: expected field names (strings), got {name!r}")
-        if name not in known and name in ROTATION_FIELDS:
-            raise ValueError(f"fields: {name!r} is a rotational field; compute it with "
-                             f"cgbound.rotation_fields(snapshot, where, kernel, fields=({name!r},))")
         if name not in known:
             raise ValueError(f"fields: expected some of {', '.join(known)}, got unknown field {name!r}")
     return tuple(dict.fromkeys(fields))
@@ -103,11 +155,13 @@ def check_differentiable(kernel, fields):
                              f"got {kernel!r}")
 
 
-def needed_primaries(fields):
+def needed_primaries(fields, couple_stress_form=DEFAULT_COUPLE_STRESS_FORM):
     """The primaries (names in PRIMARIES) the fields need."""
     needed = set()
     for name in fields:
         needed.update(FIELDS[name][1])
+    if couple_stress_form == "branch_line":
+        needed = {BRANCH_LINE_PRIMARIES.get(p, p) for p in needed}
     return needed
 
 
@@ -166,6 +220,8 @@ def derive(primaries, fields, u_ref, dim, convention):
             value = structure_field(name, pr)
         elif name in RHEOLOGY_FIELDS:
             value = rheology_field(name, pr, u_ref, dim, memo)
+        elif name in ROTATION_FIELDS:
+            value = rotation_field(name, pr, dim)
         out[name] = value
     return out
 
@@ -293,3 +349,24 @@ def rheology_field(name, pr, u_ref, dim, memo):
     d_mean = positive_ratio(pr["phi_d"], phi)
     rho_p = positive_ratio(pr["rho"], phi)
     return gamma() * d_mean * np.sqrt(positive_ratio(rho_p, pressure()))
+
+
+# --- rotation (docs/theory.md, "Rotation and couple stress") ---
+
+def rotation_field(name, pr, dim):
+    """One of ROTATION_FIELDS from the averaged primaries (flat over nodes, pseudo-vector index of length T =
+    3 in 3D and 1 in 2D); the couple stress and torque densities of whichever form was summed."""
+    if name in ("spin_density", "angular_momentum_density"):
+        return np.array(pr["spin"])
+    if name == "spin_flux":
+        return np.array(pr["spin_flux"])
+    if name == "kinetic_spin_flux":
+        # J' = sum_i I_i w_i (x) (v_i - V) W_i = J_w - s (x) V_w about the local velocity (0 where rho = 0,
+        # where every sum vanishes); the reference velocity cancels
+        rho = pr["rho"]
+        V_w = np.zeros(pr["p_w"].shape)
+        np.divide(pr["p_w"], rho[:, None], out=V_w, where=rho[:, None] > 0)
+        return pr["spin_flux_w"] - pr["spin"][:, :, None] * V_w[:, None, :]
+    key = {"couple_stress": "couple", "stress_torque_density": "pair_torque",
+           "boundary_couple_density": "wall_couple"}[name]
+    return np.array(pr[key] if key in pr else pr[BRANCH_LINE_PRIMARIES[key]])

@@ -10,10 +10,12 @@ from typing import NamedTuple, Optional
 
 from ._memory import check_fits, core_threads, grid_doubles
 from ._validate import integer
-from .fields import check_convention, check_differentiable, check_fields, derive, field_rank, needed_primaries
+from .fields import (DEFAULT_COUPLE_STRESS_FORM, ROTATION_FIELDS, check_convention, check_couple_stress_form,
+                     check_differentiable, check_fields, derive, field_shape, field_size, needed_primaries)
 from .grid import Grid, check_target, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
-from .primaries import PARTICLE_GRADIENTS, PARTICLES, PRIMARIES, check_computable, compute_primaries, reference_velocity
+from .primaries import (PARTICLE_GRADIENTS, PARTICLES, PRIMARIES, check_computable, compute_primaries,
+                        reference_velocity, rotation_largest)
 from .result import Result
 from .snapshot import Snapshot
 from .units import check_fields as check_units_fields
@@ -32,7 +34,8 @@ class Job(NamedTuple):
     split: Optional[tuple]    # Snapshot.split_contacts() if a contact primary is needed, else None
 
 
-def check_arguments(snapshot, grid, kernel, fields, convention, species):
+def check_arguments(snapshot, grid, kernel, fields, convention, species,
+                    couple_stress_form=DEFAULT_COUPLE_STRESS_FORM):
     """Checked arguments of one coarse graining, and the snapshot seen by ``species``."""
     if not isinstance(snapshot, Snapshot):
         raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
@@ -43,18 +46,43 @@ def check_arguments(snapshot, grid, kernel, fields, convention, species):
     check_differentiable(kernel, fields)
     species = integer(species, "species", allow_none=True)
     check_units_fields(snapshot.units, fields)
+    check_branch_line(couple_stress_form, fields, target, kernel)
     if species is not None:
         snapshot = snapshot.species_view(species)
-    check_reach(kernel, snapshot.dim, periodic_resolved_lengths(snapshot.box, target), snapshot.largest_product,
+    largest = snapshot.largest_product
+    if any(name in ROTATION_FIELDS for name in fields):
+        largest = max(largest, rotation_largest(snapshot, fields))
+    check_reach(kernel, snapshot.dim, periodic_resolved_lengths(snapshot.box, target), largest,
                 n_resolved=len(target.resolved), avg_extent=target.avg_extent)
     return snapshot, target, kernel, fields, convention
 
 
-def prepare(snapshot, grid, kernel, fields, convention, species):
+def check_branch_line(couple_stress_form, fields, target, kernel):
+    """The branch-line couple stress needs the kernel's first moment along lines, which the core gives for
+    the full-dimensional kernel (points, and grids without averaged axes) and for the Gaussian's marginals
+    (Gaussians too); not for MercuryCG's approximate line integral."""
+    check_couple_stress_form(couple_stress_form)
+    if couple_stress_form != "branch_line":
+        return
+    wanted = [f for f in fields if f in ("couple_stress", "stress_torque_density", "boundary_couple_density")]
+    if not wanted:
+        return
+    if kernel.mercurycg_line:
+        raise ValueError(f"couple_stress_form: 'branch_line' ({wanted[0]!r}) needs exact line integrals, got "
+                         f"{kernel!r} (line_quadrature='mercurycg')")
+    over_averaged = getattr(target, "averaged", ()) and not kernel.lower_dimensional
+    if over_averaged and type(kernel).__name__ != "Gaussian":
+        raise ValueError(f"couple_stress_form: 'branch_line' ({wanted[0]!r}) is computed at points, on grids "
+                         f"without averaged axes, and over averaged axes with a Gaussian; expected no averaged "
+                         f"axis for {kernel!r}, got averaged axes {tuple(target.averaged)} (use 'contact_point' "
+                         f"there)")
+
+
+def prepare(snapshot, grid, kernel, fields, convention, species, couple_stress_form=DEFAULT_COUPLE_STRESS_FORM):
     """Steps prepare and check: the :class:`Job`, raising before any work if it cannot be done."""
     snapshot, target, kernel, fields, convention = check_arguments(snapshot, grid, kernel, fields, convention,
-                                                                   species)
-    needed = needed_primaries(fields)
+                                                                   species, couple_stress_form)
+    needed = needed_primaries(fields, couple_stress_form)
     return Job(snapshot, target, kernel, fields, convention, needed, check_computable(snapshot, needed))
 
 
@@ -76,8 +104,8 @@ def per_node_doubles(needed, fields, dim, threads, frames=1, time_average="mean"
     widest = max([dim ** PRIMARIES[p].rank for p in needed if PRIMARIES[p].source not in (PARTICLES, PARTICLE_GRADIENTS)]
                  + [batched, gradients])
     scratch = dim if "sk" in needed else 0                  # node velocities for the fluctuation sum
-    out = sum(dim ** field_rank(f) for f in fields)
-    widest_field = max((dim ** field_rank(f) for f in fields), default=0)
+    out = sum(field_size(f, dim) for f in fields)
+    widest_field = max((field_size(f, dim) for f in fields), default=0)
     one_frame = prim + scratch + (threads - 1) * widest + out + widest_field + batched
     if time_average == "mean" and frames > 1:
         # running sums, their mean and the velocity spread, beside one frame's primaries
@@ -101,7 +129,7 @@ def check_memory(target, fields, dim, threads, frames=1, time_average="mean", n_
 
 def shape_fields(flat, target, dim, leading=()):
     """Fields flat over nodes reshaped to the target's shape (after ``leading`` axes)."""
-    return {name: value.reshape(leading + target.field_shape + (dim,) * field_rank(name))
+    return {name: value.reshape(leading + target.field_shape + field_shape(name, dim))
             for name, value in flat.items()}
 
 

@@ -15,7 +15,7 @@ import os
 import numpy as np
 
 from ._atomic import atomic_write
-from .fields import FIELDS, STRESS_FIELDS
+from .fields import FIELDS, STRESS_FIELDS, field_shape
 from .grid import Grid
 from .units import label_units
 
@@ -68,11 +68,11 @@ def _pyplot():
     return plt
 
 
-def field_symbol(name, component=None, convention="tension"):
+def field_symbol(name, component=None, convention="tension", dim=3):
     """The field's symbol in matplotlib mathtext with its sign convention: ``$\\sigma_{zz}$ (tension
     positive)``, ``$-\\sigma_{zz}$ (compression)``, ``$|V|$``, ``$\\|\\sigma\\|$ (largest singular
     value)``; ``component=None`` on a vector or tensor means its norm. Unknown fields use their name."""
-    rank = FIELDS[name][0] if name in FIELDS else 0
+    rank = len(field_shape(name, dim)) if name in FIELDS else 0
     base, parens = SYMBOLS.get(name, (r"\mathrm{" + name.replace("_", r"\_") + "}", False))
     if rank and component is None:
         return f"$|{base}|$" if rank == 1 else f"$\\|{base}\\|$ (largest singular value)"
@@ -84,9 +84,14 @@ def field_symbol(name, component=None, convention="tension"):
     return f"${text}$"
 
 
+def field_rank_in(result, name):
+    """Indices per node of field ``name`` in the result's dimension (a pseudo-vector index has none in 2D)."""
+    return len(field_shape(name, result.box.dim))
+
+
 def field_label(result, name, component=None):
     """Axis or colorbar label of a field: symbol, sign convention, unit (or "(simulation units)")."""
-    return f"{field_symbol(name, component, result.convention)} {label_units(name, result.units, result.box.dim)}"
+    return f"{field_symbol(name, component, result.convention, result.box.dim)} {label_units(name, result.units, result.box.dim)}"
 
 
 def length_label(result, axis):
@@ -99,7 +104,7 @@ def norm(result, name):
     ``|sigma| = max_{|x|=1} |sigma x|`` (the largest singular value; the largest ``|eigenvalue|`` when
     sigma is symmetric; frictional contacts make the contact stress asymmetric)."""
     value = result[name]
-    rank = FIELDS[name][0]
+    rank = field_rank_in(result, name)
     if rank == 0:
         return value
     if rank == 1:
@@ -109,7 +114,7 @@ def norm(result, name):
 
 def _component(result, name, component):
     value = result[name]
-    rank = FIELDS[name][0]
+    rank = field_rank_in(result, name)
     if rank == 0 or component is None:
         return value if rank == 0 else norm(result, name)
     axes = result.box.axis_names
@@ -123,7 +128,7 @@ def _components(result, name):
     """The components a profile draws as axis letters: each of a vector, the upper triangle (xx, xz, zz,
     ...) of a tensor."""
     names = result.box.axis_names
-    rank = FIELDS[name][0]
+    rank = field_rank_in(result, name)
     if rank == 0:
         return [None]
     if rank == 1:
@@ -165,16 +170,16 @@ def plot(result, name, component=None, ax=None, **kwargs):
     grid = result.grid
     resolved = len(grid.resolved) if isinstance(grid, Grid) else None
     if resolved == 1:
-        if component is not None or FIELDS[name][0] == 0:
+        if component is not None or field_rank_in(result, name) == 0:
             ax = profile(result, name, component, ax=ax, **kwargs)
         else:
             for comp in _components(result, name):
                 # the legend names the component; the axis label says the convention once
-                line = field_symbol(name, comp, result.convention).split(" (")[0]
+                line = field_symbol(name, comp, result.convention, result.box.dim).split(" (")[0]
                 ax = profile(result, name, comp, ax=ax, **dict(kwargs, label=kwargs.get("label", line)))
-            ax.set_xlabel(f"{field_symbol(name, 'ij' if FIELDS[name][0] == 2 else 'i', result.convention)} "
+            ax.set_xlabel(f"{field_symbol(name, 'ij' if field_rank_in(result, name) == 2 else 'i', result.convention, result.box.dim)} "
                           f"{label_units(name, result.units, result.box.dim)}")
-        if FIELDS[name][0] and component is None:
+        if field_rank_in(result, name) and component is None:
             ax.legend(fontsize=7)
         return ax
     if resolved == 2:
@@ -220,7 +225,7 @@ def thumbnail_png(result, size=(3.6, 2.6), dpi=80):
     grid = result.grid
     if not result.fields or not isinstance(grid, Grid) or len(grid.resolved) not in (1, 2):
         return None
-    lead = result[result.fields[0]].ndim - len(grid.shape) - FIELDS[result.fields[0]][0]
+    lead = result[result.fields[0]].ndim - len(grid.shape) - field_rank_in(result, result.fields[0])
     if lead:
         return None                       # a time axis: which frame to show is the user's choice
     import io

@@ -13,7 +13,8 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from ._engine import core_kernel, core_target, scatter_fluctuation, scatter_points, scatter_segments
+from ._engine import (core_kernel, core_target, scatter_fluctuation, scatter_points, scatter_segment_moments,
+                      scatter_segments)
 from ._threads import get_num_threads
 
 #: what a primary sums over
@@ -25,10 +26,15 @@ BOUNDARY_RAYS = "boundary rays"                    # rays from a flowing particl
 BOUNDARY_POINTS = "boundary points"                # boundary contact points
 BULK_POINTS = "bulk contact points"                # contact points of contacts between flowing particles
 PARTICLE_GRADIENTS = "particle gradients"          # flowing particles' centres, the kernel's gradient
+SPINNING_PARTICLES = "spinning particles"        # flowing particles' centres, weighted by I_i w_i
+CONTACT_HALVES = "contact halves"                # lines from each flowing particle to each of its contact points
+CONTACT_LINES = "contact lines"                  # branch lines (bulk) and lines to boundary contact points, with
+#                                                  the kernel's first moment along them
 SOURCES = (PARTICLES, PARTICLE_FLUCTUATIONS, BULK_SEGMENTS, BOUNDARY_SEGMENTS, BOUNDARY_RAYS, BOUNDARY_POINTS,
-           BULK_POINTS, PARTICLE_GRADIENTS)
+           BULK_POINTS, PARTICLE_GRADIENTS, SPINNING_PARTICLES, CONTACT_HALVES, CONTACT_LINES)
 #: sources that need the snapshot's contacts split into bulk and boundary
-CONTACT_SOURCES = (BULK_SEGMENTS, BOUNDARY_SEGMENTS, BOUNDARY_RAYS, BOUNDARY_POINTS, BULK_POINTS)
+CONTACT_SOURCES = (BULK_SEGMENTS, BOUNDARY_SEGMENTS, BOUNDARY_RAYS, BOUNDARY_POINTS, BULK_POINTS, CONTACT_HALVES,
+                   CONTACT_LINES)
 
 
 class Primary(NamedTuple):
@@ -73,6 +79,25 @@ PRIMARIES = {p.name: p for p in (
             "oracle_scatter_points"),
     Primary("grad_p_w", "momentum gradient relative to u_ref: sum_i m_i (v_i - u_ref) grad W_i ([a, b] = d p_a/dr_b)",
             2, PARTICLE_GRADIENTS, "∇p", None, "oracle_scatter_points"),
+    # rotation (docs/theory.md, "Rotation and couple stress"): not in the paper. The rank counts the
+    # pseudo-vector index (3 components in 3D, 1 in 2D: see rotation_shape)
+    Primary("spin", "spin density: sum_i I_i w_i W_i", 1, SPINNING_PARTICLES, "s", None, "oracle_rotation"),
+    Primary("spin_flux", "spin flux: sum_i I_i w_i v_i W_i", 2, SPINNING_PARTICLES, "J", None, "oracle_rotation"),
+    Primary("spin_flux_w", "spin flux relative to u_ref: sum_i I_i w_i (v_i - u_ref) W_i", 2, SPINNING_PARTICLES,
+            "J_w", None, "oracle_rotation"),
+    Primary("couple", "couple stress, contact-point form: -sum over contact halves tau (x) a int_0^1 W(r - r_i + s a) "
+            "ds", 2, CONTACT_HALVES, "m", None, "oracle_rotation"),
+    Primary("pair_torque", "stress torque density, contact-point form: sum_ij (f_ij x r_ij) W(r - c_ij)", 1,
+            BULK_POINTS, "T", None, "oracle_rotation"),
+    Primary("wall_couple", "boundary couple density, contact-point form: sum_ik (f_ik x a_ik) W(r - c_ik)", 1,
+            BOUNDARY_POINTS, "t_c", None, "oracle_rotation"),
+    Primary("couple_bl", "couple stress, branch-line form: -sum_c [f_c x int_0^1 (x_c(s) - c_c) W(r - x_c(s)) ds] "
+            "(x) b_c, x_c(s) = r_i - s b_c", 2, CONTACT_LINES, "m", None, "oracle_rotation"),
+    Primary("pair_torque_bl", "stress torque density, branch-line form (eps : sigma of the contact stress): "
+            "sum_ij (f_ij x r_ij) int_0^1 W(r - r_i + s r_ij) ds", 1, BULK_SEGMENTS, "T", None, "oracle_rotation"),
+    Primary("wall_couple_bl", "boundary torque density, branch-line form (eps : sigma of the boundary stress): "
+            "sum_ik (f_ik x a_ik) int_0^1 W(r - r_i + s a_ik) ds", 1, BOUNDARY_SEGMENTS, "t_c", None,
+            "oracle_rotation"),
 )}
 
 #: the primaries of radius powers: name -> power (the number density "nd" is power 0)
@@ -83,6 +108,12 @@ GRADIENT_PRIMARIES = frozenset(p.name for p in PRIMARIES.values() if p.source ==
 
 #: primaries that need the contacts split into bulk and boundary
 CONTACT_PRIMARIES = frozenset(p.name for p in PRIMARIES.values() if p.source in CONTACT_SOURCES)
+
+
+#: primaries with a pseudo-vector (first) index: 3 components in 3D, 1 in 2D
+PSEUDO_PRIMARIES = frozenset(p.name for p in PRIMARIES.values() if p.source in (SPINNING_PARTICLES, CONTACT_HALVES,
+                                                                                CONTACT_LINES)
+                             or p.name in ("pair_torque", "wall_couple", "pair_torque_bl", "wall_couple_bl"))
 
 
 def rank(name):
@@ -351,4 +382,208 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
             out["fb"] = fabric_sum(snapshot, bulk, where, line_kernel, P, nt)
         if "fw" in needed:
             out["fw"] = fabric_sum(snapshot, boundary, where, line_kernel, P, nt)
+        if needed & ROTATION_CONTACT_PRIMARIES:
+            out.update(contact_torque_sums(snapshot, split, needed, where, line_kernel, P, nt))
+    if needed & SPIN_PRIMARIES:
+        out.update(spin_sums(snapshot, needed, u_ref, where, point_kernel, P, nt))
     return out
+
+
+# --- rotation (docs/theory.md, "Rotation and couple stress") ---
+
+#: primaries summed over the spinning particles, and over the contacts
+SPIN_PRIMARIES = frozenset(p.name for p in PRIMARIES.values() if p.source == SPINNING_PARTICLES)
+ROTATION_CONTACT_PRIMARIES = PSEUDO_PRIMARIES - SPIN_PRIMARIES
+
+
+def cross(a, b):
+    """a x b per row: (n, 3) for 3D rows, (n,) (the out-of-plane component a_0 b_1 - a_1 b_0) for 2D rows."""
+    if a.shape[1] == 3:
+        return np.cross(a, b)
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+
+
+def pseudo_columns(values):
+    """Pseudo-vectors as (n, T) columns: T = 3 in 3D, 1 in 2D (stored as (n,))."""
+    return values[:, None] if values.ndim == 1 else values
+
+
+def pseudo_shape(dim):
+    """The shape of one pseudo-vector: (3,) in 3D, () in 2D."""
+    return (3,) if dim == 3 else ()
+
+
+def contact_halves(snapshot, split=None):
+    """Every contact as seen by each flowing particle it touches.
+
+    Returns a dict: ``i`` (the flowing particle), ``force`` (on it), ``branch`` a = r_i - c (minimum image; c the
+    contact point), ``torque`` (c - r_i) x f = f x a; then ``pair_point`` (one contact point per bulk contact,
+    r_i - a_i) and ``pair_moment`` f_ij x r_ij (r_ij = r_i - r_j, minimum image) per bulk contact; ``wall_point``
+    and ``wall_torque`` per boundary contact; ``bulk_lever`` a_i per bulk contact. A bulk contact gives two halves: (i, f, a_i) and (j, -f, a_j) with
+    a_j = a_i - r_ij, so that both halves meet at one contact point whatever the periodic images.
+    """
+    bulk, boundary = snapshot.split_contacts() if split is None else split
+    dim = snapshot.dim
+    if bulk["i"].size:
+        a_i = snapshot.box.minimum_image(np.take(snapshot.positions, bulk["i"], axis=0) - bulk["point"])
+    else:
+        a_i = np.zeros((0, dim))
+    a_j = a_i - bulk["branch"]
+    force = np.concatenate([bulk["force"], np.negative(bulk["force"]), boundary["force"]])
+    branch = np.concatenate([a_i, a_j, boundary["branch"]])
+    return {"i": np.concatenate([bulk["i"], bulk["j"], boundary["i"]]).astype(np.int64),
+            "force": force, "branch": branch, "torque": cross(force, branch), "bulk_lever": a_i,
+            "pair_point": np.take(snapshot.positions, bulk["i"], axis=0) - a_i,
+            "pair_moment": cross(bulk["force"], bulk["branch"]),
+            "wall_point": boundary["point"], "wall_torque": cross(boundary["force"], boundary["branch"])}
+
+
+def largest_couple(halves):
+    """The largest torque x length the couple stresses sum (force x length^2, which may overflow where
+    force x branch does not; the lengths are the halves' and the bulk branches, at most twice as long);
+    0 without contacts."""
+    if not halves["i"].size:
+        return 0.0
+    with np.errstate(over="ignore"):
+        arm = np.abs(halves["branch"]).max(axis=1)
+        force = np.abs(halves["force"]).max(axis=1)
+        return float((force * arm * arm).max() * 4 * halves["force"].shape[1])
+
+
+def couple_stress_sum(snapshot, halves, core, line_kernel, P, nt, gradient=False):
+    """Source CONTACT_HALVES: m = -sum_halves tau (x) a int_0^1 W(r - r_i + s a) ds, from r_i to its contact point:
+    (P, T, D) flat over the torque components (T = 3 in 3D, 1 in 2D); with ``gradient``, (P, T, D, D_res)."""
+    dim = snapshot.dim
+    T = 3 if dim == 3 else 1
+    extra = (len(core.axes),) if gradient else ()
+    if not halves["i"].size:
+        return np.zeros((P, T, dim) + extra)
+    starts = np.take(snapshot.positions, halves["i"], axis=0)
+    values = outer(np.negative(pseudo_columns(halves["torque"])), halves["branch"])
+    summed = scatter_segments(core, line_kernel, starts, np.negative(halves["branch"]), values, gradient=gradient,
+                              n_threads=nt)
+    return summed.reshape((P, T, dim) + extra)
+
+
+def contact_lines(snapshot, split, halves):
+    """The lines of the branch-line form: each bulk contact once, from r_i along -r_ij to r_j, then each boundary
+    contact from r_i along -a to its contact point. Returns (starts, b, force, lever a = r_i - c)."""
+    bulk, boundary = split
+    starts = np.take(snapshot.positions, np.concatenate([bulk["i"], boundary["i"]]).astype(np.int64), axis=0)
+    b = np.concatenate([bulk["branch"], boundary["branch"]])
+    force = np.concatenate([bulk["force"], boundary["force"]])
+    lever = np.concatenate([halves["bulk_lever"], boundary["branch"]])
+    return starts, b, force, lever
+
+
+def branch_line_couple_sum(snapshot, split, halves, core, line_kernel, P, nt, gradient=False):
+    """Source CONTACT_LINES: m = -sum_c [f x int_0^1 (x(s) - c) W(r - x(s)) ds] (x) b, x(s) = r_i - s b, which
+    is -sum_c (f x a) (x) b psi_c + sum_c (f x b) (x) b chi_c with psi the kernel's line integral and chi its
+    first moment int_0^1 s W(r - r_i + s b) ds: (P, T, D) (with ``gradient`` (P, T, D, D_res))."""
+    dim = snapshot.dim
+    T = 3 if dim == 3 else 1
+    extra = (len(core.axes),) if gradient else ()
+    starts, b, force, lever = contact_lines(snapshot, split, halves)
+    if not starts.shape[0]:
+        return np.zeros((P, T, dim) + extra)
+    vec = np.negative(b)
+    line = scatter_segments(core, line_kernel, starts, vec, outer(np.negative(pseudo_columns(cross(force, lever))), b),
+                            gradient=gradient, n_threads=nt)
+    moment = scatter_segment_moments(core, line_kernel, starts, vec, outer(pseudo_columns(cross(force, b)), b),
+                                     gradient=gradient, n_threads=nt)
+    return (line + moment).reshape((P, T, dim) + extra)
+
+
+def contact_torque_sums(snapshot, split, needed, core, line_kernel, P, nt):
+    """The contact primaries of the couple stress and the torque densities (either form)."""
+    dim = snapshot.dim
+    T = 3 if dim == 3 else 1
+    halves = contact_halves(snapshot, split)
+    bulk, boundary = split
+    out = {}
+    if "couple" in needed:
+        out["couple"] = couple_stress_sum(snapshot, halves, core, line_kernel, P, nt)
+    if "couple_bl" in needed:
+        out["couple_bl"] = branch_line_couple_sum(snapshot, split, halves, core, line_kernel, P, nt)
+    for name, points, values in (("pair_torque", "pair_point", "pair_moment"),
+                                 ("wall_couple", "wall_point", "wall_torque")):
+        if name in needed:
+            out[name] = (scatter_points(core, line_kernel, halves[points], pseudo_columns(halves[values]),
+                                        n_threads=nt) if halves[points].shape[0] else np.zeros((P, T)))
+    for name, part in (("pair_torque_bl", bulk), ("wall_couple_bl", boundary)):
+        if name in needed:
+            # eps : sigma of the contact (boundary) stress: (f x b) along the same lines as sigma
+            out[name] = (scatter_segments(core, line_kernel, np.take(snapshot.positions, part["i"], axis=0),
+                                          np.negative(part["branch"]),
+                                          pseudo_columns(cross(part["force"], part["branch"])), n_threads=nt)
+                         if part["i"].size else np.zeros((P, T)))
+    return out
+
+
+def spin_sums(snapshot, needed, u_ref, core, point_kernel, P, nt):
+    """Source SPINNING_PARTICLES: one scatter of the needed columns of [I w, I w (x) v, I w (x) (v - u_ref)]."""
+    dim = snapshot.dim
+    inertia = flowing_rows(snapshot, snapshot.inertia("the rotational fields"))
+    s_i = pseudo_columns(flowing_rows(snapshot, snapshot.angular_velocities)) * inertia[:, None]
+    T = s_i.shape[1]
+    columns, layout = [], []
+    if "spin" in needed:
+        columns.append(s_i)
+        layout.append(("spin", (T,)))
+    if "spin_flux" in needed:
+        columns.append(outer(s_i, flowing_rows(snapshot, snapshot.velocities)))
+        layout.append(("spin_flux", (T, dim)))
+    if "spin_flux_w" in needed:
+        columns.append(outer(s_i, flowing_rows(snapshot, snapshot.velocities) - u_ref))
+        layout.append(("spin_flux_w", (T, dim)))
+    pos = flowing_rows(snapshot, snapshot.positions)
+    width = sum(int(np.prod(shape)) for _, shape in layout)
+    summed = (scatter_points(core, point_kernel, pos, np.concatenate(columns, axis=1), n_threads=nt)
+              if pos.shape[0] else np.zeros((P, width)))
+    out, start = {}, 0
+    for name, shape in layout:
+        size = int(np.prod(shape))
+        out[name] = summed[:, start:start + size].reshape((P,) + shape)
+        start += size
+    return out
+
+
+#: fields that need angular velocities (and moments of inertia)
+SPIN_FIELDS = ("spin_density", "angular_momentum_density", "spin_flux", "kinetic_spin_flux")
+#: fields that also need the particles' velocities
+MOVING_FIELDS = ("spin_flux", "kinetic_spin_flux")
+#: fields summed over the contacts (they need their torque x length to stay in range)
+CONTACT_ROTATION_FIELDS = ("couple_stress", "stress_torque_density", "boundary_couple_density")
+
+
+def check_spin(snapshot, fields):
+    """Raise before any work if a requested field needs angular velocities, velocities or moments of inertia that
+    are missing; returns the moments of inertia (None if no field needs them)."""
+    wanted = [f for f in fields if f in SPIN_FIELDS]
+    if not wanted:
+        return None
+    if snapshot.angular_velocities is None:
+        raise ValueError(f"snapshot.angular_velocities: expected angular velocities for the field {wanted[0]!r}, "
+                         f"got None")
+    moving = [f for f in wanted if f in MOVING_FIELDS]
+    if moving and snapshot.velocities is None:
+        raise ValueError(f"snapshot.velocities: expected velocities for the field {moving[0]!r}, got None")
+    return snapshot.inertia(f"the field {wanted[0]!r}")
+
+
+def rotation_largest(snapshot, fields):
+    """The largest value the rotational fields sum times a kernel value (I w v, torque x length), 0 without any,
+    for the overflow check; raises (check_spin) if their data are missing."""
+    inertia = check_spin(snapshot, fields)
+    largest = 0.0
+    if inertia is not None:
+        flow_i = flowing_rows(snapshot, inertia)
+        spin = np.abs(pseudo_columns(flowing_rows(snapshot, snapshot.angular_velocities))).max(axis=1, initial=0.0)
+        speed = 1.0
+        if snapshot.velocities is not None and any(f in MOVING_FIELDS for f in fields):
+            speed = max(1.0, float(np.abs(flowing_rows(snapshot, snapshot.velocities)).max(initial=0.0)))
+        with np.errstate(over="ignore"):
+            largest = float((flow_i * spin).max(initial=0.0)) * speed
+    if any(f in CONTACT_ROTATION_FIELDS for f in fields):
+        largest = max(largest, largest_couple(contact_halves(snapshot)))
+    return largest

@@ -15,6 +15,7 @@ import numpy as np
 
 from ._validate import counts_per_axis, flag
 from .executors import check_backend, executor
+from .fields import ROTATION_FIELDS
 from .grid import Grid
 from .pipeline import DEFAULT_FIELDS, prepare, run_snapshot
 from .primaries import CONTACT_PRIMARIES, compute_primaries, longest_branch
@@ -67,6 +68,10 @@ def coarse_grain_tiled(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention
     backend, n_workers = check_backend(backend, client, n_workers)
     verbose = flag(verbose, "verbose")
     job = prepare(snapshot, grid, kernel, fields, convention, species)
+    rotational = [name for name in job.fields if name in ROTATION_FIELDS]
+    if rotational:
+        raise ValueError(f"fields: expected fields without a pseudo-vector index for tiling, got {rotational} "
+                         f"(use cg.coarse_grain or cg.CoarseGrain for the rotational fields)")
     tiles = check_tiles(tiles, grid)
     job = job._replace(kernel=resolve_auto_line_quadrature(job.kernel, job.split))
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from ._atomic import atomic_write
 from .cylindrical import CylindricalGrid
-from .fields import FIELDS
+from .fields import field_shape
 from .grid import Grid
 from .units import unit
 
@@ -116,7 +116,7 @@ def write_vtk(result, path, frame=None):
         raise TypeError(f"result: VTK output needs a result on a cg.Grid (a rectilinear grid), got one on "
                         f"{type(grid).__name__}")
     dim = grid.dim
-    leading = result[result.fields[0]].ndim - len(grid.shape) - FIELDS[result.fields[0]][0]
+    leading = result[result.fields[0]].ndim - len(grid.shape) - len(field_shape(result.fields[0], dim))
     if leading and frame is None:
         raise ValueError("frame: this result has a time axis; choose a frame index")
     axes3 = list(grid.axis_coordinates) if dim == 3 else [grid.axis_coordinates[0], np.zeros(1), grid.axis_coordinates[1]]
@@ -136,7 +136,7 @@ def write_vtk(result, path, frame=None):
             f.write(f"POINT_DATA {n}\n".encode())
             for name in result.fields:
                 value = result[name] if not leading else result[name][frame]
-                rank = FIELDS[name][0]
+                rank = len(field_shape(name, dim))
                 if dim == 2:
                     value = value.reshape((grid.shape[0], 1, grid.shape[1]) + value.shape[2:])
                 # VTK point order: x fastest
@@ -190,7 +190,7 @@ def to_xarray(result):
     times = np.atleast_1d(result.times)
     for name in result.fields:
         value = result[name]
-        rank = FIELDS[name][0]
+        rank = len(field_shape(name, result.box.dim))
         if isinstance(grid, (Grid, CylindricalGrid)):
             space = tuple(names)
         else:

@@ -433,6 +433,7 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
     static char *kw_points[] = {"target", "kernel", "positions", "values", "gradient", "n_threads", NULL};
     static char *kw_segments[] = {"target", "kernel", "starts", "vectors", "values", "ray", "gradient", "n_threads",
                                   NULL};
+    static char *kw_moments[] = {"target", "kernel", "starts", "vectors", "values", "gradient", "n_threads", NULL};
     converted_target ct = {0};
     kernel_arg ka = {.target = &ct};
     input_array pos = {.name = segments ? "starts" : "positions", .ndim = 2, .length = {NULL, &ct.dim}};
@@ -441,7 +442,11 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
     int ray = 0, gradient = 0, n_threads = 0;
     PyArrayObject *out = NULL;
     int parsed;
-    if (segments)
+    if (segments == 2)   /* first moments along segments */
+        parsed = PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&|pO&", kw_moments, target_converter, &ct,
+                                             kernel_converter, &ka, array_converter, &pos, array_converter, &vec,
+                                             array_converter, &val, &gradient, threads_converter, &n_threads);
+    else if (segments)
         parsed = PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&|ppO&", kw_segments, target_converter, &ct,
                                              kernel_converter, &ka, array_converter, &pos, array_converter, &vec,
                                              array_converter, &val, &ray, &gradient, threads_converter, &n_threads);
@@ -463,7 +468,10 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
     sigint_guard guard;
     ct.target.interrupt = sigint_begin(&guard);
     Py_BEGIN_ALLOW_THREADS
-    if (segments)
+    if (segments == 2)
+        st = cg_scatter_segment_moments(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec),
+                                        n_values, array_data(&val), gradient, PyArray_DATA(out));
+    else if (segments)
         st = cg_scatter_segments(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec), ray,
                                  n_values, array_data(&val), gradient, PyArray_DATA(out));
     else
@@ -471,7 +479,12 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
                                gradient, PyArray_DATA(out));
     Py_END_ALLOW_THREADS
     sigint_end(&guard);
-    if (st != CG_OK) {
+    if (st == CG_ERR_UNSUPPORTED && segments == 2) {
+        PyErr_SetString(PyExc_NotImplementedError,
+                        "first moments along segments are available for the Gaussian (any averaged axes) and for "
+                        "full-dimensional Lucy and Heaviside kernels (no gradient for Heaviside)");
+        Py_CLEAR(out);
+    } else if (st != CG_OK) {
         raise_status(st);
         Py_CLEAR(out);
     }
@@ -493,6 +506,12 @@ static PyObject *py_scatter_segments(PyObject *self, PyObject *args, PyObject *k
 {
     (void)self;
     return py_scatter(args, kwds, 1);
+}
+
+static PyObject *py_scatter_segment_moments(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    return py_scatter(args, kwds, 2);
 }
 
 static PyObject *py_scatter_fluctuation(PyObject *self, PyObject *args, PyObject *kwds)
@@ -796,6 +815,9 @@ static PyMethodDef methods[] = {
     {"scatter_segments", (PyCFunction)(void (*)(void))py_scatter_segments, METH_VARARGS | METH_KEYWORDS,
      "scatter_segments(target, kernel, starts, vectors, values, ray=False, gradient=False, n_threads=0)\n\n"
      "Sum of values[o] * int_0^S M(node - starts[o] - s vectors[o]) ds, S = 1 or infinity (ray)."},
+    {"scatter_segment_moments", (PyCFunction)(void (*)(void))py_scatter_segment_moments, METH_VARARGS | METH_KEYWORDS,
+     "scatter_segment_moments(target, kernel, starts, vectors, values, gradient=False, n_threads=0)\n\n"
+     "Sum of values[o] * int_0^1 s M(node - starts[o] - s vectors[o]) ds (the kernel's first moment)."},
     {"scatter_fluctuation", (PyCFunction)(void (*)(void))py_scatter_fluctuation, METH_VARARGS | METH_KEYWORDS,
      "scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity, n_threads=0) -> (P, D, D)\n\n"
      "Kinetic stress -sum m (v - V(node)) (v - V(node)) M(node - x) in fluctuation form."},

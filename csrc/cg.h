@@ -139,6 +139,15 @@ double cg_kernel_gradient(const cg_kernel *kernel, const double *x, double *grad
    D_avg = 0 only). */
 double cg_kernel_line(const cg_kernel *kernel, const double *q, const double *e, double *grad);
 
+/* chi = int_0^1 s M(|q - s e|^2) ds, the first moment of the kernel along the
+   segment (the branch-line couple stress, docs/theory.md), with q and e as for
+   cg_kernel_line; if grad != NULL it receives the gradient of chi with respect
+   to the node position. Exact (closed forms, or Gauss-Legendre panels where
+   they are exact to round-off) for the Gaussian (any D_avg; an n-point rule
+   when line_points = n, as for psi), and for Lucy and Heaviside with D_avg = 0
+   or lower_dimensional; Heaviside has no gradient. */
+double cg_kernel_line_moment(const cg_kernel *kernel, const double *q, const double *e, double *grad);
+
 /* Where fields are evaluated. */
 typedef struct cg_target {
     int dim;              /* D */
@@ -190,6 +199,18 @@ cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
                               cg_index n, const double *starts, const double *vecs,
                               int ray, int n_values, const double *values,
                               int gradient, double *out);
+
+/*
+ * Segment objects weighted by the kernel's first moment along them:
+ * out[p, k] += sum_o values[o, k] * chi_o(node_p), chi_o(r) = int_0^1 s M(r -
+ * start_o - s vec_o) ds (cg_kernel_line_moment); gradient as for segments.
+ * CG_ERR_UNSUPPORTED for Lucy and Heaviside over averaged axes (D_avg > 0
+ * without lower_dimensional), for Heaviside's gradient and for mercurycg_line.
+ */
+cg_status cg_scatter_segment_moments(const cg_target *target, const cg_kernel *kernel,
+                                     cg_index n, const double *starts, const double *vecs,
+                                     int n_values, const double *values,
+                                     int gradient, double *out);
 
 /*
  * Kinetic stress in fluctuation form (eq. 17a):

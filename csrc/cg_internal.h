@@ -38,6 +38,10 @@ void cg_gauss_legendre01(int n, double *x, double *w);
 double cg_kernel_line_rule(const cg_kernel *kernel, const double *q, const double *e, double *grad,
                            int n_points);
 
+/* cg_kernel_line_moment with the same rule as cg_kernel_line_rule (cg_moment.c) */
+double cg_kernel_line_moment_rule(const cg_kernel *kernel, const double *q, const double *e, double *grad,
+                                  int n_points);
+
 /* ------------------------------------------------------------------ */
 /* A segment seen from a node (cg_kernels.c, cg_lucy.c). With L = |e|, unit
    vector n = e/L, u = q.n and q_perp = q - u n (component-wise, which keeps
@@ -191,6 +195,7 @@ typedef struct job {
     int ball_rows;             /* use cg_visit_ball_points (Lucy's, Heaviside's points on a grid) */
     int wide;                  /* ... its AVX-512 build */
     int line_points;           /* the kernel's rule for finite segments (0: round-off) */
+    int moment;                /* segments weighted by the kernel's first moment (cg_moment.c) */
 } job;
 
 /* per-thread scratch memory of the separable path, grown on demand */

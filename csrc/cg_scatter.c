@@ -87,6 +87,7 @@ static int interrupted(const job *jb)
 static double object_weight(const job *jb, const double *q, const double *e, double scale, double *grad)
 {
     const int want = jb->mode == MODE_GRADIENT;
+    if (jb->moment) return cg_kernel_line_moment_rule(jb->kernel, q, e, want ? grad : NULL, jb->line_points);
     if (jb->is_segment) {
         const double psi = cg_kernel_line_rule(jb->kernel, q, e, want ? grad : NULL, jb->ray ? 0 : jb->line_points);
         if (want && scale != 1.0)
@@ -287,6 +288,13 @@ static cg_status prepare(job *jb)
                     cg_kernel_marginal_axes(k) == 0 && jb->is_segment && jb->mode == MODE_VALUE;
     jb->ball_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
                     t->n_resolved > 0 && !jb->is_segment && jb->mode != MODE_GRADIENT;
+    if (jb->moment) {
+        /* the first moment (cg_moment.c): node by node */
+        if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) != 0) return CG_ERR_UNSUPPORTED;
+        if (k->mercurycg_line || (k->type == CG_KERNEL_HEAVISIDE && jb->mode == MODE_GRADIENT))
+            return CG_ERR_UNSUPPORTED;
+        jb->separable = jb->wide = jb->lucy_rows = jb->ball_rows = 0;
+    }
     return CG_OK;
 }
 
@@ -573,7 +581,7 @@ static cg_status run(job *jb, double *out)
 /* points and segments share one job layout */
 static cg_status scatter_values(const cg_target *target, const cg_kernel *kernel, cg_index n,
                                 const double *positions, int is_segment, const double *vecs, int ray,
-                                int n_values, const double *values, int gradient, double *out)
+                                int n_values, const double *values, int gradient, double *out, int moment)
 {
     if (n < 0 || n_values < 1) return CG_ERR_ARGUMENT;
     job jb;
@@ -589,6 +597,7 @@ static cg_status scatter_values(const cg_target *target, const cg_kernel *kernel
     jb.n_values = n_values;
     jb.values = values;
     jb.out_width = gradient ? n_values * target->n_resolved : n_values;
+    jb.moment = moment;
     return run(&jb, out);
 }
 
@@ -597,7 +606,7 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
                             int n_values, const double *values,
                             int gradient, double *out)
 {
-    return scatter_values(target, kernel, n, positions, 0, NULL, 0, n_values, values, gradient, out);
+    return scatter_values(target, kernel, n, positions, 0, NULL, 0, n_values, values, gradient, out, 0);
 }
 
 cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
@@ -605,7 +614,15 @@ cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
                               int ray, int n_values, const double *values,
                               int gradient, double *out)
 {
-    return scatter_values(target, kernel, n, starts, 1, vecs, ray, n_values, values, gradient, out);
+    return scatter_values(target, kernel, n, starts, 1, vecs, ray, n_values, values, gradient, out, 0);
+}
+
+cg_status cg_scatter_segment_moments(const cg_target *target, const cg_kernel *kernel,
+                                     cg_index n, const double *starts, const double *vecs,
+                                     int n_values, const double *values,
+                                     int gradient, double *out)
+{
+    return scatter_values(target, kernel, n, starts, 1, vecs, 0, n_values, values, gradient, out, 1);
 }
 
 cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kernel,

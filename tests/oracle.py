@@ -2,7 +2,8 @@
 
 Each twin is named after what it mirrors: ``oracle_scatter_points``,
 ``oracle_scatter_segments``, ``oracle_scatter_fluctuation`` and
-``oracle_minimum_image`` mirror the ``_core`` entry points of the same name;
+``oracle_minimum_image`` mirror the ``_core`` entry points of the same name (and
+``oracle_scatter_segment_moments`` ``_core.scatter_segment_moments``);
 ``oracle_split_contacts`` mirrors ``Snapshot.split_contacts``;
 ``oracle_coarse_grain`` mirrors ``cgbound.coarse_grain`` (the whole pipeline);
 ``oracle_rheology`` mirrors its gradient, kinematics and rheology fields;
@@ -281,6 +282,58 @@ class OracleKernel:
                 out[p, comp] = sum(float(_gl(f, x0, x1)) for x0, x1 in zip(edges[:-1], edges[1:])) / L
         return out
 
+    def line_moment(self, q, e, n_res=None, avg_extent=1.0, gradient=False):
+        """chi(q) = int_0^1 s M(|q - s e|^2) ds for nodes q (P x n_res), or its gradient with respect to the node
+        ((P, n_res)): quadrature in s of s M (s grad M) at the offsets q - s e themselves, panels graded toward
+        the closest approach (Lucy's kink where the line meets the node) and split where the support clips."""
+        q = np.atleast_2d(np.asarray(q, float))
+        e = np.asarray(e, float)
+        n_res = self.dim if n_res is None else n_res
+
+        def value(y):
+            if gradient:
+                return self.marginal_gradient(y, n_res, avg_extent)
+            return self.marginal((y * y).sum(axis=1), n_res, avg_extent)
+
+        if n_res == 0:
+            return np.zeros((q.shape[0], 0)) if gradient else np.full(q.shape[0], 0.5 / avg_extent)
+        if self.line_points:
+            x, w = np.polynomial.legendre.leggauss(self.line_points)
+            return sum(wg * s * value(q - s * e) for s, wg in zip(0.5 * (x + 1.0), 0.5 * w))
+        L = float(np.linalg.norm(e))
+        if L == 0.0:
+            return 0.5 * value(q)
+        n = e / L
+        out = np.zeros(q.shape if gradient else q.shape[0])
+        for p in range(q.shape[0]):
+            u = float(q[p] @ n)
+            a = float(np.linalg.norm(q[p] - u * n))
+            if a >= self.R:
+                continue
+            b = math.sqrt(self.R**2 - a * a)
+            lo, hi = max(0.0, (u - b) / L), min(1.0, (u + b) / L)
+            if lo >= hi:
+                continue
+            star = min(max(u / L, lo), hi)
+            scale = max(a, abs(u / L - star) * L, 1e-9 * self.R) / L
+            edges = {lo, hi, star}
+            for side in (star - lo, hi - star):
+                d = side
+                while d > scale and len(edges) < 400:
+                    d *= 0.5
+                    edges.update(x for x in (star - d, star + d) if lo < x < hi)
+            edges = sorted(edges)
+            total = 0.0
+            for x0, x1 in zip(edges[:-1], edges[1:]):
+                half = 0.5 * (x1 - x0)
+                if half <= 0:
+                    continue
+                ss = x0 + half + half * GL40_X
+                vals = value(q[p][None, :] - ss[:, None] * e[None, :])
+                total = total + (((ss * GL40_W)[:, None] if gradient else ss * GL40_W) * vals).sum(axis=0) * half
+            out[p] = total
+        return out
+
 
 # ----------------------------------------------------------------------
 # evaluation targets
@@ -361,7 +414,7 @@ def _wrap(x, tgt):
     return x
 
 
-def _object_weights(kernel, tgt, x, e=None, ray=False, gradient=False):
+def _object_weights(kernel, tgt, x, e=None, ray=False, gradient=False, moment=False):
     """Kernel weight (e is None) or line integral of one object at every node, summed over images
     ((P,), or (P, n_res) with gradient: the gradient with respect to the node)."""
     nodes, resolved, periodic, periods, avg = tgt
@@ -376,6 +429,9 @@ def _object_weights(kernel, tgt, x, e=None, ray=False, gradient=False):
         def weight(s):
             d = nodes - (xr + s)
             return kernel.marginal((d * d).sum(axis=1), n_res, avg)
+    elif moment:
+        def weight(s):
+            return kernel.line_moment(nodes - (xr + s), e[resolved], n_res, avg, gradient=gradient)
     elif gradient:
         def weight(s):
             return kernel.line_gradient(nodes - (xr + s), e[resolved], n_res, avg, ray=ray)
@@ -385,11 +441,11 @@ def _object_weights(kernel, tgt, x, e=None, ray=False, gradient=False):
     return _sum_images(weight, periodic, periods, nodes.shape[0])
 
 
-def _scatter(kernel, tgt, values, objects, ray=False, gradient=False):
+def _scatter(kernel, tgt, values, objects, ray=False, gradient=False, moment=False):
     P, n_res = tgt[0].shape[0], len(tgt[1])
     out = np.zeros((P, values.shape[1], n_res) if gradient else (P, values.shape[1]))
     for (x, e), v in zip(objects, values):
-        w = _object_weights(kernel, tgt, x, e, ray, gradient)
+        w = _object_weights(kernel, tgt, x, e, ray, gradient, moment)
         out += w[:, None, :] * v[None, :, None] if gradient else w[:, None] * v[None, :]
     return out
 
@@ -402,6 +458,12 @@ def oracle_scatter_points(kernel, tgt, positions, values, gradient=False):
 def oracle_scatter_segments(kernel, tgt, starts, vecs, values, ray=False, gradient=False):
     """Twin of _core.scatter_segments: (P, K), or (P, K, n_res) with gradient."""
     return _scatter(kernel, tgt, values, list(zip(starts, vecs)), ray=ray, gradient=gradient)
+
+
+def oracle_scatter_segment_moments(kernel, tgt, starts, vecs, values, gradient=False):
+    """Twin of _core.scatter_segment_moments (the kernel's first moment along segments): (P, K), or (P, K, n_res)
+    with gradient."""
+    return _scatter(kernel, tgt, values, list(zip(starts, vecs)), gradient=gradient, moment=True)
 
 
 def oracle_scatter_fluctuation(kernel, tgt, positions, masses, velocities, node_velocity):

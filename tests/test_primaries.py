@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import cgbound as cg
-from cgbound.fields import FIELDS, needed_primaries
+from cgbound.fields import COUPLE_STRESS_FORMS, FIELDS, needed_primaries
 from cgbound.primaries import CONTACT_PRIMARIES, PRIMARIES, SOURCES, compute_primaries, reference_velocity
 from cgbound.grid import Grid
 
@@ -21,7 +21,8 @@ def test_every_field_names_only_catalogued_primaries():
 
 
 def test_every_primary_is_needed_by_some_field():
-    used = set().union(*(primaries for _, primaries in FIELDS.values()))
+    # in one of the couple stress forms (the branch-line one replaces three primaries)
+    used = set().union(*(needed_primaries(tuple(FIELDS), form) for form in COUPLE_STRESS_FORMS))
     assert set(PRIMARIES) == used
 
 
@@ -31,7 +32,8 @@ def test_catalogue_entries_are_complete():
         assert p.source in SOURCES
         assert p.rank in (0, 1, 2)
         assert p.symbol and p.description and p.twin.startswith("oracle_")
-    assert CONTACT_PRIMARIES == {"sb", "sw", "t", "sx", "fb", "fw"}
+    assert CONTACT_PRIMARIES == {"sb", "sw", "t", "sx", "fb", "fw", "couple", "pair_torque", "wall_couple",
+                                 "couple_bl", "pair_torque_bl", "wall_couple_bl"}
 
 
 def test_twins_exist_in_the_oracle():
@@ -45,13 +47,15 @@ def test_twins_exist_in_the_oracle():
         assert callable(getattr(oracle, p.twin, None)), f"{p.name}: no {p.twin} in tests/oracle.py"
 
 
+@pytest.mark.parametrize("form", COUPLE_STRESS_FORMS)
 @pytest.mark.parametrize("fields", [tuple(FIELDS)], ids=["all"])
-def test_computed_primaries_have_the_catalogued_rank(fields):
+def test_computed_primaries_have_the_catalogued_rank(fields, form):
     snap = random_snapshot(7, dim=3)
     snap = cg.Snapshot(snap.positions, snap.velocities, snap.masses, box=snap.box, contacts=snap.contacts,
-                       fixed=snap.fixed, body_force=[0.0, 0.0, -1.0], radii=np.full(snap.n_particles, 0.5))
+                       fixed=snap.fixed, body_force=[0.0, 0.0, -1.0], radii=np.full(snap.n_particles, 0.5),
+                       angular_velocities=np.random.default_rng(7).normal(size=(snap.n_particles, 3)))
     grid = Grid(snap.box, (3, 4, 5))
-    needed = needed_primaries(fields)
+    needed = needed_primaries(fields, form)
     out = compute_primaries(snap, grid, cg.Lucy(1.5), needed, reference_velocity(snap))
     assert set(out) == needed
     for name, value in out.items():

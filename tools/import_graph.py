@@ -59,7 +59,7 @@ LAYERS = {
     "rheology": 6,                                                # ratios of a Result's stress components
     "__init__": 7, "__main__": 7, "cli": 7, "paper": 7,
     "scenes": 7, "profiles": 7, "datasets": 7, "blobs": 7,        # today (the paper wing, before cgbound/paper/)
-    "rotation": 4, "angular_balance": 4,                          # spin, couple stress; their balance
+    "rotation": 5, "angular_balance": 5,                          # spin, couple stress (through the pipeline); their balance
     "cylindrical": 3, "cylindrical_fields": 5,                    # cylindrical grids; their fields from ring quadrature
     "cylindrical_balance": 5,                                     # the momentum balance on ring averages (hoop terms)
 }

@@ -22,6 +22,7 @@ API_FLAGS = {
     "density": "--density", "pair_values": "--pair-values", "pair_compute": "--pair-compute",
     "pair_style": "--pair-style", "species": "--species", "lower": "--lower", "upper": "--upper",
     "paths": "PATH", "check_forces": "--no-check-forces",
+    "couple_stress_form": "--couple-stress-form",
 }
 API_FLAGS["kernel"] = "--kernel"        # e.g. a gradient field asked of the Heaviside kernel
 

@@ -121,6 +121,10 @@ def add_parser(sub):
     f = r.add_argument_group("fields and time")
     f.add_argument("--fields", default="density,velocity,stress", help="comma-separated field names (default density,velocity,stress)")
     f.add_argument("--convention", choices=["tension", "compression"], default="tension", help="stress sign: tension-positive (the paper) or compression-positive (MercuryCG); default tension")
+    f.add_argument("--couple-stress-form", choices=["contact_point", "branch_line"], default="contact_point",
+                   help="how couple_stress, stress_torque_density and boundary_couple_density split the contact "
+                        "torques: at the contact points (default) or along the branch lines (the torque density "
+                        "is then the antisymmetric part of the paper's stress; no averaged axis)")
     f.add_argument("--species", type=int, default=None, help="partial fields of this species")
     f.add_argument("--time-average", default="mean", help="mean (default), none (every frame), or a Gaussian time width")
     f.add_argument("--start", type=int, default=None, help="first frame")
@@ -433,7 +437,8 @@ def run(args):
     check_figure(args, grid)
     with as_usage("--fields"):
         analysis = CoarseGrain(data, grid, kernel, fields=args.fields, convention=args.convention,
-                               species=args.species, time_average=args.time_average)
+                               species=args.species, time_average=args.time_average,
+                               couple_stress_form=args.couple_stress_form)
     start = time.perf_counter()
     analysis.run(args.start, args.stop, args.step, verbose=not args.quiet)
     elapsed = time.perf_counter() - start
