@@ -615,10 +615,12 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                 continue;
             }
             if (jb->is_segment) {
+                /* (node - x) - shift: node - x is exact or nearly (both large and close
+                   far from the origin), where x + shift would round at the scale of x */
                 const double *restrict c = t->coords[s - pad] + first[s];
-                const double xg = xs[s] + shift;
+                const double x_s = xs[s];
                 for (cg_index k = 0; k < n; ++k) {
-                    const double q = c[k] - xg;
+                    const double q = (c[k] - x_s) - shift;
                     dst[k] = q * q;
                 }
             } else {

@@ -1,0 +1,223 @@
+"""The Gaussian's exact (round-off) line integrals on grids (cg_separable.c, the "hybrid" form: the segment's
+Gauss-Legendre rule at nodes whose ball holds the whole segment, the rule on the clipped part at the nodes the
+cutoff sphere cuts it for) against the node-by-node path (erf form, cg_kernels.c), 50-digit mpmath, the slow NumPy
+twin (tests/oracle.py), and itself across thread counts and vector builds.
+
+Each comparison is at 1e-12 relative to the field's scale (its largest value) and, where stated, to the value
+itself. The node-by-node path is forced with the kernel's ``_per_node`` switch.
+"""
+import mpmath as mp
+import numpy as np
+import pytest
+
+import cgbound as cg
+from cgbound import _core, _engine
+from oracle import oracle_kernel_of, oracle_scatter_segments, oracle_target
+from stability_log import record
+from test_hard_cases import mp_psi, rel_error
+
+RTOL = 1e-12
+
+
+def gauss_grid_psi(box, shape, starts, vectors, w, cutoff, per_node=False, n_threads=0):
+    """sum over the segments of psi at the grid's nodes (every segment's value 1)."""
+    grid = cg.Grid(box, shape)
+    kernel = cg.Gaussian(w, cutoff=cutoff)
+    kernel._per_node = per_node
+    target = _engine.core_target(grid, box)
+    starts = np.atleast_2d(np.asarray(starts, float))
+    vectors = np.atleast_2d(np.asarray(vectors, float))
+    longest = float(np.max(np.linalg.norm(vectors, axis=1))) if len(vectors) else 0.0
+    out = _core.scatter_segments(target, _engine.core_kernel(kernel, 1.0, longest), starts, vectors,
+                                 np.ones((len(starts), 1)), n_threads=n_threads)
+    return grid, kernel, out[:, 0]
+
+
+def grid_nodes(grid):
+    return np.stack(np.meshgrid(*grid.axis_coordinates, indexing="ij"), axis=-1).reshape(-1, grid.dim)
+
+
+def assert_grid_equals_node_by_node(box, shape, starts, vectors, w, cutoff, what, value_floor=1e-3):
+    """field-relative everywhere, value-relative where the value is above value_floor times the largest"""
+    _, _, fast = gauss_grid_psi(box, shape, starts, vectors, w, cutoff)
+    _, _, slow = gauss_grid_psi(box, shape, starts, vectors, w, cutoff, per_node=True)
+    assert np.count_nonzero(slow) > 0, what + ": no node inside the support"
+    err = rel_error(fast, slow)
+    assert err <= RTOL, (what, err)
+    big = np.abs(slow) > value_floor * np.abs(slow).max()
+    value_err = float(np.max(np.abs(fast[big] - slow[big]) / np.abs(slow[big])))
+    assert value_err <= RTOL, (what, value_err)
+    # nodes the exact path leaves empty are outside the capsule for the node-by-node path too
+    assert np.array_equal(fast == 0.0, slow == 0.0), what
+    return err
+
+
+BOX3 = cg.Box([0, 0, 0], [8, 8, 8])
+SHAPE3 = (17, 17, 17)
+
+
+@pytest.mark.parametrize("length_over_w", [0.0, 1e-9, 1e-3, 0.07, 0.2, 0.4, 0.99, 1.5, 2.5, 4.5])
+@pytest.mark.parametrize("cutoff", [3.0, 5.0])
+def test_grid_equals_node_by_node_for_every_rule(length_over_w, cutoff):
+    """Segment lengths that select each round-off rule (4 to 16 points), zero and near-zero lengths."""
+    rng = np.random.default_rng(int(length_over_w * 1000) + int(cutoff))
+    w = 0.6
+    starts = rng.uniform(2.5, 5.5, size=(6, 3))
+    d = rng.normal(size=(6, 3))
+    vectors = d / np.linalg.norm(d, axis=1)[:, None] * length_over_w * w
+    err = assert_grid_equals_node_by_node(BOX3, SHAPE3, starts, vectors, w, cutoff, f"L = {length_over_w} w")
+    record(f"Gaussian exact grid vs node by node, L = {length_over_w:g} w, cutoff {cutoff:g} w", err)
+
+
+@pytest.mark.parametrize("case", ["along rows", "across rows", "on node lines", "diagonal", "grazing"])
+def test_grid_equals_node_by_node_on_special_directions(case):
+    w, cutoff = 0.5, 3.0
+    start, vector = np.array([3.2, 4.1, 3.7]), np.array([0.4, -0.15, 0.25])
+    if case == "along rows":
+        vector = np.array([0.0, 0.0, 0.49])
+    elif case == "across rows":
+        vector = np.array([0.49, 0.0, 0.0])
+    elif case == "on node lines":
+        start, vector = np.array([3.5, 3.5, 1.5]), np.array([0.0, 0.0, 0.5])
+    elif case == "diagonal":
+        vector = np.array([0.3, 0.3, 0.3])
+    elif case == "grazing":
+        # the cutoff sphere passes (nearly) through nodes: start 1.5 = 3 w from the nodes at x = 2.0, 5.0
+        start, vector = np.array([3.5, 3.5, 3.5]), np.array([0.5, 0.0, 0.0])
+    assert_grid_equals_node_by_node(BOX3, SHAPE3, start, vector, w, cutoff, case)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("periodic", [False, True])
+def test_grid_equals_node_by_node_many_segments(dim, periodic):
+    rng = np.random.default_rng(3 * dim + periodic)
+    L = 6.0
+    box = cg.Box(np.zeros(dim), np.full(dim, L), periodic=periodic)
+    n = 40
+    starts = rng.uniform(0, L, size=(n, dim))
+    scale = rng.choice([0.0, 1e-9, 0.3, 1.0, 2.0], size=n)
+    vectors = rng.normal(size=(n, dim)) * scale[:, None]
+    shape = (23,) * dim
+    for w, cutoff in ((0.7, 3.0), (0.45, 5.0)):
+        assert_grid_equals_node_by_node(box, shape, starts, vectors, w, cutoff, f"{dim}-D periodic={periodic}")
+
+
+# The grid path integrates the Gaussian's tail with the segment's Gauss-Legendre rule, exact to round-off
+# relative to the kernel's peak; far beyond an end the integrand falls by many orders across the segment and the
+# rule loses digits of the tiny value itself (1.7e-8 at 10 w, 1.2e-4 at 20 w; the node-by-node erfc form keeps
+# them). Field-relative both are at round-off. Strict: these fail loudly once the grid path is fixed.
+FAR_LIMITATION = pytest.mark.xfail(strict=True, reason="grid path: Gauss-Legendre on a far Gaussian tail loses "
+                                   "value-relative digits (issue 16)")
+
+
+@pytest.mark.parametrize("distance", [3.0, 6.0, pytest.param(10.0, marks=FAR_LIMITATION),
+                                      pytest.param(20.0, marks=FAR_LIMITATION)])
+def test_nodes_far_beyond_a_segment_end(distance):
+    """Nodes `distance` w beyond a segment's end along its line (and off it), with a cutoff that holds them:
+    the tiny values against 50-digit mpmath, relative to each value."""
+    w, cutoff, L = 0.25, 24.0, 0.45                      # L = 1.8 w: a 10-point rule
+    box = cg.Box([0.0, 0.0, 0.0], [1.0, 1.0, 1.0])
+    shape = (5, 5, 5)
+    x0 = grid_nodes(cg.Grid(box, shape))[:, 0].min()
+    start = np.array([x0 - distance * w - L, 0.5, 0.5])  # the end `distance` w before the first plane of nodes
+    vector = np.array([L, 0.0, 0.0])
+    grid, _, got = gauss_grid_psi(box, shape, start, vector, w, cutoff)
+    nodes = grid_nodes(grid)
+    plane = nodes[:, 0] == x0
+    mp.mp.dps = 50
+    want = np.array([float(mp_psi(p - start, vector, w, cutoff * w)) for p in nodes[plane]])
+    assert np.all(want > 0)
+    err = float(np.max(np.abs(got[plane] - want) / want))
+    record(f"Gaussian exact grid, nodes {distance:g} w beyond a segment end (value-relative)", err)
+    assert err <= RTOL, err
+
+
+def test_nodes_exactly_on_the_segment_line():
+    w, cutoff = 0.25, 8.0
+    box = cg.Box([0, 0, 0], [4, 4, 4])
+    start, vector = np.array([1.0, 2.0, 2.0]), np.array([0.375, 0.0, 0.0])   # along a node line
+    grid, _, got = gauss_grid_psi(box, (17, 17, 17), start, vector, w, cutoff)
+    nodes = grid_nodes(grid)
+    on_line = (nodes[:, 1] == 2.0) & (nodes[:, 2] == 2.0)
+    mp.mp.dps = 50
+    want = np.array([float(mp_psi(p - start, vector, w, cutoff * w)) for p in nodes[on_line]])
+    err = rel_error(got[on_line], want)
+    record("Gaussian exact grid, nodes on the segment line", err)
+    assert err <= RTOL
+
+
+def test_positions_near_1e6_with_small_width():
+    w, cutoff = 1e-3, 5.0
+    lo = np.array([1e6, -2e6, 1e6])
+    box = cg.Box(lo, lo + 0.016)
+    start = lo + np.array([7.3e-3, 8.1e-3, 7.7e-3])
+    vector = np.array([4e-4, 2e-4, -3e-4])
+    grid, _, got = gauss_grid_psi(box, (17, 17, 17), start, vector, w, cutoff)
+    _, _, slow = gauss_grid_psi(box, (17, 17, 17), start, vector, w, cutoff, per_node=True)
+    assert rel_error(got, slow) <= RTOL
+    nodes = grid_nodes(grid)
+    pick = np.argsort(-slow)[:60:3]   # 20 of the largest values
+    mp.mp.dps = 50
+    want = [float(mp_psi([mp.mpf(float(p[d])) - mp.mpf(float(start[d])) for d in range(3)], vector, w, cutoff * w))
+            for p in nodes[pick]]
+    err = rel_error(got[pick], want)
+    record("Gaussian exact grid, positions near 1e6, w = 1e-3", err)
+    assert err <= RTOL
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_grid_against_the_numpy_twin(dim):
+    rng = np.random.default_rng(40 + dim)
+    L = 5.0
+    box = cg.Box(np.zeros(dim), np.full(dim, L), periodic=(True,) + (False,) * (dim - 1))
+    starts = rng.uniform(0, L, size=(8, dim))
+    vectors = rng.normal(size=(8, dim)) * 0.6
+    vectors[0] = 0.0
+    values = rng.normal(size=(8, 3))
+    grid = cg.Grid(box, (11,) * dim)
+    kernel = cg.Gaussian(0.5, cutoff=3.0)
+    target = _engine.core_target(grid, box)
+    got = _core.scatter_segments(target, _engine.core_kernel(kernel, 1.0, float(np.abs(vectors).max() * 2)),
+                                 starts, vectors, values)
+    want = oracle_scatter_segments(oracle_kernel_of(kernel, dim), oracle_target(grid, box), starts, vectors, values)
+    assert np.count_nonzero(want) > 0
+    assert rel_error(got, want) <= RTOL
+
+
+@pytest.mark.skipif(not cg.have_openmp(), reason="serial build")
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("cutoff", [3.0, 5.0])
+def test_thread_counts_and_vector_builds_bit_for_bit(dim, cutoff):
+    """A disordered packing with many contacts on a grid long enough along its first axis for the threads'
+    slabs (cg_scatter.c; elsewhere per-thread buffers make a run deterministic only per thread count)."""
+    rng = np.random.default_rng(21 + dim)
+    extent = np.array([40.0] + [10.0] * (dim - 1))
+    n = int(np.prod(extent) / (4.0 if dim == 3 else 0.5))
+    pos = rng.uniform(0, extent, size=(n, dim))
+    i = rng.integers(0, n, size=6 * n)
+    j = (i + rng.integers(1, 40, size=i.size)) % n
+    close = np.linalg.norm(pos[i] - pos[j], axis=1) < 2.0
+    pairs = np.unique(np.sort(np.stack([i[close], j[close]], axis=1), axis=1), axis=0)
+    i, j = pairs[:, 0], pairs[:, 1]
+    point = 0.5 * (pos[i] + pos[j])
+    force = rng.normal(size=(i.size, dim))
+    box = cg.Box(np.zeros(dim), extent, periodic=(False,) + (True,) * (dim - 1))
+    snap = cg.Snapshot(pos, np.zeros((n, dim)), np.ones(n), box=box, contacts=cg.Contacts(i, j, force, point))
+    grid = cg.Grid(box, tuple(int(2 * e) for e in extent))
+
+    def stress():
+        return cg.coarse_grain(snap, grid, cg.Gaussian(0.5, cutoff=cutoff), fields=("contact_stress",)).contact_stress
+
+    with cg.threads(1):
+        one = stress()
+    assert np.count_nonzero(one) > 0
+    for k in (2, 3):
+        with cg.threads(k):
+            assert np.array_equal(one, stress()), k
+    previous = _core.set_wide_vectors(False)
+    try:
+        with cg.threads(1):
+            narrow = stress()
+    finally:
+        _core.set_wide_vectors(previous)
+    assert np.array_equal(one, narrow)
