@@ -94,6 +94,10 @@ double cg_lucy_segment(const cg_kernel *k, const segment_axis *ax, const double 
     return psi;
 }
 
+/* a box of at most this many times the capsule's volume (plus 8 nodes) is
+   evaluated whole rather than narrowed */
+#define LUCY_BOX_RATIO 2.0
+
 /* nodes and rows per batch of cg_visit_lucy */
 #define LUCY_BATCH 256
 #define LUCY_ROWS 64
@@ -175,6 +179,34 @@ static void lucy_add_row(lucy_visit *v, double f0, double f1, cg_index base)
     v->rbase[v->nrows++] = base;
 }
 
+/* every node of the stencil box first..last (2-D or 3-D), no narrowing */
+static void lucy_add_box(lucy_visit *v, const cg_target *t, const double *x, const cg_index *first,
+                         const cg_index *last, const cg_index *stride)
+{
+    const int row = v->row;
+    const cg_index n0 = row == 2 ? last[0] - first[0] + 1 : 1;
+    const cg_index k0 = first[row], k1 = last[row];
+    const double *zc = v->zc, xr = v->x_row;
+    for (cg_index i = 0; i < n0; ++i) {
+        const cg_index ii = row == 2 ? first[0] + i : 0;
+        const double f0 = row == 2 ? t->coords[0][ii] - x[0] : 0.0;
+        for (cg_index j = first[row - 1]; j <= last[row - 1]; ++j) {
+            const double fj = t->coords[row - 1][j] - x[row - 1];
+            const double fa = row == 2 ? f0 : fj, fb = row == 2 ? fj : 0.0;
+            const cg_index base = (row == 2 ? ii * stride[0] : 0) + j * stride[row - 1];
+            for (cg_index k = k0; k <= k1; ++k) {
+                if (v->count == LUCY_BATCH) lucy_values_flush(v);
+                const int c = v->count++;
+                v->qb[0][c] = fa;
+                v->qb[1][c] = fb;
+                if (row == 2) v->qb[2][c] = zc[k] - xr;
+                else v->qb[1][c] = zc[k] - xr;
+                v->node[c] = base + k;
+            }
+        }
+    }
+}
+
 /* The node-by-node path (cg_scatter.c, visit_nodes) over the same stencil box,
    with the segment's axis computed once per object instead of once per node:
    in 3-D the planes of the first axis narrowed to the rows the capsule's
@@ -244,6 +276,36 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
     for (int a = 0; a < row; ++a) {
         v->P.n[a] = ax.unit[a];
         v->P.e[a] = e[a];
+    }
+    /* a box hardly bigger than the capsule (short segments along an axis, as
+       in a lattice) costs less to evaluate whole than to narrow row by row:
+       the narrowing only drops nodes of weight 0, so the sums are the same */
+    int spaced = 1;
+    for (int a = 0; a < nr; ++a) spaced &= jb->spacing[a] > 0.0;
+    if (nr >= 2 && v->narrow && spaced) {
+        /* the box tightened to the nodes within the capsule's bounding box
+           (stencil_range takes a node more each way), widened by the
+           narrowing's margins: every node of non-zero weight stays in */
+        const double margin = 1e-6 * (R + reach) + mu;
+        cg_index tf[3] = {first[0], first[1], first[2]}, tl[3] = {last[0], last[1], last[2]};
+        double box = 1.0, cell = 1.0;
+        for (int a = 0; a < nr; ++a) {
+            const double ha = jb->spacing[a], c0 = t->coords[a][0];
+            const double sl = 1e-9 + 1e-12 * (fabs(c0) + fabs(t->coords[a][t->shape[a] - 1]) + fabs(x[a]) + reach) / ha;
+            const double klo = ceil((bmin[a] - margin - c0) / ha - sl), khi = floor((bmax[a] + margin - c0) / ha + sl);
+            if (klo > (double)tf[a]) tf[a] = (cg_index)klo;
+            if (khi < (double)tl[a]) tl[a] = (cg_index)khi;
+            if (tf[a] > tl[a]) return 1;
+            box *= (double)(tl[a] - tf[a] + 1);
+            cell *= ha;
+        }
+        const double pi = 3.14159265358979323846;
+        const double capsule = nr == 3 ? pi * R * R * (ax.L + 4.0 / 3.0 * R) : R * (2.0 * ax.L + pi * R);
+        if (box <= LUCY_BOX_RATIO * capsule / cell + 8.0) {
+            lucy_add_box(v, t, x, tf, tl, stride);
+            lucy_values_flush(v);
+            return 1;
+        }
     }
     const double h1 = nr == 3 ? jb->spacing[1] : 0.0;
     if (nr == 3 && h1 > 0.0 && rounding < 1e-8 * R * R) {
