@@ -282,9 +282,22 @@ static cg_status prepare(job *jb)
     jb->line_points = k->type != CG_KERNEL_GAUSSIAN ? 0 : k->mercurycg_line ? CG_LINE_MERCURYCG : k->line_points;
     jb->separable = k->type == CG_KERNEL_GAUSSIAN && !k->per_node && t->is_grid && t->n_resolved > 0 &&
                     jb->mode != MODE_GRADIENT && !(k->mercurycg_line && jb->is_segment);
-    jb->wide = jb->separable && cg_separable_wide_available();
     jb->lucy_rows = k->type == CG_KERNEL_LUCY && !k->per_node && t->is_grid && t->n_resolved > 0 &&
                     cg_kernel_marginal_axes(k) == 0 && jb->is_segment && jb->mode == MODE_VALUE;
+    jb->wide = (jb->separable || jb->lucy_rows) && cg_separable_wide_available();
+    if (t->is_grid) {
+        double cell = 1.0;
+        jb->lucy_box = t->n_resolved >= 2;
+        for (int a = t->n_resolved - 1; a >= 0; --a) {
+            const double h = jb->spacing[a];
+            jb->inv_spacing[a] = h > 0.0 ? 1.0 / h : 0.0;
+            jb->coord_extent[a] = fabs(t->coords[a][0]) + fabs(t->coords[a][t->shape[a] - 1]);
+            jb->grid_stride[a] = a == t->n_resolved - 1 ? 1 : jb->grid_stride[a + 1] * t->shape[a + 1];
+            jb->lucy_box &= h > 0.0;
+            cell *= h;
+        }
+        jb->inv_cell = cell > 0.0 ? 1.0 / cell : 0.0;
+    }
     jb->ball_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
                     t->n_resolved > 0 && !jb->is_segment && jb->mode != MODE_GRADIENT;
     return CG_OK;
