@@ -17,6 +17,9 @@
 #include "cg_internal.h"
 
 #include <math.h>
+#if defined(__unix__)
+#include <sched.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -506,6 +509,14 @@ static int plan_slabs(const job *jb, const cg_index *order, slab_plan *plan)
     return 1;
 }
 
+/* a pause while another thread finishes a slab this one needs */
+static void slab_wait(void)
+{
+#if defined(_OPENMP) && defined(__unix__)
+    sched_yield();
+#endif
+}
+
 static cg_status run(job *jb, double *out)
 {
     cg_status st = prepare(jb);
@@ -532,23 +543,60 @@ static cg_status run(job *jb, double *out)
     slab_plan plan;
     if (plan_slabs(jb, order, &plan)) {
         free(order);
+        /* The slabs in colour order, each started as soon as the slabs it
+           overlaps (|s' - s| <= 2) of an earlier colour are done, instead of
+           a barrier after each colour (which leaves a thread idle when a
+           colour's slab count is odd): every node still receives its terms
+           slab by slab in colour order, so the sums are those of the
+           colour-by-colour order whatever the number of threads. Tasks are
+           taken in list order, so a slab only waits for slabs already taken. */
+        const cg_index S = plan.n_slabs;
+        cg_index *task = malloc((size_t)S * sizeof *task);
+        int *done = calloc((size_t)S, sizeof *done);
+        if (!task || !done) {
+            free(task);
+            free(done);
+            free_slabs(&plan);
+            return CG_ERR_NOMEM;
+        }
+        cg_index n_tasks = 0;
+        for (int colour = 0; colour < SLAB_COLOURS; ++colour)
+            for (cg_index s = colour; s < S; s += SLAB_COLOURS) task[n_tasks++] = s;
+        cg_index next_task = 0;
 #ifdef _OPENMP
 #pragma omp parallel num_threads(n_threads) if (n_threads > 1)
 #endif
         {
             scratch sc = {NULL, 0};
-            for (int colour = 0; colour < SLAB_COLOURS; ++colour) {
-                const cg_index count = (plan.n_slabs - colour + SLAB_COLOURS - 1) / SLAB_COLOURS;
+            for (;;) {
+                cg_index i;
 #ifdef _OPENMP
-#pragma omp for schedule(dynamic, 1)
+#pragma omp atomic capture
 #endif
-                for (cg_index q = 0; q < count; ++q) {
-                    const cg_index s = colour + SLAB_COLOURS * q;
-                    visit_range(jb, out, &sc, plan.objects, plan.start[s], plan.start[s + 1], &failed);
+                i = next_task++;
+                if (i >= S) break;
+                const cg_index s = task[i];
+                const cg_index colour = s % SLAB_COLOURS;
+                for (cg_index d = -2; d <= 2; ++d) {
+                    const cg_index p = s + d;
+                    if (d == 0 || p < 0 || p >= S || p % SLAB_COLOURS >= colour) continue;
+                    for (long spins = 0; !load_status(done + p); ++spins) {
+                        if (spins > 64) slab_wait();
+                    }
                 }
+#ifdef _OPENMP
+#pragma omp flush
+#endif
+                visit_range(jb, out, &sc, plan.objects, plan.start[s], plan.start[s + 1], &failed);
+#ifdef _OPENMP
+#pragma omp flush
+#endif
+                store_status(done + s, 1);
             }
             free(sc.buf);
         }
+        free(task);
+        free(done);
         free_slabs(&plan);
         return (cg_status)failed;
     }
