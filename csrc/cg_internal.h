@@ -147,10 +147,16 @@ void cg_lucy_values(int count, const double *q0, const double *q1, const double 
 /* The same in two passes (cg_lucy_line.c): cg_lucy_frames computes each
    node's frame (u = q.n, t_far = (q - e).n, a2 = |q - u n|^2) and keep[i] = 0
    where the value is surely 0 (a test without square roots, loose by a
-   relative 1e-9); cg_lucy_values_frame the values w[i] = factor * value from
-   the frames. Together the same bits as cg_lucy_value. */
+   relative 1e-9; cylinder: only a2 < R^2, for Heaviside); cg_lucy_values_frame
+   the values w[i] = factor * value from the frames. Together the same bits as
+   cg_lucy_value. cg_heaviside_values_frame: Heaviside's line integral from the
+   frames, prefactor times the clipped part of [0, 1] (the node-by-node
+   path's numbers, cg_kernel_line_rule). */
 void cg_lucy_frames(int count, const double *q0, const double *q1, const double *q2, const double *n,
-                    const double *e, double R, double *u, double *t_far, double *a2, int *keep, int wide);
+                    const double *e, double R, double *u, double *t_far, double *a2, int *keep, int cylinder,
+                    int wide);
+void cg_heaviside_values_frame(int count, const double *u, const double *t_far, const double *a2, double L,
+                               double R, double prefactor, double *w, int wide);
 void cg_lucy_values_frame(int count, const double *u, const double *t_far, const double *a2, double L, double R,
                           double factor, double *w, int wide);
 
@@ -203,7 +209,7 @@ typedef struct job {
     double lo[3], hi[3];       /* extent of the nodes along each resolved axis */
     double spacing[3];
     int separable;             /* use cg_visit_separable (Gaussian on a grid) */
-    int lucy_rows;             /* use cg_visit_lucy (Lucy's segments on a grid) */
+    int lucy_rows;             /* use cg_visit_lucy (Lucy's and Heaviside's segments on a grid) */
     int ball_rows;             /* use cg_visit_ball_points (Lucy's, Heaviside's points on a grid) */
     int wide;                  /* ... its AVX-512 build (and cg_visit_lucy's) */
     int lucy_box;              /* cg_visit_lucy may evaluate whole boxes: a grid of >= 2 resolved axes, all spaced */

@@ -116,6 +116,7 @@ typedef struct lucy_visit {
     double n3[3], e3[3];
     lucy_row_params P;
     int nrows, count;
+    int heaviside;              /* Heaviside's kernel (else Lucy's) */
     double f[2][LUCY_ROWS], klo[LUCY_ROWS], khi[LUCY_ROWS];
     cg_index rbase[LUCY_ROWS];
     double qb[3][LUCY_BATCH], w[LUCY_BATCH];
@@ -131,7 +132,7 @@ static void lucy_values_flush(lucy_visit *v)
 {
     if (v->count == 0) return;
     cg_lucy_frames(v->count, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->R, v->fu, v->ft, v->fa, v->keep,
-                   v->wide);
+                   v->heaviside, v->wide);
     int m = 0;
     for (int i = 0; i < v->count; ++i) {
         v->fu[m] = v->fu[i];
@@ -142,7 +143,8 @@ static void lucy_values_flush(lucy_visit *v)
     }
     v->count = 0;
     if (m == 0) return;
-    cg_lucy_values_frame(m, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
+    if (v->heaviside) cg_heaviside_values_frame(m, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
+    else cg_lucy_values_frame(m, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
     const job *jb = v->jb;
     const double scale = v->scale;
     if (jb->n_values == 9 && jb->out_width == 9) {
@@ -249,7 +251,8 @@ static void lucy_visit_init(lucy_visit *v, const job *jb, double *out, cg_index 
     v->x_row = x[nr - 1];
     v->L = ax->L;
     v->R = R;
-    v->factor = jb->kernel->prefactor * (R / ax->L);
+    v->heaviside = jb->kernel->type == CG_KERNEL_HEAVISIDE;
+    v->factor = v->heaviside ? jb->kernel->prefactor : jb->kernel->prefactor * (R / ax->L);
     v->scale = scale;
     v->wide = jb->wide;
     v->nrows = v->count = 0;

@@ -171,7 +171,8 @@ INLINE void lucy_values_body(int count, const double *restrict q0, const double 
    (lucy_may_reach) into keep */
 INLINE void lucy_frames_body(int count, const double *restrict q0, const double *restrict q1,
                              const double *restrict q2, const double *n, const double *e, double R,
-                             double *restrict u, double *restrict t_far, double *restrict a2, int *restrict keep)
+                             double *restrict u, double *restrict t_far, double *restrict a2, int *restrict keep,
+                             int cylinder)
 {
     const double nn[3] = {n[0], n[1], n[2]}, ee[3] = {e[0], e[1], e[2]}, R2 = R * R;
     for (int i = 0; i < count; ++i) {
@@ -180,7 +181,25 @@ INLINE void lucy_frames_body(int count, const double *restrict q0, const double 
         u[i] = ui;
         t_far[i] = ti;
         a2[i] = ai;
-        keep[i] = lucy_may_reach(ui, ti, ai, R2);
+        keep[i] = cylinder ? R2 - ai > 0.0 : lucy_may_reach(ui, ti, ai, R2);
+    }
+}
+
+/* Heaviside's line integral (the full-dimensional kernel): prefactor times
+   the part of [0, 1] inside the ball, clipped as clip_to_support
+   (cg_internal.h) clips it, from the frame; 0 outside */
+INLINE void heaviside_values_frame_body(int count, const double *restrict u, const double *restrict t_far,
+                                        const double *restrict a2, double L, double R, double prefactor,
+                                        double *restrict w)
+{
+    for (int i = 0; i < count; ++i) {
+        const double b2 = R * R - a2[i];
+        const int inside = b2 > 0.0;
+        const double b = sqrt(inside ? b2 : 0.0);
+        const double lo = u[i] > b ? (u[i] - b) / L : 0.0;
+        const double hi = t_far[i] < -b ? (u[i] + b) / L : 1.0;
+        const int valid = inside && !(lo > 1.0 || hi < 0.0 || !(lo < hi));
+        w[i] = valid ? prefactor * (hi - lo) : 0.0;
     }
 }
 
@@ -271,9 +290,16 @@ __attribute__((target("avx512f"))) static void lucy_values_wide(int count, const
 
 LUCY_CLONES static void lucy_frames_narrow(int count, const double *q0, const double *q1, const double *q2,
                                            const double *n, const double *e, double R, double *u, double *t_far,
-                                           double *a2, int *keep)
+                                           double *a2, int *keep, int cylinder)
 {
-    lucy_frames_body(count, q0, q1, q2, n, e, R, u, t_far, a2, keep);
+    lucy_frames_body(count, q0, q1, q2, n, e, R, u, t_far, a2, keep, cylinder);
+}
+
+LUCY_CLONES static void heaviside_values_frame_narrow(int count, const double *u, const double *t_far,
+                                                      const double *a2, double L, double R, double prefactor,
+                                                      double *w)
+{
+    heaviside_values_frame_body(count, u, t_far, a2, L, R, prefactor, w);
 }
 
 LUCY_CLONES static void lucy_values_frame_narrow(int count, const double *u, const double *t_far, const double *a2,
@@ -286,9 +312,17 @@ LUCY_CLONES static void lucy_values_frame_narrow(int count, const double *u, con
 __attribute__((target("avx512f"))) static void lucy_frames_wide(int count, const double *q0, const double *q1,
                                                                   const double *q2, const double *n, const double *e,
                                                                   double R, double *u, double *t_far, double *a2,
-                                                                  int *keep)
+                                                                  int *keep, int cylinder)
 {
-    lucy_frames_body(count, q0, q1, q2, n, e, R, u, t_far, a2, keep);
+    lucy_frames_body(count, q0, q1, q2, n, e, R, u, t_far, a2, keep, cylinder);
+}
+
+__attribute__((target("avx512f"))) static void heaviside_values_frame_wide(int count, const double *u,
+                                                                             const double *t_far, const double *a2,
+                                                                             double L, double R, double prefactor,
+                                                                             double *w)
+{
+    heaviside_values_frame_body(count, u, t_far, a2, L, R, prefactor, w);
 }
 
 __attribute__((target("avx512f"))) static void lucy_values_frame_wide(int count, const double *u,
@@ -351,16 +385,30 @@ void cg_lucy_add9(int count, const double *w, const cg_index *node, double scale
 }
 
 void cg_lucy_frames(int count, const double *q0, const double *q1, const double *q2, const double *n,
-                    const double *e, double R, double *u, double *t_far, double *a2, int *keep, int wide)
+                    const double *e, double R, double *u, double *t_far, double *a2, int *keep, int cylinder,
+                    int wide)
 {
 #ifdef CG_HAVE_WIDE_SEPARABLE
     if (wide) {
-        lucy_frames_wide(count, q0, q1, q2, n, e, R, u, t_far, a2, keep);
+        lucy_frames_wide(count, q0, q1, q2, n, e, R, u, t_far, a2, keep, cylinder);
         return;
     }
 #endif
     (void)wide;
-    lucy_frames_narrow(count, q0, q1, q2, n, e, R, u, t_far, a2, keep);
+    lucy_frames_narrow(count, q0, q1, q2, n, e, R, u, t_far, a2, keep, cylinder);
+}
+
+void cg_heaviside_values_frame(int count, const double *u, const double *t_far, const double *a2, double L,
+                               double R, double prefactor, double *w, int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        heaviside_values_frame_wide(count, u, t_far, a2, L, R, prefactor, w);
+        return;
+    }
+#endif
+    (void)wide;
+    heaviside_values_frame_narrow(count, u, t_far, a2, L, R, prefactor, w);
 }
 
 void cg_lucy_values_frame(int count, const double *u, const double *t_far, const double *a2, double L, double R,

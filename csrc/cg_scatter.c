@@ -285,7 +285,8 @@ static cg_status prepare(job *jb)
     jb->line_points = k->type != CG_KERNEL_GAUSSIAN ? 0 : k->mercurycg_line ? CG_LINE_MERCURYCG : k->line_points;
     jb->separable = k->type == CG_KERNEL_GAUSSIAN && !k->per_node && t->is_grid && t->n_resolved > 0 &&
                     jb->mode != MODE_GRADIENT && !(k->mercurycg_line && jb->is_segment);
-    jb->lucy_rows = k->type == CG_KERNEL_LUCY && !k->per_node && t->is_grid && t->n_resolved > 0 &&
+    jb->lucy_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
+                    t->n_resolved > 0 &&
                     cg_kernel_marginal_axes(k) == 0 && jb->is_segment && jb->mode == MODE_VALUE;
     jb->wide = (jb->separable || jb->lucy_rows) && cg_separable_wide_available();
     if (t->is_grid) {
