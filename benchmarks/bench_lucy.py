@@ -10,7 +10,8 @@ XYZ grid 46^3, Lucy cutoff 1.5):
   oblique      285,660 segments of length 0.99 in random directions from the lattice's particles (9 values)
   lucy-points  the particles' scatter alone (scatter_points, 13 values: mass, momentum, momentum flux)
   heaviside    the same with Heaviside, radius 1.5
-  heaviside-stress  w1-stress with Heaviside, radius 1.5 (the node-by-node path)
+  heaviside-stress  w1-stress with Heaviside, radius 1.5
+  lucy-gradient  the particles' gradient scatter (scatter_points(gradient=True), 4 values: mass, momentum)
 Every case runs once per round after a warm-up; the table gives medians over the rounds.
 --compare PATH: another cgbound tree (built in place); each round runs this tree and PATH alternately,
 each in a fresh process (PYTHONPATH set to the tree), so that both see the same machine load.
@@ -25,7 +26,7 @@ import sys
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-CASES = ("w1-stress", "w1-frame", "oblique", "lucy-points", "heaviside", "heaviside-stress")
+CASES = ("w1-stress", "w1-frame", "oblique", "lucy-points", "heaviside", "heaviside-stress", "lucy-gradient")
 FIELDS = ("density", "momentum", "momentum_flux", "contact_stress")
 
 
@@ -62,6 +63,8 @@ def worker(cases, threads):
         "lucy-points": lambda t: _engine.scatter_points(target, klucy, pos, pvalues, n_threads=t),
         "heaviside": lambda t: _engine.scatter_points(target, kheavi, pos, pvalues, n_threads=t),
         "heaviside-stress": lambda t: _engine.scatter_segments(target, kheavi, start, branch, values, n_threads=t),
+        "lucy-gradient": lambda t: _engine.scatter_points(target, klucy, pos, np.ascontiguousarray(pvalues[:, :4]),
+                                                          gradient=True, n_threads=t),
     }
     out = {}
     for case in cases:
