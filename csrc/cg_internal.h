@@ -148,6 +148,28 @@ double cg_lucy_value(const double *q, const double *n, const double *e, double L
 void cg_lucy_values(int count, const double *q0, const double *q1, const double *q2, const double *n,
                     const double *e, double L, double R, double factor, double *w, int wide);
 
+/* The same in two passes (cg_lucy_line.c): cg_lucy_frames computes each
+   node's frame (u = q.n, t_far = (q - e).n, a2 = |q - u n|^2) and keep[i] = 0
+   where the value is surely 0 (a test without square roots, loose by a
+   relative 1e-9; cylinder: only a2 < R^2, for Heaviside); cg_lucy_values_frame
+   the values w[i] = factor * value from the frames. Together the same bits as
+   cg_lucy_value. cg_heaviside_values_frame: Heaviside's line integral from the
+   frames, prefactor times the clipped part of [0, 1] (the node-by-node
+   path's numbers, cg_kernel_line_rule). */
+void cg_lucy_frames(int count, const double *q0, const double *q1, const double *q2, const double *n,
+                    const double *e, double R, double *u, double *t_far, double *a2, int *keep, int cylinder,
+                    int wide);
+void cg_heaviside_values_frame(int count, const double *u, const double *t_far, const double *a2, double L,
+                               double R, double prefactor, double *w, int wide);
+void cg_lucy_values_frame(int count, const double *u, const double *t_far, const double *a2, double L, double R,
+                          double factor, double *w, int wide);
+
+/* out[node[i] * 9 + k] += (w[i] * scale) * val[k], k < 9, for each i with a
+   non-zero w[i] * scale, in order (cg_lucy_line.c; vectorised, the bits of
+   cg_accumulate's) */
+void cg_lucy_add9(int count, const double *w, const cg_index *node, double scale, const double *val, double *out,
+                  int wide);
+
 /* A segment seen from the rows of a grid (cg_lucy_line.c, cg_lucy_rows):
    n, e along the (up to two) axes before the row axis (0 where absent), nz,
    ez along the row axis; the squared radius with margins bound, the margin
@@ -191,9 +213,14 @@ typedef struct job {
     double lo[3], hi[3];       /* extent of the nodes along each resolved axis */
     double spacing[3];
     int separable;             /* use cg_visit_separable (Gaussian on a grid) */
-    int lucy_rows;             /* use cg_visit_lucy (Lucy's segments on a grid) */
+    int lucy_rows;             /* use cg_visit_lucy (Lucy's and Heaviside's segments on a grid) */
     int ball_rows;             /* use cg_visit_ball_points (Lucy's, Heaviside's points on a grid) */
-    int wide;                  /* ... its AVX-512 build */
+    int wide;                  /* ... its AVX-512 build (and cg_visit_lucy's) */
+    int lucy_box;              /* cg_visit_lucy may evaluate whole boxes: a grid of >= 2 resolved axes, all spaced */
+    double inv_spacing[3];     /* grids: 1 / spacing (0 where the spacing is 0) */
+    double coord_extent[3];    /* grids: |first node| + |last node| along each resolved axis */
+    double inv_cell;           /* grids: 1 / the product of the spacings (0 if one is 0) */
+    cg_index grid_stride[3];   /* grids: row-major strides of the resolved axes */
     int line_points;           /* the kernel's rule for finite segments (0: round-off) */
     int moment;                /* segments weighted by the kernel's first moment (cg_moment.c) */
 } job;

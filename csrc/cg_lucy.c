@@ -94,6 +94,10 @@ double cg_lucy_segment(const cg_kernel *k, const segment_axis *ax, const double 
     return psi;
 }
 
+/* a box of at most this many times the capsule's volume (plus 8 nodes) is
+   evaluated whole rather than narrowed */
+#define LUCY_BOX_RATIO 2.0
+
 /* nodes and rows per batch of cg_visit_lucy */
 #define LUCY_BATCH 256
 #define LUCY_ROWS 64
@@ -112,34 +116,46 @@ typedef struct lucy_visit {
     double n3[3], e3[3];
     lucy_row_params P;
     int nrows, count;
+    int heaviside;              /* Heaviside's kernel (else Lucy's) */
     double f[2][LUCY_ROWS], klo[LUCY_ROWS], khi[LUCY_ROWS];
     cg_index rbase[LUCY_ROWS];
     double qb[3][LUCY_BATCH], w[LUCY_BATCH];
+    double fu[LUCY_BATCH], ft[LUCY_BATCH], fa[LUCY_BATCH]; /* the nodes' frames (cg_lucy_frames) */
+    int keep[LUCY_BATCH];
     cg_index node[LUCY_BATCH];
 } lucy_visit;
 
-/* the gathered nodes' weights (cg_lucy_line.c), then each non-zero one into out */
+/* the gathered nodes' weights (cg_lucy_line.c): their frames, those that may
+   reach the segment kept (compacted in place), their values, then each
+   non-zero one into out */
 static void lucy_values_flush(lucy_visit *v)
 {
     if (v->count == 0) return;
-    cg_lucy_values(v->count, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->L, v->R, v->factor, v->w, v->wide);
+    cg_lucy_frames(v->count, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->R, v->fu, v->ft, v->fa, v->keep,
+                   v->heaviside, v->wide);
+    int m = 0;
+    for (int i = 0; i < v->count; ++i) {
+        v->fu[m] = v->fu[i];
+        v->ft[m] = v->ft[i];
+        v->fa[m] = v->fa[i];
+        v->node[m] = v->node[i];
+        m += v->keep[i];
+    }
+    v->count = 0;
+    if (m == 0) return;
+    if (v->heaviside) cg_heaviside_values_frame(m, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
+    else cg_lucy_values_frame(m, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
     const job *jb = v->jb;
+    const double scale = v->scale;
     if (jb->n_values == 9 && jb->out_width == 9) {
-        /* a 3-D tensor (the contact stress): cg_accumulate's MODE_VALUE sums, unrolled */
-        const double *val = jb->values + v->obj * 9;
-        for (int i = 0; i < v->count; ++i) {
-            const double wi = v->w[i] * v->scale;
-            if (wi == 0.0) continue;
-            double *o = v->out + v->node[i] * 9;
-            for (int k = 0; k < 9; ++k) o[k] += wi * val[k];
-        }
+        /* a 3-D tensor (the contact stress): cg_accumulate's MODE_VALUE sums, vectorised */
+        cg_lucy_add9(m, v->w, v->node, scale, jb->values + v->obj * 9, v->out, v->wide);
     } else {
-        for (int i = 0; i < v->count; ++i) {
-            const double wi = v->w[i] * v->scale;
+        for (int i = 0; i < m; ++i) {
+            const double wi = v->w[i] * scale;
             if (wi != 0.0) cg_accumulate(jb, v->out, v->obj, v->node[i], wi, NULL);
         }
     }
-    v->count = 0;
 }
 
 /* the gathered rows' candidate nodes, gathered in turn */
@@ -175,6 +191,78 @@ static void lucy_add_row(lucy_visit *v, double f0, double f1, cg_index base)
     v->rbase[v->nrows++] = base;
 }
 
+/* every node of the box first..last (2-D or 3-D), no narrowing: rows of
+   nodes gathered a run at a time (runs of a few nodes: scalar code beats
+   the vectoriser's set-up) */
+#if defined(__GNUC__) && !defined(__clang__)
+__attribute__((optimize("no-tree-vectorize")))
+#endif
+static void lucy_add_box(lucy_visit *v, const cg_target *t, const double *x, const cg_index *first,
+                         const cg_index *last, const cg_index *stride)
+{
+    const int row = v->row;
+    const cg_index n0 = row == 2 ? last[0] - first[0] + 1 : 1;
+    const cg_index k0 = first[row], k1 = last[row];
+    const cg_index ja = first[row - 1], jb_ = last[row - 1], sj = stride[row - 1];
+    const double *zc = v->zc, xr = v->x_row, *yc = t->coords[row - 1], xj = x[row - 1];
+    double *restrict q0 = v->qb[0], *restrict q1 = v->qb[1], *restrict q2 = v->qb[2];
+    cg_index *restrict node = v->node;
+    int c = v->count;
+    for (cg_index i = 0; i < n0; ++i) {
+        const cg_index ii = row == 2 ? first[0] + i : 0;
+        const double f0 = row == 2 ? t->coords[0][ii] - x[0] : 0.0;
+        cg_index base = (row == 2 ? ii * stride[0] : 0) + ja * sj;
+        for (cg_index j = ja; j <= jb_; ++j, base += sj) {
+            const double fj = yc[j] - xj;
+            for (cg_index k = k0; k <= k1; ++k) {
+                if (c == LUCY_BATCH) {
+                    v->count = c;
+                    lucy_values_flush(v);
+                    c = 0;
+                }
+                if (row == 2) {
+                    q0[c] = f0;
+                    q1[c] = fj;
+                    q2[c] = zc[k] - xr;
+                } else {
+                    q0[c] = fj;
+                    q1[c] = zc[k] - xr;
+                    q2[c] = 0.0;
+                }
+                node[c++] = base + k;
+            }
+        }
+    }
+    v->count = c;
+}
+
+/* the state of one object (lucy_visit) up to its rows */
+static void lucy_visit_init(lucy_visit *v, const job *jb, double *out, cg_index obj, const double *x,
+                            const double *e, const segment_axis *ax, double scale)
+{
+    const int nr = jb->target->n_resolved;
+    const double R = jb->kernel->radius;
+    v->jb = jb;
+    v->out = out;
+    v->obj = obj;
+    v->nr = nr;
+    v->row = nr - 1; /* the last resolved axis: contiguous in the output */
+    v->zc = jb->target->coords[nr - 1];
+    v->x_row = x[nr - 1];
+    v->L = ax->L;
+    v->R = R;
+    v->heaviside = jb->kernel->type == CG_KERNEL_HEAVISIDE;
+    v->factor = v->heaviside ? jb->kernel->prefactor : jb->kernel->prefactor * (R / ax->L);
+    v->scale = scale;
+    v->wide = jb->wide;
+    v->nrows = v->count = 0;
+    for (int a = 0; a < 3; ++a) v->n3[a] = v->e3[a] = 0.0;
+    for (int a = 0; a < nr; ++a) {
+        v->n3[a] = ax->unit[a];
+        v->e3[a] = e[a];
+    }
+}
+
 /* The node-by-node path (cg_scatter.c, visit_nodes) over the same stencil box,
    with the segment's axis computed once per object instead of once per node:
    in 3-D the planes of the first axis narrowed to the rows the capsule's
@@ -201,43 +289,57 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
         bmax[a] = fmax(x[a], end) + R;
         if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return 1;
     }
-    cg_index first[3], last[3], stride[3];
-    if (!stencil_range(jb, bmin, bmax, first, last, stride)) return 1;
-    lucy_visit vs;
-    lucy_visit *v = &vs;
-    const int row = nr - 1; /* the last resolved axis: contiguous in the output */
-    v->jb = jb;
-    v->out = out;
-    v->obj = obj;
-    v->nr = nr;
-    v->row = row;
-    v->k_first = first[row];
-    v->k_last = last[row];
-    v->zc = t->coords[row];
-    v->x_row = x[row];
-    v->L = ax.L;
-    v->R = R;
-    v->factor = jb->kernel->prefactor * (R / ax.L);
-    v->scale = scale;
-    v->wide = cg_separable_wide_available();
-    v->nrows = v->count = 0;
-    for (int a = 0; a < 3; ++a) v->n3[a] = v->e3[a] = 0.0;
-    for (int a = 0; a < nr; ++a) {
-        v->n3[a] = ax.unit[a];
-        v->e3[a] = e[a];
-    }
-    for (int a = row; a < 2; ++a)
-        for (int i = 0; i < LUCY_ROWS; ++i) v->f[a][i] = 0.0;
-    for (int a = nr; a < 3; ++a)
-        for (int i = 0; i < LUCY_BATCH; ++i) v->qb[a][i] = 0.0;
     /* the narrowing's margins: for the rounding of a^2 (>> at any node of the
        box), of u, and of the node positions; none where they would not be small */
     double reach = R + ax.L; /* the stencil box's nodes are within reach (plus a spacing) of the start */
     for (int a = 0; a < nr; ++a) reach += jb->spacing[a];
     const double rounding = 1e-12 * reach * reach, bound = R * R * (1.0 + 1e-6) + rounding;
     const double mu = 1e-6 * R + 1e-12 * reach;
+    const int small_rounding = rounding < 1e-8 * R * R;
+    lucy_visit vs;
+    lucy_visit *v = &vs;
+    if (nr >= 2 && jb->lucy_box && small_rounding) {
+        /* A box hardly bigger than the capsule (short segments along an axis,
+           as in a lattice) costs less to evaluate whole than to narrow row by
+           row (the narrowing only drops nodes of weight 0, so the sums are
+           the same). The box: the nodes within the capsule's bounding box
+           (stencil_range takes a node more each way), widened by the
+           narrowing's margins, so that every node of non-zero weight is in. */
+        const double margin = 1e-6 * (R + reach) + mu;
+        cg_index tf[3] = {0, 0, 0}, tl[3] = {0, 0, 0};
+        double box = 1.0;
+        for (int a = 0; a < nr; ++a) {
+            const double inv_h = jb->inv_spacing[a], c0 = t->coords[a][0];
+            const double sl = 1e-9 + 1e-12 * (jb->coord_extent[a] + fabs(x[a]) + reach) * inv_h;
+            double klo = ceil((bmin[a] - margin - c0) * inv_h - sl), khi = floor((bmax[a] + margin - c0) * inv_h + sl);
+            klo = klo > 0.0 ? klo : 0.0;
+            khi = khi < (double)(t->shape[a] - 1) ? khi : (double)(t->shape[a] - 1);
+            if (!(klo <= khi)) return 1;
+            tf[a] = (cg_index)klo;
+            tl[a] = (cg_index)khi;
+            box *= khi - klo + 1.0;
+        }
+        const double pi = 3.14159265358979323846;
+        const double capsule = nr == 3 ? pi * R * R * (ax.L + 4.0 / 3.0 * R) : R * (2.0 * ax.L + pi * R);
+        if (box <= LUCY_BOX_RATIO * capsule * jb->inv_cell + 8.0) {
+            lucy_visit_init(v, jb, out, obj, x, e, &ax, scale);
+            lucy_add_box(v, t, x, tf, tl, jb->grid_stride);
+            lucy_values_flush(v);
+            return 1;
+        }
+    }
+    cg_index first[3], last[3], stride[3];
+    if (!stencil_range(jb, bmin, bmax, first, last, stride)) return 1;
+    lucy_visit_init(v, jb, out, obj, x, e, &ax, scale);
+    const int row = nr - 1;
+    v->k_first = first[row];
+    v->k_last = last[row];
+    for (int a = row; a < 2; ++a)
+        for (int i = 0; i < LUCY_ROWS; ++i) v->f[a][i] = 0.0;
+    for (int a = nr; a < 3; ++a)
+        for (int i = 0; i < LUCY_BATCH; ++i) v->qb[a][i] = 0.0;
     const double h = jb->spacing[row];
-    v->narrow = h > 0.0 && rounding < 1e-8 * R * R;
+    v->narrow = h > 0.0 && small_rounding;
     const lucy_row_params P = {{0.0, 0.0}, {0.0, 0.0}, ax.unit[row], e[row], ax.L, bound, mu, v->zc[0], h, x[row],
                                1e-9 + 1e-12 * (fabs(v->zc[0]) + fabs(v->zc[t->shape[row] - 1]) + fabs(x[row]) + reach) / h};
     v->P = P;
@@ -246,7 +348,7 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
         v->P.e[a] = e[a];
     }
     const double h1 = nr == 3 ? jb->spacing[1] : 0.0;
-    if (nr == 3 && h1 > 0.0 && rounding < 1e-8 * R * R) {
+    if (nr == 3 && h1 > 0.0 && small_rounding) {
         /* planes i: the rows j inside the shadow, a 2-D capsule around the
            projected segment (unit m, length Lp; a disk when Lp = 0) */
         const double Lp = sqrt(e[0] * e[0] + e[1] * e[1]);

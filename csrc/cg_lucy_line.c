@@ -87,17 +87,25 @@ INLINE double lucy_log1p(double X)
     return s * (hfsq + (t2 + t1)) + (dk * ln2_lo + c) - hfsq + f + dk * ln2_hi;
 }
 
-/* int P(x) dt / R over the part of the line inside the support (units of R),
-   P = (1 + 3x)(1 - x)^3, for a node at offset q (3 components, the unused
-   ones 0) from the start of a segment e of length L and direction n; 0
-   outside the support. The frame as node_frame (cg_internal.h) computes it. */
-INLINE double lucy_value_units(double q0, double q1, double q2, const double *n, const double *e, double L,
-                               double R, double inv)
+/* The frame of a node at offset q (3 components, the unused ones 0) from the
+   start of a segment e of direction n: u = q.n, t_far = (q - e).n and a2 =
+   |q - u n|^2, as node_frame (cg_internal.h) computes them. */
+INLINE void lucy_frame(double q0, double q1, double q2, const double *n, const double *e, double *u_out,
+                       double *t_far_out, double *a2_out)
 {
     const double u = q0 * n[0] + q1 * n[1] + q2 * n[2];
     const double t_far = (q0 - e[0]) * n[0] + (q1 - e[1]) * n[1] + (q2 - e[2]) * n[2];
     const double p0 = q0 - u * n[0], p1 = q1 - u * n[1], p2 = q2 - u * n[2];
-    const double a2 = p0 * p0 + p1 * p1 + p2 * p2;
+    *u_out = u;
+    *t_far_out = t_far;
+    *a2_out = p0 * p0 + p1 * p1 + p2 * p2;
+}
+
+/* int P(x) dt / R over the part of the line inside the support (units of R),
+   P = (1 + 3x)(1 - x)^3, for a node of frame (u, t_far, a2) (lucy_frame) and
+   a segment of length L; 0 outside the support. */
+INLINE double lucy_value_frame(double u, double t_far, double a2, double L, double R, double inv)
+{
     const double b2 = R * R - a2;
     const int inside = b2 > 0.0;
     const double b = sqrt(inside ? b2 : 0.0);
@@ -131,6 +139,25 @@ INLINE double lucy_value_units(double q0, double q1, double q2, const double *n,
     return valid && d > 0.0 ? acc : 0.0;
 }
 
+/* the same from the node's offset q */
+INLINE double lucy_value_units(double q0, double q1, double q2, const double *n, const double *e, double L,
+                               double R, double inv)
+{
+    double u, t_far, a2;
+    lucy_frame(q0, q1, q2, n, e, &u, &t_far, &a2);
+    return lucy_value_frame(u, t_far, a2, L, R, inv);
+}
+
+/* Whether a node of frame (u, t_far, a2) can have a non-zero value: a test
+   without the square root that lucy_value_frame's b = sqrt(R^2 - a2) needs,
+   loose by a relative 1e-9 (its rounding is 1e-16), so that it never drops a
+   node lucy_value_frame accepts (u > -b and t_far < b there). */
+INLINE int lucy_may_reach(double u, double t_far, double a2, double R2)
+{
+    const double b2 = R2 - a2, loose = b2 * (1.0 + 1e-9);
+    return b2 > 0.0 && (u >= 0.0 || u * u < loose) && (t_far <= 0.0 || t_far * t_far < loose);
+}
+
 INLINE void lucy_values_body(int count, const double *restrict q0, const double *restrict q1,
                              const double *restrict q2, const double *n, const double *e, double L, double R,
                              double factor, double *restrict w)
@@ -138,6 +165,50 @@ INLINE void lucy_values_body(int count, const double *restrict q0, const double 
     const double inv = 1.0 / R;
     const double nn[3] = {n[0], n[1], n[2]}, ee[3] = {e[0], e[1], e[2]};
     for (int i = 0; i < count; ++i) w[i] = factor * lucy_value_units(q0[i], q1[i], q2[i], nn, ee, L, R, inv);
+}
+
+/* the frames of count nodes into u, t_far, a2 and whether each may reach
+   (lucy_may_reach) into keep */
+INLINE void lucy_frames_body(int count, const double *restrict q0, const double *restrict q1,
+                             const double *restrict q2, const double *n, const double *e, double R,
+                             double *restrict u, double *restrict t_far, double *restrict a2, int *restrict keep,
+                             int cylinder)
+{
+    const double nn[3] = {n[0], n[1], n[2]}, ee[3] = {e[0], e[1], e[2]}, R2 = R * R;
+    for (int i = 0; i < count; ++i) {
+        double ui, ti, ai;
+        lucy_frame(q0[i], q1[i], q2[i], nn, ee, &ui, &ti, &ai);
+        u[i] = ui;
+        t_far[i] = ti;
+        a2[i] = ai;
+        keep[i] = cylinder ? R2 - ai > 0.0 : lucy_may_reach(ui, ti, ai, R2);
+    }
+}
+
+/* Heaviside's line integral (the full-dimensional kernel): prefactor times
+   the part of [0, 1] inside the ball, clipped as clip_to_support
+   (cg_internal.h) clips it, from the frame; 0 outside */
+INLINE void heaviside_values_frame_body(int count, const double *restrict u, const double *restrict t_far,
+                                        const double *restrict a2, double L, double R, double prefactor,
+                                        double *restrict w)
+{
+    for (int i = 0; i < count; ++i) {
+        const double b2 = R * R - a2[i];
+        const int inside = b2 > 0.0;
+        const double b = sqrt(inside ? b2 : 0.0);
+        const double lo = u[i] > b ? (u[i] - b) / L : 0.0;
+        const double hi = t_far[i] < -b ? (u[i] + b) / L : 1.0;
+        const int valid = inside && !(lo > 1.0 || hi < 0.0 || !(lo < hi));
+        w[i] = valid ? prefactor * (hi - lo) : 0.0;
+    }
+}
+
+INLINE void lucy_values_frame_body(int count, const double *restrict u, const double *restrict t_far,
+                                   const double *restrict a2, double L, double R, double factor,
+                                   double *restrict w)
+{
+    const double inv = 1.0 / R;
+    for (int i = 0; i < count; ++i) w[i] = factor * lucy_value_frame(u[i], t_far[i], a2[i], L, R, inv);
 }
 
 /* The candidate nodes of a row: the row (fixed offsets f0, f1 from the
@@ -216,6 +287,142 @@ __attribute__((target("avx512f"))) static void lucy_values_wide(int count, const
     lucy_values_body(count, q0, q1, q2, n, e, L, R, factor, w);
 }
 #endif
+
+LUCY_CLONES static void lucy_frames_narrow(int count, const double *q0, const double *q1, const double *q2,
+                                           const double *n, const double *e, double R, double *u, double *t_far,
+                                           double *a2, int *keep, int cylinder)
+{
+    lucy_frames_body(count, q0, q1, q2, n, e, R, u, t_far, a2, keep, cylinder);
+}
+
+LUCY_CLONES static void heaviside_values_frame_narrow(int count, const double *u, const double *t_far,
+                                                      const double *a2, double L, double R, double prefactor,
+                                                      double *w)
+{
+    heaviside_values_frame_body(count, u, t_far, a2, L, R, prefactor, w);
+}
+
+LUCY_CLONES static void lucy_values_frame_narrow(int count, const double *u, const double *t_far, const double *a2,
+                                                 double L, double R, double factor, double *w)
+{
+    lucy_values_frame_body(count, u, t_far, a2, L, R, factor, w);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void lucy_frames_wide(int count, const double *q0, const double *q1,
+                                                                  const double *q2, const double *n, const double *e,
+                                                                  double R, double *u, double *t_far, double *a2,
+                                                                  int *keep, int cylinder)
+{
+    lucy_frames_body(count, q0, q1, q2, n, e, R, u, t_far, a2, keep, cylinder);
+}
+
+__attribute__((target("avx512f"))) static void heaviside_values_frame_wide(int count, const double *u,
+                                                                             const double *t_far, const double *a2,
+                                                                             double L, double R, double prefactor,
+                                                                             double *w)
+{
+    heaviside_values_frame_body(count, u, t_far, a2, L, R, prefactor, w);
+}
+
+__attribute__((target("avx512f"))) static void lucy_values_frame_wide(int count, const double *u,
+                                                                        const double *t_far, const double *a2,
+                                                                        double L, double R, double factor, double *w)
+{
+    lucy_values_frame_body(count, u, t_far, a2, L, R, factor, w);
+}
+#endif
+
+/* out[node[i] * 9 + k] += (w[i] * scale) * val[k] for every non-zero
+   w[i] * scale (cg_accumulate's MODE_VALUE sums of a 9-component value): the
+   first 8 components as one vector of the same element-wise products and
+   sums, so the same bits on every instruction set */
+typedef double lucy_v8 __attribute__((vector_size(64)));
+
+INLINE void lucy_add9_body(int count, const double *restrict w, const cg_index *restrict node, double scale,
+                           const double *restrict val, double *restrict out)
+{
+    lucy_v8 v;
+    memcpy(&v, val, sizeof v);
+    const double v8 = val[8];
+    for (int i = 0; i < count; ++i) {
+        const double wi = w[i] * scale;
+        if (wi == 0.0) continue;
+        double *o = out + node[i] * 9;
+        lucy_v8 ov;
+        memcpy(&ov, o, sizeof ov);
+        ov += wi * v;
+        memcpy(o, &ov, sizeof ov);
+        o[8] += wi * v8;
+    }
+}
+
+LUCY_CLONES static void lucy_add9_narrow(int count, const double *w, const cg_index *node, double scale,
+                                         const double *val, double *out)
+{
+    lucy_add9_body(count, w, node, scale, val, out);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void lucy_add9_wide(int count, const double *w, const cg_index *node,
+                                                                double scale, const double *val, double *out)
+{
+    lucy_add9_body(count, w, node, scale, val, out);
+}
+#endif
+
+void cg_lucy_add9(int count, const double *w, const cg_index *node, double scale, const double *val, double *out,
+                  int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        lucy_add9_wide(count, w, node, scale, val, out);
+        return;
+    }
+#endif
+    (void)wide;
+    lucy_add9_narrow(count, w, node, scale, val, out);
+}
+
+void cg_lucy_frames(int count, const double *q0, const double *q1, const double *q2, const double *n,
+                    const double *e, double R, double *u, double *t_far, double *a2, int *keep, int cylinder,
+                    int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        lucy_frames_wide(count, q0, q1, q2, n, e, R, u, t_far, a2, keep, cylinder);
+        return;
+    }
+#endif
+    (void)wide;
+    lucy_frames_narrow(count, q0, q1, q2, n, e, R, u, t_far, a2, keep, cylinder);
+}
+
+void cg_heaviside_values_frame(int count, const double *u, const double *t_far, const double *a2, double L,
+                               double R, double prefactor, double *w, int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        heaviside_values_frame_wide(count, u, t_far, a2, L, R, prefactor, w);
+        return;
+    }
+#endif
+    (void)wide;
+    heaviside_values_frame_narrow(count, u, t_far, a2, L, R, prefactor, w);
+}
+
+void cg_lucy_values_frame(int count, const double *u, const double *t_far, const double *a2, double L, double R,
+                          double factor, double *w, int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        lucy_values_frame_wide(count, u, t_far, a2, L, R, factor, w);
+        return;
+    }
+#endif
+    (void)wide;
+    lucy_values_frame_narrow(count, u, t_far, a2, L, R, factor, w);
+}
 
 LUCY_CLONES static void lucy_rows_narrow(int count, const double *f0, const double *f1, const lucy_row_params *P,
                                          double *klo, double *khi)

@@ -17,6 +17,9 @@
 #include "cg_internal.h"
 
 #include <math.h>
+#if defined(__unix__)
+#include <sched.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -283,9 +286,23 @@ static cg_status prepare(job *jb)
     jb->line_points = k->type != CG_KERNEL_GAUSSIAN ? 0 : k->mercurycg_line ? CG_LINE_MERCURYCG : k->line_points;
     jb->separable = k->type == CG_KERNEL_GAUSSIAN && !k->per_node && t->is_grid && t->n_resolved > 0 &&
                     jb->mode != MODE_GRADIENT && !(k->mercurycg_line && jb->is_segment);
-    jb->wide = jb->separable && cg_separable_wide_available();
-    jb->lucy_rows = k->type == CG_KERNEL_LUCY && !k->per_node && t->is_grid && t->n_resolved > 0 &&
+    jb->lucy_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
+                    t->n_resolved > 0 &&
                     cg_kernel_marginal_axes(k) == 0 && jb->is_segment && jb->mode == MODE_VALUE;
+    jb->wide = (jb->separable || jb->lucy_rows) && cg_separable_wide_available();
+    if (t->is_grid) {
+        double cell = 1.0;
+        jb->lucy_box = t->n_resolved >= 2;
+        for (int a = t->n_resolved - 1; a >= 0; --a) {
+            const double h = jb->spacing[a];
+            jb->inv_spacing[a] = h > 0.0 ? 1.0 / h : 0.0;
+            jb->coord_extent[a] = fabs(t->coords[a][0]) + fabs(t->coords[a][t->shape[a] - 1]);
+            jb->grid_stride[a] = a == t->n_resolved - 1 ? 1 : jb->grid_stride[a + 1] * t->shape[a + 1];
+            jb->lucy_box &= h > 0.0;
+            cell *= h;
+        }
+        jb->inv_cell = cell > 0.0 ? 1.0 / cell : 0.0;
+    }
     jb->ball_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
                     t->n_resolved > 0 && !jb->is_segment && jb->mode != MODE_GRADIENT;
     if (jb->moment) {
@@ -501,6 +518,14 @@ static int plan_slabs(const job *jb, const cg_index *order, slab_plan *plan)
     return 1;
 }
 
+/* a pause while another thread finishes a slab this one needs */
+static void slab_wait(void)
+{
+#if defined(_OPENMP) && defined(__unix__)
+    sched_yield();
+#endif
+}
+
 static cg_status run(job *jb, double *out)
 {
     cg_status st = prepare(jb);
@@ -527,23 +552,60 @@ static cg_status run(job *jb, double *out)
     slab_plan plan;
     if (plan_slabs(jb, order, &plan)) {
         free(order);
+        /* The slabs in colour order, each started as soon as the slabs it
+           overlaps (|s' - s| <= 2) of an earlier colour are done, instead of
+           a barrier after each colour (which leaves a thread idle when a
+           colour's slab count is odd): every node still receives its terms
+           slab by slab in colour order, so the sums are those of the
+           colour-by-colour order whatever the number of threads. Tasks are
+           taken in list order, so a slab only waits for slabs already taken. */
+        const cg_index S = plan.n_slabs;
+        cg_index *task = malloc((size_t)S * sizeof *task);
+        int *done = calloc((size_t)S, sizeof *done);
+        if (!task || !done) {
+            free(task);
+            free(done);
+            free_slabs(&plan);
+            return CG_ERR_NOMEM;
+        }
+        cg_index n_tasks = 0;
+        for (int colour = 0; colour < SLAB_COLOURS; ++colour)
+            for (cg_index s = colour; s < S; s += SLAB_COLOURS) task[n_tasks++] = s;
+        cg_index next_task = 0;
 #ifdef _OPENMP
 #pragma omp parallel num_threads(n_threads) if (n_threads > 1)
 #endif
         {
             scratch sc = {NULL, 0};
-            for (int colour = 0; colour < SLAB_COLOURS; ++colour) {
-                const cg_index count = (plan.n_slabs - colour + SLAB_COLOURS - 1) / SLAB_COLOURS;
+            for (;;) {
+                cg_index i;
 #ifdef _OPENMP
-#pragma omp for schedule(dynamic, 1)
+#pragma omp atomic capture
 #endif
-                for (cg_index q = 0; q < count; ++q) {
-                    const cg_index s = colour + SLAB_COLOURS * q;
-                    visit_range(jb, out, &sc, plan.objects, plan.start[s], plan.start[s + 1], &failed);
+                i = next_task++;
+                if (i >= S) break;
+                const cg_index s = task[i];
+                const cg_index colour = s % SLAB_COLOURS;
+                for (cg_index d = -2; d <= 2; ++d) {
+                    const cg_index p = s + d;
+                    if (d == 0 || p < 0 || p >= S || p % SLAB_COLOURS >= colour) continue;
+                    for (long spins = 0; !load_status(done + p); ++spins) {
+                        if (spins > 64) slab_wait();
+                    }
                 }
+#ifdef _OPENMP
+#pragma omp flush
+#endif
+                visit_range(jb, out, &sc, plan.objects, plan.start[s], plan.start[s + 1], &failed);
+#ifdef _OPENMP
+#pragma omp flush
+#endif
+                store_status(done + s, 1);
             }
             free(sc.buf);
         }
+        free(task);
+        free(done);
         free_slabs(&plan);
         return (cg_status)failed;
     }
