@@ -22,7 +22,8 @@ from .fields import derive
 from .grid import Points
 from .kernels import Gaussian
 from .pipeline import prepare, shape_fields
-from .primaries import GRADIENT_PRIMARIES, PRIMARIES, compute_primaries
+from .cylindrical_ring import ring_average
+from .primaries import GRADIENT_PRIMARIES, POINT_PRIMARIES, PRIMARIES, compute_primaries, point_sources
 from .result import Result
 from .snapshot import Snapshot
 
@@ -94,6 +95,44 @@ def rotate(values, rank, basis):
     return np.einsum("qia,qab,qjb->qij", basis, values, basis)
 
 
+def ring_primaries(job, grid, needed):
+    """The primaries ``needed`` averaged over each node of ``grid`` (θ and/or z as the grid asks), in the local
+    basis, flat over nodes: {name: (n_nodes,) + (3,) * rank}. ``job``: from :func:`~cgbound.pipeline.prepare`
+    (its snapshot, kernel and split contacts; its target is not used).
+
+    On a θ-averaged grid the sums over points (particles, contact points) are the exact ring integrals of
+    :mod:`cgbound.cylindrical_ring`; the line integrals (contact, boundary and extended stress) and every
+    primary of a θ-resolved grid come from the Cartesian engine at the quadrature points."""
+    zero = np.zeros(3)
+    averaged = {}
+    if grid.theta_averaged:
+        if grid.z_averaged:
+            lo, hi = grid.z_extent
+            x, wz = np.polynomial.legendre.leggauss(z_points(hi - lo, job.kernel))
+            z_nodes = (0.5 * (hi + lo) + 0.5 * (hi - lo) * x)[None, :]
+            z_weights = 0.5 * wz[None, :]
+        else:
+            z_nodes, z_weights = grid.z[:, None], np.ones((len(grid.z), 1))
+        for positions, columns in point_sources(job.snapshot, needed, zero, job.split):
+            sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank) for name, v in columns],
+                                z_nodes, z_weights)
+            averaged.update({name: s for (name, _), s in zip(columns, sums)})
+        for name in needed & POINT_PRIMARIES - set(averaged):      # no data (velocities, body force, contacts)
+            averaged[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
+    rest = needed - set(averaged)
+    if not rest:
+        return averaged
+    positions, angles, weights, starts = quadrature(grid, job.kernel)
+    sums = compute_primaries(job.snapshot, Points(positions), job.kernel, rest, zero, job.split)
+    basis = grid.basis(angles)
+    for name, value in sums.items():
+        rank = PRIMARIES[name].rank
+        local = rotate(np.asarray(value).reshape((len(positions),) + (3,) * rank), rank, basis)
+        local = local * weights.reshape((-1,) + (1,) * rank)
+        averaged[name] = np.ascontiguousarray(np.add.reduceat(local, starts, axis=0))   # (nodes,) + (3,) * rank
+    return averaged
+
+
 def coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention="tension", species=None):
     """Fields of one snapshot on a CylindricalGrid (see :func:`cgbound.coarse_grain`)."""
     if not isinstance(grid, CylindricalGrid):
@@ -103,23 +142,14 @@ def coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention="tension
     if snapshot.dim != 3:
         raise ValueError(f"snapshot: expected a 3-D snapshot for a CylindricalGrid, got a {snapshot.dim}-D one")
     # checks every argument (kernel, fields, convention, species) on a one-point target before the work
-    probe = prepare(snapshot, Points(grid.axis_point[None, :]), kernel, fields, convention, species)
-    if probe.needed & GRADIENT_PRIMARIES:
+    job = prepare(snapshot, Points(grid.axis_point[None, :]), kernel, fields, convention, species)
+    if job.needed & GRADIENT_PRIMARIES:
         raise ValueError(f"fields: gradient fields are not available on a CylindricalGrid yet, got {tuple(fields)}")
-    positions, angles, weights, starts = quadrature(grid, probe.kernel)
-    job = prepare(snapshot, Points(positions), kernel, fields, convention, species)
     zero = np.zeros(3)       # a reference velocity constant in Cartesian components is not one in (r, θ, z)
     # the kinetic stress of a ring is the velocity spread about the ring's averaged velocity (as on a Grid's
     # averaged axes): -(k - p p / rho) from the averaged primaries, not the average of pointwise spreads
     needed = (job.needed - {"sk"}) | ({"k", "p_w", "rho"} if "sk" in job.needed else set())
-    sums = compute_primaries(job.snapshot, job.target, job.kernel, needed, zero, job.split)
-    basis = grid.basis(angles)
-    averaged = {}
-    for name, value in sums.items():
-        rank = PRIMARIES[name].rank
-        local = rotate(np.asarray(value).reshape((len(positions),) + (3,) * rank), rank, basis)
-        local = local * weights.reshape((-1,) + (1,) * rank)
-        averaged[name] = np.ascontiguousarray(np.add.reduceat(local, starts, axis=0))   # (nodes,) + (3,) * rank
+    averaged = ring_primaries(job, grid, needed)
     if "sk" in job.needed:
         rho, p = averaged["rho"], averaged["p_w"]
         spread = np.einsum("ni,nj->nij", p, p)

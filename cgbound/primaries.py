@@ -352,3 +352,35 @@ def compute_primaries(snapshot, target, kernel, needed, u_ref, split=None):
         if "fw" in needed:
             out["fw"] = fabric_sum(snapshot, boundary, where, line_kernel, P, nt)
     return out
+
+
+def point_sources(snapshot, needed, u_ref, split=None):
+    """The needed primaries that are sums over points (sources PARTICLES, BOUNDARY_POINTS, BULK_POINTS), as
+    [(positions (S, D), [(name, values (S,) + (D,) * rank)])], for targets that integrate the kernel
+    themselves (the ring averages of a CylindricalGrid). Primaries whose data the snapshot lacks are absent
+    (they are zero). ``split``: the result of ``check_computable``."""
+    dim = snapshot.dim
+    groups = []
+    block, layout = _particle_columns(snapshot, needed, u_ref)
+    if layout:
+        groups.append((flowing_rows(snapshot, snapshot.positions),
+                       [(name, block[:, start:start + size].reshape((-1,) + shape))
+                        for name, start, size, shape in layout]))
+    if split is not None:
+        bulk, boundary = split
+        rows = []
+        if "t" in needed and boundary["i"].size:
+            rows.append(("t", boundary["force"]))
+        if "fw" in needed and boundary["i"].size:
+            n = boundary["branch"] / np.sqrt(np.einsum("ij,ij->i", boundary["branch"], boundary["branch"]))[:, None]
+            rows.append(("fw", outer(n, n).reshape(-1, dim, dim)))
+        if rows:
+            groups.append((boundary["point"], rows))
+        if "fb" in needed and bulk["i"].size:
+            n = bulk["branch"] / np.sqrt(np.einsum("ij,ij->i", bulk["branch"], bulk["branch"]))[:, None]
+            groups.append((bulk["point"], [("fb", outer(n, n).reshape(-1, dim, dim))]))
+    return groups
+
+
+#: the primaries :func:`point_sources` gives
+POINT_PRIMARIES = frozenset(p.name for p in PRIMARIES.values() if p.source in (PARTICLES, BOUNDARY_POINTS, BULK_POINTS))

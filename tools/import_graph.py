@@ -61,6 +61,7 @@ LAYERS = {
     "scenes": 7, "profiles": 7, "datasets": 7, "blobs": 7,        # today (the paper wing, before cgbound/paper/)
     "rotation": 4, "angular_balance": 4,                          # spin, couple stress; their balance
     "cylindrical": 3, "cylindrical_fields": 5,                    # cylindrical grids; their fields from ring quadrature
+    "cylindrical_ring": 4,                                        # exact ring averages of point sources
 }
 
 #: packages drawn as one node
