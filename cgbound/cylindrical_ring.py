@@ -17,7 +17,7 @@ T' to the rules of :func:`rotate_averaged`. The moments are exact to round-off:
   points at t = ±i ε (sinh(ε/2) = d₀ / 2 √(r ρ)) next to t = 0 when the ring passes close to the source:
   the panels [Δ q^(k+1), Δ q^k] keep it at least a panel's length away from all but the innermost,
   where its contribution, ~ (d₀ / c)³, is below round-off. ``tests/test_cylindrical_ring.py``
-  checks all kernels against 30-digit adaptive quadrature at 1e-12.
+  checks all kernels against 32-digit adaptive quadrature at 1e-12.
 """
 import math
 
