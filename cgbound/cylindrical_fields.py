@@ -21,9 +21,10 @@ from .cylindrical import CylindricalGrid
 from .fields import derive
 from .grid import Points
 from .kernels import Gaussian
+from .cylindrical_ring import ring_average, ring_average_segments
 from .pipeline import prepare, shape_fields
-from .cylindrical_ring import ring_average
-from .primaries import GRADIENT_PRIMARIES, POINT_PRIMARIES, PRIMARIES, compute_primaries, point_sources
+from .primaries import (GRADIENT_PRIMARIES, POINT_PRIMARIES, PRIMARIES, compute_primaries, point_sources,
+                        segment_sources)
 from .result import Result
 from .snapshot import Snapshot
 
@@ -117,6 +118,12 @@ def ring_primaries(job, grid, needed):
             sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank) for name, v in columns],
                                 z_nodes, z_weights)
             averaged.update({name: s for (name, _), s in zip(columns, sums)})
+        if job.split is not None:
+            for name, part in (("sb", job.split[0]), ("sw", job.split[1])):
+                if name in needed:
+                    starts, vectors, values = segment_sources(job.snapshot, part)
+                    averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors,
+                                                           values.reshape(-1, 3, 3), z_nodes, z_weights)
         for name in needed & POINT_PRIMARIES - set(averaged):      # no data (velocities, body force, contacts)
             averaged[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
     rest = needed - set(averaged)

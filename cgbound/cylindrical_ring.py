@@ -209,3 +209,123 @@ def ring_average(grid, kernel, positions, columns, z_nodes, z_weights):
             for col in range(contrib.shape[1]):
                 flat[:, col] += np.bincount(nodes, weights=contrib[:, col], minlength=flat.shape[0])
     return out
+
+
+#: Gauss-Legendre points per piece of a segment (in u, s = a + (b - a) sin²(π u / 2))
+SEGMENT_POINTS = 20
+_SEG_X, _SEG_W = np.polynomial.legendre.leggauss(SEGMENT_POINTS)
+_SEG_U = 0.5 * (_SEG_X + 1.0)
+#: at most this many panels per piece (a piece longer than MAX_PANELS kernel scales gets longer panels)
+MAX_PANELS = 256
+
+
+def _SEG_J_U(u):
+    """The Gauss-Legendre weight (on [0, 1]) times ds/du of s = sin²(π u / 2), at the panel points u."""
+    return 0.5 * _SEG_W * 0.5 * math.pi * np.sin(math.pi * u)
+
+
+def support_crossings(r, h0, x0, a_perp, a_z, c):
+    """The s in (0, 1) where p(s) = start + s a crosses (r ∓ ρ(s))² + h(s)² = c² (the edge of the torus around
+    the ring, and where the whole ring enters the support): the real roots of the quartic
+    (Q + r² + h² - c²)² - 4 r² Q, Q = ρ(s)², h = h0 - s a_z; (K, 4), NaN where there is none. Near-double roots
+    (grazing) come as a close complex pair: their real part is kept, a harmless extra breakpoint."""
+    q0 = np.einsum("ki,ki->k", x0, x0)
+    q1 = 2.0 * np.einsum("ki,ki->k", x0, a_perp)
+    q2 = np.einsum("ki,ki->k", a_perp, a_perp)
+    e0 = q0 + r * r + h0 * h0 - c * c
+    e1 = q1 - 2.0 * h0 * a_z
+    e2 = q2 + a_z * a_z
+    four = 4.0 * r * r
+    coef = np.stack([e2 * e2, 2.0 * e1 * e2, e1 * e1 + 2.0 * e0 * e2 - four * q2, 2.0 * e0 * e1 - four * q1,
+                     e0 * e0 - four * q0], axis=1)
+    comp = np.zeros((len(e0), 4, 4))
+    comp[:, 0, :] = -coef[:, 1:] / coef[:, :1]
+    comp[:, 1, 0] = comp[:, 2, 1] = comp[:, 3, 2] = 1.0
+    roots = np.linalg.eigvals(comp)
+    real = np.where(np.abs(roots.imag) < 1e-4, roots.real, np.nan)
+    for _ in range(3):                                               # polish: Newton on the quartic
+        p = ((((coef[:, :1] * real + coef[:, 1:2]) * real + coef[:, 2:3]) * real + coef[:, 3:4]) * real
+             + coef[:, 4:5])
+        dp = (((4.0 * coef[:, :1] * real + 3.0 * coef[:, 1:2]) * real + 2.0 * coef[:, 2:3]) * real + coef[:, 3:4])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(dp != 0.0, p / dp, 0.0)
+        real = np.where(np.abs(step) < 1e-3, real - step, real)
+    return np.where((real > 0.0) & (real < 1.0), real, np.nan)
+
+
+def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weights):
+    """θ-averages at every node of a θ-averaged CylindricalGrid of sum_k values_k ∫_0^1 W(x - starts_k - s vectors_k) ds
+    (values (K, 3, 3) Cartesian), in the local basis: (n_r * n_z, 3, 3).
+
+    Along each segment the θ-average is analytic in s between the s where the point enters or leaves the torus
+    of the ring's support and where the whole ring enters it (:func:`support_crossings`), with a square-root
+    behaviour at those ends: each piece gets Gauss-Legendre in u, s = a + (b - a) sin²(π u / 2), which makes it
+    analytic; each s-point the exact ring moments."""
+    c = float(kernel.radius)
+    n_r, n_z = len(grid.r), z_nodes.shape[0]
+    out = np.zeros((n_r * n_z, 3, 3))
+    keep = np.einsum("ki,ki->k", vectors, vectors) > 0.0
+    starts, vectors, values = starts[keep], vectors[keep], values[keep]
+    if not len(starts):
+        return out
+    longest = float(np.sqrt(np.einsum("ki,ki->k", vectors, vectors).max()))
+    r_top = float(grid.r.max()) + c + longest
+    z_lo, z_hi = float(z_nodes.min()) - c - longest, float(z_nodes.max()) + c + longest
+    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
+    reach_lo = grid.axis_point + np.minimum(z_lo * grid.e_z, z_hi * grid.e_z) - disc
+    reach_hi = grid.axis_point + np.maximum(z_lo * grid.e_z, z_hi * grid.e_z) + disc
+    starts, (vectors, values) = periodic_sources(grid.box, starts, [vectors, values], reach_lo, reach_hi)
+    rel = starts - grid.axis_point
+    plane = np.stack([grid.e_1, grid.e_2])
+    x0, a_perp = rel @ plane.T, vectors @ plane.T                   # in-plane (e_1, e_2) components
+    zeta0, a_z = rel @ grid.e_z, vectors @ grid.e_z
+    x1 = x0 + a_perp
+    # the in-plane distance range of each segment (closest point to the axis) and its axial range
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s_close = np.clip(-np.einsum("ki,ki->k", x0, a_perp) / np.einsum("ki,ki->k", a_perp, a_perp), 0.0, 1.0)
+    s_close = np.nan_to_num(s_close)
+    rho_min = np.hypot(*(x0 + s_close[:, None] * a_perp).T)
+    rho_max = np.maximum(np.hypot(*x0.T), np.hypot(*x1.T))
+    zeta_lo, zeta_hi = np.minimum(zeta0, zeta0 + a_z), np.maximum(zeta0, zeta0 + a_z)
+    length = np.sqrt(np.einsum("ki,ki->k", vectors, vectors))
+    scale = float(kernel.width) if isinstance(kernel, Gaussian) else c / 3.0
+    for k, r in enumerate(grid.r):
+        for j in range(n_z):
+            for zq, wq in zip(z_nodes[j], z_weights[j]):
+                cand = np.flatnonzero((rho_min < r + c) & (rho_max > r - c) & (zeta_lo < zq + c) & (zeta_hi > zq - c))
+                if not cand.size:
+                    continue
+                h0 = zq - zeta0[cand]
+                roots = support_crossings(r, h0, x0[cand], a_perp[cand], a_z[cand], c)
+                edges = np.sort(np.concatenate([np.zeros((cand.size, 1)), np.nan_to_num(roots, nan=1.0),
+                                                np.ones((cand.size, 1))], axis=1), axis=1)
+                lo, hi = edges[:, :-1], edges[:, 1:]                   # (K, 5) pieces
+                mid = 0.5 * (lo + hi)
+                px = x0[cand, None, :] + mid[..., None] * a_perp[cand, None, :]
+                rho_mid = np.hypot(px[..., 0], px[..., 1])
+                h_mid = h0[:, None] - mid * a_z[cand, None]
+                inside = (hi > lo) & ((r - rho_mid) ** 2 + h_mid ** 2 < c * c)
+                seg, piece = np.nonzero(inside)
+                if not seg.size:
+                    continue
+                a, b = lo[seg, piece], hi[seg, piece]
+                # panels in u no longer than the kernel's scale along the segment: the integrand varies on it
+                panels = np.clip(np.ceil((b - a) * length[cand[seg]] / scale), 1, MAX_PANELS).astype(int)
+                which = np.repeat(np.arange(seg.size), panels)
+                first = np.repeat(np.cumsum(panels) - panels, panels)
+                jp = np.arange(which.size) - first                     # panel index within its piece
+                u = (jp[:, None] + _SEG_U) / panels[which, None]         # (panels, n) in [0, 1]
+                s = a[which, None] + (b - a)[which, None] * np.sin(0.5 * math.pi * u) ** 2
+                wt = ((b - a)[which, None] * _SEG_J_U(u) / panels[which, None]) * wq
+                seg = seg[which]
+                src = cand[seg]
+                p = x0[src, None, :] + s[..., None] * a_perp[src, None, :]
+                rho = np.hypot(p[..., 0], p[..., 1])
+                phi = np.arctan2(p[..., 1], p[..., 0])
+                h = (h0[seg, None] - s * a_z[src, None])
+                M = ring_moments(kernel, r, h, rho).reshape(3, -1) * wt.ravel()
+                B = grid.basis(phi.ravel())                              # rows e_r, e_θ, e_z at φ(s)
+                T = np.repeat(values[src], s.shape[1], axis=0)
+                own = np.einsum("sia,sab,sjb->sij", B, T, B)
+                out[k * n_z + j] += rotate_averaged(own, 2, M).sum(axis=0)
+    return out

@@ -296,10 +296,15 @@ def segment_sum(snapshot, part, target, kernel, P, nt, ray=False):
     dim = snapshot.dim
     if not part["i"].size:
         return np.zeros((P, dim, dim))
+    start, vector, values = segment_sources(snapshot, part)
+    return scatter_segments(target, kernel, start, vector, values, ray=ray, n_threads=nt).reshape(P, dim, dim)
+
+
+def segment_sources(snapshot, part):
+    """The segments of ``part`` (of split_contacts): starts (the flowing particle's centre), vectors (-a, to its
+    partner or contact point) and values -f a, flat (n, D*D)."""
     start = np.take(snapshot.positions, part["i"], axis=0)
-    values = negated_outer(part["force"], part["branch"])
-    return scatter_segments(target, kernel, start, np.negative(part["branch"]), values, ray=ray,
-                            n_threads=nt).reshape(P, dim, dim)
+    return start, np.negative(part["branch"]), negated_outer(part["force"], part["branch"])
 
 
 def boundary_point_sum(snapshot, boundary, target, kernel, P, nt):
