@@ -8,6 +8,10 @@ weights, and only then turned into fields by the same :func:`~cgbound.fields.der
 (velocity = averaged momentum / averaged density, never an average of ratios; the kinetic stress is the
 spread about the averaged velocity, -(k - p p / rho) of the averaged primaries, as on a Grid's averaged axes).
 
+On a θ-averaged grid the sums over points (particles, contact points) and the contact and boundary
+stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring` (round-off); the
+rest (the extended stress's ray term, every primary of a θ-resolved grid) uses the quadrature below.
+
 Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
 smooth integrand: exact to round-off for a Gaussian whose cutoff jump is below round-off, cutoff >= 9 w;
 with the default 5 w cutoff the jump exp(-12.5) ~ 4e-6 limits it); over z (when averaged) the

@@ -260,3 +260,62 @@ def test_uniform_ring_of_particles_rotates_rigidly():
     assert np.abs(v[:, 0]).max() < 1e-15 and np.abs(v[:, 2]).max() == 0
     M = ring_moments(kernel, grid.r, 0.0, R)
     np.testing.assert_allclose(v[:, 1], omega * R * M[1] / M[0], rtol=1e-14)
+
+
+def segment_oracle(kernel, start, vector, value, g, r, z):
+    """(1/2π) ∫_0^1 ds ∫ dθ W(|x(θ) - start - s vector|) Σ_ab g_ab (R(θ) value R(θ)ᵀ)_ab by nested QUADPACK
+    (θ with breakpoints at the support's edges; s adaptive, which finds the square-root ends)."""
+    ok = oracle_kernel_of(kernel, 3)
+    if isinstance(kernel, cg.Gaussian):
+        W = lambda d: math.exp(-d * d / (2 * kernel.width ** 2)) / ok.gaussian_norm(3) if d < kernel.radius else 0.0
+    else:
+        W = lambda d: float(ok.full(np.array(d)))
+    c = kernel.radius
+
+    def inner(s):
+        q = start + s * vector
+        rho, phi = math.hypot(q[0], q[1]), math.atan2(q[1], q[0])
+        breaks = []
+        if r * rho > 0:
+            s2 = (c * c - (r - rho) ** 2 - (z - q[2]) ** 2) / (4 * r * rho)
+            if s2 <= 0:
+                return 0.0
+            if s2 < 1:
+                D = 2 * math.asin(math.sqrt(s2))
+                breaks = [phi - D, phi + D]
+
+        def f(theta):
+            x = np.array([r * math.cos(theta), r * math.sin(theta), z])
+            R = basis(theta)
+            return W(float(np.linalg.norm(x - q))) * float(np.sum(g * (R @ value @ R.T)))
+        if breaks:
+            val = quad(f, breaks[0], breaks[1], points=[phi], limit=200, epsabs=1e-17, epsrel=1e-14)[0]
+        else:
+            val = quad(f, 0.0, 2 * math.pi, limit=200, epsabs=1e-17, epsrel=1e-14)[0]
+        return val / (2 * math.pi)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IntegrationWarning)
+        return quad(inner, 0.0, 1.0, limit=400, epsabs=1e-17, epsrel=1e-13)[0]
+
+
+@pytest.mark.parametrize("kernel", [cg.Gaussian(0.4), cg.Lucy(1.2), cg.Heaviside(1.0)], ids=["gauss5w", "lucy", "heaviside"])
+def test_contact_stress_line_integrals_equal_nested_quadrature(kernel):
+    """One contact whose branch crosses the ring's support (and passes near the axis); the ring average of the
+    contact stress against nested adaptive quadrature (σ_rθ and σ_rz; tests/test_cylindrical.py
+    checks every component against a brute-force rule for a Gaussian cut off below round-off)."""
+    pos = np.array([[-0.9, 0.3, 0.1], [1.2, 0.5, 0.4]])
+    box = cg.Box([-3, -3, -3], [3, 3, 3])
+    force = np.array([[0.3, -1.1, 0.7]])
+    contacts = cg.Contacts([0], [1], force, point=pos[:1] + 0.5 * (pos[1] - pos[0]))
+    snap = cg.Snapshot(pos, np.zeros((2, 3)), np.ones(2), box=box, contacts=contacts)
+    grid = cg.CylindricalGrid(box, (0, 0, 0), "z", r=(0.6, 1.0, 1), z=(0.1, 0.3, 1))
+    out = cg.coarse_grain(snap, grid, kernel, fields=("contact_stress",)).contact_stress
+    branch = pos[0] - pos[1]                 # r_ij = r_i - r_j; the segment runs from r_i along -r_ij
+    value = -np.outer(force[0], branch)
+    for k, r in enumerate(grid.r):
+        for a, b in ((0, 1), (0, 2)):     # (the nested quadrature is slow) the rθ mixture and an M₁ component
+            g = np.zeros((3, 3))
+            g[a, b] = 1.0
+            want = segment_oracle(kernel, pos[0], -branch, value, g, float(r), float(grid.z[0]))
+            scale = np.abs(out).max()
+            assert abs(out[k, 0, 0, a, b] - want) < 1e-12 * scale, (r, a, b)
