@@ -1,7 +1,7 @@
 """Exact θ-averages over rings of kernel sums of point sources (particles, contact points).
 
 A source q at cylindrical (ρ, φ, ζ) is seen from the ring (r, z) at the distance
-d(t)² = (r - ρ)² + (z - ζ)² + 4 r ρ sin²(t/2), t = θ - φ, and only on the arc |t| < Δ where d < c
+d(t)² = (r - ρ)² + (z - ζ)² + 4 r ρ sin²(t/2), t = θ - φ, and only on the arc ``|t|`` < Δ where d < c
 (sin²(Δ/2) = (c² - d₀²) / 4 r ρ, d₀ the closest approach). d(t) is even in t, so the θ-average of
 the kernel times the rotation into (e_r, e_θ, e_z) needs only three moments per (ring, source):
 
