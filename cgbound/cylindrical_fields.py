@@ -8,6 +8,10 @@ weights, and only then turned into fields by the same :func:`~cgbound.fields.der
 (velocity = averaged momentum / averaged density, never an average of ratios; the kinetic stress is the
 spread about the averaged velocity, -(k - p p / rho) of the averaged primaries, as on a Grid's averaged axes).
 
+On a θ-averaged grid the sums over points (particles, contact points) and the contact and boundary
+stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring` (round-off); the
+rest (the extended stress's ray term, every primary of a θ-resolved grid) uses the quadrature below.
+
 Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
 smooth integrand: exact to round-off for a Gaussian whose cutoff jump is below round-off, cutoff >= 9 w;
 with the default 5 w cutoff the jump exp(-12.5) ~ 4e-6 limits it); over z (when averaged) the
@@ -18,11 +22,13 @@ import math
 import numpy as np
 
 from .cylindrical import CylindricalGrid
+from .cylindrical_ring import ring_average, ring_average_segments
 from .fields import ROTATION_FIELDS, check_fields, derive
 from .grid import Points
 from .kernels import Gaussian, check_kernel
 from .pipeline import prepare, shape_fields
-from .primaries import GRADIENT_PRIMARIES, PRIMARIES, compute_primaries
+from .primaries import (GRADIENT_PRIMARIES, POINT_PRIMARIES, PRIMARIES, compute_primaries, point_sources,
+                        segment_sources)
 from .result import Result
 from .snapshot import Snapshot
 
@@ -94,6 +100,52 @@ def rotate(values, rank, basis):
     return np.einsum("qia,qab,qjb->qij", basis, values, basis)
 
 
+def ring_sums(job, grid, needed):
+    """The primaries ``needed`` averaged over each node of ``grid`` (θ and/or z as the grid asks), in the local
+    basis, flat over nodes: {name: (n_nodes,) + (3,) * rank}. ``job``: from :func:`~cgbound.pipeline.prepare`
+    (its snapshot, kernel and split contacts; its target is not used).
+
+    On a θ-averaged grid the sums over points (particles, contact points) and the contact and boundary
+    stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring`; the extended
+    stress's rays, the gradient primaries and every primary of a θ-resolved grid come from the Cartesian
+    engine at the quadrature points."""
+    zero = np.zeros(3)
+    averaged = {}
+    if grid.theta_averaged:
+        if grid.z_averaged:
+            lo, hi = grid.z_extent
+            x, wz = np.polynomial.legendre.leggauss(z_points(hi - lo, job.kernel))
+            z_nodes = (0.5 * (hi + lo) + 0.5 * (hi - lo) * x)[None, :]
+            z_weights = 0.5 * wz[None, :]
+        else:
+            z_nodes, z_weights = grid.z[:, None], np.ones((len(grid.z), 1))
+        for positions, columns in point_sources(job.snapshot, needed, zero, job.split):
+            sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank) for name, v in columns],
+                                z_nodes, z_weights)
+            averaged.update({name: s for (name, _), s in zip(columns, sums)})
+        if job.split is not None:
+            for name, part in (("sb", job.split[0]), ("sw", job.split[1])):
+                if name in needed:
+                    starts, vectors, values = segment_sources(job.snapshot, part)
+                    averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors,
+                                                           values.reshape(-1, 3, 3), z_nodes, z_weights)
+        for name in needed & POINT_PRIMARIES - set(averaged):      # no data (velocities, body force, contacts)
+            averaged[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
+    rest = needed - set(averaged)
+    if not rest:
+        return averaged
+    positions, angles, weights, starts = quadrature(grid, job.kernel)
+    sums = compute_primaries(job.snapshot, Points(positions), job.kernel, rest, zero, job.split)
+    basis = grid.basis(angles)
+    for name, value in sums.items():
+        rank = PRIMARIES[name].rank
+        local = rotate(np.asarray(value).reshape((len(positions),) + (3,) * rank), rank, basis)
+        local = local * weights.reshape((-1,) + (1,) * rank)
+        averaged[name] = np.ascontiguousarray(np.add.reduceat(local, starts, axis=0))   # (nodes,) + (3,) * rank
+    return averaged
+
+
+
 def check_ring_arguments(snapshot, grid, kernel, fields, convention="tension", species=None):
     """Raise before any work if the fields of ``snapshot`` cannot be computed on ``grid``; returns the
     checked job of a one-point target (its kernel, fields, convention)."""
@@ -130,14 +182,7 @@ def ring_primaries(snapshot, grid, kernel, fields, convention="tension", species
     # the kinetic stress of a ring is the velocity spread about the ring's averaged velocity (as on a Grid's
     # averaged axes): -(k - p p / rho) from the averaged primaries, not the average of pointwise spreads
     needed = (job.needed - {"sk"}) | ({"k", "p_w", "rho"} if "sk" in job.needed else set())
-    sums = compute_primaries(job.snapshot, job.target, job.kernel, needed, zero, job.split)
-    basis = grid.basis(angles)
-    averaged = {}
-    for name, value in sums.items():
-        rank = PRIMARIES[name].rank
-        local = rotate(np.asarray(value).reshape((len(positions),) + (3,) * rank), rank, basis)
-        local = local * weights.reshape((-1,) + (1,) * rank)
-        averaged[name] = np.ascontiguousarray(np.add.reduceat(local, starts, axis=0))   # (nodes,) + (3,) * rank
+    averaged = ring_sums(job, grid, needed)
     if "sk" in job.needed:
         rho, p = averaged["rho"], averaged["p_w"]
         spread = np.einsum("ni,nj->nij", p, p)

@@ -327,10 +327,15 @@ def segment_sum(snapshot, part, target, kernel, P, nt, ray=False):
     dim = snapshot.dim
     if not part["i"].size:
         return np.zeros((P, dim, dim))
+    start, vector, values = segment_sources(snapshot, part)
+    return scatter_segments(target, kernel, start, vector, values, ray=ray, n_threads=nt).reshape(P, dim, dim)
+
+
+def segment_sources(snapshot, part):
+    """The segments of ``part`` (of split_contacts): starts (the flowing particle's centre), vectors (-a, to its
+    partner or contact point) and values -f a, flat (n, D*D)."""
     start = np.take(snapshot.positions, part["i"], axis=0)
-    values = negated_outer(part["force"], part["branch"])
-    return scatter_segments(target, kernel, start, np.negative(part["branch"]), values, ray=ray,
-                            n_threads=nt).reshape(P, dim, dim)
+    return start, np.negative(part["branch"]), negated_outer(part["force"], part["branch"])
 
 
 def boundary_point_sum(snapshot, boundary, target, kernel, P, nt):
@@ -587,3 +592,35 @@ def rotation_largest(snapshot, fields):
     if any(f in CONTACT_ROTATION_FIELDS for f in fields):
         largest = max(largest, largest_couple(contact_halves(snapshot)))
     return largest
+
+
+def point_sources(snapshot, needed, u_ref, split=None):
+    """The needed primaries that are sums over points (sources PARTICLES, BOUNDARY_POINTS, BULK_POINTS), as
+    [(positions (S, D), [(name, values (S,) + (D,) * rank)])], for targets that integrate the kernel
+    themselves (the ring averages of a CylindricalGrid). Primaries whose data the snapshot lacks are absent
+    (they are zero). ``split``: the result of ``check_computable``."""
+    dim = snapshot.dim
+    groups = []
+    block, layout = _particle_columns(snapshot, needed, u_ref)
+    if layout:
+        groups.append((flowing_rows(snapshot, snapshot.positions),
+                       [(name, block[:, start:start + size].reshape((-1,) + shape))
+                        for name, start, size, shape in layout]))
+    if split is not None:
+        bulk, boundary = split
+        rows = []
+        if "t" in needed and boundary["i"].size:
+            rows.append(("t", boundary["force"]))
+        if "fw" in needed and boundary["i"].size:
+            n = boundary["branch"] / np.sqrt(np.einsum("ij,ij->i", boundary["branch"], boundary["branch"]))[:, None]
+            rows.append(("fw", outer(n, n).reshape(-1, dim, dim)))
+        if rows:
+            groups.append((boundary["point"], rows))
+        if "fb" in needed and bulk["i"].size:
+            n = bulk["branch"] / np.sqrt(np.einsum("ij,ij->i", bulk["branch"], bulk["branch"]))[:, None]
+            groups.append((bulk["point"], [("fb", outer(n, n).reshape(-1, dim, dim))]))
+    return groups
+
+
+#: the primaries :func:`point_sources` gives
+POINT_PRIMARIES = frozenset(p.name for p in PRIMARIES.values() if p.source in (PARTICLES, BOUNDARY_POINTS, BULK_POINTS))

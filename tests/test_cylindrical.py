@@ -74,8 +74,10 @@ def test_ring_average_equals_brute_force_oracle(z_resolved):
 
 
 def test_lucy_ring_average_accuracy():
-    """Lucy is only finitely smooth in θ (a jump in its third derivative at the support's edge, so the
-    trapezoidal rule converges like N^-4): measured 4.7e-7 (density) and 1.1e-6 (stress) of the largest value against a rule with 4000 points."""
+    """The density is the exact ring integral (to round-off, tests/test_cylindrical_ring.py): it matches a
+    4000-point rule to that rule's own error. The contact stress's line integrals still come from the
+    trapezoidal rule, only finitely smooth for Lucy (a jump in its third derivative at the support's edge, so it
+    converges like N^-4): measured 1.1e-6 of the largest stress against 4000 points."""
     snap = snapshot()
     kernel = cg.Lucy(1.0)
     c = centre(snap)
@@ -83,9 +85,9 @@ def test_lucy_ring_average_accuracy():
     grid = cg.CylindricalGrid(snap.box, c, "z", r=(0.0, 2.0, 4), z=(zc - 0.05, zc + 0.05, 1))
     out = cg.coarse_grain(snap, grid, kernel, fields=("density", "stress"))
     want = oracle(snap, kernel, c, grid.r, grid.z, np.ones(1), n_theta=4000)
-    for f in ("density", "stress"):
+    for f, bound in (("density", 1e-9), ("stress", 2e-6)):
         scale = np.abs(want[f]).max()
-        assert np.abs(getattr(out, f)[:, 0, 0] - want[f]).max() < 2e-6 * scale, f
+        assert np.abs(getattr(out, f)[:, 0, 0] - want[f]).max() < bound * scale, f
 
 
 def test_mass_integral():

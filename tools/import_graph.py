@@ -62,6 +62,7 @@ LAYERS = {
     "rotation": 5, "angular_balance": 5,                          # spin, couple stress (through the pipeline); their balance
     "cylindrical": 3, "cylindrical_fields": 5,                    # cylindrical grids; their fields from ring quadrature
     "cylindrical_balance": 5,                                     # the momentum balance on ring averages (hoop terms)
+    "cylindrical_ring": 4,                                        # exact ring averages of point sources
 }
 
 #: packages drawn as one node

@@ -1,0 +1,321 @@
+"""Exact ring averages on θ-averaged CylindricalGrids: the moments against 32-digit quadrature, the fields
+of point sources against adaptive quadrature of the rotated Cartesian sum, mass, rigid rotation."""
+import math
+import warnings
+
+import mpmath as mp
+import numpy as np
+import pytest
+from scipy.integrate import IntegrationWarning, quad
+
+import cgbound as cg
+from cgbound.cylindrical_fields import z_points
+from cgbound.cylindrical_ring import ring_moments
+from helpers import random_snapshot
+from oracle import oracle_kernel_of
+
+KERNELS = [cg.Gaussian(0.4), cg.Gaussian(0.4, normalize="truncated"), cg.Gaussian(0.3, cutoff=3.0), cg.Lucy(1.2),
+           cg.Heaviside(1.0)]
+IDS = ["gauss5w", "gauss5w-truncated", "gauss10w", "lucy", "heaviside"]
+
+
+def mp_kernel(kernel):
+    """W(d) in 3-D at 32 digits, from the textbook definitions."""
+    c = mp.mpf(kernel.radius)
+    if isinstance(kernel, cg.Gaussian):
+        w = mp.mpf(kernel.width)
+        norm = (2 * mp.pi * w * w) ** mp.mpf(1.5)
+        if kernel.truncated:
+            norm = 4 * mp.pi * mp.quad(lambda x: mp.exp(-x * x / (2 * w * w)) * x * x, [0, c])
+        return lambda d: mp.exp(-d * d / (2 * w * w)) / norm if d < c else mp.mpf(0)
+    if isinstance(kernel, cg.Lucy):
+        return lambda d: 105 / (16 * mp.pi * c ** 3) * (1 + 3 * d / c) * (1 - d / c) ** 3 if d < c else mp.mpf(0)
+    return lambda d: 3 / (4 * mp.pi * c ** 3) if d < c else mp.mpf(0)
+
+
+def mp_moments(kernel, r, h, rho):
+    """(1/2π) ∫ W(|x(θ) - q|) cos(m θ) dθ over the full circle (q at angle 0), adaptive tanh-sinh at 32 digits
+    with breakpoints at the support's edges and the closest approach."""
+    with mp.workdps(32):
+        W = mp_kernel(kernel)
+        r, h, rho = mp.mpf(r), mp.mpf(h), mp.mpf(rho)
+        c = mp.mpf(kernel.radius)
+
+        def d(t):
+            return mp.sqrt(r * r + rho * rho + h * h - 2 * r * rho * mp.cos(t))
+        edges = [mp.mpf(0), mp.pi]
+        if r * rho > 0:
+            s2 = (c * c - (r - rho) ** 2 - h * h) / (4 * r * rho)
+            if 0 < s2 < 1:
+                edges.insert(1, 2 * mp.asin(mp.sqrt(s2)))
+        out = []
+        for m in range(3):
+            total = mp.mpf(0)
+            for a, b in zip(edges[:-1], edges[1:]):
+                # graded towards the closest approach, where Lucy's d³ is nearly singular
+                pts = [a] + [a + (b - a) * mp.mpf(10) ** -k for k in (9, 6, 3, 1)] + [b] if a == 0 else [a, b]
+                total += mp.quad(lambda t: W(d(t)) * mp.cos(m * t), pts)
+            out.append(float(total / mp.pi))
+    return np.array(out)
+
+
+CASES = [(2.0, 0.0, 2.0),             # the ring passes through the source
+         (2.0, 0.0, 2.0 + 1e-7),      # ... nearly
+         (2.0, 3e-4, 2.0),
+         (1e-6, 0.1, 0.3),            # a ring of radius -> 0
+         (0.05, 0.01, 0.02),
+         (0.7, 0.2, 0.0),             # the source on the axis
+         (3.0, 0.2, 2.5),
+         (0.8, 0.3, 1e-9)]
+
+
+@pytest.mark.parametrize("kernel", KERNELS, ids=IDS)
+def test_ring_moments_against_32_digit_quadrature(kernel):
+    rng = np.random.default_rng(3)
+    c = kernel.radius
+    cases = list(CASES) + [(5.0, 0.0, 5.0 + 0.999 * c), (5.0, 0.0, 5.0 + 0.999 * c * math.sqrt(2) / 2)]
+    for _ in range(4):
+        r = rng.uniform(0, 4)
+        rho = rng.uniform(max(0.0, r - c), r + c)
+        h = rng.uniform(-1, 1) * math.sqrt(max(c * c - (r - rho) ** 2, 0.0))
+        cases.append((r, h, rho))
+    for r, h, rho in cases:
+        want = mp_moments(kernel, r, h, rho)
+        got = ring_moments(kernel, r, h, rho)
+        assert want[0] > 0
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * want[0], err_msg=str((r, h, rho)))
+
+
+def test_heaviside_on_axis_and_outside():
+    k = cg.Heaviside(1.0)
+    m = ring_moments(k, np.array([0.5, 0.5, 3.0]), np.array([0.2, 0.2, 0.0]), np.array([0.0, 2.0, 0.5]))
+    np.testing.assert_allclose(m[:, 0], [3 / (4 * math.pi), 0, 0], rtol=1e-15)
+    assert np.all(m[:, 2] == 0)      # out of reach: (3 - 0.5) > 1
+
+
+# ---- fields against the rotated Cartesian sum integrated over θ by QUADPACK ----
+
+def basis(theta):
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def oracle_ring(kernel, sources, r, zs, wz):
+    """θ (and z) averages of sum_i values_i W(x - q_i) with x on the ring, values rotated into (e_r, e_θ, e_z)
+    (axis z through the origin). sources: [(q (3,), value (scalar, 3 or 3x3 Cartesian))]."""
+    ok = oracle_kernel_of(kernel, 3)
+    if isinstance(kernel, cg.Gaussian):
+        W = lambda d: math.exp(-d * d / (2 * kernel.width ** 2)) / ok.gaussian_norm(3) if d < kernel.radius else 0.0
+    else:
+        W = lambda d: float(ok.full(np.array(d)))
+    c = kernel.radius
+    shape = np.shape(sources[0][1])
+    total = np.zeros(shape)
+    for z, wzq in zip(zs, wz):
+        breaks = set()
+        for q, _ in sources:
+            rho, phi = math.hypot(q[0], q[1]), math.atan2(q[1], q[0])
+            if r * rho > 0:
+                s2 = (c * c - (r - rho) ** 2 - (z - q[2]) ** 2) / (4 * r * rho)
+                if 0 < s2 < 1:
+                    D = 2 * math.asin(math.sqrt(s2))
+                    breaks.update(((phi + D) % (2 * math.pi), (phi - D) % (2 * math.pi)))
+                breaks.add(phi % (2 * math.pi))
+        breaks = sorted(b for b in breaks if 1e-12 < b < 2 * math.pi - 1e-12)
+        for idx in np.ndindex(shape):
+            def f(theta):
+                x = np.array([r * math.cos(theta), r * math.sin(theta), z])
+                R = basis(theta)
+                acc = 0.0
+                for q, v in sources:
+                    w = W(float(np.linalg.norm(x - q)))
+                    if w == 0.0:
+                        continue
+                    v = np.asarray(v, float)
+                    local = v if v.ndim == 0 else (R @ v if v.ndim == 1 else R @ v @ R.T)
+                    acc += w * local[idx]
+                return acc
+            with warnings.catch_warnings():
+                # QUADPACK reports that 1e-14 is beyond its round-off; the comparison at 1e-12 is the check
+                warnings.simplefilter("ignore", IntegrationWarning)
+                val, _ = quad(f, 0.0, 2 * math.pi, points=breaks or None, limit=2000, epsabs=1e-17, epsrel=1e-14)
+            total[idx] += wzq * val / (2 * math.pi)
+    return total
+
+
+def particles(n=7, seed=2):
+    """Particles around the z axis; one on the axis, one on the ring r = 1.1, z = 0.3 of the test grid."""
+    rng = np.random.default_rng(seed)
+    pos = np.c_[rng.uniform(-1.5, 1.5, (n, 2)), rng.uniform(-0.5, 0.8, n)]
+    pos[0] = [0.0, 0.0, 0.1]
+    pos[1] = [1.1 * math.cos(0.4), 1.1 * math.sin(0.4), 0.3]
+    box = cg.Box([-3, -3, -2], [3, 3, 2], periodic=False)
+    return cg.Snapshot(pos, rng.normal(size=(n, 3)), rng.uniform(0.5, 2, n), box=box)
+
+
+@pytest.mark.parametrize("kernel", KERNELS[:2] + KERNELS[3:], ids=IDS[:2] + IDS[3:])
+def test_point_fields_equal_adaptive_quadrature_of_the_rotated_sum(kernel):
+    snap = particles()
+    grid = cg.CylindricalGrid(snap.box, (0, 0, 0), "z", r=(1.1 - 1e-3, 1.1 + 1e-3, 1), z=(0.3 - 1e-3, 0.3 + 1e-3, 1))
+    small = cg.CylindricalGrid(snap.box, (0, 0, 0), "z", r=(0.0, 2e-6, 1), z=(-0.2, 0.0, 1))
+    fields = ("density", "momentum", "momentum_flux")
+    for g in (grid, small):
+        out = cg.coarse_grain(snap, g, kernel, fields=fields)
+        r, z = float(g.r[0]), float(g.z[0])
+        for name, value in (("density", lambda i: snap.masses[i]),
+                            ("momentum", lambda i: snap.masses[i] * snap.velocities[i]),
+                            ("momentum_flux", lambda i: snap.masses[i] * np.outer(snap.velocities[i], snap.velocities[i]))):
+            want = oracle_ring(kernel, [(snap.positions[i], value(i)) for i in range(len(snap.masses))], r, [z], [1.0])
+            got = getattr(out, name)[0, 0, 0]
+            scale = np.abs(want).max()
+            assert scale > 0
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * scale, err_msg=f"{name} r={r}")
+
+
+@pytest.mark.parametrize("kernel", [KERNELS[0], KERNELS[3], KERNELS[4]], ids=["gauss5w", "lucy", "heaviside"])
+def test_z_averaged_ring_is_gauss_legendre_in_z_of_exact_rings(kernel):
+    snap = particles()
+    grid = cg.CylindricalGrid(snap.box, (0, 0, 0), "z", r=(0.6, 1.0, 2))
+    out = cg.coarse_grain(snap, grid, kernel, fields=("density", "momentum"))
+    lo, hi = grid.z_extent
+    x, w = np.polynomial.legendre.leggauss(z_points(hi - lo, kernel))
+    zs, wz = 0.5 * (hi + lo) + 0.5 * (hi - lo) * x, 0.5 * w
+    for k, r in enumerate(grid.r):
+        want = oracle_ring(kernel, [(q, m) for q, m in zip(snap.positions, snap.masses)], r, zs, wz)
+        np.testing.assert_allclose(out.density[k, 0, 0], want, rtol=1e-12)
+
+
+def test_interaction_force_density_on_rings():
+    snap = random_snapshot(11, n=30, n_bulk=20, lengths=[6.0, 6.0, 5.0], periodic=(False, False, False))
+    a = 0.5 * (snap.box.lower + snap.box.upper)
+    kernel = cg.Lucy(1.0)
+    grid = cg.CylindricalGrid(snap.box, a, "z", r=(0.2, 2.2, 3), z=(-0.6, 0.6, 2))
+    out = cg.coarse_grain(snap, grid, kernel, fields=("interaction_force_density",))
+    boundary = snap.split_contacts()[1]
+    assert boundary["i"].size
+    sources = [(p - a, f) for p, f in zip(boundary["point"], boundary["force"])]
+    scale = np.abs(out.interaction_force_density).max()
+    assert scale > 0
+    for k, r in enumerate(grid.r):
+        for j, z in enumerate(grid.z):
+            want = oracle_ring(kernel, sources, r, [z], [1.0])
+            np.testing.assert_allclose(out.interaction_force_density[k, 0, j], want, rtol=0, atol=1e-12 * scale)
+
+
+def test_mass_integral_to_round_off():
+    """∫ρ 2πr dr dz = M: z averaged (Gauss-Legendre, exact for a Gaussian cut off below round-off), r by
+    Gauss-Legendre nodes (one single-node grid each)."""
+    rng = np.random.default_rng(5)
+    box = cg.Box([-6, -6, 0], [6, 6, 8], periodic=False)
+    n = 20
+    pos = np.c_[rng.uniform(-1.5, 1.5, (n, 2)), rng.uniform(3, 5, n)]
+    m = rng.uniform(0.5, 2, n)
+    snap = cg.Snapshot(pos, np.zeros((n, 3)), m, box=box)
+    kernel = cg.Gaussian(0.3, cutoff=3.0)
+    R = 1.5 * math.sqrt(2) + 3.0
+    x, w = np.polynomial.legendre.leggauss(80)
+    rs, wr = 0.5 * R * (x + 1), 0.5 * R * w
+    mass = 0.0
+    for r, wq in zip(rs, wr):
+        g = cg.CylindricalGrid(box, (0, 0, 0), "z", r=(r - 1e-4, r + 1e-4, 1))
+        rho = cg.coarse_grain(snap, g, kernel, fields=("density",)).density[0, 0, 0]
+        mass += wq * 2 * math.pi * float(g.r[0]) * rho * 8.0
+    assert abs(mass / m.sum() - 1) < 1e-11
+
+
+@pytest.mark.parametrize("kernel", [cg.Gaussian(0.4), cg.Lucy(1.2), cg.Heaviside(1.0)], ids=["gauss", "lucy", "heaviside"])
+def test_rigid_rotation_on_rings(kernel):
+    """v = ω e_z × (x - a): on the θ-average p_θ = ω m_r (m the ring average of sum m_i (q_i - a)_⊥ W), p_r = p_z = 0;
+    a particle on the node's ring and alone in its reach moves at v_θ = ω r exactly when the kernel is constant
+    on its arc (Heaviside) and the velocity's projection averages over the arc."""
+    snap0 = particles(n=12, seed=4)
+    omega = 0.7
+    d = snap0.positions.copy()
+    rot = np.c_[-omega * d[:, 1], omega * d[:, 0], np.zeros(len(d))]
+    mk = lambda v: cg.Snapshot(snap0.positions, v, snap0.masses, box=snap0.box)
+    grid = cg.CylindricalGrid(snap0.box, (0, 0, 0), "z", r=(0.0, 2.0, 5), z=(-0.5, 0.5, 2))
+    p = cg.coarse_grain(mk(rot), grid, kernel, fields=("momentum",)).momentum
+    moment = cg.coarse_grain(mk(np.c_[d[:, :2], np.zeros(len(d))]), grid, kernel, fields=("momentum",)).momentum
+    scale = np.abs(p).max()
+    np.testing.assert_allclose(p[..., 1], omega * moment[..., 0], rtol=0, atol=1e-14 * scale)
+    assert np.abs(p[..., 0]).max() < 1e-14 * scale and np.abs(p[..., 2]).max() == 0
+    assert np.abs(moment[..., 1]).max() < 1e-14 * scale
+
+
+def test_uniform_ring_of_particles_rotates_rigidly():
+    """Particles spread evenly on a circle of radius R (many, so the ring average sees a continuum in θ), all on the
+    rigid rotation: the ring average at r = R gives v_θ = ω R · M₁/M₀ per particle = the same for each, and the
+    node's v_θ equals that of the single-particle ring average (linearity), v_r = v_z = 0."""
+    R, omega, n = 1.3, 0.9, 64
+    phi = 2 * np.pi * np.arange(n) / n + 0.1
+    pos = np.c_[R * np.cos(phi), R * np.sin(phi), np.zeros(n)]
+    vel = omega * np.c_[-pos[:, 1], pos[:, 0], np.zeros(n)]
+    box = cg.Box([-3, -3, -2], [3, 3, 2])
+    snap = cg.Snapshot(pos, vel, np.ones(n), box=box)
+    grid = cg.CylindricalGrid(box, (0, 0, 0), "z", r=(1.0, 1.6, 3), z=(-0.1, 0.1, 1))
+    kernel = cg.Lucy(0.8)
+    v = cg.coarse_grain(snap, grid, kernel, fields=("velocity",)).velocity[:, 0, 0]
+    one = cg.coarse_grain(cg.Snapshot(pos[:1], vel[:1], [1.0], box=box), grid, kernel, fields=("velocity",)).velocity
+    np.testing.assert_allclose(v, one[:, 0, 0], rtol=0, atol=1e-14)
+    assert np.abs(v[:, 0]).max() < 1e-15 and np.abs(v[:, 2]).max() == 0
+    M = ring_moments(kernel, grid.r, 0.0, R)
+    np.testing.assert_allclose(v[:, 1], omega * R * M[1] / M[0], rtol=1e-14)
+
+
+def segment_oracle(kernel, start, vector, value, g, r, z):
+    """(1/2π) ∫_0^1 ds ∫ dθ W(|x(θ) - start - s vector|) Σ_ab g_ab (R(θ) value R(θ)ᵀ)_ab by nested QUADPACK
+    (θ with breakpoints at the support's edges; s adaptive, which finds the square-root ends)."""
+    ok = oracle_kernel_of(kernel, 3)
+    if isinstance(kernel, cg.Gaussian):
+        W = lambda d: math.exp(-d * d / (2 * kernel.width ** 2)) / ok.gaussian_norm(3) if d < kernel.radius else 0.0
+    else:
+        W = lambda d: float(ok.full(np.array(d)))
+    c = kernel.radius
+
+    def inner(s):
+        q = start + s * vector
+        rho, phi = math.hypot(q[0], q[1]), math.atan2(q[1], q[0])
+        breaks = []
+        if r * rho > 0:
+            s2 = (c * c - (r - rho) ** 2 - (z - q[2]) ** 2) / (4 * r * rho)
+            if s2 <= 0:
+                return 0.0
+            if s2 < 1:
+                D = 2 * math.asin(math.sqrt(s2))
+                breaks = [phi - D, phi + D]
+
+        def f(theta):
+            x = np.array([r * math.cos(theta), r * math.sin(theta), z])
+            R = basis(theta)
+            return W(float(np.linalg.norm(x - q))) * float(np.sum(g * (R @ value @ R.T)))
+        if breaks:
+            val = quad(f, breaks[0], breaks[1], points=[phi], limit=200, epsabs=1e-17, epsrel=1e-14)[0]
+        else:
+            val = quad(f, 0.0, 2 * math.pi, limit=200, epsabs=1e-17, epsrel=1e-14)[0]
+        return val / (2 * math.pi)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IntegrationWarning)
+        return quad(inner, 0.0, 1.0, limit=400, epsabs=1e-17, epsrel=1e-13)[0]
+
+
+@pytest.mark.parametrize("kernel", [cg.Gaussian(0.4), cg.Lucy(1.2), cg.Heaviside(1.0)], ids=["gauss5w", "lucy", "heaviside"])
+def test_contact_stress_line_integrals_equal_nested_quadrature(kernel):
+    """One contact whose branch crosses the ring's support (and passes near the axis); the ring average of the
+    contact stress against nested adaptive quadrature (σ_rθ and σ_rz; tests/test_cylindrical.py
+    checks every component against a brute-force rule for a Gaussian cut off below round-off)."""
+    pos = np.array([[-0.9, 0.3, 0.1], [1.2, 0.5, 0.4]])
+    box = cg.Box([-3, -3, -3], [3, 3, 3])
+    force = np.array([[0.3, -1.1, 0.7]])
+    contacts = cg.Contacts([0], [1], force, point=pos[:1] + 0.5 * (pos[1] - pos[0]))
+    snap = cg.Snapshot(pos, np.zeros((2, 3)), np.ones(2), box=box, contacts=contacts)
+    grid = cg.CylindricalGrid(box, (0, 0, 0), "z", r=(0.6, 1.0, 1), z=(0.1, 0.3, 1))
+    out = cg.coarse_grain(snap, grid, kernel, fields=("contact_stress",)).contact_stress
+    branch = pos[0] - pos[1]                 # r_ij = r_i - r_j; the segment runs from r_i along -r_ij
+    value = -np.outer(force[0], branch)
+    for k, r in enumerate(grid.r):
+        for a, b in ((0, 1), (0, 2)):     # (the nested quadrature is slow) the rθ mixture and an M₁ component
+            g = np.zeros((3, 3))
+            g[a, b] = 1.0
+            want = segment_oracle(kernel, pos[0], -branch, value, g, float(r), float(grid.z[0]))
+            scale = np.abs(out).max()
+            assert abs(out[k, 0, 0, a, b] - want) < 1e-12 * scale, (r, a, b)
