@@ -129,3 +129,22 @@ def set_wide_vectors(wide):
 def wide_vectors():
     """Whether the Gaussian on grids runs its AVX-512 build."""
     return _core.wide_vectors()
+
+
+def ring_kernel(kernel):
+    """The core's description of ``kernel`` as the full 3-D kernel (the ring entry points)."""
+    return CoreKernel(kernel.kind, float(kernel.width if kernel.width is not None else kernel.radius),
+                      float(kernel.radius), int(kernel.truncated), 1.0)
+
+
+def ring_moments(kernel, r, h, rho, n_threads=0):
+    """The angular moments (3, n) of the 3-D kernel over the ring of radius ``r`` seen by sources at axial offsets
+    ``h`` and radii ``rho`` (csrc/cg_ring.c)."""
+    return _core.ring_moments(ring_kernel(kernel), r, h, rho, n_threads=n_threads)
+
+
+def ring_tensor_sum(kernel, r, h, rho, cos_phi, sin_phi, weight, which, tensors, n_threads=0):
+    """sum_i weight_i times the θ-average, in (e_r, e_θ, e_z), of ``tensors[which_i]`` (rows of 9, in the ring's
+    frame e_1, e_2, e_z) carried by a source at (rho_i, phi_i, h_i) from the ring of radius ``r``: (3, 3)."""
+    return _core.ring_tensor_sum(ring_kernel(kernel), r, h, rho, cos_phi, sin_phi, weight, which, tensors,
+                                 n_threads=n_threads)

@@ -8,108 +8,32 @@ the kernel times the rotation into (e_r, e_θ, e_z) needs only three moments per
     M_m = (1/2π) ∫_{-Δ}^{Δ} W(d(t)) cos(m t) dt,   m = 0, 1, 2,
 
 and a vector v' (in the source's own basis at θ = φ) averages to (M₁ v'_r, M₁ v'_θ, M₀ v'_z); a tensor
-T' to the rules of :func:`rotate_averaged`. The moments are exact to round-off:
-
-- Heaviside: closed form (the kernel is constant on the arc): M_m = W sin(m Δ) / (m π), M₀ = W Δ / π.
-- Gaussian (with its cutoff) and Lucy: Gauss-Legendre on [0, Δ], on ``PANELS`` panels graded
-  geometrically towards the closest approach t = 0. The Gaussian is entire in t (any rule converges
-  exponentially; the panels keep each one's exponent change small); Lucy's odd power d³ has branch
-  points at t = ±i ε (sinh(ε/2) = d₀ / 2 √(r ρ)) next to t = 0 when the ring passes close to the source:
-  the panels [Δ q^(k+1), Δ q^k] keep it at least a panel's length away from all but the innermost,
-  where its contribution, ~ (d₀ / c)³, is below round-off. ``tests/test_cylindrical_ring.py``
-  checks all kernels against 32-digit adaptive quadrature at 1e-12.
+T' to the rules of :func:`rotate_averaged`. The moments are exact to round-off (csrc/cg_ring.c, which
+documents its rules: Heaviside in closed form; the Gaussian, entire in t, by Gauss-Legendre panels
+that keep the exponent's change per panel small; Lucy, whose odd power d³ has branch points at
+t = ±i ε next to t = 0 when the ring passes close to the source, by panels graded towards t = 0).
+``tests/test_cylindrical_ring.py`` checks them against 32-digit adaptive quadrature at 1e-12, and
+``tests/test_ring_core.py`` the C entry points against their NumPy twins.
 """
 import math
 
 import numpy as np
 
-from .kernels import Gaussian, Heaviside, Lucy
-
-#: panels per half arc (graded by RATIO towards the closest approach) and Gauss-Legendre points per panel
-PANELS = 8
-RATIO = 0.25
-POINTS = 20
-_GL_X, _GL_W = np.polynomial.legendre.leggauss(POINTS)
-#: pairs (ring, source) evaluated at once (bounds the scratch memory to ~ CHUNK * PANELS * POINTS doubles)
-CHUNK = 4096
-
-
-def _panel_rule():
-    """Points in [0, 1] and weights of the graded composite rule (the half arc scaled to 1)."""
-    edges = np.concatenate([[0.0], RATIO ** np.arange(PANELS - 1, -1, -1)])
-    xs, ws = [], []
-    for a, b in zip(edges[:-1], edges[1:]):
-        xs.append(a + (b - a) * 0.5 * (_GL_X + 1.0))
-        ws.append(0.5 * (b - a) * _GL_W)
-    return np.concatenate(xs), np.concatenate(ws)
-
-
-_RULE_X, _RULE_W = _panel_rule()
-
-
-def gaussian_norm(kernel):
-    """The 3-D Gaussian's normalisation (full, or over the cut-off ball when ``normalize='truncated'``)."""
-    w, c = kernel.width, kernel.radius / kernel.width
-    full = (math.sqrt(2.0 * math.pi) * w) ** 3
-    if not kernel.truncated:
-        return full
-    return full * (math.erf(c / math.sqrt(2.0)) - math.sqrt(2.0 / math.pi) * c * math.exp(-0.5 * c * c))
-
-
-def kernel_of_squared_distance(kernel):
-    """W(d²) in 3-D for d < cutoff (the caller keeps d within the support)."""
-    c = float(kernel.radius)
-    if isinstance(kernel, Gaussian):
-        scale = 1.0 / gaussian_norm(kernel)
-        inv = -0.5 / (kernel.width * kernel.width)
-        return lambda d2: scale * np.exp(inv * d2)
-    if isinstance(kernel, Lucy):
-        C = 105.0 / (16.0 * math.pi * c ** 3)
-
-        def lucy(d2):
-            x = np.sqrt(d2) / c
-            return C * (1.0 + 3.0 * x) * (1.0 - x) ** 3
-        return lucy
-    if isinstance(kernel, Heaviside):
-        V = 4.0 / 3.0 * math.pi * c ** 3
-        return lambda d2: np.full(np.shape(d2), 1.0 / V)
-    raise TypeError(f"kernel: expected cg.Gaussian, cg.Lucy or cg.Heaviside, got {type(kernel).__name__}")
-
+from . import _engine
+from .kernels import Gaussian
 
 def ring_moments(kernel, r, h, rho):
-    """(M₀, M₁, M₂) of pairs (ring radius r, axial offset h = z - ζ, source radius ρ), arrays of one shape;
-    every pair must have its closest approach inside the support."""
+    """(M₀, M₁, M₂) of pairs (ring radius r, axial offset h = z - ζ, source radius ρ), arrays of one shape
+    (broadcast), shape (3,) + that shape; 0 for pairs whose closest approach is outside the support."""
     r, h, rho = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (r, h, rho)))
-    c = float(kernel.radius)
-    W = kernel_of_squared_distance(kernel)
-    d0sq = (r - rho) ** 2 + h * h
-    rr = r * rho
-    on_axis = rr == 0.0                           # the distance does not depend on θ
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s2 = np.where(on_axis, 1.0, (c * c - d0sq) / (4.0 * np.where(on_axis, 1.0, rr)))
-    half = 2.0 * np.arcsin(np.sqrt(np.clip(s2, 0.0, 1.0)))     # Δ in [0, π]
-    M = np.zeros((3,) + r.shape)
-    if isinstance(kernel, Heaviside):
-        w0 = W(d0sq)
-        M[0] = w0 * half / math.pi
-        M[1] = w0 * np.sin(half) / math.pi
-        M[2] = w0 * np.sin(2.0 * half) / (2.0 * math.pi)
-        M[1:, on_axis] = 0.0
-        return M
-    flat = [a.ravel() for a in (half, d0sq, rr)]
-    out = M.reshape(3, -1)
-    for lo in range(0, flat[0].size, CHUNK):
-        hi = min(lo + CHUNK, flat[0].size)
-        D, d0, q = (a[lo:hi, None] for a in flat)
-        t = D * _RULE_X                                       # (pairs, points)
-        s = np.sin(0.5 * t)
-        values = W(d0 + 4.0 * q * s * s) * (D * _RULE_W)
-        out[0, lo:hi] = values.sum(axis=1)
-        out[1, lo:hi] = (values * np.cos(t)).sum(axis=1)
-        out[2, lo:hi] = (values * np.cos(2.0 * t)).sum(axis=1)
-    M /= math.pi
-    M[1:, on_axis] = 0.0
-    return M
+    out = np.zeros((3,) + r.shape)
+    flat_r, flat_h, flat_rho, flat_out = r.ravel(), h.ravel(), rho.ravel(), out.reshape(3, -1)
+    radii, ring = np.unique(flat_r, return_inverse=True)
+    for k, radius in enumerate(radii):
+        pick = np.flatnonzero(ring == k) if len(radii) > 1 else slice(None)
+        flat_out[:, pick] = _engine.ring_moments(kernel, float(radius), np.ascontiguousarray(flat_h[pick]),
+                                                 np.ascontiguousarray(flat_rho[pick]))
+    return out
 
 
 def rotate_averaged(values, rank, M):
@@ -277,6 +201,8 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
     starts, (vectors, values) = periodic_sources(grid.box, starts, [vectors, values], reach_lo, reach_hi)
     rel = starts - grid.axis_point
     plane = np.stack([grid.e_1, grid.e_2])
+    frame = np.stack([grid.e_1, grid.e_2, grid.e_z])
+    tensors = np.ascontiguousarray(np.einsum("ia,kab,jb->kij", frame, values, frame).reshape(-1, 9))
     x0, a_perp = rel @ plane.T, vectors @ plane.T                   # in-plane (e_1, e_2) components
     zeta0, a_z = rel @ grid.e_z, vectors @ grid.e_z
     x1 = x0 + a_perp
@@ -320,12 +246,13 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                 seg = seg[which]
                 src = cand[seg]
                 p = x0[src, None, :] + s[..., None] * a_perp[src, None, :]
-                rho = np.hypot(p[..., 0], p[..., 1])
-                phi = np.arctan2(p[..., 1], p[..., 0])
-                h = (h0[seg, None] - s * a_z[src, None])
-                M = ring_moments(kernel, r, h, rho).reshape(3, -1) * wt.ravel()
-                B = grid.basis(phi.ravel())                              # rows e_r, e_θ, e_z at φ(s)
-                T = np.repeat(values[src], s.shape[1], axis=0)
-                own = np.einsum("sia,sab,sjb->sij", B, T, B)
-                out[k * n_z + j] += rotate_averaged(own, 2, M).sum(axis=0)
+                rho = np.hypot(p[..., 0], p[..., 1]).ravel()
+                on_axis = rho == 0.0                                     # φ = 0 there, as arctan2(0, 0)
+                safe = np.where(on_axis, 1.0, rho)
+                cos_phi = np.where(on_axis, 1.0, p[..., 0].ravel() / safe)
+                sin_phi = np.where(on_axis, 0.0, p[..., 1].ravel() / safe)
+                h = (h0[seg, None] - s * a_z[src, None]).ravel()
+                which = np.repeat(src, s.shape[1])
+                out[k * n_z + j] += _engine.ring_tensor_sum(kernel, float(r), h, rho, cos_phi, sin_phi, wt.ravel(),
+                                                            which, tensors)
     return out

@@ -582,6 +582,122 @@ done:
     return (PyObject *)out;
 }
 
+/* the kernel of the ring entry points: the full 3-D kernel */
+static converted_target ring_space = {.target = {.dim = 3, .n_resolved = 3}, .dim = 3};
+
+/* which: a 1-D array of int64 row indices (checked against the tensors' rows by the core) */
+typedef struct index_array {
+    const npy_intp *length;
+    PyArrayObject *array; /* owned */
+} index_array;
+
+static int index_converter(PyObject *obj, void *address)
+{
+    index_array *in = (index_array *)address;
+    if (!obj) {
+        Py_CLEAR(in->array);
+        return 1;
+    }
+    in->array = (PyArrayObject *)PyArray_FROM_OTF(obj, NPY_INT64, NPY_ARRAY_IN_ARRAY | NPY_ARRAY_FORCECAST);
+    if (!in->array) {
+        PyErr_SetString(PyExc_TypeError, "which: expected an array of integers");
+        return 0;
+    }
+    if (PyArray_NDIM(in->array) != 1 || (in->length && PyArray_DIM(in->array, 0) != *in->length)) {
+        PyErr_SetString(PyExc_ValueError, "which: expected a 1-dimensional array with one index per pair");
+        Py_CLEAR(in->array);
+        return 0;
+    }
+    return Py_CLEANUP_SUPPORTED;
+}
+
+static PyObject *py_ring_moments(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    static char *kw[] = {"kernel", "r", "h", "rho", "n_threads", NULL};
+    kernel_arg ka = {.target = &ring_space};
+    double r;
+    input_array h = {.name = "h", .ndim = 1, .length = {NULL, NULL}};
+    input_array rho = {.name = "rho", .ndim = 1, .length = {&h.rows, NULL}};
+    int n_threads = 0;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&dO&O&|O&", kw, kernel_converter, &ka, &r, array_converter, &h,
+                                     array_converter, &rho, threads_converter, &n_threads))
+        goto done;
+    if (!(r >= 0.0) || !isfinite(r)) {
+        PyErr_Format(PyExc_ValueError, "r: expected a finite radius >= 0, got %R", PyTuple_GetItem(args, 1));
+        goto done;
+    }
+    const npy_intp shape[2] = {3, h.rows};
+    out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_DOUBLE, 0);
+    if (!out) goto done;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_ring_moments(&ka.kernel, r, h.rows, array_data(&h), array_data(&rho), PyArray_DATA(out), n_threads);
+    Py_END_ALLOW_THREADS
+    if (st != CG_OK) {
+        raise_status(st);
+        Py_CLEAR(out);
+    }
+done:
+    release_array(&h);
+    release_array(&rho);
+    return (PyObject *)out;
+}
+
+static PyObject *py_ring_tensor_sum(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    static char *kw[] = {"kernel", "r", "h", "rho", "cos_phi", "sin_phi", "weight", "which", "tensors", "n_threads",
+                         NULL};
+    static const npy_intp nine = 9;
+    kernel_arg ka = {.target = &ring_space};
+    double r;
+    input_array h = {.name = "h", .ndim = 1, .length = {NULL, NULL}};
+    input_array rho = {.name = "rho", .ndim = 1, .length = {&h.rows, NULL}};
+    input_array cphi = {.name = "cos_phi", .ndim = 1, .length = {&h.rows, NULL}};
+    input_array sphi = {.name = "sin_phi", .ndim = 1, .length = {&h.rows, NULL}};
+    input_array wt = {.name = "weight", .ndim = 1, .length = {&h.rows, NULL}};
+    index_array which = {.length = &h.rows};
+    input_array tens = {.name = "tensors", .ndim = 2, .length = {NULL, &nine}};
+    int n_threads = 0;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&dO&O&O&O&O&O&O&|O&", kw, kernel_converter, &ka, &r,
+                                     array_converter, &h, array_converter, &rho, array_converter, &cphi,
+                                     array_converter, &sphi, array_converter, &wt, index_converter, &which,
+                                     array_converter, &tens, threads_converter, &n_threads))
+        goto done;
+    if (!(r >= 0.0) || !isfinite(r)) {
+        PyErr_Format(PyExc_ValueError, "r: expected a finite radius >= 0, got %R", PyTuple_GetItem(args, 1));
+        goto done;
+    }
+    const npy_intp shape[2] = {3, 3};
+    out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_DOUBLE, 0);
+    if (!out) goto done;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_ring_tensor_sum(&ka.kernel, r, h.rows, array_data(&h), array_data(&rho), array_data(&cphi),
+                            array_data(&sphi), array_data(&wt), (const cg_index *)PyArray_DATA(which.array),
+                            tens.rows, array_data(&tens), PyArray_DATA(out), n_threads);
+    Py_END_ALLOW_THREADS
+    if (st == CG_ERR_ARGUMENT) {
+        PyErr_SetString(PyExc_ValueError, "which: expected indices of rows of tensors");
+        Py_CLEAR(out);
+    } else if (st != CG_OK) {
+        raise_status(st);
+        Py_CLEAR(out);
+    }
+done:
+    release_array(&h);
+    release_array(&rho);
+    release_array(&cphi);
+    release_array(&sphi);
+    release_array(&wt);
+    Py_CLEAR(which.array);
+    release_array(&tens);
+    return (PyObject *)out;
+}
+
 static PyObject *py_wrap(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
@@ -825,6 +941,10 @@ static PyMethodDef methods[] = {
      "minimum_image(vectors, periodic, period) -> copy of vectors wrapped to the minimum image."},
     {"wrap", (PyCFunction)(void (*)(void))py_wrap, METH_VARARGS | METH_KEYWORDS,
      "wrap(positions, periodic, lower, upper) -> copy of positions wrapped into [lower, upper) on periodic axes."},
+    {"ring_moments", (PyCFunction)(void (*)(void))py_ring_moments, METH_VARARGS | METH_KEYWORDS,
+     "ring_moments(kernel, r, h, rho, n_threads=0): the angular moments (3, n) of the 3-D kernel over rings."},
+    {"ring_tensor_sum", (PyCFunction)(void (*)(void))py_ring_tensor_sum, METH_VARARGS | METH_KEYWORDS,
+     "ring_tensor_sum(kernel, r, h, rho, cos_phi, sin_phi, weight, which, tensors, n_threads=0): (3, 3)."},
     {"have_openmp", py_have_openmp, METH_NOARGS, "Whether the core was built with OpenMP."},
     {"set_wide_vectors", py_set_wide_vectors, METH_O,
      "Internal: False makes the Gaussian on grids use its AVX2/baseline build instead of AVX-512 (identical "

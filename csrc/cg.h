@@ -222,6 +222,30 @@ cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kerne
                                  const double *masses, const double *velocities,
                                  const double *node_velocity, double *out);
 
+/*
+ * Rings (theta-averaged cylindrical grids; cg_ring.c). A source at cylindrical
+ * (rho, phi, zeta) is seen from the ring of radius r at the axial offset
+ * h = z - zeta at d(t)^2 = (r - rho)^2 + h^2 + 4 r rho sin^2(t/2), t = theta - phi.
+ * The kernel must be the full 3-D kernel (dim 3, n_resolved 3, avg_extent 1).
+ *
+ * cg_ring_moments: for n pairs (h[i], rho[i]) the moments over the half arc
+ * where d < R, M_m = (1/pi) int_0^Delta W(d(t)) cos(m t) dt, m = 0, 1, 2, to
+ * round-off, written to moments[m * n + i] (0 for pairs whose closest approach
+ * is outside the support).
+ *
+ * cg_ring_tensor_sum: out[9] += sum_i weight[i] * the theta-average, in the
+ * local basis (e_r, e_theta, e_z), of the tensor tensors[which[i]] (3 x 3,
+ * row-major, in the ring's frame e_1, e_2, e_z) carried by a source at angle
+ * phi_i (cos_phi[i], sin_phi[i]). Blocks of pairs are summed in a fixed order:
+ * the result does not depend on n_threads.
+ */
+cg_status cg_ring_moments(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
+                          double *moments, int n_threads);
+cg_status cg_ring_tensor_sum(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
+                             const double *cos_phi, const double *sin_phi, const double *weight,
+                             const cg_index *which, cg_index n_tensors, const double *tensors, double *out,
+                             int n_threads);
+
 /* Replace each row of vecs (n x D) by its minimum image along the periodic
    data axes (periodic[d] != 0, period[d] > 0). */
 void cg_minimum_image(cg_index n, int dim, double *vecs,

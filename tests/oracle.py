@@ -821,3 +821,87 @@ def oracle_rotation(snap, where, kernel_obj, fields, inertia=None):
     out["stress_torque_density"] = pair
     out["boundary_couple_density"] = wall
     return {name: out[name] for name in fields}
+
+
+# ---------------------------------------------------------------------------
+# rings (csrc/cg_ring.c): the angular moments of the 3-D kernel over a ring's arc
+
+_RING_X, _RING_W = np.polynomial.legendre.leggauss(20)
+
+
+def _oracle_ring_rule(panels=8, ratio=0.25):
+    """Points and weights on [0, 1]: ``panels`` Gauss-Legendre panels graded by ``ratio`` towards 0."""
+    edges = np.concatenate([[0.0], ratio ** np.arange(panels - 1, -1, -1)])
+    xs = [a + (b - a) * 0.5 * (_RING_X + 1.0) for a, b in zip(edges[:-1], edges[1:])]
+    ws = [0.5 * (b - a) * _RING_W for a, b in zip(edges[:-1], edges[1:])]
+    return np.concatenate(xs), np.concatenate(ws)
+
+
+def _oracle_kernel_3d(kernel):
+    """W(d²) of the full 3-D kernel inside its support."""
+    c = float(kernel.radius)
+    if kernel.kind == 0:
+        w = float(kernel.width)
+        norm = (math.sqrt(2.0 * math.pi) * w) ** 3
+        if kernel.truncated:
+            x = c / w
+            norm *= math.erf(x / math.sqrt(2.0)) - math.sqrt(2.0 / math.pi) * x * math.exp(-0.5 * x * x)
+        return lambda d2: np.exp(-0.5 * d2 / (w * w)) / norm
+    if kernel.kind == 1:
+        C = 105.0 / (16.0 * math.pi * c ** 3)
+        return lambda d2: C * (1.0 + 3.0 * np.sqrt(d2) / c) * (1.0 - np.sqrt(d2) / c) ** 3
+    return lambda d2: np.full(np.shape(d2), 3.0 / (4.0 * math.pi * c ** 3))
+
+
+def oracle_ring_moments(kernel, r, h, rho):
+    """Twin of cg_ring_moments: (3, n) moments M_m = (1/π) ∫_0^Δ W(d(t)) cos(m t) dt by a graded composite
+    Gauss-Legendre rule (8 panels x 20 points for every kernel; Heaviside's closed form)."""
+    h, rho = np.asarray(h, dtype=float), np.asarray(rho, dtype=float)
+    c = float(kernel.radius)
+    W = _oracle_kernel_3d(kernel)
+    d0sq = (r - rho) ** 2 + h * h
+    rr = r * rho
+    inside = d0sq < c * c
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s2 = np.where(rr > 0, (c * c - d0sq) / np.where(rr > 0, 4.0 * rr, 1.0), 1.0)
+    half = 2.0 * np.arcsin(np.sqrt(np.clip(s2, 0.0, 1.0)))
+    if kernel.kind == 2:
+        w0 = W(d0sq)
+        M = np.stack([w0 * half, w0 * np.sin(half), w0 * np.sin(2.0 * half) / 2.0]) / math.pi
+    else:
+        x, w = _oracle_ring_rule()
+        t = half[:, None] * x
+        s = np.sin(0.5 * t)
+        values = W(np.minimum(d0sq[:, None] + 4.0 * rr[:, None] * s * s, c * c)) * (half[:, None] * w)
+        M = np.stack([values.sum(axis=1), (values * np.cos(t)).sum(axis=1),
+                      (values * np.cos(2.0 * t)).sum(axis=1)]) / math.pi
+    M[:, ~inside] = 0.0
+    M[1:, rr == 0] = 0.0
+    return M
+
+
+def oracle_ring_tensor_sum(kernel, r, h, rho, cos_phi, sin_phi, weight, which, tensors):
+    """Twin of cg_ring_tensor_sum by the θ-average itself: (1/2π) ∫_{-Δ}^{Δ} W(d(t)) B(φ + t) T B(φ + t)ᵀ dt per
+    source (B the rows e_r, e_θ, e_z at the node's angle), the graded rule at ±t; (3, 3)."""
+    c = float(kernel.radius)
+    W = _oracle_kernel_3d(kernel)
+    x, w = _oracle_ring_rule()
+    out = np.zeros((3, 3))
+    for i in range(len(h)):
+        d0sq = (r - rho[i]) ** 2 + h[i] ** 2
+        if not d0sq < c * c:
+            continue
+        rr = r * rho[i]
+        half = math.pi if rr == 0 or (c * c - d0sq) >= 4 * rr else 2 * math.asin(math.sqrt((c * c - d0sq) / (4 * rr)))
+        phi = math.atan2(sin_phi[i], cos_phi[i])
+        T = tensors[which[i]].reshape(3, 3)
+        for sign in (1.0, -1.0):
+            t = sign * half * x
+            theta = phi + t
+            B = np.zeros((len(t), 3, 3))
+            B[:, 0, 0], B[:, 0, 1] = np.cos(theta), np.sin(theta)
+            B[:, 1, 0], B[:, 1, 1] = -np.sin(theta), np.cos(theta)
+            B[:, 2, 2] = 1.0
+            values = W(np.minimum(d0sq + 4.0 * rr * np.sin(0.5 * t) ** 2, c * c)) * half * w / (2 * math.pi)
+            out += weight[i] * np.einsum("q,qia,ab,qjb->ij", values, B, T, B)
+    return out

@@ -1,0 +1,259 @@
+/*
+ * cg_ring.c -- angular moments of the 3-D kernel over the arc of a ring
+ * (cylindrical grids averaged over theta; cgbound/cylindrical_ring.py).
+ *
+ * A source at cylindrical (rho, phi, zeta) is seen from the ring (r, z) at
+ * d(t)^2 = d0^2 + 4 r rho sin^2(t/2), d0^2 = (r - rho)^2 + h^2, h = z - zeta,
+ * t = theta - phi, and lies in the support on the half arc |t| < Delta,
+ * sin^2(Delta/2) = (R^2 - d0^2) / (4 r rho) (Delta = pi when the whole ring
+ * does). d is even in t, so the theta-average needs three moments,
+ *     M_m = (1/pi) int_0^Delta W(d(t)) cos(m t) dt,  m = 0, 1, 2.
+ * Rules, each exact to round-off (tests/test_ring_core.py checks them
+ * against 30-digit quadrature and against the NumPy twin):
+ *   Heaviside  closed form (W is constant on the arc).
+ *   Gaussian   entire in t; the exponent changes by a = 4 r rho sin^2(Delta/2)
+ *              / 2 w^2 over the arc: P = ceil(a / 6) equal panels of 20-point
+ *              Gauss-Legendre keep each panel's change small.
+ *   Lucy       the odd power d^3 has branch points at t = +-i eps,
+ *              sinh(eps/2) = d0 / 2 sqrt(r rho), next to t = 0 when the ring
+ *              passes close to the source: 8 panels graded by 1/4 towards
+ *              t = 0, 20 points each (the rule of the NumPy twin).
+ * cos t and cos 2t come from s = sin(t/2): cos t = 1 - 2 s^2 (one sine and one
+ * exponential or square root per point).
+ */
+#include "cg.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+#define RING_POINTS 20
+#define LUCY_PANELS 8
+#define LUCY_RATIO 0.25
+/* pairs per block of cg_ring_tensor_sum: blocks are summed in order, so the
+   result does not depend on the thread count */
+#define RING_BLOCK 512
+
+typedef struct ring_rule {
+    double x[RING_POINTS]; /* Gauss-Legendre nodes on [0, 1] */
+    double w[RING_POINTS]; /* and weights (sum 1) */
+    double lucy_x[LUCY_PANELS * RING_POINTS];
+    double lucy_w[LUCY_PANELS * RING_POINTS];
+} ring_rule;
+
+/* Gauss-Legendre on [0, 1] by Newton on the Legendre recurrence */
+static void ring_rule_init(ring_rule *rule)
+{
+    const int n = RING_POINTS;
+    for (int i = 0; i < (n + 1) / 2; ++i) {
+        double z = cos(M_PI * (i + 0.75) / (n + 0.5)), dp = 1.0;
+        for (int it = 0; it < 100; ++it) {
+            double p0 = 1.0, p1 = z;
+            for (int k = 2; k <= n; ++k) {
+                const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
+                p0 = p1;
+                p1 = p2;
+            }
+            dp = n * (z * p1 - p0) / (z * z - 1.0);
+            const double step = p1 / dp;
+            z -= step;
+            if (fabs(step) < 1e-17) break;
+        }
+        double p0 = 1.0, p1 = z;
+        for (int k = 2; k <= n; ++k) {
+            const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
+            p0 = p1;
+            p1 = p2;
+        }
+        dp = n * (z * p1 - p0) / (z * z - 1.0);
+        const double weight = 1.0 / ((1.0 - z * z) * dp * dp); /* on [0, 1]: half of 2 / ((1 - z^2) P'^2) */
+        rule->x[i] = 0.5 * (1.0 - z);
+        rule->x[n - 1 - i] = 0.5 * (1.0 + z);
+        rule->w[i] = rule->w[n - 1 - i] = weight;
+    }
+    /* Lucy: panels [q^(k+1), q^k], k = 0..6, and [0, q^7] */
+    double hi = 1.0;
+    for (int p = LUCY_PANELS - 1; p >= 0; --p) {
+        const double lo = p == 0 ? 0.0 : hi * LUCY_RATIO;
+        for (int i = 0; i < n; ++i) {
+            rule->lucy_x[p * n + i] = lo + (hi - lo) * rule->x[i];
+            rule->lucy_w[p * n + i] = (hi - lo) * rule->w[i];
+        }
+        hi = lo;
+    }
+}
+
+/* the moments of one pair */
+static void ring_moments_one(const cg_kernel *k, const ring_rule *rule, double r, double h, double rho,
+                             double *M0, double *M1, double *M2)
+{
+    const double R = k->radius;
+    const double d0sq = (r - rho) * (r - rho) + h * h;
+    const double rr = r * rho;
+    *M0 = *M1 = *M2 = 0.0;
+    if (!(d0sq < R * R)) return;
+    double half = M_PI; /* Delta */
+    if (rr > 0.0) {
+        const double s2 = (R * R - d0sq) / (4.0 * rr);
+        half = s2 >= 1.0 ? M_PI : 2.0 * asin(sqrt(s2));
+    }
+    if (k->type == CG_KERNEL_HEAVISIDE) {
+        const double w0 = k->prefactor;
+        *M0 = w0 * half / M_PI;
+        if (rr > 0.0) {
+            *M1 = w0 * sin(half) / M_PI;
+            *M2 = w0 * sin(2.0 * half) / (2.0 * M_PI);
+        }
+        return;
+    }
+    double m0 = 0.0, m1 = 0.0, m2 = 0.0;
+    if (k->type == CG_KERNEL_GAUSSIAN) {
+        const double inv = -0.5 / (k->width * k->width);
+        const double sh = sin(0.5 * half);
+        const double range = -inv * 4.0 * rr * sh * sh; /* the exponent's change over the arc */
+        const int panels = range > 6.0 ? (int)ceil(range / 6.0) : 1;
+        const double step = half / panels;
+        for (int p = 0; p < panels; ++p)
+            for (int i = 0; i < RING_POINTS; ++i) {
+                const double t = step * (p + rule->x[i]);
+                const double s = sin(0.5 * t);
+                const double c1 = 1.0 - 2.0 * s * s;
+                const double v = exp(inv * (d0sq + 4.0 * rr * s * s)) * rule->w[i];
+                m0 += v;
+                m1 += v * c1;
+                m2 += v * (2.0 * c1 * c1 - 1.0);
+            }
+        m0 *= step;
+        m1 *= step;
+        m2 *= step;
+    } else { /* Lucy */
+        const double invR = 1.0 / R;
+        for (int j = 0; j < LUCY_PANELS * RING_POINTS; ++j) {
+            const double t = half * rule->lucy_x[j];
+            const double s = sin(0.5 * t);
+            const double c1 = 1.0 - 2.0 * s * s;
+            const double x = sqrt(d0sq + 4.0 * rr * s * s) * invR;
+            const double om = x < 1.0 ? 1.0 - x : 0.0; /* rounding at the arc's ends */
+            const double v = (1.0 + 3.0 * x) * om * om * om * rule->lucy_w[j];
+            m0 += v;
+            m1 += v * c1;
+            m2 += v * (2.0 * c1 * c1 - 1.0);
+        }
+        m0 *= half;
+        m1 *= half;
+        m2 *= half;
+    }
+    const double scale = k->prefactor / M_PI;
+    *M0 = m0 * scale;
+    if (rr > 0.0) { /* on the axis the distance does not depend on theta: cos t and cos 2t average out */
+        *M1 = m1 * scale;
+        *M2 = m2 * scale;
+    }
+}
+
+static int ring_kernel_ok(const cg_kernel *k)
+{
+    return k && k->dim == 3 && k->n_resolved == 3 && k->prefactor > 0.0 &&
+           (k->type == CG_KERNEL_GAUSSIAN || k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE);
+}
+
+static int ring_threads(int n_threads, cg_index work)
+{
+#ifdef _OPENMP
+    int t = n_threads > 0 ? n_threads : omp_get_max_threads();
+    if (work < 64) t = 1;
+    return t < 1 ? 1 : t;
+#else
+    (void)n_threads;
+    (void)work;
+    return 1;
+#endif
+}
+
+cg_status cg_ring_moments(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
+                          double *moments, int n_threads)
+{
+    if (!ring_kernel_ok(kernel) || !(r >= 0.0) || !isfinite(r) || n < 0) return CG_ERR_ARGUMENT;
+    ring_rule rule;
+    ring_rule_init(&rule);
+    const int threads = ring_threads(n_threads, n);
+    (void)threads;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static, 256) num_threads(threads)
+#endif
+    for (cg_index i = 0; i < n; ++i)
+        ring_moments_one(kernel, &rule, r, h[i], rho[i], moments + i, moments + n + i, moments + 2 * n + i);
+    return CG_OK;
+}
+
+/* the theta-average of one source's tensor T (ring frame e_1, e_2, e_z), at angle phi, with moments M */
+static void ring_rotate_add(const double *T, double c, double s, double M0, double M1, double M2, double wt,
+                            double *acc)
+{
+    /* T' = B T B^T, B rows e_r = (c, s, 0), e_theta = (-s, c, 0), e_z = (0, 0, 1) */
+    const double cc2 = c * c, ss2 = s * s, cs = c * s;
+    const double t00 = cc2 * T[0] + cs * (T[1] + T[3]) + ss2 * T[4];
+    const double t11 = ss2 * T[0] - cs * (T[1] + T[3]) + cc2 * T[4];
+    const double t01 = -cs * T[0] + cc2 * T[1] - ss2 * T[3] + cs * T[4];
+    const double t10 = -cs * T[0] - ss2 * T[1] + cc2 * T[3] + cs * T[4];
+    const double t02 = c * T[2] + s * T[5], t12 = -s * T[2] + c * T[5];
+    const double t20 = c * T[6] + s * T[7], t21 = -s * T[6] + c * T[7];
+    /* E[cos t] = M1, E[sin t] = E[sin t cos t] = 0, E[cos^2 t] = (M0 + M2)/2, E[sin^2 t] = (M0 - M2)/2 */
+    const double ec = 0.5 * (M0 + M2) * wt, es = 0.5 * (M0 - M2) * wt, e1 = M1 * wt;
+    acc[0] += ec * t00 + es * t11;
+    acc[1] += ec * t01 - es * t10;
+    acc[2] += e1 * t02;
+    acc[3] += ec * t10 - es * t01;
+    acc[4] += es * t00 + ec * t11;
+    acc[5] += e1 * t12;
+    acc[6] += e1 * t20;
+    acc[7] += e1 * t21;
+    acc[8] += M0 * wt * T[8];
+}
+
+cg_status cg_ring_tensor_sum(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
+                             const double *cos_phi, const double *sin_phi, const double *weight,
+                             const cg_index *which, cg_index n_tensors, const double *tensors, double *out,
+                             int n_threads)
+{
+    if (!ring_kernel_ok(kernel) || !(r >= 0.0) || !isfinite(r) || n < 0 || n_tensors < 0) return CG_ERR_ARGUMENT;
+    for (cg_index i = 0; i < n; ++i)
+        if (which[i] < 0 || which[i] >= n_tensors) return CG_ERR_ARGUMENT;
+    ring_rule rule;
+    ring_rule_init(&rule);
+    const cg_index n_blocks = (n + RING_BLOCK - 1) / RING_BLOCK;
+    /* per-block sums on the stack for small calls, else one pass per block into a scratch array */
+    double local[64 * 9];
+    double *blocks = local;
+    if (n_blocks > 64) {
+        blocks = (double *)malloc((size_t)n_blocks * 9 * sizeof(double));
+        if (!blocks) return CG_ERR_NOMEM;
+    }
+    const int threads = ring_threads(n_threads, n);
+    (void)threads;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+#endif
+    for (cg_index b = 0; b < n_blocks; ++b) {
+        double acc[9] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+        const cg_index hi = (b + 1) * RING_BLOCK < n ? (b + 1) * RING_BLOCK : n;
+        for (cg_index i = b * RING_BLOCK; i < hi; ++i) {
+            double M0, M1, M2;
+            ring_moments_one(kernel, &rule, r, h[i], rho[i], &M0, &M1, &M2);
+            ring_rotate_add(tensors + 9 * which[i], cos_phi[i], sin_phi[i], M0, M1, M2, weight[i], acc);
+        }
+        for (int c = 0; c < 9; ++c) blocks[9 * b + c] = acc[c];
+    }
+    for (cg_index b = 0; b < n_blocks; ++b)
+        for (int c = 0; c < 9; ++c) out[c] += blocks[9 * b + c];
+    if (blocks != local) free(blocks);
+    return CG_OK;
+}

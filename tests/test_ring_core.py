@@ -1,0 +1,134 @@
+"""The ring entry points of the C core (csrc/cg_ring.c) against their NumPy twins (tests/oracle.py).
+
+cg_ring_moments: the angular moments of the 3-D kernel over a ring's arc; cg_ring_tensor_sum: weighted
+θ-averages of tensors carried by sources, rotated into the local basis. The twins use a different rule
+(graded Gauss-Legendre for every kernel) and, for the tensor sum, the θ-average itself rather than the
+moment identities, so agreement at 1e-12 checks both the rules and the reduction.
+"""
+import math
+
+import numpy as np
+import pytest
+
+import cgbound as cg
+from cgbound import _engine
+
+from oracle import oracle_ring_moments, oracle_ring_tensor_sum
+
+KERNELS = {
+    "gauss3w": cg.Gaussian(0.7, cutoff=2.1),
+    "gauss5w": cg.Gaussian(0.7),
+    "gauss5w-truncated": cg.Gaussian(0.7, normalize="truncated"),
+    "gauss9w": cg.Gaussian(0.5, cutoff=4.5),
+    "lucy": cg.Lucy(1.3),
+    "heaviside": cg.Heaviside(0.9),
+}
+
+
+def pairs(kernel, r, n=400, seed=0):
+    """Sources around the ring of radius r: inside the support, on its edge, through the ring, on the axis,
+    just outside, and (for small r) holding the whole ring."""
+    rng = np.random.default_rng(seed)
+    c = float(kernel.radius)
+    rho = np.abs(r + rng.uniform(-1.2 * c, 1.2 * c, n))
+    h = rng.uniform(-1.1 * c, 1.1 * c, n)
+    rho[:20] = r                                   # rings through the source (d0 = 0 when h = 0)
+    h[:10] = 0.0
+    rho[20:30] = 0.0                               # sources on the axis
+    h[30:40] = np.sqrt(np.clip(c * c - (r - rho[30:40]) ** 2, 0.0, None)) * (1 - 1e-12)   # grazing
+    rho[40:50] = r + 1e-9                          # next to the ring
+    h[40:50] = 1e-9
+    return h, rho
+
+
+def scale(kernel, M):
+    """Each pair's M₀, floored at 1e-4 of the kernel's peak: at the support's edge (grazing pairs) Lucy's
+    (1 - d/c)³ is known only to the rounding of d, far below the kernel's scale."""
+    peak = oracle_ring_moments(kernel, 0.0, np.zeros(1), np.zeros(1))[0, 0]
+    return np.maximum(np.abs(M[0]), 1e-4 * peak)
+
+
+@pytest.mark.parametrize("name", KERNELS)
+@pytest.mark.parametrize("r", [0.0, 1e-6, 0.4, 2.5, 40.0])
+def test_ring_moments_against_twin(name, r):
+    kernel = KERNELS[name]
+    h, rho = pairs(kernel, r)
+    got = _engine.ring_moments(kernel, r, h, rho)
+    want = oracle_ring_moments(kernel, r, h, rho)
+    assert got.shape == (3, len(h))
+    inside = (r - rho) ** 2 + h * h < float(kernel.radius) ** 2
+    assert np.all(got[:, ~inside] == 0.0)
+    assert inside.sum() > 100
+    np.testing.assert_array_less(np.abs(got - want) / scale(kernel, want), 1e-12)
+
+
+def test_ring_moments_of_a_gaussian_ring_in_closed_form():
+    """Without a cutoff in reach (the whole ring inside a wide support), the Gaussian's moments are the scaled
+    Bessel functions: M_m = 2 W(d0 ...) e^{-β} I_m(β) with β = r ρ / w² (an independent closed form)."""
+    scipy_special = pytest.importorskip("scipy.special")
+    kernel = cg.Gaussian(1.0, cutoff=30.0)
+    r, rho, h = 1.3, np.array([0.2, 1.0, 2.5, 4.0]), np.array([0.0, 0.5, -1.0, 2.0])
+    beta = r * rho
+    norm = (2 * math.pi) ** 1.5
+    base = np.exp(-((r - rho) ** 2 + h * h) / 2) / norm
+    want = np.stack([base * scipy_special.ive(m, beta) for m in (0, 1, 2)])
+    got = _engine.ring_moments(kernel, r, h, rho)
+    np.testing.assert_allclose(got, want, rtol=1e-13, atol=0)
+
+
+@pytest.mark.parametrize("name", KERNELS)
+@pytest.mark.parametrize("r", [0.0, 0.4, 3.0])
+def test_ring_tensor_sum_against_twin(name, r):
+    kernel = KERNELS[name]
+    h, rho = pairs(kernel, r, n=120, seed=3)
+    rng = np.random.default_rng(4)
+    phi = rng.uniform(-math.pi, math.pi, len(h))
+    phi[rho == 0.0] = 0.0
+    tensors = rng.normal(size=(7, 9))
+    which = rng.integers(0, 7, len(h))
+    weight = rng.uniform(0.1, 1.0, len(h))
+    got = _engine.ring_tensor_sum(kernel, r, h, rho, np.cos(phi), np.sin(phi), weight, which, tensors)
+    want = oracle_ring_tensor_sum(kernel, r, h, rho, np.cos(phi), np.sin(phi), weight, which, tensors)
+    size = np.abs(want).max()
+    assert size > 0
+    np.testing.assert_array_less(np.abs(got - want), 1e-12 * size)
+
+
+def test_ring_tensor_sum_does_not_depend_on_the_thread_count():
+    kernel = KERNELS["lucy"]
+    rng = np.random.default_rng(5)
+    n = 5000
+    h, rho = rng.uniform(-1, 1, n), rng.uniform(0, 3, n)
+    phi = rng.uniform(-3, 3, n)
+    tensors, which, weight = rng.normal(size=(50, 9)), rng.integers(0, 50, n), rng.uniform(size=n)
+    runs = [_engine.ring_tensor_sum(kernel, 1.5, h, rho, np.cos(phi), np.sin(phi), weight, which, tensors,
+                                    n_threads=t) for t in (1, 2, 3)]
+    for other in runs[1:]:
+        assert np.array_equal(runs[0], other)
+    moments = [_engine.ring_moments(kernel, 1.5, h, rho, n_threads=t) for t in (1, 2, 3)]
+    for other in moments[1:]:
+        assert np.array_equal(moments[0], other)
+
+
+def test_ring_entry_points_refuse_bad_arguments():
+    kernel = KERNELS["gauss5w"]
+    h, rho = np.zeros(3), np.ones(3)
+    with pytest.raises(ValueError, match="r: expected a finite radius"):
+        _engine.ring_moments(kernel, -1.0, h, rho)
+    with pytest.raises(ValueError, match="r: expected a finite radius"):
+        _engine.ring_moments(kernel, float("nan"), h, rho)
+    with pytest.raises(ValueError, match="h: expected finite values"):
+        _engine.ring_moments(kernel, 1.0, np.array([0.0, np.nan, 0.0]), rho)
+    with pytest.raises(ValueError, match="rho: expected length 3"):
+        _engine.ring_moments(kernel, 1.0, h, np.ones(4))
+    ones = np.ones(3)
+    with pytest.raises(ValueError, match="which: expected indices of rows of tensors"):
+        _engine.ring_tensor_sum(kernel, 1.0, h, rho, ones, 0 * ones, ones, np.array([0, 1, 2]), np.zeros((2, 9)))
+    with pytest.raises(ValueError, match="which: expected indices of rows of tensors"):
+        _engine.ring_tensor_sum(kernel, 1.0, h, rho, ones, 0 * ones, ones, np.array([0, -1, 0]), np.zeros((2, 9)))
+    with pytest.raises(ValueError, match="which: expected a 1-dimensional array"):
+        _engine.ring_tensor_sum(kernel, 1.0, h, rho, ones, 0 * ones, ones, np.array([0, 1]), np.zeros((2, 9)))
+    with pytest.raises(ValueError, match="tensors: expected length 9"):
+        _engine.ring_tensor_sum(kernel, 1.0, h, rho, ones, 0 * ones, ones, np.array([0, 1, 0]), np.zeros((2, 6)))
+    with pytest.raises(ValueError, match="kernel"):
+        _engine._core.ring_moments((0, -1.0, 1.0, 0, 1.0), 1.0, h, rho)
