@@ -143,8 +143,9 @@ def ring_moments(kernel, r, h, rho, n_threads=0):
     return _core.ring_moments(ring_kernel(kernel), r, h, rho, n_threads=n_threads)
 
 
-def ring_tensor_sum(kernel, r, h, rho, cos_phi, sin_phi, weight, which, tensors, n_threads=0):
-    """sum_i weight_i times the θ-average, in (e_r, e_θ, e_z), of ``tensors[which_i]`` (rows of 9, in the ring's
-    frame e_1, e_2, e_z) carried by a source at (rho_i, phi_i, h_i) from the ring of radius ``r``: (3, 3)."""
-    return _core.ring_tensor_sum(ring_kernel(kernel), r, h, rho, cos_phi, sin_phi, weight, which, tensors,
-                                 n_threads=n_threads)
+def ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, n_threads=0):
+    """``weight`` times the θ-averages at the ring (r, z), in (e_r, e_θ, e_z), of ``tensors`` spread along the pieces
+    [lo, hi] of segments (``geometry`` rows: start and vector in the ring's frame, relative to the axis point),
+    each on ``panels`` Gauss-Legendre panels: (3, 3)."""
+    return _core.ring_segment_sum(ring_kernel(kernel), r, z, segment, lo, hi, panels, geometry, tensors, weight,
+                                  n_threads=n_threads)

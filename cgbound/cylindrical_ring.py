@@ -135,17 +135,8 @@ def ring_average(grid, kernel, positions, columns, z_nodes, z_weights):
     return out
 
 
-#: Gauss-Legendre points per piece of a segment (in u, s = a + (b - a) sin²(π u / 2))
-SEGMENT_POINTS = 20
-_SEG_X, _SEG_W = np.polynomial.legendre.leggauss(SEGMENT_POINTS)
-_SEG_U = 0.5 * (_SEG_X + 1.0)
 #: at most this many panels per piece (a piece longer than MAX_PANELS kernel scales gets longer panels)
 MAX_PANELS = 256
-
-
-def _SEG_J_U(u):
-    """The Gauss-Legendre weight (on [0, 1]) times ds/du of s = sin²(π u / 2), at the panel points u."""
-    return 0.5 * _SEG_W * 0.5 * math.pi * np.sin(math.pi * u)
 
 
 def support_crossings(r, h0, x0, a_perp, a_z, c):
@@ -183,8 +174,9 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
 
     Along each segment the θ-average is analytic in s between the s where the point enters or leaves the torus
     of the ring's support and where the whole ring enters it (:func:`support_crossings`), with a square-root
-    behaviour at those ends: each piece gets Gauss-Legendre in u, s = a + (b - a) sin²(π u / 2), which makes it
-    analytic; each s-point the exact ring moments."""
+    behaviour at those ends: each piece gets 20-point Gauss-Legendre in u on panels no longer than the kernel's
+    scale, s = a + (b - a) sin²(π u / 2), which makes it analytic; each s-point the exact ring moments (the
+    pieces are found here, their sums are taken by the C core's ring_segment_sum)."""
     c = float(kernel.radius)
     n_r, n_z = len(grid.r), z_nodes.shape[0]
     out = np.zeros((n_r * n_z, 3, 3))
@@ -205,6 +197,7 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
     tensors = np.ascontiguousarray(np.einsum("ia,kab,jb->kij", frame, values, frame).reshape(-1, 9))
     x0, a_perp = rel @ plane.T, vectors @ plane.T                   # in-plane (e_1, e_2) components
     zeta0, a_z = rel @ grid.e_z, vectors @ grid.e_z
+    geometry = np.ascontiguousarray(np.column_stack([x0, zeta0, a_perp, a_z]))     # the C core's segment rows
     x1 = x0 + a_perp
     # the in-plane distance range of each segment (closest point to the axis) and its axial range
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -237,22 +230,6 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                 a, b = lo[seg, piece], hi[seg, piece]
                 # panels in u no longer than the kernel's scale along the segment: the integrand varies on it
                 panels = np.clip(np.ceil((b - a) * length[cand[seg]] / scale), 1, MAX_PANELS).astype(int)
-                which = np.repeat(np.arange(seg.size), panels)
-                first = np.repeat(np.cumsum(panels) - panels, panels)
-                jp = np.arange(which.size) - first                     # panel index within its piece
-                u = (jp[:, None] + _SEG_U) / panels[which, None]         # (panels, n) in [0, 1]
-                s = a[which, None] + (b - a)[which, None] * np.sin(0.5 * math.pi * u) ** 2
-                wt = ((b - a)[which, None] * _SEG_J_U(u) / panels[which, None]) * wq
-                seg = seg[which]
-                src = cand[seg]
-                p = x0[src, None, :] + s[..., None] * a_perp[src, None, :]
-                rho = np.hypot(p[..., 0], p[..., 1]).ravel()
-                on_axis = rho == 0.0                                     # φ = 0 there, as arctan2(0, 0)
-                safe = np.where(on_axis, 1.0, rho)
-                cos_phi = np.where(on_axis, 1.0, p[..., 0].ravel() / safe)
-                sin_phi = np.where(on_axis, 0.0, p[..., 1].ravel() / safe)
-                h = (h0[seg, None] - s * a_z[src, None]).ravel()
-                which = np.repeat(src, s.shape[1])
-                out[k * n_z + j] += _engine.ring_tensor_sum(kernel, float(r), h, rho, cos_phi, sin_phi, wt.ravel(),
-                                                            which, tensors)
+                out[k * n_z + j] += _engine.ring_segment_sum(kernel, float(r), float(zq), cand[seg], a, b, panels,
+                                                             geometry, tensors, float(wq))
     return out

@@ -585,8 +585,9 @@ done:
 /* the kernel of the ring entry points: the full 3-D kernel */
 static converted_target ring_space = {.target = {.dim = 3, .n_resolved = 3}, .dim = 3};
 
-/* which: a 1-D array of int64 row indices (checked against the tensors' rows by the core) */
+/* a 1-D array of int64 (row indices, counts; checked by the core) */
 typedef struct index_array {
+    const char *name;
     const npy_intp *length;
     PyArrayObject *array; /* owned */
 } index_array;
@@ -600,11 +601,12 @@ static int index_converter(PyObject *obj, void *address)
     }
     in->array = (PyArrayObject *)PyArray_FROM_OTF(obj, NPY_INT64, NPY_ARRAY_IN_ARRAY | NPY_ARRAY_FORCECAST);
     if (!in->array) {
-        PyErr_SetString(PyExc_TypeError, "which: expected an array of integers");
+        PyErr_Format(PyExc_TypeError, "%s: expected an array of integers", in->name);
         return 0;
     }
     if (PyArray_NDIM(in->array) != 1 || (in->length && PyArray_DIM(in->array, 0) != *in->length)) {
-        PyErr_SetString(PyExc_ValueError, "which: expected a 1-dimensional array with one index per pair");
+        PyErr_Format(PyExc_ValueError, "%s: expected a 1-dimensional array with one entry per %s", in->name,
+                     in->length ? "pair" : "piece");
         Py_CLEAR(in->array);
         return 0;
     }
@@ -645,30 +647,33 @@ done:
     return (PyObject *)out;
 }
 
-static PyObject *py_ring_tensor_sum(PyObject *self, PyObject *args, PyObject *kwds)
+static PyObject *py_ring_segment_sum(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
-    static char *kw[] = {"kernel", "r", "h", "rho", "cos_phi", "sin_phi", "weight", "which", "tensors", "n_threads",
-                         NULL};
-    static const npy_intp nine = 9;
+    static char *kw[] = {"kernel", "r", "z", "segment", "lo", "hi", "panels", "geometry", "tensors", "weight",
+                         "n_threads", NULL};
+    static const npy_intp six = 6, nine = 9;
     kernel_arg ka = {.target = &ring_space};
-    double r;
-    input_array h = {.name = "h", .ndim = 1, .length = {NULL, NULL}};
-    input_array rho = {.name = "rho", .ndim = 1, .length = {&h.rows, NULL}};
-    input_array cphi = {.name = "cos_phi", .ndim = 1, .length = {&h.rows, NULL}};
-    input_array sphi = {.name = "sin_phi", .ndim = 1, .length = {&h.rows, NULL}};
-    input_array wt = {.name = "weight", .ndim = 1, .length = {&h.rows, NULL}};
-    index_array which = {.length = &h.rows};
-    input_array tens = {.name = "tensors", .ndim = 2, .length = {NULL, &nine}};
+    double r, z, weight;
+    index_array segment = {.name = "segment", .length = NULL};
+    input_array lo = {.name = "lo", .ndim = 1, .length = {NULL, NULL}};
+    input_array hi = {.name = "hi", .ndim = 1, .length = {&lo.rows, NULL}};
+    index_array panels = {.name = "panels", .length = &lo.rows};
+    input_array geom = {.name = "geometry", .ndim = 2, .length = {NULL, &six}};
+    input_array tens = {.name = "tensors", .ndim = 2, .length = {&geom.rows, &nine}};
     int n_threads = 0;
     PyArrayObject *out = NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&dO&O&O&O&O&O&O&|O&", kw, kernel_converter, &ka, &r,
-                                     array_converter, &h, array_converter, &rho, array_converter, &cphi,
-                                     array_converter, &sphi, array_converter, &wt, index_converter, &which,
-                                     array_converter, &tens, threads_converter, &n_threads))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&ddO&O&O&O&O&O&d|O&", kw, kernel_converter, &ka, &r, &z,
+                                     index_converter, &segment, array_converter, &lo, array_converter, &hi,
+                                     index_converter, &panels, array_converter, &geom, array_converter, &tens,
+                                     &weight, threads_converter, &n_threads))
         goto done;
-    if (!(r >= 0.0) || !isfinite(r)) {
-        PyErr_Format(PyExc_ValueError, "r: expected a finite radius >= 0, got %R", PyTuple_GetItem(args, 1));
+    if (!(r >= 0.0) || !isfinite(r) || !isfinite(z) || !isfinite(weight)) {
+        PyErr_SetString(PyExc_ValueError, "r, z, weight: expected finite numbers (r >= 0)");
+        goto done;
+    }
+    if (PyArray_DIM(segment.array, 0) != lo.rows) {
+        PyErr_SetString(PyExc_ValueError, "segment: expected one entry per piece (the length of lo)");
         goto done;
     }
     const npy_intp shape[2] = {3, 3};
@@ -676,24 +681,24 @@ static PyObject *py_ring_tensor_sum(PyObject *self, PyObject *args, PyObject *kw
     if (!out) goto done;
     cg_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = cg_ring_tensor_sum(&ka.kernel, r, h.rows, array_data(&h), array_data(&rho), array_data(&cphi),
-                            array_data(&sphi), array_data(&wt), (const cg_index *)PyArray_DATA(which.array),
-                            tens.rows, array_data(&tens), PyArray_DATA(out), n_threads);
+    st = cg_ring_segment_sum(&ka.kernel, r, z, lo.rows, (const cg_index *)PyArray_DATA(segment.array),
+                             array_data(&lo), array_data(&hi), (const cg_index *)PyArray_DATA(panels.array),
+                             geom.rows, array_data(&geom), array_data(&tens), weight, PyArray_DATA(out), n_threads);
     Py_END_ALLOW_THREADS
     if (st == CG_ERR_ARGUMENT) {
-        PyErr_SetString(PyExc_ValueError, "which: expected indices of rows of tensors");
+        PyErr_SetString(PyExc_ValueError, "segment, lo, hi, panels: expected rows of geometry, "
+                                          "0 <= lo <= hi <= 1 and panels >= 1");
         Py_CLEAR(out);
     } else if (st != CG_OK) {
         raise_status(st);
         Py_CLEAR(out);
     }
 done:
-    release_array(&h);
-    release_array(&rho);
-    release_array(&cphi);
-    release_array(&sphi);
-    release_array(&wt);
-    Py_CLEAR(which.array);
+    Py_CLEAR(segment.array);
+    release_array(&lo);
+    release_array(&hi);
+    Py_CLEAR(panels.array);
+    release_array(&geom);
     release_array(&tens);
     return (PyObject *)out;
 }
@@ -943,8 +948,8 @@ static PyMethodDef methods[] = {
      "wrap(positions, periodic, lower, upper) -> copy of positions wrapped into [lower, upper) on periodic axes."},
     {"ring_moments", (PyCFunction)(void (*)(void))py_ring_moments, METH_VARARGS | METH_KEYWORDS,
      "ring_moments(kernel, r, h, rho, n_threads=0): the angular moments (3, n) of the 3-D kernel over rings."},
-    {"ring_tensor_sum", (PyCFunction)(void (*)(void))py_ring_tensor_sum, METH_VARARGS | METH_KEYWORDS,
-     "ring_tensor_sum(kernel, r, h, rho, cos_phi, sin_phi, weight, which, tensors, n_threads=0): (3, 3)."},
+    {"ring_segment_sum", (PyCFunction)(void (*)(void))py_ring_segment_sum, METH_VARARGS | METH_KEYWORDS,
+     "ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, n_threads=0): (3, 3)."},
     {"have_openmp", py_have_openmp, METH_NOARGS, "Whether the core was built with OpenMP."},
     {"set_wide_vectors", py_set_wide_vectors, METH_O,
      "Internal: False makes the Gaussian on grids use its AVX2/baseline build instead of AVX-512 (identical "

@@ -233,18 +233,21 @@ cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kerne
  * round-off, written to moments[m * n + i] (0 for pairs whose closest approach
  * is outside the support).
  *
- * cg_ring_tensor_sum: out[9] += sum_i weight[i] * the theta-average, in the
- * local basis (e_r, e_theta, e_z), of the tensor tensors[which[i]] (3 x 3,
- * row-major, in the ring's frame e_1, e_2, e_z) carried by a source at angle
- * phi_i (cos_phi[i], sin_phi[i]). Blocks of pairs are summed in a fixed order:
- * the result does not depend on n_threads.
+ * cg_ring_segment_sum: out[9] += weight * sum over pieces q of
+ * int_lo^hi (theta-average of tensors[segment[q]] carried by the point
+ * x0 + s a of that segment) ds, in the local basis, for the ring (r, z): the
+ * piece [lo, hi] of s in [0, 1] on panels[q] equal panels in u, s = lo +
+ * (hi - lo) sin^2(pi u / 2) (which removes square-root ends), 20-point
+ * Gauss-Legendre in u. geometry: per segment (x0_1, x0_2, zeta0, a_1, a_2,
+ * a_z), the start and the vector in the ring's frame (e_1, e_2, e_z) relative
+ * to the axis point. Pieces in blocks summed in order (thread-count free).
  */
 cg_status cg_ring_moments(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
                           double *moments, int n_threads);
-cg_status cg_ring_tensor_sum(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
-                             const double *cos_phi, const double *sin_phi, const double *weight,
-                             const cg_index *which, cg_index n_tensors, const double *tensors, double *out,
-                             int n_threads);
+cg_status cg_ring_segment_sum(const cg_kernel *kernel, double r, double z, cg_index n_pieces, const cg_index *segment,
+                              const double *lo, const double *hi, const cg_index *panels, cg_index n_segments,
+                              const double *geometry, const double *tensors, double weight, double *out,
+                              int n_threads);
 
 /* Replace each row of vecs (n x D) by its minimum image along the periodic
    data axes (periodic[d] != 0, period[d] > 0). */

@@ -38,9 +38,9 @@
 #define RING_POINTS 20
 #define LUCY_PANELS 8
 #define LUCY_RATIO 0.25
-/* pairs per block of cg_ring_tensor_sum: blocks are summed in order, so the
+/* pieces per block of cg_ring_segment_sum: blocks are summed in order, so the
    result does not depend on the thread count */
-#define RING_BLOCK 512
+#define RING_PIECE_BLOCK 32
 
 typedef struct ring_rule {
     double x[RING_POINTS]; /* Gauss-Legendre nodes on [0, 1] */
@@ -219,41 +219,60 @@ static void ring_rotate_add(const double *T, double c, double s, double M0, doub
     acc[8] += M0 * wt * T[8];
 }
 
-cg_status cg_ring_tensor_sum(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
-                             const double *cos_phi, const double *sin_phi, const double *weight,
-                             const cg_index *which, cg_index n_tensors, const double *tensors, double *out,
-                             int n_threads)
+cg_status cg_ring_segment_sum(const cg_kernel *kernel, double r, double z, cg_index n_pieces, const cg_index *segment,
+                              const double *lo, const double *hi, const cg_index *panels, cg_index n_segments,
+                              const double *geometry, const double *tensors, double weight, double *out,
+                              int n_threads)
 {
-    if (!ring_kernel_ok(kernel) || !(r >= 0.0) || !isfinite(r) || n < 0 || n_tensors < 0) return CG_ERR_ARGUMENT;
-    for (cg_index i = 0; i < n; ++i)
-        if (which[i] < 0 || which[i] >= n_tensors) return CG_ERR_ARGUMENT;
+    if (!ring_kernel_ok(kernel) || !(r >= 0.0) || !isfinite(r) || !isfinite(z) || !isfinite(weight) ||
+        n_pieces < 0 || n_segments < 0)
+        return CG_ERR_ARGUMENT;
+    for (cg_index i = 0; i < n_pieces; ++i)
+        if (segment[i] < 0 || segment[i] >= n_segments || panels[i] < 1 || panels[i] > 1 << 20 ||
+            !(lo[i] >= 0.0 && lo[i] <= hi[i] && hi[i] <= 1.0))
+            return CG_ERR_ARGUMENT;
     ring_rule rule;
     ring_rule_init(&rule);
-    const cg_index n_blocks = (n + RING_BLOCK - 1) / RING_BLOCK;
-    /* per-block sums on the stack for small calls, else one pass per block into a scratch array */
+    /* Gauss-Legendre in u on each panel, s = lo + (hi - lo) sin^2(pi u / 2), ds/du = (hi - lo) (pi/2) sin(pi u) */
+    const cg_index n_blocks = (n_pieces + RING_PIECE_BLOCK - 1) / RING_PIECE_BLOCK;
     double local[64 * 9];
     double *blocks = local;
     if (n_blocks > 64) {
         blocks = (double *)malloc((size_t)n_blocks * 9 * sizeof(double));
         if (!blocks) return CG_ERR_NOMEM;
     }
-    const int threads = ring_threads(n_threads, n);
+    const int threads = ring_threads(n_threads, n_pieces * RING_POINTS);
     (void)threads;
 #ifdef _OPENMP
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
 #endif
-    for (cg_index b = 0; b < n_blocks; ++b) {
+    for (cg_index blk = 0; blk < n_blocks; ++blk) {
         double acc[9] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-        const cg_index hi = (b + 1) * RING_BLOCK < n ? (b + 1) * RING_BLOCK : n;
-        for (cg_index i = b * RING_BLOCK; i < hi; ++i) {
-            double M0, M1, M2;
-            ring_moments_one(kernel, &rule, r, h[i], rho[i], &M0, &M1, &M2);
-            ring_rotate_add(tensors + 9 * which[i], cos_phi[i], sin_phi[i], M0, M1, M2, weight[i], acc);
+        const cg_index end = (blk + 1) * RING_PIECE_BLOCK < n_pieces ? (blk + 1) * RING_PIECE_BLOCK : n_pieces;
+        for (cg_index q = blk * RING_PIECE_BLOCK; q < end; ++q) {
+            const double *g = geometry + 6 * segment[q];
+            const double *T = tensors + 9 * segment[q];
+            const double a = lo[q], span = hi[q] - lo[q];
+            const cg_index P = panels[q];
+            const double h0 = z - g[2];
+            for (cg_index jp = 0; jp < P; ++jp)
+                for (int i = 0; i < RING_POINTS; ++i) {
+                    const double u = ((double)jp + rule.x[i]) / (double)P;
+                    const double sh = sin(0.5 * M_PI * u);
+                    const double s = a + span * sh * sh;
+                    const double wt = span * rule.w[i] * 0.5 * M_PI * sin(M_PI * u) / (double)P * weight;
+                    const double p1 = g[0] + s * g[3], p2 = g[1] + s * g[4];
+                    const double rho = hypot(p1, p2);
+                    const double cphi = rho > 0.0 ? p1 / rho : 1.0, sphi = rho > 0.0 ? p2 / rho : 0.0;
+                    double M0, M1, M2;
+                    ring_moments_one(kernel, &rule, r, h0 - s * g[5], rho, &M0, &M1, &M2);
+                    ring_rotate_add(T, cphi, sphi, M0, M1, M2, wt, acc);
+                }
         }
-        for (int c = 0; c < 9; ++c) blocks[9 * b + c] = acc[c];
+        for (int c = 0; c < 9; ++c) blocks[9 * blk + c] = acc[c];
     }
-    for (cg_index b = 0; b < n_blocks; ++b)
-        for (int c = 0; c < 9; ++c) out[c] += blocks[9 * b + c];
+    for (cg_index blk = 0; blk < n_blocks; ++blk)
+        for (int c = 0; c < 9; ++c) out[c] += blocks[9 * blk + c];
     if (blocks != local) free(blocks);
     return CG_OK;
 }

@@ -905,3 +905,27 @@ def oracle_ring_tensor_sum(kernel, r, h, rho, cos_phi, sin_phi, weight, which, t
             values = W(np.minimum(d0sq + 4.0 * rr * np.sin(0.5 * t) ** 2, c * c)) * half * w / (2 * math.pi)
             out += weight[i] * np.einsum("q,qia,ab,qjb->ij", values, B, T, B)
     return out
+
+
+def oracle_ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight):
+    """Twin of cg_ring_segment_sum: the s-points of each piece (20-point Gauss-Legendre in u on its panels,
+    s = lo + (hi - lo) sin²(π u / 2)) and their θ-averages by oracle_ring_tensor_sum; (3, 3)."""
+    x, w = np.polynomial.legendre.leggauss(20)
+    x, w = 0.5 * (x + 1.0), 0.5 * w
+    h, rho, cphi, sphi, wt, which = [], [], [], [], [], []
+    for q in range(len(lo)):
+        g = geometry[segment[q]]
+        P = panels[q]
+        for jp in range(P):
+            u = (jp + x) / P
+            s = lo[q] + (hi[q] - lo[q]) * np.sin(0.5 * math.pi * u) ** 2
+            p1, p2 = g[0] + s * g[3], g[1] + s * g[4]
+            rr = np.hypot(p1, p2)
+            rho.append(rr)
+            cphi.append(np.where(rr > 0, p1 / np.where(rr > 0, rr, 1.0), 1.0))
+            sphi.append(np.where(rr > 0, p2 / np.where(rr > 0, rr, 1.0), 0.0))
+            h.append(z - g[2] - s * g[5])
+            wt.append((hi[q] - lo[q]) * w * 0.5 * math.pi * np.sin(math.pi * u) / P * weight)
+            which.append(np.full(len(u), segment[q]))
+    cat = [np.concatenate(a) if a else np.zeros(0) for a in (h, rho, cphi, sphi, wt, which)]
+    return oracle_ring_tensor_sum(kernel, r, *cat[:5], cat[5].astype(int), tensors)

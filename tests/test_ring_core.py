@@ -1,8 +1,8 @@
 """The ring entry points of the C core (csrc/cg_ring.c) against their NumPy twins (tests/oracle.py).
 
-cg_ring_moments: the angular moments of the 3-D kernel over a ring's arc; cg_ring_tensor_sum: weighted
-θ-averages of tensors carried by sources, rotated into the local basis. The twins use a different rule
-(graded Gauss-Legendre for every kernel) and, for the tensor sum, the θ-average itself rather than the
+cg_ring_moments: the angular moments of the 3-D kernel over a ring's arc; cg_ring_segment_sum: θ-averages
+of tensors spread along pieces of segments, rotated into the local basis. The twins use a different rule
+(graded Gauss-Legendre for every kernel) and, for the tensors, the θ-average itself rather than the
 moment identities, so agreement at 1e-12 checks both the rules and the reduction.
 """
 import math
@@ -13,7 +13,7 @@ import pytest
 import cgbound as cg
 from cgbound import _engine
 
-from oracle import oracle_ring_moments, oracle_ring_tensor_sum
+from oracle import oracle_ring_moments, oracle_ring_segment_sum
 
 KERNELS = {
     "gauss3w": cg.Gaussian(0.7, cutoff=2.1),
@@ -76,35 +76,48 @@ def test_ring_moments_of_a_gaussian_ring_in_closed_form():
     np.testing.assert_allclose(got, want, rtol=1e-13, atol=0)
 
 
+def segment_case(kernel, r, z, n_segments=9, seed=3):
+    """Segments around the ring (r, z), some through the axis, some along it, one of zero length, with random
+    pieces of [0, 1] on 1-3 panels."""
+    rng = np.random.default_rng(seed)
+    c = float(kernel.radius)
+    start = np.column_stack([rng.uniform(-r - c, r + c, n_segments), rng.uniform(-r - c, r + c, n_segments),
+                             z + rng.uniform(-c, c, n_segments)])
+    vector = rng.normal(scale=0.6 * c, size=(n_segments, 3))
+    start[0, :2], vector[0, :2] = (-0.5, 0.0), (1.0, 0.0)            # through the axis
+    start[1, :2], vector[1, :2] = (0.0, 0.0), (0.0, 0.0)            # along the axis
+    vector[2] = 0.0                                                   # zero length
+    geometry = np.column_stack([start[:, 0], start[:, 1], start[:, 2], vector])
+    n_pieces = 3 * n_segments
+    segment = np.repeat(np.arange(n_segments), 3)
+    lo = rng.uniform(0, 1, n_pieces)
+    hi = np.minimum(lo + rng.uniform(0, 0.7, n_pieces), 1.0)
+    lo[0], hi[0] = 0.0, 1.0
+    panels = rng.integers(1, 4, n_pieces)
+    tensors = rng.normal(size=(n_segments, 9))
+    return segment, lo, hi, panels, geometry, tensors
+
+
 @pytest.mark.parametrize("name", KERNELS)
 @pytest.mark.parametrize("r", [0.0, 0.4, 3.0])
-def test_ring_tensor_sum_against_twin(name, r):
+def test_ring_segment_sum_against_twin(name, r):
     kernel = KERNELS[name]
-    h, rho = pairs(kernel, r, n=120, seed=3)
-    rng = np.random.default_rng(4)
-    phi = rng.uniform(-math.pi, math.pi, len(h))
-    phi[rho == 0.0] = 0.0
-    tensors = rng.normal(size=(7, 9))
-    which = rng.integers(0, 7, len(h))
-    weight = rng.uniform(0.1, 1.0, len(h))
-    got = _engine.ring_tensor_sum(kernel, r, h, rho, np.cos(phi), np.sin(phi), weight, which, tensors)
-    want = oracle_ring_tensor_sum(kernel, r, h, rho, np.cos(phi), np.sin(phi), weight, which, tensors)
+    case = segment_case(kernel, r, 0.3)
+    got = _engine.ring_segment_sum(kernel, r, 0.3, *case, 0.7)
+    want = oracle_ring_segment_sum(kernel, r, 0.3, *case, 0.7)
     size = np.abs(want).max()
     assert size > 0
     np.testing.assert_array_less(np.abs(got - want), 1e-12 * size)
 
 
-def test_ring_tensor_sum_does_not_depend_on_the_thread_count():
+def test_ring_segment_sum_does_not_depend_on_the_thread_count():
     kernel = KERNELS["lucy"]
-    rng = np.random.default_rng(5)
-    n = 5000
-    h, rho = rng.uniform(-1, 1, n), rng.uniform(0, 3, n)
-    phi = rng.uniform(-3, 3, n)
-    tensors, which, weight = rng.normal(size=(50, 9)), rng.integers(0, 50, n), rng.uniform(size=n)
-    runs = [_engine.ring_tensor_sum(kernel, 1.5, h, rho, np.cos(phi), np.sin(phi), weight, which, tensors,
-                                    n_threads=t) for t in (1, 2, 3)]
+    case = segment_case(kernel, 1.5, 0.0, n_segments=400, seed=8)
+    runs = [_engine.ring_segment_sum(kernel, 1.5, 0.0, *case, 1.0, n_threads=t) for t in (1, 2, 3)]
     for other in runs[1:]:
         assert np.array_equal(runs[0], other)
+    rng = np.random.default_rng(5)
+    h, rho = rng.uniform(-1, 1, 5000), rng.uniform(0, 3, 5000)
     moments = [_engine.ring_moments(kernel, 1.5, h, rho, n_threads=t) for t in (1, 2, 3)]
     for other in moments[1:]:
         assert np.array_equal(moments[0], other)
@@ -121,14 +134,21 @@ def test_ring_entry_points_refuse_bad_arguments():
         _engine.ring_moments(kernel, 1.0, np.array([0.0, np.nan, 0.0]), rho)
     with pytest.raises(ValueError, match="rho: expected length 3"):
         _engine.ring_moments(kernel, 1.0, h, np.ones(4))
-    ones = np.ones(3)
-    with pytest.raises(ValueError, match="which: expected indices of rows of tensors"):
-        _engine.ring_tensor_sum(kernel, 1.0, h, rho, ones, 0 * ones, ones, np.array([0, 1, 2]), np.zeros((2, 9)))
-    with pytest.raises(ValueError, match="which: expected indices of rows of tensors"):
-        _engine.ring_tensor_sum(kernel, 1.0, h, rho, ones, 0 * ones, ones, np.array([0, -1, 0]), np.zeros((2, 9)))
-    with pytest.raises(ValueError, match="which: expected a 1-dimensional array"):
-        _engine.ring_tensor_sum(kernel, 1.0, h, rho, ones, 0 * ones, ones, np.array([0, 1]), np.zeros((2, 9)))
-    with pytest.raises(ValueError, match="tensors: expected length 9"):
-        _engine.ring_tensor_sum(kernel, 1.0, h, rho, ones, 0 * ones, ones, np.array([0, 1, 0]), np.zeros((2, 6)))
     with pytest.raises(ValueError, match="kernel"):
         _engine._core.ring_moments((0, -1.0, 1.0, 0, 1.0), 1.0, h, rho)
+    segment, lo, hi, panels, geometry, tensors = segment_case(kernel, 1.0, 0.0, n_segments=3)
+    bad = {"segment": (5,), "lo": (-0.1,), "hi": (1.5,), "panels": (0,)}
+    for name, (value,) in bad.items():
+        args = dict(segment=segment.copy(), lo=lo.copy(), hi=hi.copy(), panels=panels.copy())
+        args[name][0] = value
+        with pytest.raises(ValueError, match="segment, lo, hi, panels: expected rows of geometry"):
+            _engine.ring_segment_sum(kernel, 1.0, 0.0, args["segment"], args["lo"], args["hi"], args["panels"],
+                                     geometry, tensors, 1.0)
+    with pytest.raises(ValueError, match="segment: expected one entry per piece"):
+        _engine.ring_segment_sum(kernel, 1.0, 0.0, segment[:-1], lo, hi, panels, geometry, tensors, 1.0)
+    with pytest.raises(ValueError, match="panels: expected a 1-dimensional array with one entry per pair"):
+        _engine.ring_segment_sum(kernel, 1.0, 0.0, segment, lo, hi, panels[:-1], geometry, tensors, 1.0)
+    with pytest.raises(ValueError, match="tensors: expected length 3 along axis 0"):
+        _engine.ring_segment_sum(kernel, 1.0, 0.0, segment, lo, hi, panels, geometry, tensors[:1], 1.0)
+    with pytest.raises(ValueError, match="r, z, weight: expected finite"):
+        _engine.ring_segment_sum(kernel, 1.0, float("inf"), segment, lo, hi, panels, geometry, tensors, 1.0)
