@@ -16,8 +16,9 @@
  *              Gauss-Legendre keep each panel's change small.
  *   Lucy       the odd power d^3 has branch points at t = +-i eps,
  *              sinh(eps/2) = d0 / 2 sqrt(r rho), next to t = 0 when the ring
- *              passes close to the source: 8 panels graded by 1/4 towards
- *              t = 0, 20 points each (the rule of the NumPy twin).
+ *              passes close to the source: panels graded by 1/4 towards t = 0,
+ *              20 points each, down to one at most 4 eps long (at most 8
+ *              panels, the rule of the NumPy twin for every pair).
  * cos t and cos 2t come from s = sin(t/2): cos t = 1 - 2 s^2 (one sine and one
  * exponential or square root per point).
  */
@@ -45,8 +46,6 @@
 typedef struct ring_rule {
     double x[RING_POINTS]; /* Gauss-Legendre nodes on [0, 1] */
     double w[RING_POINTS]; /* and weights (sum 1) */
-    double lucy_x[LUCY_PANELS * RING_POINTS];
-    double lucy_w[LUCY_PANELS * RING_POINTS];
 } ring_rule;
 
 /* Gauss-Legendre on [0, 1] by Newton on the Legendre recurrence */
@@ -78,16 +77,6 @@ static void ring_rule_init(ring_rule *rule)
         rule->x[i] = 0.5 * (1.0 - z);
         rule->x[n - 1 - i] = 0.5 * (1.0 + z);
         rule->w[i] = rule->w[n - 1 - i] = weight;
-    }
-    /* Lucy: panels [q^(k+1), q^k], k = 0..6, and [0, q^7] */
-    double hi = 1.0;
-    for (int p = LUCY_PANELS - 1; p >= 0; --p) {
-        const double lo = p == 0 ? 0.0 : hi * LUCY_RATIO;
-        for (int i = 0; i < n; ++i) {
-            rule->lucy_x[p * n + i] = lo + (hi - lo) * rule->x[i];
-            rule->lucy_w[p * n + i] = (hi - lo) * rule->w[i];
-        }
-        hi = lo;
     }
 }
 
@@ -135,17 +124,37 @@ static void ring_moments_one(const cg_kernel *k, const ring_rule *rule, double r
         m1 *= step;
         m2 *= step;
     } else { /* Lucy */
+        /* graded panels [q^(k+1), q^k] of the half arc down to one that is at most 4 eps long, eps the branch
+           points' distance from the real axis; the innermost panel [0, q^(K-1)] then keeps them a panel's
+           length away (K = 8 when the ring passes through the source) */
+        int K = 1;
+        if (rr > 0.0) {
+            const double eps = 2.0 * asinh(sqrt(d0sq) / (2.0 * sqrt(rr)));
+            const double need = eps > 0.0 ? log(half / (4.0 * eps)) / log(1.0 / LUCY_RATIO) : LUCY_PANELS;
+            K = need > 0.0 ? 1 + (int)ceil(need) : 1;
+            if (K > LUCY_PANELS) K = LUCY_PANELS;
+        }
         const double invR = 1.0 / R;
-        for (int j = 0; j < LUCY_PANELS * RING_POINTS; ++j) {
-            const double t = half * rule->lucy_x[j];
-            const double s = sin(0.5 * t);
-            const double c1 = 1.0 - 2.0 * s * s;
-            const double x = sqrt(d0sq + 4.0 * rr * s * s) * invR;
-            const double om = x < 1.0 ? 1.0 - x : 0.0; /* rounding at the arc's ends */
-            const double v = (1.0 + 3.0 * x) * om * om * om * rule->lucy_w[j];
-            m0 += v;
-            m1 += v * c1;
-            m2 += v * (2.0 * c1 * c1 - 1.0);
+        double top = 1.0;
+        for (int p = 0; p < K; ++p) {
+            const double bottom = p == K - 1 ? 0.0 : top * LUCY_RATIO;
+            const double width = top - bottom;
+            double q0 = 0.0, q1 = 0.0, q2 = 0.0;
+            for (int i = 0; i < RING_POINTS; ++i) {
+                const double t = half * (bottom + width * rule->x[i]);
+                const double s = sin(0.5 * t);
+                const double c1 = 1.0 - 2.0 * s * s;
+                const double x = sqrt(d0sq + 4.0 * rr * s * s) * invR;
+                const double om = x < 1.0 ? 1.0 - x : 0.0; /* rounding at the arc's ends */
+                const double v = (1.0 + 3.0 * x) * om * om * om * rule->w[i];
+                q0 += v;
+                q1 += v * c1;
+                q2 += v * (2.0 * c1 * c1 - 1.0);
+            }
+            m0 += q0 * width;
+            m1 += q1 * width;
+            m2 += q2 * width;
+            top = bottom;
         }
         m0 *= half;
         m1 *= half;
