@@ -196,9 +196,14 @@ def test_cli_writes_a_rotational_field_of_lammps_data(tmp_path):
             assert np.abs(got).max() > 0
 
 
-def test_tiles_refuse_rotational_fields_before_work(no_work):
+def test_tiles_give_the_rotational_fields():
+    """Tiles once refused them; now the same numbers as one process (more in tests/test_tiled_fields.py)."""
     from cgbound.tiled import coarse_grain_tiled
     snap = frames(3, 1)[0]
-    with pytest.raises(ValueError, match="fields: expected fields without a pseudo-vector index for tiling"):
-        coarse_grain_tiled(snap, cg.Grid(snap.box, (4, 2, 4)), cg.Lucy(1.3), fields=("density", "couple_stress"),
-                           tiles=(2, 1, 2), backend="serial")
+    grid = cg.Grid(snap.box, (4, 2, 4))
+    fields = ("density",) + ROTATION_FIELDS
+    tiled = coarse_grain_tiled(snap, grid, cg.Lucy(1.3), fields=fields, tiles=(2, 1, 2), backend="serial")
+    whole = cg.coarse_grain(snap, grid, cg.Lucy(1.3), fields=fields)
+    for name in fields:
+        np.testing.assert_allclose(tiled[name], whole[name], rtol=0, atol=1e-12 * np.abs(whole[name]).max(),
+                                   err_msg=name)
