@@ -23,6 +23,12 @@
  * Gauss-Legendre panels integrate s M and s grad M to round-off, split at the
  * closest approach and, for Lucy, graded toward it (its profile has a kink
  * where the line meets the node, a near-singularity of scale a near it).
+ *
+ * Lucy's and Heaviside's marginals over averaged axes (values only): the same
+ * panels of s M (marginal_moment): exact for the polynomial marginals over two
+ * axes, graded toward both ends of each piece for Lucy's over one axis (its
+ * kink and its (R - rho)^(7/2) edge), and for Heaviside's chord over one axis
+ * a change of variable that removes its square-root edge (chord_half).
  */
 #include "cg.h"
 #include "cg_internal.h"
