@@ -7,9 +7,10 @@ vector long) can reach them, so each worker gets those (a halo of ``radius`` aro
 particles, ``radius`` plus the longest branch for contacts, measured with periodic images along
 periodic axes, not at all along averaged axes, which every node integrates over; when a field sums
 over contact points or the lines from a particle to its contact point (fabric, the rotational contact
-fields) the contact halo is ``radius`` plus the longest of the branches and of the particle-to-contact-point
-levers, which bounds every such point and line). The extended stress is the exception: its rays run from a boundary contact out of the region, so with
-``extended_stress`` every tile gets every boundary contact (usually few). Each node's sums
+fields) the contact halo is ``radius`` plus the longest of the branches and of the particle-to-contact-
+point levers, which bounds every such point and line). The extended stress is the exception: its rays
+run from a boundary contact out of the region, so with ``extended_stress`` every tile gets every
+boundary contact (usually few). Each node's sums
 then hold exactly the same non-zero terms as in one process, so the stitched fields agree with
 :func:`cgbound.coarse_grain` to rounding.
 """

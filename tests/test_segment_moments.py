@@ -81,7 +81,8 @@ def test_first_moment_on_grids_and_periodic_boxes(kname):
     vecs = rng.normal(size=(6, 3)) * 0.7
     values = rng.normal(size=(6, 1))
     oracle = oracle_kernel_of(kernel, 3)
-    grids = [cg.Grid(box, (5, 4, 6)), cg.Grid(box, (1, 4, 6), average=("x",)), cg.Grid(box, (1, 1, 9), average=("x", "y"))]
+    grids = [cg.Grid(box, (5, 4, 6)), cg.Grid(box, (1, 4, 6), average=("x",)),
+             cg.Grid(box, (1, 1, 9), average=("x", "y"))]
     for grid in grids:
         ck = core_kernel(kernel, grid.avg_extent)
         got = scatter_segment_moments(core_target(grid, box), ck, starts, vecs, values)
@@ -149,7 +150,8 @@ def test_first_moment_of_the_marginals_against_the_oracle(kname, dim, average):
         psi = scatter_segments(tgt, ck, starts[sl], vecs[sl], values)
         np.testing.assert_allclose(got + back, psi, rtol=0, atol=RTOL * np.abs(psi).max())
     zero = scatter_segment_moments(tgt, ck, starts, 0.0 * vecs, np.ones((len(starts), 1)))
-    np.testing.assert_array_equal(zero, 0.5 * cgbound._engine.scatter_points(tgt, ck, starts, np.ones((len(starts), 1))))
+    point = cgbound._engine.scatter_points(tgt, ck, starts, np.ones((len(starts), 1)))
+    np.testing.assert_array_equal(zero, 0.5 * point)
 
 
 def test_first_moment_identities():
