@@ -130,3 +130,15 @@ def test_tiles_refuse_what_coarse_grain_refuses_before_work(no_work):
     with pytest.raises(ValueError, match="moments_of_inertia: expected moments of inertia, or radii"):
         cg.coarse_grain_tiled(no_radii, grid, cg.Lucy(1.2), fields=("spin_density",), tiles=(1, 2, 2),
                               backend="serial")
+
+
+def test_tiled_rotational_fields_on_a_dask_cluster():
+    """The tiles' spin data and second particles travel to Dask workers (pickled _TileData) intact."""
+    pytest.importorskip("distributed")
+    snap = big_spinning(2, (True, False))
+    grid = cg.Grid(snap.box, (12, 10))
+    fields = ROTATION_FIELDS + ("fabric",)
+    whole = cg.coarse_grain(snap, grid, cg.Lucy(1.0), fields=fields, couple_stress_form="branch_line")
+    tiled = cg.coarse_grain_tiled(snap, grid, cg.Lucy(1.0), fields=fields, tiles=(3, 2), n_workers=1,
+                                  couple_stress_form="branch_line")
+    assert_same(whole, tiled, fields, "dask")
