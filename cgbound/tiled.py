@@ -203,7 +203,7 @@ class _Cutter:
         self.point_halo = kernel.radius * (1 + HALO_SLACK)
         self.contact_halo = (kernel.radius + longest) * (1 + HALO_SLACK)
         self.bulk_owner = snapshot.positions[self.bulk["i"]]
-        self.bulk_partner = snapshot.positions[self.bulk["j"]]
+        self.bulk_partner = snapshot.positions[self.bulk["j"]] if self.with_halves else None
         self.boundary_owner = snapshot.positions[self.boundary["i"]]
         self.with_contacts = bool(needed & CONTACT_PRIMARIES)
         # the extended stress integrates along rays from the particle through the contact point and
