@@ -115,7 +115,7 @@ class CoarseGrain:
         self.convention = check_convention(convention)
         check_differentiable(self.kernel, self.fields)
         self.couple_stress_form = check_couple_stress_form(couple_stress_form)
-        check_branch_line(self.couple_stress_form, self.fields, self._target, self.kernel)
+        check_branch_line(self.couple_stress_form, self.fields, self.kernel)
         self.species = integer(species, "species", allow_none=True)
         if isinstance(time_average, str):
             if time_average not in ("mean", "none"):

@@ -46,7 +46,7 @@ def check_arguments(snapshot, grid, kernel, fields, convention, species,
     check_differentiable(kernel, fields)
     species = integer(species, "species", allow_none=True)
     check_units_fields(snapshot.units, fields)
-    check_branch_line(couple_stress_form, fields, target, kernel)
+    check_branch_line(couple_stress_form, fields, kernel)
     if species is not None:
         snapshot = snapshot.species_view(species)
     largest = snapshot.largest_product
@@ -57,25 +57,17 @@ def check_arguments(snapshot, grid, kernel, fields, convention, species,
     return snapshot, target, kernel, fields, convention
 
 
-def check_branch_line(couple_stress_form, fields, target, kernel):
-    """The branch-line couple stress needs the kernel's first moment along lines, which the core gives for
-    the full-dimensional kernel (points, and grids without averaged axes) and for the Gaussian's marginals
-    (Gaussians too); not for MercuryCG's approximate line integral."""
+def check_branch_line(couple_stress_form, fields, kernel):
+    """The branch-line couple stress needs the kernel's first moment along lines, which the core gives for every
+    kernel and target (over averaged axes: the Gaussian's marginals in closed form, Lucy's and Heaviside's by
+    Gauss-Legendre panels); not for MercuryCG's approximate line integral."""
     check_couple_stress_form(couple_stress_form)
     if couple_stress_form != "branch_line":
         return
     wanted = [f for f in fields if f in ("couple_stress", "stress_torque_density", "boundary_couple_density")]
-    if not wanted:
-        return
-    if kernel.mercurycg_line:
+    if wanted and kernel.mercurycg_line:
         raise ValueError(f"couple_stress_form: 'branch_line' ({wanted[0]!r}) needs exact line integrals, got "
                          f"{kernel!r} (line_quadrature='mercurycg')")
-    over_averaged = getattr(target, "averaged", ()) and not kernel.lower_dimensional
-    if over_averaged and type(kernel).__name__ != "Gaussian":
-        raise ValueError(f"couple_stress_form: 'branch_line' ({wanted[0]!r}) is computed at points, on grids "
-                         f"without averaged axes, and over averaged axes with a Gaussian; expected no averaged "
-                         f"axis for {kernel!r}, got averaged axes {tuple(target.averaged)} (use 'contact_point' "
-                         f"there)")
 
 
 def prepare(snapshot, grid, kernel, fields, convention, species, couple_stress_form=DEFAULT_COUPLE_STRESS_FORM):

@@ -5,9 +5,12 @@ axis). A tile needs only the flowing particles within the kernel's support (``ke
 its nodes and the contacts whose line from the particle to the contact (at most the longest branch
 vector long) can reach them, so each worker gets those (a halo of ``radius`` around the tile for
 particles, ``radius`` plus the longest branch for contacts, measured with periodic images along
-periodic axes, not at all along averaged axes, which every node integrates over). The extended
-stress is the exception: its rays run from a boundary contact out of the region, so with
-``extended_stress`` every tile gets every boundary contact (usually few). Each node's sums
+periodic axes, not at all along averaged axes, which every node integrates over; when a field sums
+over contact points or the lines from a particle to its contact point (fabric, the rotational contact
+fields) the contact halo is ``radius`` plus the longest of the branches and of the particle-to-contact-
+point levers, which bounds every such point and line). The extended stress is the exception: its rays
+run from a boundary contact out of the region, so with ``extended_stress`` every tile gets every
+boundary contact (usually few). Each node's sums
 then hold exactly the same non-zero terms as in one process, so the stitched fields agree with
 :func:`cgbound.coarse_grain` to rounding.
 """
@@ -15,10 +18,11 @@ import numpy as np
 
 from ._validate import counts_per_axis, flag
 from .executors import check_backend, executor
-from .fields import ROTATION_FIELDS
+from .fields import DEFAULT_COUPLE_STRESS_FORM
 from .grid import Grid
 from .pipeline import DEFAULT_FIELDS, prepare, run_snapshot
-from .primaries import CONTACT_PRIMARIES, compute_primaries, longest_branch
+from .primaries import (CONTACT_PRIMARIES, ROTATION_CONTACT_PRIMARIES, SPIN_PRIMARIES, compute_primaries,
+                        flowing_rows, longest_branch)
 from .progress import progress
 from .snapshot import Snapshot
 
@@ -31,13 +35,15 @@ HALO_SLACK = 1e-9
 
 
 def coarse_grain_tiled(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tension", species=None, *,
-                       tiles, backend="dask", client=None, n_workers=None, verbose=False):
+                       tiles, backend="dask", client=None, n_workers=None, verbose=False,
+                       couple_stress_form=DEFAULT_COUPLE_STRESS_FORM):
     """Coarse-grained fields of one (large) snapshot, computed tile by tile (on Dask workers by default).
 
     Parameters
     ----------
-    snapshot, grid, kernel, fields, convention, species : as for :func:`cgbound.coarse_grain`;
-        ``grid`` must be a :class:`cgbound.Grid`.
+    snapshot, grid, kernel, fields, convention, species, couple_stress_form : as for
+        :func:`cgbound.coarse_grain` (every field, the rotational ones too); ``grid`` must be a
+        :class:`cgbound.Grid`.
     tiles : sequence of D positive ints
         Tiles along each axis (1 along averaged axes; at most the grid's nodes along each axis).
     backend : "dask" or "serial"
@@ -53,7 +59,8 @@ def coarse_grain_tiled(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention
     Returns
     -------
     Result
-        The same as ``coarse_grain(snapshot, grid, kernel, fields, convention, species)`` to rounding.
+        The same as ``coarse_grain(snapshot, grid, kernel, fields, convention, species, couple_stress_form)``
+        to rounding.
 
     Notes
     -----
@@ -67,11 +74,7 @@ def coarse_grain_tiled(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention
         raise TypeError(f"snapshot: expected a cg.Snapshot, got {type(snapshot).__name__}")
     backend, n_workers = check_backend(backend, client, n_workers)
     verbose = flag(verbose, "verbose")
-    job = prepare(snapshot, grid, kernel, fields, convention, species)
-    rotational = [name for name in job.fields if name in ROTATION_FIELDS]
-    if rotational:
-        raise ValueError(f"fields: expected fields without a pseudo-vector index for tiling, got {rotational} "
-                         f"(use cg.coarse_grain or cg.CoarseGrain for the rotational fields)")
+    job = prepare(snapshot, grid, kernel, fields, convention, species, couple_stress_form)
     tiles = check_tiles(tiles, grid)
     job = job._replace(kernel=resolve_auto_line_quadrature(job.kernel, job.split))
 
@@ -128,9 +131,10 @@ class TileTarget:
 class _TileData:
     """The particles and contacts one tile needs (one object, so Dask scatters it as a whole).
 
-    ``points``: flowing particles near the tile; ``owners``: the positions of the flowing particle
-    of each selected contact (contact primaries start their line there); bulk/boundary: the
-    selected contacts of ``Snapshot.split_contacts``, with ``i`` indexing ``owners``.
+    ``points``: flowing particles near the tile; ``owners``: the positions of the particles the selected
+    contacts' lines start from (contact primaries start their line there; the second particle of each
+    bulk contact too when its half-line from that particle is summed); bulk/boundary: the selected
+    contacts of ``Snapshot.split_contacts``, with ``i`` (and ``j``) indexing ``owners``.
     """
 
     def __init__(self, box, points, owners, bulk, boundary):
@@ -155,11 +159,24 @@ def tile_primaries(data, target, kernel, needed, u_ref):
 
     snap = Snapshot(np.concatenate([pts["positions"], data.owners]), rows(pts["velocities"], 0.0),
                     rows(pts["masses"], 1.0), box=data.box, fixed=np.arange(n + m) >= n,
-                    body_force=rows(pts["body_force"], 0.0), radii=rows(pts["radii"], 0.0))
+                    body_force=rows(pts["body_force"], 0.0), radii=rows(pts["radii"], 0.0),
+                    angular_velocities=rows(pts["angular_velocities"], 0.0),
+                    moments_of_inertia=rows(pts["inertia"], 1.0))
     # the contact owners follow the particles, as fixed rows: they only anchor the contact lines
     bulk = dict(data.bulk, i=data.bulk["i"] + n)
+    if "j" in bulk:
+        bulk["j"] = bulk["j"] + n
     boundary = dict(data.boundary, i=data.boundary["i"] + n)
     return compute_primaries(snap, target, kernel, needed, u_ref, (bulk, boundary))
+
+
+def longest_lever(snapshot, bulk):
+    """The longest distance from a bulk contact's first particle to its contact point (minimum image), 0
+    without bulk contacts: contact points and the half-lines r_j -> c lie within it or the branch of r_i."""
+    if not bulk["i"].size:
+        return 0.0
+    lever = snapshot.box.minimum_image(np.take(snapshot.positions, bulk["i"], axis=0) - bulk["point"])
+    return float(np.sqrt(np.einsum("ij,ij->i", lever, lever).max()))
 
 
 class _Cutter:
@@ -172,19 +189,28 @@ class _Cutter:
         self.flow_pos = snapshot.positions[flow]
         empty = (np.zeros(0, np.int64), np.zeros((0, snapshot.dim)))
         if split is None:
-            split = ({"i": empty[0], "j": empty[0], "force": empty[1], "branch": empty[1]},
+            split = ({"i": empty[0], "j": empty[0], "force": empty[1], "branch": empty[1], "point": empty[1]},
                      {"i": empty[0], "force": empty[1], "branch": empty[1], "point": empty[1]})
         self.bulk, self.boundary = split
         branches = np.concatenate([self.bulk["branch"], self.boundary["branch"]])
         longest = float(np.sqrt((branches**2).sum(axis=1)).max()) if branches.shape[0] else 0.0
+        # the rotational contact primaries sum the half-lines from both particles of a bulk contact to its
+        # contact point (so need the second particle's position too)
+        self.with_halves = bool(needed & ROTATION_CONTACT_PRIMARIES)
+        if self.with_halves or "fb" in needed:
+            # fabric and torque densities sit at the bulk contact points, the half-lines end there
+            longest = max(longest, longest_lever(snapshot, self.bulk))
         self.point_halo = kernel.radius * (1 + HALO_SLACK)
         self.contact_halo = (kernel.radius + longest) * (1 + HALO_SLACK)
         self.bulk_owner = snapshot.positions[self.bulk["i"]]
+        self.bulk_partner = snapshot.positions[self.bulk["j"]] if self.with_halves else None
         self.boundary_owner = snapshot.positions[self.boundary["i"]]
         self.with_contacts = bool(needed & CONTACT_PRIMARIES)
         # the extended stress integrates along rays from the particle through the contact point and
         # beyond, out of the region: no halo bounds them, so every tile gets every boundary contact
         self.all_boundary = "sx" in needed
+        self.with_spin = bool(needed & SPIN_PRIMARIES)
+        self.inertia = flowing_rows(snapshot, snapshot.inertia("the rotational fields")) if self.with_spin else None
 
     def _near(self, positions, ranges, halo):
         """Rows of ``positions`` within ``halo`` of the tile's node span on every resolved axis."""
@@ -211,7 +237,9 @@ class _Cutter:
         points = {"positions": snap.positions[rows], "masses": snap.masses[rows],
                   "velocities": None if snap.velocities is None else snap.velocities[rows],
                   "body_force": None if snap.body_force is None else np.ascontiguousarray(snap.body_force[rows]),
-                  "radii": None if snap.radii is None else snap.radii[rows]}
+                  "radii": None if snap.radii is None else snap.radii[rows],
+                  "angular_velocities": snap.angular_velocities[rows] if self.with_spin else None,
+                  "inertia": self.inertia[near] if self.with_spin else None}
         if self.with_contacts:
             b_keep = np.flatnonzero(self._near(self.bulk_owner, ranges, self.contact_halo))
             if self.all_boundary:
@@ -220,11 +248,15 @@ class _Cutter:
                 w_keep = np.flatnonzero(self._near(self.boundary_owner, ranges, self.contact_halo))
         else:
             b_keep = w_keep = np.zeros(0, np.int64)
-        owners = np.concatenate([self.bulk_owner[b_keep], self.boundary_owner[w_keep]])
-        bulk = {"i": np.arange(b_keep.size), "force": self.bulk["force"][b_keep], "branch": self.bulk["branch"][b_keep]}
+        owners = [self.bulk_owner[b_keep], self.boundary_owner[w_keep]]
+        bulk = {"i": np.arange(b_keep.size), "force": self.bulk["force"][b_keep], "branch": self.bulk["branch"][b_keep],
+                "point": self.bulk["point"][b_keep]}
         boundary = {"i": b_keep.size + np.arange(w_keep.size), "force": self.boundary["force"][w_keep],
                     "branch": self.boundary["branch"][w_keep], "point": self.boundary["point"][w_keep]}
-        return _TileData(snap.box, points, owners, bulk, boundary)
+        if self.with_halves:
+            owners.append(self.bulk_partner[b_keep])
+            bulk["j"] = b_keep.size + w_keep.size + np.arange(b_keep.size)
+        return _TileData(snap.box, points, np.concatenate(owners), bulk, boundary)
 
 
 class _Stitched:

@@ -482,7 +482,7 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
     if (st == CG_ERR_UNSUPPORTED && segments == 2) {
         PyErr_SetString(PyExc_NotImplementedError,
                         "first moments along segments are available for the Gaussian (any averaged axes) and for "
-                        "full-dimensional Lucy and Heaviside kernels (no gradient for Heaviside)");
+                        "Lucy and Heaviside kernels (no gradient for Heaviside, nor over averaged axes)");
         Py_CLEAR(out);
     } else if (st != CG_OK) {
         raise_status(st);

@@ -144,8 +144,9 @@ double cg_kernel_line(const cg_kernel *kernel, const double *q, const double *e,
    cg_kernel_line; if grad != NULL it receives the gradient of chi with respect
    to the node position. Exact (closed forms, or Gauss-Legendre panels where
    they are exact to round-off) for the Gaussian (any D_avg; an n-point rule
-   when line_points = n, as for psi), and for Lucy and Heaviside with D_avg = 0
-   or lower_dimensional; Heaviside has no gradient. */
+   when line_points = n, as for psi), and for Lucy and Heaviside (their
+   marginals over averaged axes by Gauss-Legendre panels, cg_moment.c); Heaviside
+   has no gradient, nor have Lucy's marginals (grad is then filled with NaN). */
 double cg_kernel_line_moment(const cg_kernel *kernel, const double *q, const double *e, double *grad);
 
 /* Where fields are evaluated. */

@@ -23,6 +23,12 @@
  * Gauss-Legendre panels integrate s M and s grad M to round-off, split at the
  * closest approach and, for Lucy, graded toward it (its profile has a kink
  * where the line meets the node, a near-singularity of scale a near it).
+ *
+ * Lucy's and Heaviside's marginals over averaged axes (values only): the same
+ * panels of s M (marginal_moment): exact for the polynomial marginals over two
+ * axes, graded toward both ends of each piece for Lucy's over one axis (its
+ * kink and its (R - rho)^(7/2) edge), and for Heaviside's chord over one axis
+ * a change of variable that removes its square-root edge (chord_half).
  */
 #include "cg.h"
 #include "cg_internal.h"
@@ -159,6 +165,102 @@ static void lucy_differences(double x0, double x1, double dx, double *dP, double
     *dphi = dx * (0.5 * h[1] - 1.5 * h[3] + 1.6 * h[4] - 0.5 * h[5]);
 }
 
+/* [lo, hi] split at its midpoint, each half graded toward its own end (levels as grading_levels) */
+static void moment_two_ended(const cg_kernel *k, const double *q, const double *e, double lo, double hi,
+                             int levels_lo, int levels_hi, double *chi)
+{
+    const double mid = 0.5 * (lo + hi);
+    moment_piece(k, q, e, lo, mid, 1, levels_lo, 1, chi, NULL);
+    moment_piece(k, q, e, mid, hi, 1, levels_hi, 0, chi, NULL);
+}
+
+/* sqrt(b^2 - t^2) at s, as sqrt((b - |t|)(b + |t|)); with `edge`, b - |t| = |s - se| L, the distance from
+   the support's edge se (a clipped end), without the cancellation of b - |t| there */
+static double chord_at(const segment_frame *f, double b, double s, int edge, double se)
+{
+    const double t = fabs(t_at(f, s));
+    const double gap = edge ? fabs(s - se) * f->L : b - t;
+    return gap > 0.0 ? sqrt(gap * (edge ? 2.0 * b - gap : b + t)) : 0.0;
+}
+
+/* int s sqrt(b^2 - t^2) ds over [lo, hi], whose end `outer` (0: lo, 1: hi) may be the support's edge
+   (clipped): there s = edge + (inward) (hi - lo) w^2 makes the integrand smooth in w (the chord is w times a
+   smooth factor); otherwise panels graded toward the outer end by its distance to the edge */
+static double chord_half(const segment_frame *f, double b, double R, double lo, double hi, int outer, int clipped)
+{
+    double xs[GL_POINTS], ws[GL_POINTS];
+    cg_gauss_legendre01(GL_POINTS, xs, ws);
+    const double span = hi - lo, se = outer ? hi : lo, inward = outer ? -1.0 : 1.0;
+    double sum = 0.0;
+    if (clipped) {
+        for (int p = 0; p < 2; ++p)
+            for (int i = 0; i < GL_POINTS; ++i) {
+                const double w = 0.5 * (p + xs[i]), s = se + inward * span * w * w;
+                sum += 0.5 * ws[i] * 2.0 * span * w * s * chord_at(f, b, s, 1, se);
+            }
+        return sum;
+    }
+    /* down to 1e-15 R: an end on the edge itself leaves sqrt(x) on the finest panel, ~(1e-15)^1.5 of the rest */
+    const double to_edge = fmax(b - fabs(t_at(f, se)), 1e-15 * R);
+    const int levels = grading_levels(span * f->L, to_edge);
+    double near = 0.0;   /* distance from the outer end, in units of span */
+    for (int l = levels; l >= 0; --l) {
+        const double far = l == 0 ? 1.0 : ldexp(1.0, -l);
+        const double a = se + inward * near * span, c = se + inward * far * span;
+        const double plo = fmin(a, c), width = fabs(c - a);
+        for (int i = 0; i < GL_POINTS; ++i) {
+            const double s = plo + xs[i] * width;
+            sum += ws[i] * width * s * chord_at(f, b, s, 0, se);
+        }
+        near = far;
+    }
+    return sum;
+}
+
+/* Heaviside's marginal over one averaged axis, M = 2 C sqrt(b^2 - t^2) (smooth inside the support, a square-root
+   edge where the support clips the segment): the two halves of [s0, s1], each toward its own end */
+static double heaviside_chord_moment(const cg_kernel *k, const segment_frame *f, double s0, double s1, double b)
+{
+    const double mid = 0.5 * (s0 + s1), R = k->radius;
+    const double sum = chord_half(f, b, R, s0, mid, 0, s0 > 0.0) + chord_half(f, b, R, mid, s1, 1, s1 < 1.0);
+    return 2.0 * k->prefactor * sum;
+}
+
+/* Lucy's and Heaviside's marginals over averaged axes (no gradient): split at the closest approach; Lucy over
+   two axes and Heaviside over two are polynomials in |t| (degree <= 6) on each side, so one 16-point panel per
+   side is exact; Lucy over one axis has a near-singularity of scale sqrt(a^2 + t^2) at the closest approach
+   (its r^3 term gives x^4 log x) and the branch point (R - rho)^(7/2) at the support's edge, so each piece is
+   graded toward both ends, as cg_kernel_line grades the same marginal */
+static double marginal_moment(const cg_kernel *k, const segment_frame *f, const double *q, const double *e,
+                              double s0, double s1, double b)
+{
+    const int n_avg = cg_kernel_marginal_axes(k);
+    if (k->type == CG_KERNEL_HEAVISIDE && n_avg == 1) return heaviside_chord_moment(k, f, s0, s1, b);
+    const double R = k->radius, star = f->u / f->L;
+    const int split = star > s0 && star < s1;
+    const double cuts[3] = {s0, split ? star : s1, s1};
+    const int graded = k->type == CG_KERNEL_LUCY && n_avg == 1;
+    double chi = 0.0;
+    for (int i = 0; i < 1 + split; ++i) {
+        const double lo = cuts[i], hi = cuts[i + 1];
+        if (!graded) {
+            moment_piece(k, q, e, lo, hi, 1, 0, 0, &chi, NULL);
+            continue;
+        }
+        int levels[2];
+        const double half = 0.5 * (hi - lo) * f->L;
+        for (int end = 0; end < 2; ++end) {
+            const double s = end ? hi : lo, t = fabs(t_at(f, s));
+            const int clipped = end ? s1 < 1.0 && hi == s1 : s0 > 0.0 && lo == s0;
+            const double to_kink = fmax(sqrt(f->a2 + t * t), 1e-9 * R);
+            const double to_edge = fmax(clipped ? 0.0 : b - t, 1e-7 * R);
+            levels[end] = grading_levels(half, fmin(to_kink, to_edge));
+        }
+        moment_two_ended(k, q, e, lo, hi, levels[0], levels[1], &chi);
+    }
+    return chi;
+}
+
 double cg_kernel_line_moment(const cg_kernel *k, const double *q, const double *e, double *grad)
 {
     const int rule = k->type == CG_KERNEL_GAUSSIAN ? k->line_points : 0;
@@ -190,6 +292,10 @@ double cg_kernel_line_moment_rule(const cg_kernel *k, const double *q, const dou
     const double R = k->radius;
     if (!clip_to_support(&f, R, &s0, &s1, &b)) return 0.0;
     const double t0 = t_at(&f, s0), t1 = t_at(&f, s1), span = (s1 - s0) * f.L;
+    if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) > 0) {
+        if (grad) for (int d = 0; d < n; ++d) grad[d] = NAN;   /* not offered: the scatter refuses it */
+        return marginal_moment(k, &f, q, e, s0, s1, b);
+    }
     if (k->type == CG_KERNEL_HEAVISIDE) /* constant: C (s1^2 - s0^2) / 2; no gradient */
         return k->prefactor * 0.5 * (s1 - s0) * (s1 + s0);
     const double dist = t1 > 0.0 ? t1 : (t0 < 0.0 ? -t0 : 0.0);

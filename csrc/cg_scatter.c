@@ -307,7 +307,8 @@ static cg_status prepare(job *jb)
                     t->n_resolved > 0 && !jb->is_segment && jb->mode != MODE_GRADIENT;
     if (jb->moment) {
         /* the first moment (cg_moment.c): node by node */
-        if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) != 0) return CG_ERR_UNSUPPORTED;
+        if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) != 0 && jb->mode == MODE_GRADIENT)
+            return CG_ERR_UNSUPPORTED;   /* Lucy's and Heaviside's marginals: values only */
         if (k->mercurycg_line || (k->type == CG_KERNEL_HEAVISIDE && jb->mode == MODE_GRADIENT))
             return CG_ERR_UNSUPPORTED;
         jb->separable = jb->wide = jb->lucy_rows = jb->ball_rows = 0;

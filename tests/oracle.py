@@ -322,7 +322,15 @@ class OracleKernel:
                 while d > scale and len(edges) < 400:
                     d *= 0.5
                     edges.update(x for x in (star - d, star + d) if lo < x < hi)
-            edges = sorted(edges)
+            # the marginals over averaged axes have an algebraic edge where the support ends (Heaviside's chord
+            # sqrt(b^2 - t^2), Lucy's (R - rho)^(7/2)): panels graded toward an end that is on the edge (clipped)
+            # or nearer to it than the segment is long, 2^-45 of the length at the finest (for the full kernels the
+            # edge is smooth or a jump, and the panels are harmless)
+            for end, inward in ((lo, 1.0), (hi, -1.0)):
+                near_edge = b - abs(u - end * L) < (hi - lo) * L
+                if near_edge and self.kind != "gaussian":
+                    edges.update(end + inward * (hi - lo) * 2.0**-k for k in range(1, 46))
+            edges = sorted(x for x in edges if lo <= x <= hi)
             total = 0.0
             for x0, x1 in zip(edges[:-1], edges[1:]):
                 half = 0.5 * (x1 - x0)

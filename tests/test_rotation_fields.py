@@ -150,9 +150,10 @@ def test_spin_fields_refuse_snapshots_without_angular_velocities_before_work(no_
         cg.coarse_grain(snap, grid, cg.Lucy(1.0), fields=("couple_stress",), couple_stress_form="midpoint")
     with pytest.raises(ValueError, match="couple_stress_form: expected 'contact_point' or 'branch_line'"):
         cg.CoarseGrain([snap], grid, cg.Lucy(1.0), fields=("couple_stress",), couple_stress_form=1)
-    with pytest.raises(ValueError, match="couple_stress_form: 'branch_line'.*averaged axes"):
-        cg.coarse_grain(snap, cg.Grid(snap.box, (1, 1, 3), average=("x", "y")), cg.Lucy(1.0),
-                        fields=("couple_stress",), couple_stress_form="branch_line")
+    with pytest.raises(ValueError, match="couple_stress_form: 'branch_line'.*needs exact line integrals"):
+        cg.coarse_grain(snap, cg.Grid(snap.box, (1, 1, 3), average=("x", "y")),
+                        cg.Gaussian(0.4, line_quadrature="mercurycg"), fields=("couple_stress",),
+                        couple_stress_form="branch_line")
     rings = cg.CylindricalGrid(snap.box, snap.box.lower + 0.5 * snap.box.lengths, "z", r=(0.5, 1.0, 2),
                                z=(-0.5, 0.5, 2))
     with pytest.raises(ValueError, match="fields: expected fields without a pseudo-vector index on a "
@@ -196,9 +197,14 @@ def test_cli_writes_a_rotational_field_of_lammps_data(tmp_path):
             assert np.abs(got).max() > 0
 
 
-def test_tiles_refuse_rotational_fields_before_work(no_work):
+def test_tiles_give_the_rotational_fields():
+    """Tiles once refused them; now the same numbers as one process (more in tests/test_tiled_fields.py)."""
     from cgbound.tiled import coarse_grain_tiled
     snap = frames(3, 1)[0]
-    with pytest.raises(ValueError, match="fields: expected fields without a pseudo-vector index for tiling"):
-        coarse_grain_tiled(snap, cg.Grid(snap.box, (4, 2, 4)), cg.Lucy(1.3), fields=("density", "couple_stress"),
-                           tiles=(2, 1, 2), backend="serial")
+    grid = cg.Grid(snap.box, (4, 2, 4))
+    fields = ("density",) + ROTATION_FIELDS
+    tiled = coarse_grain_tiled(snap, grid, cg.Lucy(1.3), fields=fields, tiles=(2, 1, 2), backend="serial")
+    whole = cg.coarse_grain(snap, grid, cg.Lucy(1.3), fields=fields)
+    for name in fields:
+        np.testing.assert_allclose(tiled[name], whole[name], rtol=0, atol=1e-12 * np.abs(whole[name]).max(),
+                                   err_msg=name)
