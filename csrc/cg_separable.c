@@ -262,8 +262,8 @@ typedef struct cut_batch {
 
 /* the fallback's Gauss-Legendre points (intervals short against w, see below) */
 #define CUT_FALLBACK_POINTS 8
-/* work arrays of a batch: 3 exponentials, 2 erfcx, the fallback's points */
-#define CUT_BATCH_WORK (5 + CUT_FALLBACK_POINTS)
+/* work arrays of a batch: 3 exponentials, 2 erfcx, the short lanes, the fallback's points */
+#define CUT_BATCH_WORK (6 + CUT_FALLBACK_POINTS)
 /* doubles of scratch a cut_batch takes */
 #define CUT_BATCH_DOUBLES ((size_t)CUT_BATCH * (8 + CUT_BATCH_WORK))
 
@@ -293,23 +293,18 @@ static void cut_batch_init(cut_batch *b, double *mem)
    against 1 / x). Where a term exceeds 16 times the value (cancellation of
    more than 4 bits), the interval is that short: its integrand varies by
    less than 7 % and an 8-point Gauss-Legendre rule is exact to round-off. */
-INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index obj, const double *e, double L2,
-                            double R2, double w, double amp)
+/* the lanes of a batch: the part [t0, t1] of the segment inside each node's
+   ball (as s0 - u and span, in units of the segment) and the arguments of the
+   closed form: e0, e1, ea the exponents at the two ends and at the foot, c0,
+   c1 the ends' |x| (erfcx's arguments). Loops of this shape are vectorised. */
+INLINE void cut_lanes(cg_index n, const double *restrict q0, const double *restrict q1, const double *restrict q2,
+                      double ex, double ey, double ez, double L2, double R2, double w, double *restrict a2s,
+                      double *restrict t0s, double *restrict spans, double *restrict e0, double *restrict e1,
+                      double *restrict ea, double *restrict c0, double *restrict c1)
 {
-    const int n = b->n;
-    b->n = 0;
-    /* a segment of zero length is a point: the nodes gathered for it are those
-       just outside its ball (within the candidates' margin), whose value is 0 */
-    if (n == 0 || !(L2 > 0.0)) return;
     const double inv_L2 = 1.0 / L2, L = sqrt(L2), inv2w2 = 0.5 / (w * w);
     const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w);
-    const double factor = amp * 1.2533141373155003 * w / L; /* sqrt(pi/2) w / L: per unit of s */
-    const double *restrict q0 = b->q[0], *restrict q1 = b->q[1], *restrict q2 = b->q[2];
-    const double ex = e[0], ey = e[1], ez = e[2];
-    double *restrict a2s = b->a2, *restrict t0s = b->t0, *restrict spans = b->span;
-    double *restrict e0 = b->arg, *restrict e1 = e0 + CUT_BATCH, *restrict ea = e1 + CUT_BATCH;
-    double *restrict c0 = ea + CUT_BATCH, *restrict c1 = c0 + CUT_BATCH;
-    for (int i = 0; i < n; ++i) {
+    for (cg_index i = 0; i < n; ++i) {
         const double u = (q0[i] * ex + q1[i] * ey + q2[i] * ez) * inv_L2;
         const double d0 = q0[i] - u * ex, d1 = q1[i] - u * ey, d2 = q2[i] - u * ez;
         const double a2 = d0 * d0 + d1 * d1 + d2 * d2;
@@ -331,30 +326,61 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
         c0[i] = (t0 < 0.0 ? -t0 : t0) * inv_sqrt2w;
         c1[i] = (t1 < 0.0 ? -t1 : t1) * inv_sqrt2w;
     }
+}
+
+/* value = factor * (|T0 - T1| or, where the ends straddle the foot, 2A - T0 -
+   T1), T = E erfcx; short[i] = 1 where a term exceeds 16 times the value */
+INLINE void cut_values(cg_index n, const double *restrict t0s, const double *restrict spans,
+                       const double *restrict e0, const double *restrict e1, const double *restrict ea,
+                       const double *restrict c0, const double *restrict c1, double factor, double *restrict value,
+                       double *restrict is_short)
+{
+    for (cg_index i = 0; i < n; ++i) {
+        const double T0 = e0[i] * c0[i], T1 = e1[i] * c1[i], twoA = ea[i] + ea[i];
+        const double t0 = t0s[i], t1 = t0s[i] + spans[i];
+        const int straddle = (t0 < 0.0) & (t1 > 0.0);
+        const double diff = T0 > T1 ? T0 - T1 : T1 - T0, larger = T0 > T1 ? T0 : T1;
+        const double v = straddle ? (twoA - T0) - T1 : diff;
+        const double largest = straddle ? twoA : larger;
+        value[i] = v * factor;
+        is_short[i] = (spans[i] > 0.0) & !(16.0 * v >= largest) ? 1.0 : 0.0;
+    }
+}
+
+INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index obj, const double *e, double L2,
+                            double R2, double w, double amp)
+{
+    const int n = b->n;
+    b->n = 0;
+    /* a segment of zero length is a point: the nodes gathered for it are those
+       just outside its ball (within the candidates' margin), whose value is 0 */
+    if (n == 0 || !(L2 > 0.0)) return;
+    const double inv2w2 = 0.5 / (w * w);
+    const double factor = amp * 1.2533141373155003 * w / sqrt(L2); /* sqrt(pi/2) w / L: per unit of s */
+    double *const e0 = b->arg, *const e1 = e0 + CUT_BATCH, *const ea = e1 + CUT_BATCH;
+    double *const c0 = ea + CUT_BATCH, *const c1 = c0 + CUT_BATCH, *const is_short = c1 + CUT_BATCH;
     /* whole vectors (EXP_PAD; CUT_BATCH is a multiple of it): the lanes past n are not used */
     const cg_index n_padded = (n + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
-    for (cg_index m = n; m < n_padded; ++m) e0[m] = e1[m] = ea[m] = c0[m] = c1[m] = 0.0;
+    for (cg_index m = n; m < n_padded; ++m) b->q[0][m] = b->q[1][m] = b->q[2][m] = 0.0;
+    cut_lanes(n_padded, b->q[0], b->q[1], b->q[2], e[0], e[1], e[2], L2, R2, w, b->a2, b->t0, b->span, e0, e1, ea,
+              c0, c1);
     exp_in_place(e0, n_padded);
     exp_in_place(e1, n_padded);
     exp_in_place(ea, n_padded);
     erfcx_in_place(c0, n_padded);
     erfcx_in_place(c1, n_padded);
     double *restrict value = b->value;
+    cut_values(n_padded, b->t0, b->span, e0, e1, ea, c0, c1, factor, value, is_short);
+    const double *a2s = b->a2, *t0s = b->t0, *spans = b->span;
     int n_short = 0;
     int short_lane[CUT_BATCH];
-    for (int i = 0; i < n; ++i) {
-        const double T0 = e0[i] * c0[i], T1 = e1[i] * c1[i], twoA = ea[i] + ea[i];
-        const int straddle = t0s[i] < 0.0 && t0s[i] + spans[i] > 0.0;
-        const double v = straddle ? (twoA - T0) - T1 : (T0 > T1 ? T0 - T1 : T1 - T0);
-        const double largest = straddle ? twoA : (T0 > T1 ? T0 : T1);
-        value[i] = v * factor;
-        if (spans[i] > 0.0 && !(16.0 * v >= largest)) short_lane[n_short++] = i;
-    }
+    for (int i = 0; i < n; ++i)
+        if (is_short[i] != 0.0) short_lane[n_short++] = i;
     if (n_short) {
         /* the short intervals: Gauss-Legendre on [s0, s0 + span] */
         double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
         cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
-        double *restrict arg = c1 + CUT_BATCH;
+        double *restrict arg = is_short + CUT_BATCH;
         for (int g = 0; g < CUT_FALLBACK_POINTS; ++g)
             for (int m = 0; m < n_short; ++m) {
                 const int i = short_lane[m];
@@ -394,6 +420,20 @@ INLINE double segment_distance2(const double *q, const double *e, double inv_L2)
         d2 += d * d;
     }
     return d2;
+}
+
+/* d2[k] = segment_distance2 of the nodes (x, y, z[k]) of a row, k < n (the
+   same operations, in a loop that is vectorised) */
+INLINE void row_distance2(cg_index n, double x, double y, const double *restrict z, const double *e, double inv_L2,
+                          double *restrict d2)
+{
+    const double ex = e[0], ey = e[1], ez = e[2], pxy = x * ex + y * ey;
+    for (cg_index k = 0; k < n; ++k) {
+        double t = (pxy + z[k] * ez) * inv_L2;
+        t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
+        const double d0 = x - t * ex, d1 = y - t * ey, d2k = z[k] - t * ez;
+        d2[k] = (d0 * d0 + d1 * d1) + d2k * d2k;
+    }
 }
 
 /* the index of the least of n >= 1 values (the first of equal ones) */
@@ -470,11 +510,13 @@ INLINE void rows_of_one_point(const job *jb, double *out, cg_index obj, cg_index
 INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, const double *ci,
                        double *const (*ex)[3], cg_index j)
 {
+    double cij[CG_MAX_LINE_POINTS];
+    for (int g = 0; g < G; ++g) cij[g] = ci[g] * ex[g][1][j];
     for (cg_index k = a; k < b; k += VW) {
 #ifdef HAVE_V4D
         vwd acc = {0.0};
         for (int g = 0; g < G; ++g) {
-            const vwd c = (vwd){0.0} + ci[g] * ex[g][1][j]; /* broadcast (0 + c is c) */
+            const vwd c = (vwd){0.0} + cij[g]; /* broadcast (0 + c is c) */
             vwd gz;
             memcpy(&gz, ex[g][2] + k, sizeof gz);
             acc += c * gz;
@@ -484,7 +526,7 @@ INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, cons
         const cg_index end = k + VW < b ? k + VW : b;
         for (cg_index m = k; m < end; ++m) row[m] = 0.0;
         for (int g = 0; g < G; ++g) {
-            const double c = ci[g] * ex[g][1][j];
+            const double c = cij[g];
             for (cg_index m = k; m < end; ++m) row[m] += c * ex[g][2][m];
         }
 #endif
@@ -678,7 +720,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
     /* tables d2, g per rule point; end-point tables (hybrid); node coordinates; a row */
     /* the row has ROW_PAD more doubles: the exact form's rows are summed 8 at a time */
-    const size_t need = (size_t)G * per_point + EXP_PAD + (hybrid ? per_point + CUT_BATCH_DOUBLES : 0) +
+    const size_t need = (size_t)G * per_point + EXP_PAD + (hybrid ? per_point + CUT_BATCH_DOUBLES + n2 : 0) +
                         (size_t)(n0 + n1 + n2) + 2 * ((size_t)n2 + ROW_PAD);
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
@@ -688,6 +730,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     if (hybrid || G > 1)
         for (cg_index k = n2; k < 2 * (n2 + ROW_PAD); ++k) row[k] = 0.0;
     if (hybrid) cut_batch_init(&cuts, row + n2 + ROW_PAD);
+    double *dk = row + 2 * (n2 + ROW_PAD) + CUT_BATCH_DOUBLES; /* hybrid: a row's squared distances */
     /* node coordinates relative to x (points, and the exact form's ends) */
     double *cslot[3] = {coord, coord + n0, coord + n0 + n1};
     if (!jb->is_segment || hybrid) {
@@ -822,30 +865,15 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                     inside_row(row, ia, ib, G, ci, (double *const(*)[3])ex, j);
                 }
                 /* elsewhere, the part inside the ball, at the nodes near enough to the
-                   segment: an interval around the inside one (the capsule is convex),
-                   found by walking outwards from it (the whole row if it is empty) */
-                cg_index lo = 0, hi = n2;
-                if (a < b) {
-                    lo = a;
-                    hi = b;
-                    while (lo > 0) {
-                        const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][lo - 1]};
-                        if (!(segment_distance2(q3, es, inv_L2) < R2_margin)) break;
-                        --lo;
-                    }
-                    while (hi < n2) {
-                        const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][hi]};
-                        if (!(segment_distance2(q3, es, inv_L2) < R2_margin)) break;
-                        ++hi;
-                    }
-                }
-                for (cg_index k = lo; k < hi; ++k) {
+                   segment (the capsule: the exact form decides near its surface) */
+                row_distance2(n2, cslot[0][i], cslot[1][j], cslot[2], es, inv_L2, dk);
+                for (cg_index k = 0; k < n2; ++k) {
                     if (k == ia && ia < ib) {
                         k = ib - 1; /* skip the rule's interval */
                         continue;
                     }
+                    if (!(dk[k] < R2_margin)) continue;
                     const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][k]};
-                    if (a >= b && !(segment_distance2(q3, es, inv_L2) < R2_margin)) continue;
                     if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
                     const int m = cuts.n++;
                     for (int s = 0; s < 3; ++s) cuts.q[s][m] = q3[s];
