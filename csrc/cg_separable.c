@@ -15,12 +15,14 @@
  * w_g: the same outer products, one table set per point (one pass per point
  * for n <= 2; for more, each row's weights are summed over the points first,
  * with the cutoff as a vector mask). Segments asked for to round-off
- * ("exact") use a Gauss-Legendre rule that is exact to round-off
- * (cg_gaussian_roundoff_points) at the nodes whose whole segment lies inside
- * the cutoff ball (both ends inside: the integrand is a smooth Gaussian on
- * [0, 1]), and the same rule on the part of the segment inside the ball at the
- * nodes the cutoff sphere cuts it for (gathered and evaluated in batches);
- * segments too long for such a rule go to the node-by-node path.
+ * ("exact") use a Gauss-Legendre rule that is exact to round-off relative to
+ * the kernel's peak (cg_gaussian_roundoff_points) at the nodes whose whole
+ * segment lies inside the cutoff ball (both ends inside: the integrand is a
+ * smooth Gaussian on [0, 1]) and at most FAR_BEYOND_END w beyond its ends;
+ * at the nodes the cutoff sphere cuts it for, and farther beyond the ends,
+ * the closed erf form on the part of the segment inside the ball, in tails
+ * (erfcx), exact relative to each value (gathered and evaluated in vectorised
+ * batches); segments too long for such a rule go to the node-by-node path.
  *
  * Resolved axes are placed in three "slots", right-aligned: the last
  * resolved axis (stride 1 in the output) is always slot 2; missing slots
@@ -302,7 +304,10 @@ INLINE void cut_lanes(cg_index n, const double *restrict q0, const double *restr
                       double *restrict t0s, double *restrict spans, double *restrict e0, double *restrict e1,
                       double *restrict ea, double *restrict c0, double *restrict c1)
 {
-    const double inv_L2 = 1.0 / L2, L = sqrt(L2), inv2w2 = 0.5 / (w * w);
+    /* half the exponents: exp(x / 2)^2 reaches the subnormal values down to
+       exp(-1416) where exp_in_place stops at exp(-708) (far nodes, cutoffs
+       beyond 37 w) */
+    const double inv_L2 = 1.0 / L2, L = sqrt(L2), inv4w2 = 0.25 / (w * w);
     const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w);
     for (cg_index i = 0; i < n; ++i) {
         const double u = (q0[i] * ex + q1[i] * ey + q2[i] * ez) * inv_L2;
@@ -320,9 +325,9 @@ INLINE void cut_lanes(cg_index n, const double *restrict q0, const double *restr
         a2s[i] = a2;
         t0s[i] = s0 - u;
         spans[i] = span;
-        e0[i] = -(a2 + t0 * t0) * inv2w2;
-        e1[i] = -(a2 + t1 * t1) * inv2w2;
-        ea[i] = -a2 * inv2w2;
+        e0[i] = -(a2 + t0 * t0) * inv4w2;
+        e1[i] = -(a2 + t1 * t1) * inv4w2;
+        ea[i] = -a2 * inv4w2;
         c0[i] = (t0 < 0.0 ? -t0 : t0) * inv_sqrt2w;
         c1[i] = (t1 < 0.0 ? -t1 : t1) * inv_sqrt2w;
     }
@@ -336,7 +341,7 @@ INLINE void cut_values(cg_index n, const double *restrict t0s, const double *res
                        double *restrict is_short)
 {
     for (cg_index i = 0; i < n; ++i) {
-        const double T0 = e0[i] * c0[i], T1 = e1[i] * c1[i], twoA = ea[i] + ea[i];
+        const double T0 = (e0[i] * c0[i]) * e0[i], T1 = (e1[i] * c1[i]) * e1[i], twoA = 2.0 * ea[i] * ea[i];
         const double t0 = t0s[i], t1 = t0s[i] + spans[i];
         const int straddle = (t0 < 0.0) & (t1 > 0.0);
         const double diff = T0 > T1 ? T0 - T1 : T1 - T0, larger = T0 > T1 ? T0 : T1;
@@ -385,14 +390,14 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
             for (int m = 0; m < n_short; ++m) {
                 const int i = short_lane[m];
                 const double t = t0s[i] + gx[g] * spans[i];
-                arg[g * n_short + m] = -(a2s[i] + t * t * L2) * inv2w2;
+                arg[g * n_short + m] = -(a2s[i] + t * t * L2) * (0.5 * inv2w2); /* halved, as in cut_lanes */
             }
         const cg_index n_args = (cg_index)CUT_FALLBACK_POINTS * n_short;
         exp_in_place(arg, n_args);
         for (int m = 0; m < n_short; ++m) {
             const int i = short_lane[m];
             double sum = 0.0;
-            for (int g = 0; g < CUT_FALLBACK_POINTS; ++g) sum += gw[g] * arg[g * n_short + m];
+            for (int g = 0; g < CUT_FALLBACK_POINTS; ++g) sum += (gw[g] * arg[g * n_short + m]) * arg[g * n_short + m];
             value[i] = (amp * sum) * spans[i];
         }
     }
