@@ -127,6 +127,17 @@ def test_nodes_far_beyond_a_segment_end(distance):
     assert err <= RTOL, err
 
 
+def test_subnormal_values_far_beyond_an_end():
+    """A cutoff of 40 w holds nodes about 38 w away, where the kernel is subnormal (exp(-724)): the closed form
+    keeps them nonzero like the node-by-node path (exp(x) of its vectorised exponential stops at x = -708)."""
+    start, vector = np.full(3, 1.45), np.array([-0.04, 0.03, -0.028])
+    err = assert_grid_equals_node_by_node(cg.Box([0, 0, 0], [6, 6, 6]), (19, 19, 19), start, vector, 0.2, 40.0,
+                                          "subnormal far values")
+    _, _, fast = gauss_grid_psi(cg.Box([0, 0, 0], [6, 6, 6]), (19, 19, 19), start, vector, 0.2, 40.0)
+    assert 0.0 < fast[-1] < 1e-307        # the far corner, about 7.6 = 38 w away
+    record("Gaussian exact grid, subnormal values at 38 w", err)
+
+
 def test_nodes_exactly_on_the_segment_line():
     w, cutoff = 0.25, 8.0
     box = cg.Box([0, 0, 0], [4, 4, 4])
