@@ -248,7 +248,7 @@ INLINE void erfcx_in_place(double *restrict x, cg_index n)
    mpmath). Nodes farther beyond an end go to the closed form. */
 #define FAR_BEYOND_END 4.0
 
-/* Nodes evaluated by the closed form (cg_closed_batch_flush): those whose
+/* Nodes evaluated by the closed form (cut_batch_flush): those whose
    ball the segment leaves ("cut" nodes), and those too far beyond an end for
    the segment's rule to keep their own digits; gathered in batches: q = node
    - start in slots, and the output node. */
@@ -281,20 +281,6 @@ static void cut_batch_init(cut_batch *b, double *mem)
     b->arg = mem + 8 * CUT_BATCH;
 }
 
-/* The exact line integral at the gathered nodes, added to out (amp: the
-   kernel's prefactor times the object's scale). With a^2 the node's squared
-   distance to the segment's line, t the signed distance along it from the
-   foot of the node and [t0, t1] the part of the segment inside the node's
-   ball (clipped like the node-by-node path),
-     int exp(-(a^2 + t^2) / 2w^2) dt = sqrt(pi/2) w [erf(x1) - erf(x0)] A,
-   x = t / (sqrt(2) w), A = exp(-a^2 / 2w^2). In tails T = A erfc(|x|) =
-   E erfcx(|x|), E = exp(-(a^2 + t^2) / 2w^2) (relative accuracy however far
-   out): the bracket times A is |T0 - T1| where both ends lie on one side of
-   the foot and 2A - T0 - T1 where they straddle it; no term is larger than
-   the value unless the interval is short (x1 - x0 small against 1 and
-   against 1 / x). Where a term exceeds 16 times the value (cancellation of
-   more than 4 bits), the interval is that short: its integrand varies by
-   less than 7 % and an 8-point Gauss-Legendre rule is exact to round-off. */
 /* the lanes of a batch: the part [t0, t1] of the segment inside each node's
    ball (as s0 - u and span, in units of the segment) and the arguments of the
    closed form: e0, e1, ea the exponents at the two ends and at the foot, c0,
@@ -352,6 +338,20 @@ INLINE void cut_values(cg_index n, const double *restrict t0s, const double *res
     }
 }
 
+/* The exact line integral at the gathered nodes, added to out (amp: the
+   kernel's prefactor times the object's scale). With a^2 the node's squared
+   distance to the segment's line, t the signed distance along it from the
+   foot of the node and [t0, t1] the part of the segment inside the node's
+   ball (clipped like the node-by-node path),
+     int exp(-(a^2 + t^2) / 2w^2) dt = sqrt(pi/2) w [erf(x1) - erf(x0)] A,
+   x = t / (sqrt(2) w), A = exp(-a^2 / 2w^2). In tails T = A erfc(|x|) =
+   E erfcx(|x|), E = exp(-(a^2 + t^2) / 2w^2) (relative accuracy however far
+   out): the bracket times A is |T0 - T1| where both ends lie on one side of
+   the foot and 2A - T0 - T1 where they straddle it; no term is larger than
+   the value unless the interval is short (x1 - x0 small against 1 and
+   against 1 / x). Where a term exceeds 16 times the value (cancellation of
+   more than 4 bits), the interval is that short: its integrand varies by
+   less than 7 % and an 8-point Gauss-Legendre rule is exact to round-off. */
 INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index obj, const double *e, double L2,
                             double R2, double w, double amp)
 {
