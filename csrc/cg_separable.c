@@ -15,12 +15,14 @@
  * w_g: the same outer products, one table set per point (one pass per point
  * for n <= 2; for more, each row's weights are summed over the points first,
  * with the cutoff as a vector mask). Segments asked for to round-off
- * ("exact") use a Gauss-Legendre rule that is exact to round-off
- * (cg_gaussian_roundoff_points) at the nodes whose whole segment lies inside
- * the cutoff ball (both ends inside: the integrand is a smooth Gaussian on
- * [0, 1]), and the same rule on the part of the segment inside the ball at the
- * nodes the cutoff sphere cuts it for (gathered and evaluated in batches);
- * segments too long for such a rule go to the node-by-node path.
+ * ("exact") use a Gauss-Legendre rule that is exact to round-off relative to
+ * the kernel's peak (cg_gaussian_roundoff_points) at the nodes whose whole
+ * segment lies inside the cutoff ball (both ends inside: the integrand is a
+ * smooth Gaussian on [0, 1]) and at most FAR_BEYOND_END w beyond its ends;
+ * at the nodes the cutoff sphere cuts it for, and farther beyond the ends,
+ * the closed erf form on the part of the segment inside the ball, in tails
+ * (erfcx), exact relative to each value (gathered and evaluated in vectorised
+ * batches); segments too long for such a rule go to the node-by-node path.
  *
  * Resolved axes are placed in three "slots", right-aligned: the last
  * resolved axis (stride 1 in the output) is always slot 2; missing slots
@@ -187,8 +189,69 @@ INLINE void exp_in_place(double *restrict x, cg_index n)
     }
 }
 
-/* Nodes whose ball the segment leaves ("cut" nodes), gathered and evaluated
-   in batches: q = node - start in slots, and the output node. */
+/* erfcx(x) = exp(x^2) erfc(x) for x >= 0 (in place): (1 + 2x) erfcx(x) is a
+   Chebyshev series in y = (x - 4) / (x + 4), which maps [0, inf) to [-1, 1)
+   (27 terms, fitted in 50-digit arithmetic; summed by Clenshaw's recurrence).
+   Within 2 ulp of the exact value for every x >= 0 (checked against mpmath
+   from 0 to 1e8). */
+#define ERFCX_TERMS 27
+static const double ERFCX_CHEB[ERFCX_TERMS] = {
+    1.1774832005374487,      -0.007260796620301901,  -0.081265123236185,      0.06009212804122225,
+    -0.02875393558027666,    0.01059566336347286,    -0.003136927294554264,   0.0007456494372536184,
+    -0.0001369696503010054,  1.7183861600300937e-05, -7.158364623450346e-07,  -2.4261399442449534e-07,
+    5.5765709395703566e-08,  -2.1057869513809494e-09, -1.1717889351884957e-09, 1.9098355172456688e-10,
+    1.408871764208813e-11,   -6.901108320480815e-12, 9.167958364111294e-14,   2.1454508286554553e-13,
+    -1.4716575027010623e-14, -6.668675118770408e-15, 7.504598509880083e-16,   2.22009300666632e-16,
+    -3.1704898956330886e-17, -8.193570309884333e-18, 1.2459819733129574e-18,
+};
+
+INLINE double erfcx_one(double x)
+{
+    const double y = (x - 4.0) / (x + 4.0), y2 = y + y;
+    double b1 = 0.0, b2 = 0.0;
+    for (int j = ERFCX_TERMS - 1; j >= 1; --j) {
+        const double bj = (y2 * b1 - b2) + ERFCX_CHEB[j];
+        b2 = b1;
+        b1 = bj;
+    }
+    return ((y * b1 - b2) + ERFCX_CHEB[0]) / (1.0 + 2.0 * x);
+}
+
+/* x[i] = erfcx(x[i]) for n a multiple of VW: VW lanes at a time in vector
+   registers (the same operations in the same order as erfcx_one) */
+INLINE void erfcx_in_place(double *restrict x, cg_index n)
+{
+#ifdef HAVE_V4D
+    const vwd one = (vwd){0.0} + 1.0, four = (vwd){0.0} + 4.0;
+    for (cg_index i = 0; i < n; i += VW) {
+        vwd xv;
+        memcpy(&xv, x + i, sizeof xv);
+        const vwd y = (xv - four) / (xv + four), y2 = y + y;
+        vwd b1 = {0.0}, b2 = {0.0};
+#pragma GCC unroll 32
+        for (int j = ERFCX_TERMS - 1; j >= 1; --j) {
+            const vwd bj = (y2 * b1 - b2) + ERFCX_CHEB[j];
+            b2 = b1;
+            b1 = bj;
+        }
+        const vwd r = ((y * b1 - b2) + ERFCX_CHEB[0]) / (one + (xv + xv));
+        memcpy(x + i, &r, sizeof r);
+    }
+#else
+    for (cg_index i = 0; i < n; ++i) x[i] = erfcx_one(x[i]);
+#endif
+}
+
+/* The segment's rule (cg_gaussian_roundoff_points) is exact to round-off
+   relative to the kernel's peak; relative to a node's own value it keeps 1e-14
+   up to 4.25 w beyond an end (every rule, all its lengths; measured against
+   mpmath). Nodes farther beyond an end go to the closed form. */
+#define FAR_BEYOND_END 4.0
+
+/* Nodes evaluated by the closed form (cut_batch_flush): those whose
+   ball the segment leaves ("cut" nodes), and those too far beyond an end for
+   the segment's rule to keep their own digits; gathered in batches: q = node
+   - start in slots, and the output node. */
 #define CUT_BATCH 128
 
 typedef struct cut_batch {
@@ -196,11 +259,15 @@ typedef struct cut_batch {
     double *q[3];     /* CUT_BATCH each */
     cg_index *node;   /* CUT_BATCH */
     double *a2, *t0, *span, *value; /* CUT_BATCH each */
-    double *arg;      /* CG_MAX_LINE_POINTS * CUT_BATCH */
+    double *arg;      /* CUT_BATCH_WORK * CUT_BATCH */
 } cut_batch;
 
+/* the fallback's Gauss-Legendre points (intervals short against w, see below) */
+#define CUT_FALLBACK_POINTS 8
+/* work arrays of a batch: 3 exponentials, 2 erfcx, the short lanes, the fallback's points */
+#define CUT_BATCH_WORK (6 + CUT_FALLBACK_POINTS)
 /* doubles of scratch a cut_batch takes */
-#define CUT_BATCH_DOUBLES ((size_t)CUT_BATCH * (8 + CG_MAX_LINE_POINTS))
+#define CUT_BATCH_DOUBLES ((size_t)CUT_BATCH * (8 + CUT_BATCH_WORK))
 
 static void cut_batch_init(cut_batch *b, double *mem)
 {
@@ -214,25 +281,23 @@ static void cut_batch_init(cut_batch *b, double *mem)
     b->arg = mem + 8 * CUT_BATCH;
 }
 
-/* The exact line integral (to round-off) at the gathered nodes, added to out.
-   The integrand exp(-(a^2 + (s - u)^2 L2) / 2w^2) is smooth on the part
-   [s0, s1] of [0, 1] inside the node's ball, so the segment's own rule
-   (G points, exact to round-off for the whole segment, hence for any part)
-   integrates it: G exponentials per node, all in one vectorised loop. */
-INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index obj, const double *e, double L2,
-                            double R2, double inv2w2, int G, const double *gx, const double *gw)
+/* the lanes of a batch: the part [t0, t1] of the segment inside each node's
+   ball (as s0 - u and span, in units of the segment) and the arguments of the
+   closed form: e0, e1, ea the exponents at the two ends and at the foot, c0,
+   c1 the ends' |x| (erfcx's arguments). Loops of this shape are vectorised. */
+INLINE void cut_lanes(cg_index n, const double *restrict q0, const double *restrict q1, const double *restrict q2,
+                      double ex, double ey, double ez, double L2, double R2, double w, double *restrict a2s,
+                      double *restrict t0s, double *restrict spans, double *restrict e0, double *restrict e1,
+                      double *restrict ea, double *restrict c0, double *restrict c1)
 {
-    const int n = b->n;
-    b->n = 0;
-    /* a segment of zero length is a point: the nodes gathered for it are those
-       just outside its ball (within the candidates' margin), whose value is 0 */
-    if (n == 0 || !(L2 > 0.0)) return;
-    const double inv_L2 = 1.0 / L2;
-    const double *q0 = b->q[0], *q1 = b->q[1], *q2 = b->q[2];
-    double *restrict a2s = b->a2, *restrict t0s = b->t0, *restrict spans = b->span, *restrict arg = b->arg;
-    for (int i = 0; i < n; ++i) {
-        const double u = (q0[i] * e[0] + q1[i] * e[1] + q2[i] * e[2]) * inv_L2;
-        const double d0 = q0[i] - u * e[0], d1 = q1[i] - u * e[1], d2 = q2[i] - u * e[2];
+    /* half the exponents: exp(x / 2)^2 reaches the subnormal values down to
+       exp(-1416) where exp_in_place stops at exp(-708) (far nodes, cutoffs
+       beyond 37 w) */
+    const double inv_L2 = 1.0 / L2, L = sqrt(L2), inv4w2 = 0.25 / (w * w);
+    const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w);
+    for (cg_index i = 0; i < n; ++i) {
+        const double u = (q0[i] * ex + q1[i] * ey + q2[i] * ez) * inv_L2;
+        const double d0 = q0[i] - u * ex, d1 = q1[i] - u * ey, d2 = q2[i] - u * ez;
         const double a2 = d0 * d0 + d1 * d1 + d2 * d2;
         double b2 = R2 - a2;
         b2 = b2 > 0.0 ? b2 : 0.0;
@@ -240,31 +305,104 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
         double s0 = u - half, s1 = u + half;
         s0 = s0 > 0.0 ? s0 : 0.0;
         s1 = s1 < 1.0 ? s1 : 1.0;
-        const double span = s1 - s0;
+        double span = s1 - s0;
+        span = span > 0.0 ? span : 0.0;
+        const double t0 = (s0 - u) * L, t1 = t0 + span * L;
         a2s[i] = a2;
         t0s[i] = s0 - u;
-        spans[i] = span > 0.0 ? span : 0.0;
+        spans[i] = span;
+        e0[i] = -(a2 + t0 * t0) * inv4w2;
+        e1[i] = -(a2 + t1 * t1) * inv4w2;
+        ea[i] = -a2 * inv4w2;
+        c0[i] = (t0 < 0.0 ? -t0 : t0) * inv_sqrt2w;
+        c1[i] = (t1 < 0.0 ? -t1 : t1) * inv_sqrt2w;
     }
-    for (int g = 0; g < G; ++g) {
-        double *restrict ag = arg + (size_t)g * n;
-        const double xg = gx[g];
-        for (int i = 0; i < n; ++i) {
-            const double t = t0s[i] + xg * spans[i];
-            ag[i] = -(a2s[i] + t * t * L2) * inv2w2;
+}
+
+/* value = factor * (|T0 - T1| or, where the ends straddle the foot, 2A - T0 -
+   T1), T = E erfcx; short[i] = 1 where a term exceeds 16 times the value */
+INLINE void cut_values(cg_index n, const double *restrict t0s, const double *restrict spans,
+                       const double *restrict e0, const double *restrict e1, const double *restrict ea,
+                       const double *restrict c0, const double *restrict c1, double factor, double *restrict value,
+                       double *restrict is_short)
+{
+    for (cg_index i = 0; i < n; ++i) {
+        const double T0 = (e0[i] * c0[i]) * e0[i], T1 = (e1[i] * c1[i]) * e1[i], twoA = 2.0 * ea[i] * ea[i];
+        const double t0 = t0s[i], t1 = t0s[i] + spans[i];
+        const int straddle = (t0 < 0.0) & (t1 > 0.0);
+        const double diff = T0 > T1 ? T0 - T1 : T1 - T0, larger = T0 > T1 ? T0 : T1;
+        const double v = straddle ? (twoA - T0) - T1 : diff;
+        const double largest = straddle ? twoA : larger;
+        value[i] = v * factor;
+        is_short[i] = (spans[i] > 0.0) & !(16.0 * v >= largest) ? 1.0 : 0.0;
+    }
+}
+
+/* The exact line integral at the gathered nodes, added to out (amp: the
+   kernel's prefactor times the object's scale). With a^2 the node's squared
+   distance to the segment's line, t the signed distance along it from the
+   foot of the node and [t0, t1] the part of the segment inside the node's
+   ball (clipped like the node-by-node path),
+     int exp(-(a^2 + t^2) / 2w^2) dt = sqrt(pi/2) w [erf(x1) - erf(x0)] A,
+   x = t / (sqrt(2) w), A = exp(-a^2 / 2w^2). In tails T = A erfc(|x|) =
+   E erfcx(|x|), E = exp(-(a^2 + t^2) / 2w^2) (relative accuracy however far
+   out): the bracket times A is |T0 - T1| where both ends lie on one side of
+   the foot and 2A - T0 - T1 where they straddle it; no term is larger than
+   the value unless the interval is short (x1 - x0 small against 1 and
+   against 1 / x). Where a term exceeds 16 times the value (cancellation of
+   more than 4 bits), the interval is that short: its integrand varies by
+   less than 7 % and an 8-point Gauss-Legendre rule is exact to round-off. */
+INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index obj, const double *e, double L2,
+                            double R2, double w, double amp)
+{
+    const int n = b->n;
+    b->n = 0;
+    /* a segment of zero length is a point: the nodes gathered for it are those
+       just outside its ball (within the candidates' margin), whose value is 0 */
+    if (n == 0 || !(L2 > 0.0)) return;
+    const double inv2w2 = 0.5 / (w * w);
+    const double factor = amp * 1.2533141373155003 * w / sqrt(L2); /* sqrt(pi/2) w / L: per unit of s */
+    double *const e0 = b->arg, *const e1 = e0 + CUT_BATCH, *const ea = e1 + CUT_BATCH;
+    double *const c0 = ea + CUT_BATCH, *const c1 = c0 + CUT_BATCH, *const is_short = c1 + CUT_BATCH;
+    /* whole vectors (EXP_PAD; CUT_BATCH is a multiple of it): the lanes past n are not used */
+    const cg_index n_padded = (n + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
+    for (cg_index m = n; m < n_padded; ++m) b->q[0][m] = b->q[1][m] = b->q[2][m] = 0.0;
+    cut_lanes(n_padded, b->q[0], b->q[1], b->q[2], e[0], e[1], e[2], L2, R2, w, b->a2, b->t0, b->span, e0, e1, ea,
+              c0, c1);
+    exp_in_place(e0, n_padded);
+    exp_in_place(e1, n_padded);
+    exp_in_place(ea, n_padded);
+    erfcx_in_place(c0, n_padded);
+    erfcx_in_place(c1, n_padded);
+    double *restrict value = b->value;
+    cut_values(n_padded, b->t0, b->span, e0, e1, ea, c0, c1, factor, value, is_short);
+    const double *a2s = b->a2, *t0s = b->t0, *spans = b->span;
+    int n_short = 0;
+    int short_lane[CUT_BATCH];
+    for (int i = 0; i < n; ++i)
+        if (is_short[i] != 0.0) short_lane[n_short++] = i;
+    if (n_short) {
+        /* the short intervals: Gauss-Legendre on [s0, s0 + span] */
+        double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
+        cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
+        double *restrict arg = is_short + CUT_BATCH;
+        for (int g = 0; g < CUT_FALLBACK_POINTS; ++g)
+            for (int m = 0; m < n_short; ++m) {
+                const int i = short_lane[m];
+                const double t = t0s[i] + gx[g] * spans[i];
+                arg[g * n_short + m] = -(a2s[i] + t * t * L2) * (0.5 * inv2w2); /* halved, as in cut_lanes */
+            }
+        const cg_index n_args = (cg_index)CUT_FALLBACK_POINTS * n_short;
+        exp_in_place(arg, n_args);
+        for (int m = 0; m < n_short; ++m) {
+            const int i = short_lane[m];
+            double sum = 0.0;
+            for (int g = 0; g < CUT_FALLBACK_POINTS; ++g) sum += (gw[g] * arg[g * n_short + m]) * arg[g * n_short + m];
+            value[i] = (amp * sum) * spans[i];
         }
     }
-    const cg_index n_args = (cg_index)G * n, n_padded = (n_args + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
-    for (cg_index m = n_args; m < n_padded; ++m) arg[m] = 0.0; /* CUT_BATCH is a multiple of EXP_PAD */
-    exp_in_place(arg, n_padded);
-    double *restrict value = b->value;
-    for (int i = 0; i < n; ++i) value[i] = 0.0;
-    for (int g = 0; g < G; ++g) {
-        const double *ag = arg + (size_t)g * n;
-        const double wg = gw[g];
-        for (int i = 0; i < n; ++i) value[i] += wg * ag[i];
-    }
     for (int i = 0; i < n; ++i) {
-        const double v = value[i] * spans[i];
+        const double v = value[i];
         if (v == 0.0) continue; /* the segment misses this node's ball */
         if (jb->mode == MODE_VALUE)
             block_add(out + b->node[i] * jb->out_width, 1.0, &v, 1, jb->values + obj * jb->n_values, jb->n_values);
@@ -287,6 +425,20 @@ INLINE double segment_distance2(const double *q, const double *e, double inv_L2)
         d2 += d * d;
     }
     return d2;
+}
+
+/* d2[k] = segment_distance2 of the nodes (x, y, z[k]) of a row, k < n (the
+   same operations, in a loop that is vectorised) */
+INLINE void row_distance2(cg_index n, double x, double y, const double *restrict z, const double *e, double inv_L2,
+                          double *restrict d2)
+{
+    const double ex = e[0], ey = e[1], ez = e[2], pxy = x * ex + y * ey;
+    for (cg_index k = 0; k < n; ++k) {
+        double t = (pxy + z[k] * ez) * inv_L2;
+        t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
+        const double d0 = x - t * ex, d1 = y - t * ey, d2k = z[k] - t * ez;
+        d2[k] = (d0 * d0 + d1 * d1) + d2k * d2k;
+    }
 }
 
 /* the index of the least of n >= 1 values (the first of equal ones) */
@@ -363,11 +515,13 @@ INLINE void rows_of_one_point(const job *jb, double *out, cg_index obj, cg_index
 INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, const double *ci,
                        double *const (*ex)[3], cg_index j)
 {
+    double cij[CG_MAX_LINE_POINTS];
+    for (int g = 0; g < G; ++g) cij[g] = ci[g] * ex[g][1][j];
     for (cg_index k = a; k < b; k += VW) {
 #ifdef HAVE_V4D
         vwd acc = {0.0};
         for (int g = 0; g < G; ++g) {
-            const vwd c = (vwd){0.0} + ci[g] * ex[g][1][j]; /* broadcast (0 + c is c) */
+            const vwd c = (vwd){0.0} + cij[g]; /* broadcast (0 + c is c) */
             vwd gz;
             memcpy(&gz, ex[g][2] + k, sizeof gz);
             acc += c * gz;
@@ -377,7 +531,7 @@ INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, cons
         const cg_index end = k + VW < b ? k + VW : b;
         for (cg_index m = k; m < end; ++m) row[m] = 0.0;
         for (int g = 0; g < G; ++g) {
-            const double c = ci[g] * ex[g][1][j];
+            const double c = cij[g];
             for (cg_index m = k; m < end; ++m) row[m] += c * ex[g][2][m];
         }
 #endif
@@ -571,7 +725,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
     /* tables d2, g per rule point; end-point tables (hybrid); node coordinates; a row */
     /* the row has ROW_PAD more doubles: the exact form's rows are summed 8 at a time */
-    const size_t need = (size_t)G * per_point + EXP_PAD + (hybrid ? per_point + CUT_BATCH_DOUBLES : 0) +
+    const size_t need = (size_t)G * per_point + EXP_PAD + (hybrid ? per_point + CUT_BATCH_DOUBLES + n2 : 0) +
                         (size_t)(n0 + n1 + n2) + 2 * ((size_t)n2 + ROW_PAD);
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
@@ -581,6 +735,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     if (hybrid || G > 1)
         for (cg_index k = n2; k < 2 * (n2 + ROW_PAD); ++k) row[k] = 0.0;
     if (hybrid) cut_batch_init(&cuts, row + n2 + ROW_PAD);
+    double *dk = row + 2 * (n2 + ROW_PAD) + CUT_BATCH_DOUBLES; /* hybrid: a row's squared distances */
     /* node coordinates relative to x (points, and the exact form's ends) */
     double *cslot[3] = {coord, coord + n0, coord + n0 + n1};
     if (!jb->is_segment || hybrid) {
@@ -675,6 +830,10 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         return 1;
     }
     /* the exact form (hybrid) */
+    const double amp = scale * kn->prefactor, L = sqrt(L2);
+    /* q . e of the nodes the rule keeps: at most FAR_BEYOND_END w beyond either end */
+    const double far_lo = -FAR_BEYOND_END * w * L, far_hi = L2 + FAR_BEYOND_END * w * L;
+    const int far_check = R - L > FAR_BEYOND_END * w; /* else no node with both ends inside is that far */
     for (cg_index i = 0; i < n0; ++i) {
         double ci[CG_MAX_LINE_POINTS]; /* the rule's weights times the plane's */
         for (int g = 0; g < G; ++g) ci[g] = gw[g] * ex[g][0][i];
@@ -693,37 +852,34 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                 cg_index a = 0, b = n2;
                 while (a < b && !(a01 + za[a] < R2 && b01 + zb[a] < R2)) ++a;
                 while (b > a && !(a01 + za[b - 1] < R2 && b01 + zb[b - 1] < R2)) --b;
-                if (a < b) {
-                    k0 = a;
-                    k1 = b;
-                    inside_row(row, a, b, G, ci, (double *const(*)[3])ex, j);
+                /* the rule keeps each value's own digits only up to a distance beyond
+                   the ends (FAR_BEYOND_END w): farther nodes go to the closed form; their
+                   projections on the segment's line grow along the row, so the nodes
+                   left are an interval [ia, ib) of [a, b) */
+                cg_index ia = a, ib = b;
+                if (far_check && a < b) {
+                    const double pij = cslot[0][i] * es[0] + cslot[1][j] * es[1];
+                    const double *zc = cslot[2];
+                    while (ia < ib && !(pij + zc[ia] * es[2] >= far_lo && pij + zc[ia] * es[2] <= far_hi)) ++ia;
+                    while (ib > ia && !(pij + zc[ib - 1] * es[2] >= far_lo && pij + zc[ib - 1] * es[2] <= far_hi))
+                        --ib;
+                }
+                if (ia < ib) {
+                    k0 = ia;
+                    k1 = ib;
+                    inside_row(row, ia, ib, G, ci, (double *const(*)[3])ex, j);
                 }
                 /* elsewhere, the part inside the ball, at the nodes near enough to the
-                   segment: an interval around the inside one (the capsule is convex),
-                   found by walking outwards from it (the whole row if it is empty) */
-                cg_index lo = 0, hi = n2;
-                if (a < b) {
-                    lo = a;
-                    hi = b;
-                    while (lo > 0) {
-                        const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][lo - 1]};
-                        if (!(segment_distance2(q3, es, inv_L2) < R2_margin)) break;
-                        --lo;
-                    }
-                    while (hi < n2) {
-                        const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][hi]};
-                        if (!(segment_distance2(q3, es, inv_L2) < R2_margin)) break;
-                        ++hi;
-                    }
-                }
-                for (cg_index k = lo; k < hi; ++k) {
-                    if (k == a && a < b) {
-                        k = b - 1; /* skip the inside interval */
+                   segment (the capsule: the exact form decides near its surface) */
+                row_distance2(n2, cslot[0][i], cslot[1][j], cslot[2], es, inv_L2, dk);
+                for (cg_index k = 0; k < n2; ++k) {
+                    if (k == ia && ia < ib) {
+                        k = ib - 1; /* skip the rule's interval */
                         continue;
                     }
+                    if (!(dk[k] < R2_margin)) continue;
                     const double q3[3] = {cslot[0][i], cslot[1][j], cslot[2][k]};
-                    if (a >= b && !(segment_distance2(q3, es, inv_L2) < R2_margin)) continue;
-                    if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, inv2w2, G, gx, gw);
+                    if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
                     const int m = cuts.n++;
                     for (int s = 0; s < 3; ++s) cuts.q[s][m] = q3[s];
                     cuts.node[m] = base + k * stride[2];
@@ -738,7 +894,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
             }
         }
     }
-    if (hybrid) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, inv2w2, G, gx, gw);
+    if (hybrid) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
     return 1;
 }
 

@@ -1,6 +1,7 @@
 """The Gaussian's exact (round-off) line integrals on grids (cg_separable.c, the "hybrid" form: the segment's
-Gauss-Legendre rule at nodes whose ball holds the whole segment, the rule on the clipped part at the nodes the
-cutoff sphere cuts it for) against the node-by-node path (erf form, cg_kernels.c), 50-digit mpmath, the slow NumPy
+Gauss-Legendre rule at nodes whose ball holds the whole segment, the closed erf form in tails (erfcx, with a short
+Gauss-Legendre rule where it would cancel) on the clipped part at the nodes the cutoff sphere cuts it for and at
+nodes far beyond an end) against the node-by-node path (erf form, cg_kernels.c), 50-digit mpmath, the slow NumPy
 twin (tests/oracle.py), and itself across thread counts and vector builds.
 
 Each comparison is at 1e-12 relative to the field's scale (its largest value) and, where stated, to the value
@@ -102,16 +103,10 @@ def test_grid_equals_node_by_node_many_segments(dim, periodic):
         assert_grid_equals_node_by_node(box, shape, starts, vectors, w, cutoff, f"{dim}-D periodic={periodic}")
 
 
-# The grid path integrates the Gaussian's tail with the segment's Gauss-Legendre rule, exact to round-off
-# relative to the kernel's peak; far beyond an end the integrand falls by many orders across the segment and the
-# rule loses digits of the tiny value itself (1.7e-8 at 10 w, 1.2e-4 at 20 w; the node-by-node erfc form keeps
-# them). Field-relative both are at round-off. Strict: these fail loudly once the grid path is fixed.
-FAR_LIMITATION = pytest.mark.xfail(strict=True, reason="grid path: Gauss-Legendre on a far Gaussian tail loses "
-                                   "value-relative digits (issue 16)")
-
-
-@pytest.mark.parametrize("distance", [3.0, 6.0, pytest.param(10.0, marks=FAR_LIMITATION),
-                                      pytest.param(20.0, marks=FAR_LIMITATION)])
+# Far beyond an end the integrand falls by many orders across the segment: the grid path's rule (exact relative to
+# the kernel's peak) would lose digits of the tiny value itself (1.7e-8 at 10 w, 1.2e-4 at 20 w); such nodes take the
+# closed form in tails (erfcx), which keeps them.
+@pytest.mark.parametrize("distance", [3.0, 6.0, 10.0, 20.0])
 def test_nodes_far_beyond_a_segment_end(distance):
     """Nodes `distance` w beyond a segment's end along its line (and off it), with a cutoff that holds them:
     the tiny values against 50-digit mpmath, relative to each value."""
@@ -130,6 +125,17 @@ def test_nodes_far_beyond_a_segment_end(distance):
     err = float(np.max(np.abs(got[plane] - want) / want))
     record(f"Gaussian exact grid, nodes {distance:g} w beyond a segment end (value-relative)", err)
     assert err <= RTOL, err
+
+
+def test_subnormal_values_far_beyond_an_end():
+    """A cutoff of 40 w holds nodes about 38 w away, where the kernel is subnormal (exp(-724)): the closed form
+    keeps them nonzero like the node-by-node path (exp(x) of its vectorised exponential stops at x = -708)."""
+    start, vector = np.full(3, 1.45), np.array([-0.04, 0.03, -0.028])
+    err = assert_grid_equals_node_by_node(cg.Box([0, 0, 0], [6, 6, 6]), (19, 19, 19), start, vector, 0.2, 40.0,
+                                          "subnormal far values")
+    _, _, fast = gauss_grid_psi(cg.Box([0, 0, 0], [6, 6, 6]), (19, 19, 19), start, vector, 0.2, 40.0)
+    assert 0.0 < fast[-1] < 1e-307        # the far corner, about 7.6 = 38 w away
+    record("Gaussian exact grid, subnormal values at 38 w", err)
 
 
 def test_nodes_exactly_on_the_segment_line():
