@@ -12,6 +12,9 @@ On a θ-averaged grid the sums over points (particles, contact points) and the c
 stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring` (round-off); the
 rest (the extended stress's ray term, every primary of a θ-resolved grid) uses the quadrature below.
 
+On a z-averaged grid the point sums are averaged over z exactly too (:func:`~cgbound.cylindrical_ring.axial_rule`);
+the line integrals still take the Gauss-Legendre rule in z below.
+
 Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
 smooth integrand: exact to round-off for a Gaussian whose cutoff jump is below round-off, cutoff >= 9 w;
 with the default 5 w cutoff the jump exp(-12.5) ~ 4e-6 limits it); over z (when averaged) the
@@ -106,13 +109,14 @@ def ring_sums(job, grid, needed):
     (its snapshot, kernel and split contacts; its target is not used).
 
     On a θ-averaged grid the sums over points (particles, contact points) and the contact and boundary
-    stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring`; the extended
+    stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring` (on a z-averaged
+    grid the point sums exactly averaged over z, the line integrals on Gauss-Legendre points in z); the extended
     stress's rays, the gradient primaries and every primary of a θ-resolved grid come from the Cartesian
     engine at the quadrature points."""
     zero = np.zeros(3)
     averaged = {}
     if grid.theta_averaged:
-        if grid.z_averaged:
+        if grid.z_averaged:          # for the line integrals (the point sums average over z exactly)
             lo, hi = grid.z_extent
             x, wz = np.polynomial.legendre.leggauss(z_points(hi - lo, job.kernel))
             z_nodes = (0.5 * (hi + lo) + 0.5 * (hi - lo) * x)[None, :]
@@ -120,8 +124,7 @@ def ring_sums(job, grid, needed):
         else:
             z_nodes, z_weights = grid.z[:, None], np.ones((len(grid.z), 1))
         for positions, columns in point_sources(job.snapshot, needed, zero, job.split):
-            sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank) for name, v in columns],
-                                z_nodes, z_weights)
+            sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank) for name, v in columns])
             averaged.update({name: s for (name, _), s in zip(columns, sums)})
         if job.split is not None:
             for name, part in (("sb", job.split[0]), ("sw", job.split[1])):

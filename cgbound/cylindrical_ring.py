@@ -81,21 +81,125 @@ def periodic_sources(box, positions, values, reach_lo, reach_hi):
     return np.concatenate(pos), [np.concatenate([v[k] for v in vals]) for k in range(len(values))]
 
 
-def ring_average(grid, kernel, positions, columns, z_nodes, z_weights):
+#: Gauss-Legendre points per piece (per panel) of an axial average (:func:`axial_rule`)
+AXIAL_POINTS = 24
+_AXIAL_G, _AXIAL_GW = np.polynomial.legendre.leggauss(AXIAL_POINTS)
+#: a Gaussian's pieces are cut into panels of at most this many widths (a piece spans up to cutoff / width)
+GAUSSIAN_WIDTHS_PER_PANEL = 5.0
+
+
+def end_clustered(u):
+    """x = (3u - u³)/2 and dx/du: [-1, 1] onto itself with dx/du = 0 at both ends, so an end where the integrand
+    behaves like √(1 - x) (a ring's arc appearing, or becoming the whole ring) is analytic in u."""
+    return 0.5 * (3.0 * u - u ** 3), 1.5 * (1.0 - u * u)
+
+
+def end_clustered_inverse(x):
+    """The u in [-1, 1] with (3u - u³)/2 = x (the root of the cubic u³ - 3u + 2x = 0 in [-1, 1])."""
+    return 2.0 * np.cos((np.arccos(-np.clip(x, -1.0, 1.0)) + 4.0 * math.pi) / 3.0)
+
+
+def axial_panels(kernel):
+    """Panels per piece of an axial average: one for compact kernels and a Gaussian cut off within
+    GAUSSIAN_WIDTHS_PER_PANEL widths (a piece spans up to cutoff / width widths of the bump)."""
+    if not isinstance(kernel, Gaussian):
+        return 1
+    return max(1, math.ceil(float(kernel.radius) / (GAUSSIAN_WIDTHS_PER_PANEL * float(kernel.width)) - 1e-9))
+
+
+#: geometric grading of the axial pieces towards a near-singularity: ratio and most levels (0.25^26 ~ 2e-16)
+GRADING = 0.25
+GRADING_LEVELS = 26
+_GRADES = GRADING ** np.arange(1, GRADING_LEVELS + 1)
+
+
+def axial_cuts(kernel, r, rho):
+    """Where the ring moments of sources at radius ρ, seen from rings of radius r, stop being analytic in
+    h = z - ζ, as offsets h >= 0 (the cuts are symmetric about h = 0): (S, n) with the support's edge H,
+    the whole-ring transition and 0 (Lucy's closest approach), and graded cuts towards the end of a piece
+    that has a branch point close by (a panel is then at most 3 times longer than its distance to it).
+
+    The arc is Δ = 2 arcsin √s, s = (H² - h²) / 4 r ρ: square roots at s = 0 (h = ±H) and s = 1 (h = ±w,
+    w = √(c² - (r + ρ)²)), the ends of the pieces, where the end-clustered rule absorbs them; but the
+    mirror branch point -w lies 2w from the end w when w is small, the pair ±i √((r + ρ)² - c²) next to
+    h = 0 when the ring just misses holding the whole support, and Lucy's d³ has ±i ``|r - ρ|`` next to
+    h = 0 when the ring passes close to the source."""
+    c = float(kernel.radius)
+    H = np.sqrt(np.maximum(c * c - (r - rho) ** 2, 0.0))
+    whole = np.sqrt(np.maximum(c * c - (r + rho) ** 2, 0.0))
+    missed = np.sqrt(np.maximum((r + rho) ** 2 - c * c, 0.0))
+    near_zero = np.where(whole > 0.0, np.inf, missed)              # the branch points next to h = 0
+    if isinstance(kernel, Lucy):
+        near_zero = np.minimum(near_zero, np.abs(r - rho))
+    # graded only where the branch points are closer to the end than a quarter of the piece (a cut next to
+    # another piece's end would put that end's square root next to this piece)
+    inner = np.where(whole > 0.0, whole, H)[:, None]                 # the piece that ends at h = 0
+    graded = near_zero[:, None] < GRADING * inner
+    towards_zero = np.where(graded, np.maximum(inner * _GRADES, near_zero[:, None]), 0.0)
+    # towards w from above, down to 2 w from it (the mirror branch point -w)
+    span = (H - whole)[:, None]
+    graded = (whole[:, None] > 0.0) & (2.0 * whole[:, None] < GRADING * span)
+    towards_whole = np.where(graded, whole[:, None] + np.maximum(span * _GRADES, 2.0 * whole[:, None]), H[:, None])
+    return np.concatenate([np.zeros((len(H), 1)), H[:, None], whole[:, None], towards_zero, towards_whole], axis=1)
+
+
+def axial_rule(kernel, r, rho, zeta, lo, hi):
+    """The exact average over z in [lo, hi] of the ring moments of sources at (ρ, ζ) seen from rings of radius r:
+    (pair, h, weight), h = z - ζ of the points (P, q) of source ``pair`` (P,), weights including the
+    1 / (hi - lo).
+
+    z is cut at ζ ± :func:`axial_cuts`; each piece [a, b] is mapped from u in [-1, 1] by the end-clustered
+    map, and Gauss-Legendre in u covers the part of it inside [lo, hi] (the preimage of the clipped piece): an
+    end of the box next to a piece's end (a square root just outside [lo, hi]) stays harmless, the integrand
+    being analytic in u over the whole piece."""
+    cuts = axial_cuts(kernel, r, rho)
+    edges = np.sort(np.concatenate([zeta[:, None] - cuts, zeta[:, None] + cuts], axis=1), axis=1)
+    a, b = edges[:, :-1], edges[:, 1:]
+    keep = (b > a) & (b > lo) & (a < hi)                 # drops repeated cuts and pieces outside [lo, hi]
+    pair, piece = np.nonzero(keep)
+    a, b = a[pair, piece], b[pair, piece]
+    u_lo = end_clustered_inverse(2.0 * (np.maximum(a, lo) - a) / (b - a) - 1.0)
+    u_hi = end_clustered_inverse(2.0 * (np.minimum(b, hi) - a) / (b - a) - 1.0)
+    u_lo = np.where(a >= lo, -1.0, u_lo)                 # exact ends where not clipped
+    u_hi = np.where(b <= hi, 1.0, u_hi)
+    panels = axial_panels(kernel)
+    g = ((np.arange(panels)[:, None] + 0.5 * (_AXIAL_G + 1.0)) / panels).ravel()        # in [0, 1]
+    gw = np.tile(_AXIAL_GW, panels) / panels                                          # sums to 2
+    u = u_lo[:, None] + (u_hi - u_lo)[:, None] * g
+    x, dx = end_clustered(u)
+    z = a[:, None] + (b - a)[:, None] * 0.5 * (x + 1.0)
+    weight = (0.25 * (b - a) * (u_hi - u_lo))[:, None] * dx * gw / (hi - lo)
+    return pair, z - zeta[pair, None], weight
+
+
+def accumulate(out, columns, own, s, M, nodes):
+    """Add the θ-averaged contributions of sources ``s`` with moments M (3, pairs) to ``nodes`` of ``out``."""
+    for (_, rank), v, acc in zip(columns, own, out):
+        contrib = rotate_averaged(v[s], rank, M).reshape(len(s), -1)
+        flat = acc.reshape(acc.shape[0], -1)
+        for col in range(contrib.shape[1]):
+            flat[:, col] += np.bincount(nodes, weights=contrib[:, col], minlength=flat.shape[0])
+
+
+def ring_average(grid, kernel, positions, columns):
     """θ-averages at every node of a θ-averaged CylindricalGrid of sum_i values_i W(x - q_i).
 
-    positions: (S, 3) Cartesian sources; columns: [(values (S,) + (3,) * rank Cartesian, rank)];
-    z_nodes (n_z, m) and z_weights (n_z, m): the axial points of each node row and their weights (one point,
-    weight 1, when z is resolved). Returns [(n_r * n_z,) + (3,) * rank] in the local basis, nodes in C order.
+    positions: (S, 3) Cartesian sources; columns: [(values (S,) + (3,) * rank Cartesian, rank)]. A z-averaged
+    grid averages exactly over its extent (:func:`axial_rule`). Returns [(n_r * n_z,) + (3,) * rank] in the
+    local basis, nodes in C order.
     """
     c = float(kernel.radius)
-    n_r, n_z = len(grid.r), z_nodes.shape[0]
+    n_r, n_z = len(grid.r), len(grid.z)
     out = [np.zeros((n_r * n_z,) + (3,) * rank) for _, rank in columns]
     if not len(positions):
         return out
     # the region the rings' supports cover, as a Cartesian box (for the periodic images)
     r_top = float(grid.r.max()) + c
-    z_lo, z_hi = float(z_nodes.min()) - c, float(z_nodes.max()) + c
+    if grid.z_averaged:
+        z_lo, z_hi = grid.z_extent
+    else:
+        z_lo, z_hi = float(grid.z.min()), float(grid.z.max())
+    z_lo, z_hi = z_lo - c, z_hi + c
     disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))      # a disc's extent along each box axis
     reach_lo = grid.axis_point + np.minimum(z_lo * grid.e_z, z_hi * grid.e_z) - disc
     reach_hi = grid.axis_point + np.maximum(z_lo * grid.e_z, z_hi * grid.e_z) + disc
@@ -113,25 +217,30 @@ def ring_average(grid, kernel, positions, columns, z_nodes, z_weights):
         elif rank == 2:
             v = np.einsum("sia,sab,sjb->sij", basis, v, basis)
         own.append(v)
+    z_nodes = grid.z[:, None]
     node_z = np.arange(n_z)
     for k, r in enumerate(grid.r):
         near = np.abs(rho - r) < c
         if not near.any():
             continue
         src = np.flatnonzero(near)
-        h = z_nodes[:, :, None] - zeta[src][None, None, :]             # (n_z, m, S')
+        if grid.z_averaged:
+            pair, h, w = axial_rule(kernel, r, rho[src], zeta[src], *grid.z_extent)
+            if not pair.size:
+                continue
+            M = ring_moments(kernel, r, h, rho[src][pair, None]).reshape(3, -1) * w.ravel()
+            point_source = np.repeat(pair, h.shape[1])
+            M = np.stack([np.bincount(point_source, weights=m, minlength=src.size) for m in M])
+            accumulate(out, columns, own, src, M, np.full(src.size, k * n_z))
+            continue
+        h = z_nodes[:, :, None] - zeta[src][None, None, :]             # (n_z, 1, S')
         inside = (r - rho[src]) ** 2 + h * h < c * c
         zi, qi, si = np.nonzero(inside)
         if not zi.size:
             continue
         s = src[si]
-        M = ring_moments(kernel, r, h[zi, qi, si], rho[s]) * z_weights[zi, qi]
-        nodes = k * n_z + node_z[zi]
-        for (_, rank), v, acc in zip(columns, own, out):
-            contrib = rotate_averaged(v[s], rank, M).reshape(len(s), -1)
-            flat = acc.reshape(acc.shape[0], -1)
-            for col in range(contrib.shape[1]):
-                flat[:, col] += np.bincount(nodes, weights=contrib[:, col], minlength=flat.shape[0])
+        M = ring_moments(kernel, r, h[zi, qi, si], rho[s])
+        accumulate(out, columns, own, s, M, k * n_z + node_z[zi])
     return out
 
 
