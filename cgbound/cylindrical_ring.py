@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from . import _engine
-from .kernels import Gaussian
+from .kernels import Gaussian, Lucy
 
 def ring_moments(kernel, r, h, rho):
     """(M₀, M₁, M₂) of pairs (ring radius r, axial offset h = z - ζ, source radius ρ), arrays of one shape
