@@ -155,7 +155,8 @@ INLINE double lucy_value_units(double q0, double q1, double q2, const double *n,
 INLINE int lucy_may_reach(double u, double t_far, double a2, double R2)
 {
     const double b2 = R2 - a2, loose = b2 * (1.0 + 1e-9);
-    return b2 > 0.0 && (u >= 0.0 || u * u < loose) && (t_far <= 0.0 || t_far * t_far < loose);
+    /* bitwise, not short-circuit: no branches, so that lucy_frames_body vectorises */
+    return (b2 > 0.0) & ((u >= 0.0) | (u * u < loose)) & ((t_far <= 0.0) | (t_far * t_far < loose));
 }
 
 INLINE void lucy_values_body(int count, const double *restrict q0, const double *restrict q1,
