@@ -102,6 +102,10 @@ double cg_lucy_segment(const cg_kernel *k, const segment_axis *ax, const double 
 #define LUCY_BATCH 256
 #define LUCY_ROWS 64
 
+/* batches are evaluated in whole vectors of this many nodes (AVX-512's 8
+   doubles; a multiple of AVX2's 4); LUCY_BATCH is a multiple of it */
+#define LUCY_LANES 8
+
 /* cg_visit_lucy's state for one object: the rows gathered (offsets along the
    axes before the row axis, unused ones 0) and the candidate nodes gathered
    (offsets along every axis, unused ones 0), each evaluated a batch at a time */
@@ -131,10 +135,16 @@ typedef struct lucy_visit {
 static void lucy_values_flush(lucy_visit *v)
 {
     if (v->count == 0) return;
-    cg_lucy_frames(v->count, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->R, v->fu, v->ft, v->fa, v->keep,
+    /* whole vectors (no scalar remainder loops): the lanes past count get
+       node 0's offsets and past m a frame outside the support; their
+       results are not used */
+    const int count = v->count, padded = (count + LUCY_LANES - 1) & -LUCY_LANES;
+    for (int i = count; i < padded; ++i)
+        for (int a = 0; a < 3; ++a) v->qb[a][i] = v->qb[a][0];
+    cg_lucy_frames(padded, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->R, v->fu, v->ft, v->fa, v->keep,
                    v->heaviside, v->wide);
     int m = 0;
-    for (int i = 0; i < v->count; ++i) {
+    for (int i = 0; i < count; ++i) {
         v->fu[m] = v->fu[i];
         v->ft[m] = v->ft[i];
         v->fa[m] = v->fa[i];
@@ -143,8 +153,14 @@ static void lucy_values_flush(lucy_visit *v)
     }
     v->count = 0;
     if (m == 0) return;
-    if (v->heaviside) cg_heaviside_values_frame(m, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
-    else cg_lucy_values_frame(m, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
+    const int m_padded = (m + LUCY_LANES - 1) & -LUCY_LANES;
+    for (int i = m; i < m_padded; ++i) {
+        v->fu[i] = v->ft[i] = 0.0;
+        v->fa[i] = 4.0 * v->R * v->R;
+    }
+    if (v->heaviside)
+        cg_heaviside_values_frame(m_padded, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
+    else cg_lucy_values_frame(m_padded, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
     const job *jb = v->jb;
     const double scale = v->scale;
     if (jb->n_values == 9 && jb->out_width == 9) {

@@ -58,7 +58,9 @@ static inline double double_of(uint64_t u)
 }
 
 /* log1p(X) for X >= 0 (finite; other X give garbage, which callers mask):
-   musl's log1p without its branches, error < 1 ulp */
+   musl's log1p without its branches and with its two divisions merged into
+   one (two more roundings in s and c, whose terms are smaller than the
+   result by f^2 and an ulp), error about 1 ulp */
 INLINE double lucy_log1p(double X)
 {
     const double ln2_hi = 6.93147180369123816490e-01, ln2_lo = 1.90821492927058770002e-10;
@@ -74,13 +76,15 @@ INLINE double lucy_log1p(double X)
     const double dk = double_of(UINT64_C(0x4330000000000000) | kb) - 4503599627371519.0;
     const double m = double_of(((hu & UINT64_C(0x000fffff00000000)) + ((uint64_t)0x3fe6a09e << 32)) |
                                (ub & UINT64_C(0xffffffff)));
-    /* k = 0: f = X exactly; else f = m - 1 with the correction c ~ log(1+X) - log(u) */
+    /* k = 0: f = X exactly; else f = m - 1 with the correction c ~ log(1+X) - log(u);
+       c's division by u and s = f / (2 + f) share one reciprocal */
     const int small = kb == 1023;
-    const double c_big = (kb >= 1025 ? 1.0 - (u - X) : X - (u - 1.0)) / u;
     const double f = small ? X : m - 1.0;
+    const double two_f = 2.0 + f, rec = 1.0 / (two_f * u);
+    const double c_big = (kb >= 1025 ? 1.0 - (u - X) : X - (u - 1.0)) * (two_f * rec);
     const double c = small || kb >= 1023 + 54 ? 0.0 : c_big;
     const double hfsq = 0.5 * f * f;
-    const double s = f / (2.0 + f);
+    const double s = f * (u * rec);
     const double z = s * s, w = z * z;
     const double t1 = w * (Lg2 + w * (Lg4 + w * Lg6));
     const double t2 = z * (Lg1 + w * (Lg3 + w * (Lg5 + w * Lg7)));
@@ -103,40 +107,56 @@ INLINE void lucy_frame(double q0, double q1, double q2, const double *n, const d
 
 /* int P(x) dt / R over the part of the line inside the support (units of R),
    P = (1 + 3x)(1 - x)^3, for a node of frame (u, t_far, a2) (lucy_frame) and
-   a segment of length L; 0 outside the support. */
+   a segment of length L; 0 outside the support. Two square roots and two
+   divisions per node (the divider bounds this loop): an end clipped to the
+   support's sphere has r = 1 there and t = +-b/R = sqrt((R^2 - a^2)/R^2), an
+   end inside it t = u/R (t_far/R) and r = sqrt(a^2/R^2 + t^2), so each end
+   takes one square root; r0 - r1 and the log's argument X share one
+   reciprocal, 1/((r0 + r1) h) with h the denominator of X (see the top of
+   the file). Where that product is below 1e-290 (a node within 1e-145 R of
+   a segment as short) the reciprocal is taken as 0: r0 - r1 then only
+   enters multiplied by t1 (as small) and X only with a factor a^4 that
+   underflows. */
 INLINE double lucy_value_frame(double u, double t_far, double a2, double L, double R, double inv)
 {
+    /* (the flags are written as comparisons of doubles where used: int
+       flags mixed with them keep GCC 12 from vectorising the loop) */
     const double b2 = R * R - a2;
-    const int inside = b2 > 0.0;
-    const double b = sqrt(inside ? b2 : 0.0);
-    const double hi = u < b ? u : b, lo = t_far > -b ? t_far : -b;
-    const int clipped = !(u <= b) || !(t_far >= -b);
-    const int valid = inside && hi > lo;
-    /* units of R; reflected so that t0 >= |t1| */
-    const double span = (clipped ? hi - lo : L) * inv;
+    const double s2 = a2 * inv * inv, bn2 = b2 > 0.0 ? b2 * inv * inv : 0.0;
+    /* the ends: clipped where beyond the support (u > b, t_far < -b) */
+    const double u2 = u * u, tf2 = t_far * t_far;
+    const double uh = u * inv, ul = t_far * inv;
+    const double root_hi = sqrt(u > 0.0 && u2 > b2 ? bn2 : s2 + uh * uh);
+    const double root_lo = sqrt(t_far < 0.0 && tf2 > b2 ? bn2 : s2 + ul * ul);
+    const double hi = u > 0.0 && u2 > b2 ? root_hi : uh, r_hi = u > 0.0 && u2 > b2 ? 1.0 : root_hi;
+    const double lo = t_far < 0.0 && tf2 > b2 ? -root_lo : ul, r_lo = t_far < 0.0 && tf2 > b2 ? 1.0 : root_lo;
+    /* reflected so that t0 >= |t1| */
+    const double d = (u > 0.0 && u2 > b2) || (t_far < 0.0 && tf2 > b2) ? hi - lo : L * inv;
     const int flip = hi <= 0.0;
-    const double t0 = (flip ? -lo : hi) * inv, t1 = (flip ? -hi : lo) * inv;
-    const double s2 = a2 * inv * inv;
-    const double d = span;
+    const double t0 = flip ? -lo : hi, t1 = flip ? -hi : lo;
+    const double r0 = flip ? r_lo : r_hi, r1 = flip ? r_hi : r_lo;
     const double q2_ = t0 * t0, p2_ = t1 * t1, qp = t0 * t1, sum = t0 + t1;
-    const double r0 = sqrt(s2 + q2_), r1 = sqrt(s2 + p2_);
     const double J2 = d * (q2_ + qp + p2_) * (1.0 / 3.0);
     const double J4 = d * (q2_ * q2_ + qp * (q2_ + p2_) + qp * qp + p2_ * p2_) * 0.2;
     const double Jr2 = s2 * d + J2;
     const double Jr4 = s2 * s2 * d + 2.0 * s2 * J2 + J4;
     const double rsum = r0 + r1;
-    const double dr = d * sum / (rsum > 0.0 ? rsum : 1.0);
+    /* X = (d + dr) / (t1 + r1), t1 + r1 = a^2 / (r1 - t1) when t1 < 0 */
+    const int with_log = s2 > 1e-200;
+    const int across = t1 < 0.0;
+    const double h = across ? (with_log ? s2 : 1.0) : t1 + r1, g = across ? r1 - t1 : 1.0;
+    const double pden = rsum * h;
+    const double rec = 1.0 / (pden > 1e-290 ? pden : INFINITY);
+    const double dr = d * sum * (h * rec); /* r0 - r1 = d (t0 + t1) / (r0 + r1) */
     const double rr = r0 * r0 + r0 * r1 + r1 * r1;
     const double D2 = d * r0 + t1 * dr;
     const double D1 = d * r0 * r0 * r0 + t1 * dr * rr;
-    /* asinh(t0/a) - asinh(t1/a) */
-    const int with_log = s2 > 1e-200;
-    const double den = t1 >= 0.0 ? t1 + r1 : s2 / (r1 - t1); /* t1 + r1 without its cancellation */
-    const double X = (d + dr) / (den > 0.0 ? den : 1.0);
+    /* asinh(t0/a) - asinh(t1/a) = log1p(X) */
+    const double X = d * (rsum + sum) * (g * rec);
     const double D3 = with_log ? lucy_log1p(X) : 0.0;
     const double Jr3 = 0.25 * D1 + 0.375 * s2 * D2 + 0.375 * s2 * s2 * D3;
     const double acc = d - 6.0 * Jr2 + 8.0 * Jr3 - 3.0 * Jr4;
-    return valid && d > 0.0 ? acc : 0.0;
+    return b2 > 0.0 && hi > lo && d > 0.0 ? acc : 0.0;
 }
 
 /* the same from the node's offset q */
@@ -273,7 +293,17 @@ INLINE void lucy_rows_body(int count, const double *restrict f0, const double *r
 #define LUCY_CLONES
 #endif
 
-LUCY_CLONES static void lucy_values_narrow(int count, const double *q0, const double *q1, const double *q2,
+/* The value loops without jump threading: threading the selects on the
+   clip flags duplicates lucy_value_frame's square roots and divisions into
+   both arms (3 and 3 per node instead of 2 and 2: the divider bounds the
+   loop) */
+#if defined(__GNUC__) && !defined(__clang__)
+#define LUCY_NO_THREADING __attribute__((optimize("no-thread-jumps")))
+#else
+#define LUCY_NO_THREADING
+#endif
+
+LUCY_NO_THREADING LUCY_CLONES static void lucy_values_narrow(int count, const double *q0, const double *q1, const double *q2,
                                            const double *n, const double *e, double L, double R, double factor,
                                            double *w)
 {
@@ -281,7 +311,7 @@ LUCY_CLONES static void lucy_values_narrow(int count, const double *q0, const do
 }
 
 #ifdef CG_HAVE_WIDE_SEPARABLE
-__attribute__((target("avx512f"))) static void lucy_values_wide(int count, const double *q0, const double *q1,
+LUCY_NO_THREADING __attribute__((target("avx512f"))) static void lucy_values_wide(int count, const double *q0, const double *q1,
                                                                   const double *q2, const double *n, const double *e,
                                                                   double L, double R, double factor, double *w)
 {
@@ -303,7 +333,7 @@ LUCY_CLONES static void heaviside_values_frame_narrow(int count, const double *u
     heaviside_values_frame_body(count, u, t_far, a2, L, R, prefactor, w);
 }
 
-LUCY_CLONES static void lucy_values_frame_narrow(int count, const double *u, const double *t_far, const double *a2,
+LUCY_NO_THREADING LUCY_CLONES static void lucy_values_frame_narrow(int count, const double *u, const double *t_far, const double *a2,
                                                  double L, double R, double factor, double *w)
 {
     lucy_values_frame_body(count, u, t_far, a2, L, R, factor, w);
@@ -326,7 +356,7 @@ __attribute__((target("avx512f"))) static void heaviside_values_frame_wide(int c
     heaviside_values_frame_body(count, u, t_far, a2, L, R, prefactor, w);
 }
 
-__attribute__((target("avx512f"))) static void lucy_values_frame_wide(int count, const double *u,
+LUCY_NO_THREADING __attribute__((target("avx512f"))) static void lucy_values_frame_wide(int count, const double *u,
                                                                         const double *t_far, const double *a2,
                                                                         double L, double R, double factor, double *w)
 {
