@@ -15,6 +15,14 @@
 
 /* How many axes the kernel integrates out (its marginal over them): D - D_res,
    or 0 when the kernel is the D_res-dimensional one (lower_dimensional). */
+/* Lucy's profile (1 + 3x)(1 - x)^3, x = r/R (cg_kernel_value and the batched
+   point values of cg_lucy_line.c: one formula, the same bits) */
+static inline double cg_lucy_profile(double x)
+{
+    const double om = 1.0 - x;
+    return (1.0 + 3.0 * x) * om * om * om;
+}
+
 static inline int cg_kernel_marginal_axes(const cg_kernel *k)
 {
     return k->lower_dimensional ? 0 : k->dim - k->n_resolved;
@@ -163,6 +171,17 @@ void cg_heaviside_values_frame(int count, const double *u, const double *t_far, 
                                double R, double prefactor, double *w, int wide);
 void cg_lucy_values_frame(int count, const double *u, const double *t_far, const double *a2, double L, double R,
                           double factor, double *w, int wide);
+
+/* Point values of Lucy's (heaviside 0) or Heaviside's (1) full-dimensional
+   kernel at squared distances rho2: w[i] = cg_kernel_value(kernel, rho2[i])
+   bit for bit, vectorised (cg_lucy_line.c) */
+void cg_ball_values(int count, const double *rho2, double R, double prefactor, int heaviside, double *w, int wide);
+
+/* out[node[i] * width + c] += w[i] * val[c], c < nv, for each i with a
+   non-zero w[i], in order (cg_lucy_line.c; vectorised over c, the bits of
+   cg_accumulate's MODE_VALUE) */
+void cg_ball_add(int count, const double *w, const cg_index *node, int width, const double *val, int nv, double *out,
+                 int wide);
 
 /* out[node[i] * 9 + k] += (w[i] * scale) * val[k], k < 9, for each i with a
    non-zero w[i] * scale, in order (cg_lucy_line.c; vectorised, the bits of

@@ -364,6 +364,83 @@ LUCY_NO_THREADING __attribute__((target("avx512f"))) static void lucy_values_fra
 }
 #endif
 
+/* cg_kernel_value's full-dimensional Lucy and Heaviside branches */
+INLINE void ball_values_body(int count, const double *restrict rho2, double R, double prefactor, int heaviside,
+                             double *restrict w)
+{
+    const double R2 = R * R;
+    for (int i = 0; i < count; ++i) {
+        const double lucy = prefactor * cg_lucy_profile(sqrt(rho2[i]) / R);
+        w[i] = rho2[i] < R2 ? (heaviside ? prefactor : lucy) : 0.0;
+    }
+}
+
+LUCY_CLONES static void ball_values_narrow(int count, const double *rho2, double R, double prefactor, int heaviside,
+                                           double *w)
+{
+    ball_values_body(count, rho2, R, prefactor, heaviside, w);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void ball_values_wide(int count, const double *rho2, double R,
+                                                                  double prefactor, int heaviside, double *w)
+{
+    ball_values_body(count, rho2, R, prefactor, heaviside, w);
+}
+#endif
+
+void cg_ball_values(int count, const double *rho2, double R, double prefactor, int heaviside, double *w, int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        ball_values_wide(count, rho2, R, prefactor, heaviside, w);
+        return;
+    }
+#endif
+    (void)wide;
+    ball_values_narrow(count, rho2, R, prefactor, heaviside, w);
+}
+
+/* out[node[i] * width + c] += w[i] * val[c], c < nv, for every non-zero w[i]
+   (cg_accumulate's MODE_VALUE sums), the value loop vectorised */
+INLINE void ball_add_body(int count, const double *restrict w, const cg_index *restrict node, int width,
+                          const double *restrict val, int nv, double *restrict out)
+{
+    for (int i = 0; i < count; ++i) {
+        const double wi = w[i];
+        if (wi == 0.0) continue;
+        double *restrict o = out + node[i] * width;
+        for (int c = 0; c < nv; ++c) o[c] += wi * val[c];
+    }
+}
+
+LUCY_CLONES static void ball_add_narrow(int count, const double *w, const cg_index *node, int width,
+                                        const double *val, int nv, double *out)
+{
+    ball_add_body(count, w, node, width, val, nv, out);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void ball_add_wide(int count, const double *w, const cg_index *node,
+                                                               int width, const double *val, int nv, double *out)
+{
+    ball_add_body(count, w, node, width, val, nv, out);
+}
+#endif
+
+void cg_ball_add(int count, const double *w, const cg_index *node, int width, const double *val, int nv, double *out,
+                 int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        ball_add_wide(count, w, node, width, val, nv, out);
+        return;
+    }
+#endif
+    (void)wide;
+    ball_add_narrow(count, w, node, width, val, nv, out);
+}
+
 /* out[node[i] * 9 + k] += (w[i] * scale) * val[k] for every non-zero
    w[i] * scale (cg_accumulate's MODE_VALUE sums of a 9-component value): the
    first 8 components as one vector of the same element-wise products and
