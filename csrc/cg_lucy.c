@@ -129,6 +129,8 @@ typedef struct lucy_visit {
     cg_index node[LUCY_BATCH];
 } lucy_visit;
 
+static void lucy_values_add(lucy_visit *v, int m);
+
 /* the gathered nodes' weights (cg_lucy_line.c): their frames, those that may
    reach the segment kept (compacted in place), their values, then each
    non-zero one into out */
@@ -141,6 +143,15 @@ static void lucy_values_flush(lucy_visit *v)
     const int count = v->count, padded = (count + LUCY_LANES - 1) & -LUCY_LANES;
     for (int i = count; i < padded; ++i)
         for (int a = 0; a < 3; ++a) v->qb[a][i] = v->qb[a][0];
+    if (!v->heaviside) {
+        /* Lucy: frames and values in one pass over every gathered node (a
+           node beyond the support gets 0, as lucy_may_reach would have
+           dropped it): cheaper than compacting the few far nodes away */
+        cg_lucy_values(padded, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->L, v->R, v->factor, v->w, v->wide);
+        v->count = 0;
+        lucy_values_add(v, count);
+        return;
+    }
     cg_lucy_frames(padded, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->R, v->fu, v->ft, v->fa, v->keep,
                    v->heaviside, v->wide);
     int m = 0;
@@ -158,9 +169,13 @@ static void lucy_values_flush(lucy_visit *v)
         v->fu[i] = v->ft[i] = 0.0;
         v->fa[i] = 4.0 * v->R * v->R;
     }
-    if (v->heaviside)
-        cg_heaviside_values_frame(m_padded, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
-    else cg_lucy_values_frame(m_padded, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
+    cg_heaviside_values_frame(m_padded, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
+    lucy_values_add(v, m);
+}
+
+/* the first m weights (of nodes v->node) into out */
+static void lucy_values_add(lucy_visit *v, int m)
+{
     const job *jb = v->jb;
     const double scale = v->scale;
     if (jb->n_values == 9 && jb->out_width == 9) {
