@@ -156,21 +156,18 @@ double cg_lucy_value(const double *q, const double *n, const double *e, double L
 void cg_lucy_values(int count, const double *q0, const double *q1, const double *q2, const double *n,
                     const double *e, double L, double R, double factor, double *w, int wide);
 
-/* The same in two passes (cg_lucy_line.c): cg_lucy_frames computes each
-   node's frame (u = q.n, t_far = (q - e).n, a2 = |q - u n|^2) and keep[i] = 0
-   where the value is surely 0 (a test without square roots, loose by a
-   relative 1e-9; cylinder: only a2 < R^2, for Heaviside); cg_lucy_values_frame
-   the values w[i] = factor * value from the frames. Together the same bits as
-   cg_lucy_value. cg_heaviside_values_frame: Heaviside's line integral from the
-   frames, prefactor times the clipped part of [0, 1] (the node-by-node
-   path's numbers, cg_kernel_line_rule). */
+/* Nodes' frames (cg_lucy_line.c): cg_lucy_frames computes each node's frame
+   (u = q.n, t_far = (q - e).n, a2 = |q - u n|^2, as cg_lucy_value does) and
+   keep[i] = 0 where the value is surely 0 (Lucy's: a test without square
+   roots, loose by a relative 1e-9; cylinder: only a2 < R^2, for Heaviside).
+   cg_heaviside_values_frame: Heaviside's line integral from the frames,
+   prefactor times the clipped part of [0, 1] (the node-by-node path's
+   numbers, cg_kernel_line_rule). */
 void cg_lucy_frames(int count, const double *q0, const double *q1, const double *q2, const double *n,
                     const double *e, double R, double *u, double *t_far, double *a2, int *keep, int cylinder,
                     int wide);
 void cg_heaviside_values_frame(int count, const double *u, const double *t_far, const double *a2, double L,
                                double R, double prefactor, double *w, int wide);
-void cg_lucy_values_frame(int count, const double *u, const double *t_far, const double *a2, double L, double R,
-                          double factor, double *w, int wide);
 
 /* Point values of Lucy's (heaviside 0) or Heaviside's (1) full-dimensional
    kernel at squared distances rho2: w[i] = cg_kernel_value(kernel, rho2[i])

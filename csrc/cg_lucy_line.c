@@ -224,14 +224,6 @@ INLINE void heaviside_values_frame_body(int count, const double *restrict u, con
     }
 }
 
-INLINE void lucy_values_frame_body(int count, const double *restrict u, const double *restrict t_far,
-                                   const double *restrict a2, double L, double R, double factor,
-                                   double *restrict w)
-{
-    const double inv = 1.0 / R;
-    for (int i = 0; i < count; ++i) w[i] = factor * lucy_value_frame(u[i], t_far[i], a2[i], L, R, inv);
-}
-
 /* The candidate nodes of a row: the row (fixed offsets f0, f1 from the
    segment's start along the axes before the row axis, z along it) meets the
    capsule (convex) in one interval, the hull of its meets with the ball at
@@ -333,12 +325,6 @@ LUCY_CLONES static void heaviside_values_frame_narrow(int count, const double *u
     heaviside_values_frame_body(count, u, t_far, a2, L, R, prefactor, w);
 }
 
-LUCY_NO_THREADING LUCY_CLONES static void lucy_values_frame_narrow(int count, const double *u, const double *t_far, const double *a2,
-                                                 double L, double R, double factor, double *w)
-{
-    lucy_values_frame_body(count, u, t_far, a2, L, R, factor, w);
-}
-
 #ifdef CG_HAVE_WIDE_SEPARABLE
 __attribute__((target("avx512f"))) static void lucy_frames_wide(int count, const double *q0, const double *q1,
                                                                   const double *q2, const double *n, const double *e,
@@ -356,12 +342,6 @@ __attribute__((target("avx512f"))) static void heaviside_values_frame_wide(int c
     heaviside_values_frame_body(count, u, t_far, a2, L, R, prefactor, w);
 }
 
-LUCY_NO_THREADING __attribute__((target("avx512f"))) static void lucy_values_frame_wide(int count, const double *u,
-                                                                        const double *t_far, const double *a2,
-                                                                        double L, double R, double factor, double *w)
-{
-    lucy_values_frame_body(count, u, t_far, a2, L, R, factor, w);
-}
 #endif
 
 /* cg_kernel_value's full-dimensional Lucy and Heaviside branches */
@@ -517,19 +497,6 @@ void cg_heaviside_values_frame(int count, const double *u, const double *t_far, 
 #endif
     (void)wide;
     heaviside_values_frame_narrow(count, u, t_far, a2, L, R, prefactor, w);
-}
-
-void cg_lucy_values_frame(int count, const double *u, const double *t_far, const double *a2, double L, double R,
-                          double factor, double *w, int wide)
-{
-#ifdef CG_HAVE_WIDE_SEPARABLE
-    if (wide) {
-        lucy_values_frame_wide(count, u, t_far, a2, L, R, factor, w);
-        return;
-    }
-#endif
-    (void)wide;
-    lucy_values_frame_narrow(count, u, t_far, a2, L, R, factor, w);
 }
 
 LUCY_CLONES static void lucy_rows_narrow(int count, const double *f0, const double *f1, const lucy_row_params *P,
