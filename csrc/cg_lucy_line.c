@@ -107,11 +107,11 @@ INLINE void lucy_frame(double q0, double q1, double q2, const double *n, const d
 
 /* int P(x) dt / R over the part of the line inside the support (units of R),
    P = (1 + 3x)(1 - x)^3, for a node of frame (u, t_far, a2) (lucy_frame) and
-   a segment of length L; 0 outside the support. Two square roots and two
-   divisions per node (the divider bounds this loop): an end clipped to the
-   support's sphere has r = 1 there and t = +-b/R = sqrt((R^2 - a^2)/R^2), an
-   end inside it t = u/R (t_far/R) and r = sqrt(a^2/R^2 + t^2), so each end
-   takes one square root; r0 - r1 and the log's argument X share one
+   a segment of length L; 0 outside the support. Three square roots (b and
+   each end's r, taken from the end's t even where the support clips it: r = 1
+   there, but an r consistent with t to its last bit keeps the cancellation
+   near the support's edge at its old size) and two divisions per node:
+   r0 - r1 and the log's argument X share one
    reciprocal, 1/((r0 + r1) h) with h the denominator of X (see the top of
    the file). Where that product is below 1e-290 (a node within 1e-145 R of
    a segment as short) the reciprocal is taken as 0: r0 - r1 then only
@@ -122,16 +122,13 @@ INLINE double lucy_value_frame(double u, double t_far, double a2, double L, doub
     /* (the flags are written as comparisons of doubles where used: int
        flags mixed with them keep GCC 12 from vectorising the loop) */
     const double b2 = R * R - a2;
-    const double s2 = a2 * inv * inv, bn2 = b2 > 0.0 ? b2 * inv * inv : 0.0;
-    /* the ends: clipped where beyond the support (u > b, t_far < -b) */
-    const double u2 = u * u, tf2 = t_far * t_far;
-    const double uh = u * inv, ul = t_far * inv;
-    const double root_hi = sqrt(u > 0.0 && u2 > b2 ? bn2 : s2 + uh * uh);
-    const double root_lo = sqrt(t_far < 0.0 && tf2 > b2 ? bn2 : s2 + ul * ul);
-    const double hi = u > 0.0 && u2 > b2 ? root_hi : uh, r_hi = u > 0.0 && u2 > b2 ? 1.0 : root_hi;
-    const double lo = t_far < 0.0 && tf2 > b2 ? -root_lo : ul, r_lo = t_far < 0.0 && tf2 > b2 ? 1.0 : root_lo;
-    /* reflected so that t0 >= |t1| */
-    const double d = (u > 0.0 && u2 > b2) || (t_far < 0.0 && tf2 > b2) ? hi - lo : L * inv;
+    const double s2 = a2 * inv * inv;
+    /* the ends, clipped to the support (u > b, t_far < -b), reflected below so that t0 >= |t1| */
+    const double b = sqrt(b2 > 0.0 ? b2 : 0.0);
+    const double hi_p = u < b ? u : b, lo_p = t_far > -b ? t_far : -b;
+    const double hi = hi_p * inv, lo = lo_p * inv;
+    const double r_hi = sqrt(s2 + hi * hi), r_lo = sqrt(s2 + lo * lo);
+    const double d = !(u <= b) || !(t_far >= -b) ? (hi_p - lo_p) * inv : L * inv;
     const int flip = hi <= 0.0;
     const double t0 = flip ? -lo : hi, t1 = flip ? -hi : lo;
     const double r0 = flip ? r_lo : r_hi, r1 = flip ? r_hi : r_lo;
