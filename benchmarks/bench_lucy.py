@@ -12,7 +12,9 @@ XYZ grid 46^3, Lucy cutoff 1.5):
   heaviside    the same with Heaviside, radius 1.5
   heaviside-stress  w1-stress with Heaviside, radius 1.5
   lucy-gradient  the particles' gradient scatter (scatter_points(gradient=True), 4 values: mass, momentum)
-Every case runs once per round after a warm-up; the table gives medians over the rounds.
+Every case runs once per round after a warm-up; the tables give medians over the rounds of the wall time
+and of the process's CPU time (all threads; on one thread the better measure on a loaded machine, as it
+leaves out the time other processes hold the core).
 --compare PATH: another cgbound tree (built in place); each round runs this tree and PATH alternately,
 each in a fresh process (PYTHONPATH set to the tree), so that both see the same machine load.
 Prints the CPU model, core count, vector build and load average.
@@ -31,7 +33,7 @@ FIELDS = ("density", "momentum", "momentum_flux", "contact_stress")
 
 
 def worker(cases, threads):
-    """One round: {case: {threads: seconds}} for the cgbound found on sys.path."""
+    """One round: {case: {threads: [wall seconds, CPU seconds]}} for the cgbound found on sys.path."""
     sys.path.insert(0, HERE)
     import numpy as np
 
@@ -71,9 +73,9 @@ def worker(cases, threads):
         out[case] = {}
         for t in threads:
             runs[case](t)  # warm-up
-            begin = time.perf_counter()
+            begin, cpu = time.perf_counter(), time.process_time()
             runs[case](t)
-            out[case][str(t)] = time.perf_counter() - begin
+            out[case][str(t)] = [time.perf_counter() - begin, time.process_time() - cpu]
     return out
 
 
@@ -133,14 +135,15 @@ def main():
             for c in cases:
                 for t in threads:
                     times[name][c][t].append(got[c][str(t)])
-    cols = "".join(f"{f'{name} {t}T s':>16}" for t in threads for name in trees)
-    print(f"{'case':14}{cols}")
-    for c in cases:
-        row = f"{c:14}"
-        for t in threads:
-            for name in trees:
-                row += f"{statistics.median(times[name][c][t]):16.4f}"
-        print(row)
+    for column, what in ((0, "wall"), (1, "CPU")):
+        cols = "".join(f"{f'{name} {t}T s':>16}" for t in threads for name in trees)
+        print(f"{what + ' time':16}{cols}")
+        for c in cases:
+            row = f"{c:16}"
+            for t in threads:
+                for name in trees:
+                    row += f"{statistics.median(r[column] for r in times[name][c][t]):16.4f}"
+            print(row)
     print(f"# load average after: {os.getloadavg()[0]:.2f}")
 
 

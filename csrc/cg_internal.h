@@ -15,6 +15,14 @@
 
 /* How many axes the kernel integrates out (its marginal over them): D - D_res,
    or 0 when the kernel is the D_res-dimensional one (lower_dimensional). */
+/* Lucy's profile (1 + 3x)(1 - x)^3, x = r/R (cg_kernel_value and the batched
+   point values of cg_lucy_line.c: one formula, the same bits) */
+static inline double cg_lucy_profile(double x)
+{
+    const double om = 1.0 - x;
+    return (1.0 + 3.0 * x) * om * om * om;
+}
+
 static inline int cg_kernel_marginal_axes(const cg_kernel *k)
 {
     return k->lower_dimensional ? 0 : k->dim - k->n_resolved;
@@ -148,21 +156,29 @@ double cg_lucy_value(const double *q, const double *n, const double *e, double L
 void cg_lucy_values(int count, const double *q0, const double *q1, const double *q2, const double *n,
                     const double *e, double L, double R, double factor, double *w, int wide);
 
-/* The same in two passes (cg_lucy_line.c): cg_lucy_frames computes each
-   node's frame (u = q.n, t_far = (q - e).n, a2 = |q - u n|^2) and keep[i] = 0
-   where the value is surely 0 (a test without square roots, loose by a
-   relative 1e-9; cylinder: only a2 < R^2, for Heaviside); cg_lucy_values_frame
-   the values w[i] = factor * value from the frames. Together the same bits as
-   cg_lucy_value. cg_heaviside_values_frame: Heaviside's line integral from the
-   frames, prefactor times the clipped part of [0, 1] (the node-by-node
-   path's numbers, cg_kernel_line_rule). */
+/* Nodes' frames (cg_lucy_line.c): cg_lucy_frames computes each node's frame
+   (u = q.n, t_far = (q - e).n, a2 = |q - u n|^2, as cg_lucy_value does) and
+   keep[i] = 0 where the value is surely 0 (Lucy's: a test without square
+   roots, loose by a relative 1e-9; cylinder: only a2 < R^2, for Heaviside).
+   cg_heaviside_values_frame: Heaviside's line integral from the frames,
+   prefactor times the clipped part of [0, 1] (the node-by-node path's
+   numbers, cg_kernel_line_rule). */
 void cg_lucy_frames(int count, const double *q0, const double *q1, const double *q2, const double *n,
                     const double *e, double R, double *u, double *t_far, double *a2, int *keep, int cylinder,
                     int wide);
 void cg_heaviside_values_frame(int count, const double *u, const double *t_far, const double *a2, double L,
                                double R, double prefactor, double *w, int wide);
-void cg_lucy_values_frame(int count, const double *u, const double *t_far, const double *a2, double L, double R,
-                          double factor, double *w, int wide);
+
+/* Point values of Lucy's (heaviside 0) or Heaviside's (1) full-dimensional
+   kernel at squared distances rho2: w[i] = cg_kernel_value(kernel, rho2[i])
+   bit for bit, vectorised (cg_lucy_line.c) */
+void cg_ball_values(int count, const double *rho2, double R, double prefactor, int heaviside, double *w, int wide);
+
+/* out[node[i] * width + c] += w[i] * val[c], c < nv, for each i with a
+   non-zero w[i], in order (cg_lucy_line.c; vectorised over c, the bits of
+   cg_accumulate's MODE_VALUE) */
+void cg_ball_add(int count, const double *w, const cg_index *node, int width, const double *val, int nv, double *out,
+                 int wide);
 
 /* out[node[i] * 9 + k] += (w[i] * scale) * val[k], k < 9, for each i with a
    non-zero w[i] * scale, in order (cg_lucy_line.c; vectorised, the bits of

@@ -123,12 +123,8 @@ cg_status cg_kernel_init(cg_kernel *k)
 /* ------------------------------------------------------------------ */
 /* Lucy and its marginals, in units of the support radius               */
 
-/* (1 + 3x)(1 - x)^3 */
-static double lucy_profile(double x)
-{
-    const double om = 1.0 - x;
-    return (1.0 + 3.0 * x) * om * om * om;
-}
+/* (1 + 3x)(1 - x)^3 (cg_internal.h) */
+#define lucy_profile cg_lucy_profile
 
 /* m1(x) = int_{-h}^{h} lucy_profile(sqrt(x^2 + y^2)) dy, h = sqrt(1 - x^2). */
 static double lucy_marginal1(double x)

@@ -102,6 +102,10 @@ double cg_lucy_segment(const cg_kernel *k, const segment_axis *ax, const double 
 #define LUCY_BATCH 256
 #define LUCY_ROWS 64
 
+/* batches are evaluated in whole vectors of this many nodes (AVX-512's 8
+   doubles; a multiple of AVX2's 4); LUCY_BATCH is a multiple of it */
+#define LUCY_LANES 8
+
 /* cg_visit_lucy's state for one object: the rows gathered (offsets along the
    axes before the row axis, unused ones 0) and the candidate nodes gathered
    (offsets along every axis, unused ones 0), each evaluated a batch at a time */
@@ -125,16 +129,33 @@ typedef struct lucy_visit {
     cg_index node[LUCY_BATCH];
 } lucy_visit;
 
+static void lucy_values_add(lucy_visit *v, int m);
+
 /* the gathered nodes' weights (cg_lucy_line.c): their frames, those that may
    reach the segment kept (compacted in place), their values, then each
    non-zero one into out */
 static void lucy_values_flush(lucy_visit *v)
 {
     if (v->count == 0) return;
-    cg_lucy_frames(v->count, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->R, v->fu, v->ft, v->fa, v->keep,
+    /* whole vectors (no scalar remainder loops): the lanes past count get
+       node 0's offsets and past m a frame outside the support; their
+       results are not used */
+    const int count = v->count, padded = (count + LUCY_LANES - 1) & -LUCY_LANES;
+    for (int i = count; i < padded; ++i)
+        for (int a = 0; a < 3; ++a) v->qb[a][i] = v->qb[a][0];
+    if (!v->heaviside) {
+        /* Lucy: frames and values in one pass over every gathered node (a
+           node beyond the support gets 0, as lucy_may_reach would have
+           dropped it): cheaper than compacting the few far nodes away */
+        cg_lucy_values(padded, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->L, v->R, v->factor, v->w, v->wide);
+        v->count = 0;
+        lucy_values_add(v, count);
+        return;
+    }
+    cg_lucy_frames(padded, v->qb[0], v->qb[1], v->qb[2], v->n3, v->e3, v->R, v->fu, v->ft, v->fa, v->keep,
                    v->heaviside, v->wide);
     int m = 0;
-    for (int i = 0; i < v->count; ++i) {
+    for (int i = 0; i < count; ++i) {
         v->fu[m] = v->fu[i];
         v->ft[m] = v->ft[i];
         v->fa[m] = v->fa[i];
@@ -143,8 +164,18 @@ static void lucy_values_flush(lucy_visit *v)
     }
     v->count = 0;
     if (m == 0) return;
-    if (v->heaviside) cg_heaviside_values_frame(m, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
-    else cg_lucy_values_frame(m, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
+    const int m_padded = (m + LUCY_LANES - 1) & -LUCY_LANES;
+    for (int i = m; i < m_padded; ++i) {
+        v->fu[i] = v->ft[i] = 0.0;
+        v->fa[i] = 4.0 * v->R * v->R;
+    }
+    cg_heaviside_values_frame(m_padded, v->fu, v->ft, v->fa, v->L, v->R, v->factor, v->w, v->wide);
+    lucy_values_add(v, m);
+}
+
+/* the first m weights (of nodes v->node) into out */
+static void lucy_values_add(lucy_visit *v, int m)
+{
     const job *jb = v->jb;
     const double scale = v->scale;
     if (jb->n_values == 9 && jb->out_width == 9) {
@@ -389,10 +420,32 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
     return 1;
 }
 
+/* nodes per batch of cg_visit_ball_points */
+#define BALL_BATCH 256
+
+/* the gathered nodes' weights (cg_ball_values, or cg_kernel_value for
+   marginal kernels), each non-zero one into out */
+static void ball_flush(const job *jb, double *out, cg_index obj, int count, const double *rho2, const cg_index *node,
+                       double *w)
+{
+    const cg_kernel *k = jb->kernel;
+    if (cg_kernel_marginal_axes(k) == 0)
+        cg_ball_values(count, rho2, k->radius, k->prefactor, k->type == CG_KERNEL_HEAVISIDE, w, jb->wide);
+    else
+        for (int i = 0; i < count; ++i) w[i] = cg_kernel_value(k, rho2[i]);
+    if (jb->mode == MODE_VALUE) {
+        cg_ball_add(count, w, node, jb->out_width, jb->values + obj * jb->n_values, jb->n_values, out, jb->wide);
+        return;
+    }
+    for (int i = 0; i < count; ++i)
+        if (w[i] != 0.0) cg_accumulate(jb, out, obj, node[i], w[i], NULL);
+}
+
 /* Points of Lucy and Heaviside on grids: the node-by-node path's stencil box,
    each row narrowed to the nodes the support ball can reach (rho^2 < R^2 with
    a margin, widened by a node each way); each node's value is computed as
-   the node-by-node path computes it (the same rho^2, cg_kernel_value). */
+   the node-by-node path computes it (the same rho^2, cg_kernel_value's
+   arithmetic), a batch of nodes at a time. */
 int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double *x)
 {
     const cg_target *t = jb->target;
@@ -408,16 +461,18 @@ int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double 
     if (!stencil_range(jb, bmin, bmax, first, last, stride)) return 1;
     const int row = nr - 1;
     const double *zc = t->coords[row];
-    const double h = jb->spacing[row];
+    const double h = jb->spacing[row], inv_h = jb->inv_spacing[row], xr = x[row];
     const double bound = R * R * (1.0 + 1e-6);
+    double rho2[BALL_BATCH], w[BALL_BATCH];
+    cg_index node[BALL_BATCH];
+    int count = 0;
     cg_index idx[3] = {first[0], first[1], first[2]};
-    double q[3];
     for (;;) {
         cg_index base = 0;
         double p2 = 0.0;
         for (int a = 0; a < row; ++a) {
-            q[a] = t->coords[a][idx[a]] - x[a];
-            p2 += q[a] * q[a];
+            const double q = t->coords[a][idx[a]] - x[a];
+            p2 += q * q;
             base += idx[a] * stride[a];
         }
         cg_index k0 = first[row], k1 = last[row];
@@ -425,20 +480,25 @@ int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double 
             if (!(p2 < bound)) k1 = k0 - 1;
             else {
                 const double half = sqrt(bound - p2);
-                const double klo = floor((x[row] - half - zc[0]) / h) - 1.0;
-                const double khi = ceil((x[row] + half - zc[0]) / h) + 1.0;
+                /* (a node of slack each way covers the rounding of inv_h) */
+                const double klo = floor((xr - half - zc[0]) * inv_h) - 1.0;
+                const double khi = ceil((xr + half - zc[0]) * inv_h) + 1.0;
                 if (klo > (double)k0) k0 = (cg_index)klo;
                 if (khi < (double)k1) k1 = (cg_index)khi;
             }
         }
         for (cg_index k = k0; k <= k1; ++k) {
-            q[row] = zc[k] - x[row];
-            double rho2 = 0.0;
-            for (int a = 0; a < nr; ++a) rho2 += q[a] * q[a];
-            const double w = cg_kernel_value(jb->kernel, rho2);
-            if (w != 0.0) cg_accumulate(jb, out, obj, base + k, w, NULL);
+            if (count == BALL_BATCH) {
+                ball_flush(jb, out, obj, count, rho2, node, w);
+                count = 0;
+            }
+            /* the node-by-node sum over the axes in order: (q0^2 + q1^2) + q2^2 */
+            const double q = zc[k] - xr;
+            rho2[count] = p2 + q * q;
+            node[count++] = base + k;
         }
         if (!stencil_next(idx, first, last, row)) break;
     }
+    if (count) ball_flush(jb, out, obj, count, rho2, node, w);
     return 1;
 }

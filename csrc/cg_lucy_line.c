@@ -58,7 +58,9 @@ static inline double double_of(uint64_t u)
 }
 
 /* log1p(X) for X >= 0 (finite; other X give garbage, which callers mask):
-   musl's log1p without its branches, error < 1 ulp */
+   musl's log1p without its branches and with its two divisions merged into
+   one (two more roundings in s and c, whose terms are smaller than the
+   result by f^2 and an ulp), error about 1 ulp */
 INLINE double lucy_log1p(double X)
 {
     const double ln2_hi = 6.93147180369123816490e-01, ln2_lo = 1.90821492927058770002e-10;
@@ -74,13 +76,15 @@ INLINE double lucy_log1p(double X)
     const double dk = double_of(UINT64_C(0x4330000000000000) | kb) - 4503599627371519.0;
     const double m = double_of(((hu & UINT64_C(0x000fffff00000000)) + ((uint64_t)0x3fe6a09e << 32)) |
                                (ub & UINT64_C(0xffffffff)));
-    /* k = 0: f = X exactly; else f = m - 1 with the correction c ~ log(1+X) - log(u) */
+    /* k = 0: f = X exactly; else f = m - 1 with the correction c ~ log(1+X) - log(u);
+       c's division by u and s = f / (2 + f) share one reciprocal */
     const int small = kb == 1023;
-    const double c_big = (kb >= 1025 ? 1.0 - (u - X) : X - (u - 1.0)) / u;
     const double f = small ? X : m - 1.0;
+    const double two_f = 2.0 + f, rec = 1.0 / (two_f * u);
+    const double c_big = (kb >= 1025 ? 1.0 - (u - X) : X - (u - 1.0)) * (two_f * rec);
     const double c = small || kb >= 1023 + 54 ? 0.0 : c_big;
     const double hfsq = 0.5 * f * f;
-    const double s = f / (2.0 + f);
+    const double s = f * (u * rec);
     const double z = s * s, w = z * z;
     const double t1 = w * (Lg2 + w * (Lg4 + w * Lg6));
     const double t2 = z * (Lg1 + w * (Lg3 + w * (Lg5 + w * Lg7)));
@@ -103,40 +107,53 @@ INLINE void lucy_frame(double q0, double q1, double q2, const double *n, const d
 
 /* int P(x) dt / R over the part of the line inside the support (units of R),
    P = (1 + 3x)(1 - x)^3, for a node of frame (u, t_far, a2) (lucy_frame) and
-   a segment of length L; 0 outside the support. */
+   a segment of length L; 0 outside the support. Three square roots (b and
+   each end's r, taken from the end's t even where the support clips it: r = 1
+   there, but an r consistent with t to its last bit keeps the cancellation
+   near the support's edge at its old size) and two divisions per node:
+   r0 - r1 and the log's argument X share one
+   reciprocal, 1/((r0 + r1) h) with h the denominator of X (see the top of
+   the file). Where that product is below 1e-290 (a node within 1e-145 R of
+   a segment as short) the reciprocal is taken as 0: r0 - r1 then only
+   enters multiplied by t1 (as small) and X only with a factor a^4 that
+   underflows. */
 INLINE double lucy_value_frame(double u, double t_far, double a2, double L, double R, double inv)
 {
+    /* (the flags are written as comparisons of doubles where used: int
+       flags mixed with them keep GCC 12 from vectorising the loop) */
     const double b2 = R * R - a2;
-    const int inside = b2 > 0.0;
-    const double b = sqrt(inside ? b2 : 0.0);
-    const double hi = u < b ? u : b, lo = t_far > -b ? t_far : -b;
-    const int clipped = !(u <= b) || !(t_far >= -b);
-    const int valid = inside && hi > lo;
-    /* units of R; reflected so that t0 >= |t1| */
-    const double span = (clipped ? hi - lo : L) * inv;
-    const int flip = hi <= 0.0;
-    const double t0 = (flip ? -lo : hi) * inv, t1 = (flip ? -hi : lo) * inv;
     const double s2 = a2 * inv * inv;
-    const double d = span;
+    /* the ends, clipped to the support (u > b, t_far < -b), reflected below so that t0 >= |t1| */
+    const double b = sqrt(b2 > 0.0 ? b2 : 0.0);
+    const double hi_p = u < b ? u : b, lo_p = t_far > -b ? t_far : -b;
+    const double hi = hi_p * inv, lo = lo_p * inv;
+    const double r_hi = sqrt(s2 + hi * hi), r_lo = sqrt(s2 + lo * lo);
+    const double d = !(u <= b) || !(t_far >= -b) ? (hi_p - lo_p) * inv : L * inv;
+    const int flip = hi <= 0.0;
+    const double t0 = flip ? -lo : hi, t1 = flip ? -hi : lo;
+    const double r0 = flip ? r_lo : r_hi, r1 = flip ? r_hi : r_lo;
     const double q2_ = t0 * t0, p2_ = t1 * t1, qp = t0 * t1, sum = t0 + t1;
-    const double r0 = sqrt(s2 + q2_), r1 = sqrt(s2 + p2_);
     const double J2 = d * (q2_ + qp + p2_) * (1.0 / 3.0);
     const double J4 = d * (q2_ * q2_ + qp * (q2_ + p2_) + qp * qp + p2_ * p2_) * 0.2;
     const double Jr2 = s2 * d + J2;
     const double Jr4 = s2 * s2 * d + 2.0 * s2 * J2 + J4;
     const double rsum = r0 + r1;
-    const double dr = d * sum / (rsum > 0.0 ? rsum : 1.0);
+    /* X = (d + dr) / (t1 + r1), t1 + r1 = a^2 / (r1 - t1) when t1 < 0 */
+    const int with_log = s2 > 1e-200;
+    const int across = t1 < 0.0;
+    const double h = across ? (with_log ? s2 : 1.0) : t1 + r1, g = across ? r1 - t1 : 1.0;
+    const double pden = rsum * h;
+    const double rec = 1.0 / (pden > 1e-290 ? pden : INFINITY);
+    const double dr = d * sum * (h * rec); /* r0 - r1 = d (t0 + t1) / (r0 + r1) */
     const double rr = r0 * r0 + r0 * r1 + r1 * r1;
     const double D2 = d * r0 + t1 * dr;
     const double D1 = d * r0 * r0 * r0 + t1 * dr * rr;
-    /* asinh(t0/a) - asinh(t1/a) */
-    const int with_log = s2 > 1e-200;
-    const double den = t1 >= 0.0 ? t1 + r1 : s2 / (r1 - t1); /* t1 + r1 without its cancellation */
-    const double X = (d + dr) / (den > 0.0 ? den : 1.0);
+    /* asinh(t0/a) - asinh(t1/a) = log1p(X) */
+    const double X = d * (rsum + sum) * (g * rec);
     const double D3 = with_log ? lucy_log1p(X) : 0.0;
     const double Jr3 = 0.25 * D1 + 0.375 * s2 * D2 + 0.375 * s2 * s2 * D3;
     const double acc = d - 6.0 * Jr2 + 8.0 * Jr3 - 3.0 * Jr4;
-    return valid && d > 0.0 ? acc : 0.0;
+    return b2 > 0.0 && hi > lo && d > 0.0 ? acc : 0.0;
 }
 
 /* the same from the node's offset q */
@@ -155,7 +172,8 @@ INLINE double lucy_value_units(double q0, double q1, double q2, const double *n,
 INLINE int lucy_may_reach(double u, double t_far, double a2, double R2)
 {
     const double b2 = R2 - a2, loose = b2 * (1.0 + 1e-9);
-    return b2 > 0.0 && (u >= 0.0 || u * u < loose) && (t_far <= 0.0 || t_far * t_far < loose);
+    /* bitwise, not short-circuit: no branches, so that lucy_frames_body vectorises */
+    return (b2 > 0.0) & ((u >= 0.0) | (u * u < loose)) & ((t_far <= 0.0) | (t_far * t_far < loose));
 }
 
 INLINE void lucy_values_body(int count, const double *restrict q0, const double *restrict q1,
@@ -201,14 +219,6 @@ INLINE void heaviside_values_frame_body(int count, const double *restrict u, con
         const int valid = inside && !(lo > 1.0 || hi < 0.0 || !(lo < hi));
         w[i] = valid ? prefactor * (hi - lo) : 0.0;
     }
-}
-
-INLINE void lucy_values_frame_body(int count, const double *restrict u, const double *restrict t_far,
-                                   const double *restrict a2, double L, double R, double factor,
-                                   double *restrict w)
-{
-    const double inv = 1.0 / R;
-    for (int i = 0; i < count; ++i) w[i] = factor * lucy_value_frame(u[i], t_far[i], a2[i], L, R, inv);
 }
 
 /* The candidate nodes of a row: the row (fixed offsets f0, f1 from the
@@ -272,7 +282,17 @@ INLINE void lucy_rows_body(int count, const double *restrict f0, const double *r
 #define LUCY_CLONES
 #endif
 
-LUCY_CLONES static void lucy_values_narrow(int count, const double *q0, const double *q1, const double *q2,
+/* The value loops without jump threading: threading the selects on the
+   clip flags duplicates lucy_value_frame's square roots and divisions into
+   both arms (3 and 3 per node instead of 2 and 2: the divider bounds the
+   loop) */
+#if defined(__GNUC__) && !defined(__clang__)
+#define LUCY_NO_THREADING __attribute__((optimize("no-thread-jumps")))
+#else
+#define LUCY_NO_THREADING
+#endif
+
+LUCY_NO_THREADING LUCY_CLONES static void lucy_values_narrow(int count, const double *q0, const double *q1, const double *q2,
                                            const double *n, const double *e, double L, double R, double factor,
                                            double *w)
 {
@@ -280,7 +300,7 @@ LUCY_CLONES static void lucy_values_narrow(int count, const double *q0, const do
 }
 
 #ifdef CG_HAVE_WIDE_SEPARABLE
-__attribute__((target("avx512f"))) static void lucy_values_wide(int count, const double *q0, const double *q1,
+LUCY_NO_THREADING __attribute__((target("avx512f"))) static void lucy_values_wide(int count, const double *q0, const double *q1,
                                                                   const double *q2, const double *n, const double *e,
                                                                   double L, double R, double factor, double *w)
 {
@@ -302,12 +322,6 @@ LUCY_CLONES static void heaviside_values_frame_narrow(int count, const double *u
     heaviside_values_frame_body(count, u, t_far, a2, L, R, prefactor, w);
 }
 
-LUCY_CLONES static void lucy_values_frame_narrow(int count, const double *u, const double *t_far, const double *a2,
-                                                 double L, double R, double factor, double *w)
-{
-    lucy_values_frame_body(count, u, t_far, a2, L, R, factor, w);
-}
-
 #ifdef CG_HAVE_WIDE_SEPARABLE
 __attribute__((target("avx512f"))) static void lucy_frames_wide(int count, const double *q0, const double *q1,
                                                                   const double *q2, const double *n, const double *e,
@@ -325,13 +339,84 @@ __attribute__((target("avx512f"))) static void heaviside_values_frame_wide(int c
     heaviside_values_frame_body(count, u, t_far, a2, L, R, prefactor, w);
 }
 
-__attribute__((target("avx512f"))) static void lucy_values_frame_wide(int count, const double *u,
-                                                                        const double *t_far, const double *a2,
-                                                                        double L, double R, double factor, double *w)
+#endif
+
+/* cg_kernel_value's full-dimensional Lucy and Heaviside branches */
+INLINE void ball_values_body(int count, const double *restrict rho2, double R, double prefactor, int heaviside,
+                             double *restrict w)
 {
-    lucy_values_frame_body(count, u, t_far, a2, L, R, factor, w);
+    const double R2 = R * R;
+    for (int i = 0; i < count; ++i) {
+        const double lucy = prefactor * cg_lucy_profile(sqrt(rho2[i]) / R);
+        w[i] = rho2[i] < R2 ? (heaviside ? prefactor : lucy) : 0.0;
+    }
+}
+
+LUCY_CLONES static void ball_values_narrow(int count, const double *rho2, double R, double prefactor, int heaviside,
+                                           double *w)
+{
+    ball_values_body(count, rho2, R, prefactor, heaviside, w);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void ball_values_wide(int count, const double *rho2, double R,
+                                                                  double prefactor, int heaviside, double *w)
+{
+    ball_values_body(count, rho2, R, prefactor, heaviside, w);
 }
 #endif
+
+void cg_ball_values(int count, const double *rho2, double R, double prefactor, int heaviside, double *w, int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        ball_values_wide(count, rho2, R, prefactor, heaviside, w);
+        return;
+    }
+#endif
+    (void)wide;
+    ball_values_narrow(count, rho2, R, prefactor, heaviside, w);
+}
+
+/* out[node[i] * width + c] += w[i] * val[c], c < nv, for every non-zero w[i]
+   (cg_accumulate's MODE_VALUE sums), the value loop vectorised */
+INLINE void ball_add_body(int count, const double *restrict w, const cg_index *restrict node, int width,
+                          const double *restrict val, int nv, double *restrict out)
+{
+    for (int i = 0; i < count; ++i) {
+        const double wi = w[i];
+        if (wi == 0.0) continue;
+        double *restrict o = out + node[i] * width;
+        for (int c = 0; c < nv; ++c) o[c] += wi * val[c];
+    }
+}
+
+LUCY_CLONES static void ball_add_narrow(int count, const double *w, const cg_index *node, int width,
+                                        const double *val, int nv, double *out)
+{
+    ball_add_body(count, w, node, width, val, nv, out);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void ball_add_wide(int count, const double *w, const cg_index *node,
+                                                               int width, const double *val, int nv, double *out)
+{
+    ball_add_body(count, w, node, width, val, nv, out);
+}
+#endif
+
+void cg_ball_add(int count, const double *w, const cg_index *node, int width, const double *val, int nv, double *out,
+                 int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        ball_add_wide(count, w, node, width, val, nv, out);
+        return;
+    }
+#endif
+    (void)wide;
+    ball_add_narrow(count, w, node, width, val, nv, out);
+}
 
 /* out[node[i] * 9 + k] += (w[i] * scale) * val[k] for every non-zero
    w[i] * scale (cg_accumulate's MODE_VALUE sums of a 9-component value): the
@@ -409,19 +494,6 @@ void cg_heaviside_values_frame(int count, const double *u, const double *t_far, 
 #endif
     (void)wide;
     heaviside_values_frame_narrow(count, u, t_far, a2, L, R, prefactor, w);
-}
-
-void cg_lucy_values_frame(int count, const double *u, const double *t_far, const double *a2, double L, double R,
-                          double factor, double *w, int wide)
-{
-#ifdef CG_HAVE_WIDE_SEPARABLE
-    if (wide) {
-        lucy_values_frame_wide(count, u, t_far, a2, L, R, factor, w);
-        return;
-    }
-#endif
-    (void)wide;
-    lucy_values_frame_narrow(count, u, t_far, a2, L, R, factor, w);
 }
 
 LUCY_CLONES static void lucy_rows_narrow(int count, const double *f0, const double *f1, const lucy_row_params *P,

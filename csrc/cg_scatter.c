@@ -305,6 +305,7 @@ static cg_status prepare(job *jb)
     }
     jb->ball_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
                     t->n_resolved > 0 && !jb->is_segment && jb->mode != MODE_GRADIENT;
+    if (jb->ball_rows) jb->wide = cg_separable_wide_available();
     if (jb->moment) {
         /* the first moment (cg_moment.c): node by node */
         if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) != 0 && jb->mode == MODE_GRADIENT)

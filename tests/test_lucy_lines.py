@@ -95,6 +95,26 @@ def test_nodes_on_the_segments_line(where):
     check_psi(nodes, particle, point, R, f"nodes on the line at s = {where}")
 
 
+@pytest.mark.parametrize("scale", [1e-100, 1e-150, 1e-160, 1e-250])
+def test_tiny_segments_with_nodes_as_close(scale):
+    """A segment of length scale R with nodes within a few scale R of it (on it, beside it, beyond its ends):
+    r0 - r1 and the log's argument share a reciprocal of a product that underflows near 1e-150 R (the closed
+    form then drops terms below the result's last digit); the value is W at the node, finite, against 50 digits."""
+    R = 0.8
+    particle = np.array([0.3, -0.2, 0.1])
+    e = scale * R * np.array([0.48, 0.6, -0.64])
+    offsets = scale * R * np.array([[0.0, 0.0, 0.0], [0.24, 0.3, -0.32], [2.0, -1.0, 0.5], [-1.5, 0.2, 0.1],
+                                    [0.1, 1e-3, 0.0], [0.6, 0.0, 0.8]])
+    nodes = particle + offsets
+    target = _engine.core_target(cg.Points(nodes), cg.Box([-9] * 3, [9] * 3))
+    psi = _core.scatter_segments(target, _engine.core_kernel(cg.Lucy(R), 1.0), particle[None], e[None],
+                                 np.ones((1, 1)))[:, 0]
+    ref = np.array([float(mp_lucy_psi(p - particle, e, R)) for p in offsets + particle])
+    err = rel_error(psi, ref)
+    record(f"Lucy closed form: segment and nodes within {scale:g} R", err)
+    assert err <= RTOL
+
+
 @pytest.mark.parametrize("depth", [1e-12, 1e-8, 1e-4, 1e-2])
 def test_nodes_at_the_edge_of_the_support(depth):
     """Nodes whose distance to the segment is R (1 - depth): the support clips a tiny piece."""
