@@ -36,7 +36,8 @@ static inline int cg_kernel_marginal_axes(const cg_kernel *k)
    node offset -q to e - q along the one resolved axis (cg_lowdim.c) */
 double cg_mercurycg_gauss_line(const cg_kernel *kernel, double q, double e);
 
-/* the n-point Gauss-Legendre rule on [0, 1]: nodes x (increasing), weights w */
+/* the n-point Gauss-Legendre rule on [0, 1]: nodes x (increasing), weights w (tabulated for
+   n <= CG_MAX_LINE_POINTS, else by Newton on the Legendre recurrence) */
 void cg_gauss_legendre01(int n, double *x, double *w);
 
 /* cg_kernel_line with an explicit rule: n_points = 0 evaluates the integral

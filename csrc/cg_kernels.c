@@ -309,12 +309,43 @@ static const double GL_WEIGHTS[136] = {
     0.013576229705877088,
 };
 
+/* P_n(z) and P_n'(z) by the three-term recurrence */
+static void legendre(int n, double z, double *p, double *dp)
+{
+    double p0 = 1.0, p1 = z;
+    for (int k = 2; k <= n; ++k) {
+        const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
+        p0 = p1;
+        p1 = p2;
+    }
+    *p = p1;
+    *dp = n * (z * p1 - p0) / (z * z - 1.0);
+}
+
 void cg_gauss_legendre01(int n, double *x, double *w)
 {
-    const int first = n * (n - 1) / 2;
-    for (int i = 0; i < n; ++i) {
-        x[i] = GL_NODES[first + i];
-        w[i] = GL_WEIGHTS[first + i];
+    if (n <= CG_MAX_LINE_POINTS) {
+        const int first = n * (n - 1) / 2;
+        for (int i = 0; i < n; ++i) {
+            x[i] = GL_NODES[first + i];
+            w[i] = GL_WEIGHTS[first + i];
+        }
+        return;
+    }
+    /* longer rules (the rings of cg_ring.c): Newton on P_n from the usual first guesses */
+    for (int i = 0; i < (n + 1) / 2; ++i) {
+        double z = cos(M_PI * (i + 0.75) / (n + 0.5)), p, dp;
+        for (int it = 0; it < 100; ++it) {
+            legendre(n, z, &p, &dp);
+            const double step = p / dp;
+            z -= step;
+            if (fabs(step) < 1e-17) break;
+        }
+        legendre(n, z, &p, &dp);
+        const double weight = 1.0 / ((1.0 - z * z) * dp * dp); /* on [0, 1]: half of 2 / ((1 - z^2) P'^2) */
+        x[i] = 0.5 * (1.0 - z);
+        x[n - 1 - i] = 0.5 * (1.0 + z);
+        w[i] = w[n - 1 - i] = weight;
     }
 }
 

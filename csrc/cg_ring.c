@@ -23,6 +23,7 @@
  * exponential or square root per point).
  */
 #include "cg.h"
+#include "cg_internal.h"
 
 #include <math.h>
 #include <stddef.h>
@@ -47,38 +48,6 @@ typedef struct ring_rule {
     double x[RING_POINTS]; /* Gauss-Legendre nodes on [0, 1] */
     double w[RING_POINTS]; /* and weights (sum 1) */
 } ring_rule;
-
-/* Gauss-Legendre on [0, 1] by Newton on the Legendre recurrence */
-static void ring_rule_init(ring_rule *rule)
-{
-    const int n = RING_POINTS;
-    for (int i = 0; i < (n + 1) / 2; ++i) {
-        double z = cos(M_PI * (i + 0.75) / (n + 0.5)), dp = 1.0;
-        for (int it = 0; it < 100; ++it) {
-            double p0 = 1.0, p1 = z;
-            for (int k = 2; k <= n; ++k) {
-                const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
-                p0 = p1;
-                p1 = p2;
-            }
-            dp = n * (z * p1 - p0) / (z * z - 1.0);
-            const double step = p1 / dp;
-            z -= step;
-            if (fabs(step) < 1e-17) break;
-        }
-        double p0 = 1.0, p1 = z;
-        for (int k = 2; k <= n; ++k) {
-            const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
-            p0 = p1;
-            p1 = p2;
-        }
-        dp = n * (z * p1 - p0) / (z * z - 1.0);
-        const double weight = 1.0 / ((1.0 - z * z) * dp * dp); /* on [0, 1]: half of 2 / ((1 - z^2) P'^2) */
-        rule->x[i] = 0.5 * (1.0 - z);
-        rule->x[n - 1 - i] = 0.5 * (1.0 + z);
-        rule->w[i] = rule->w[n - 1 - i] = weight;
-    }
-}
 
 /* the moments of one pair */
 static void ring_moments_one(const cg_kernel *k, const ring_rule *rule, double r, double h, double rho,
@@ -192,7 +161,7 @@ cg_status cg_ring_moments(const cg_kernel *kernel, double r, cg_index n, const d
 {
     if (!ring_kernel_ok(kernel) || !(r >= 0.0) || !isfinite(r) || n < 0) return CG_ERR_ARGUMENT;
     ring_rule rule;
-    ring_rule_init(&rule);
+    cg_gauss_legendre01(RING_POINTS, rule.x, rule.w);
     const int threads = ring_threads(n_threads, n);
     (void)threads;
 #ifdef _OPENMP
@@ -241,7 +210,7 @@ cg_status cg_ring_segment_sum(const cg_kernel *kernel, double r, double z, cg_in
             !(lo[i] >= 0.0 && lo[i] <= hi[i] && hi[i] <= 1.0))
             return CG_ERR_ARGUMENT;
     ring_rule rule;
-    ring_rule_init(&rule);
+    cg_gauss_legendre01(RING_POINTS, rule.x, rule.w);
     /* Gauss-Legendre in u on each panel, s = lo + (hi - lo) sin^2(pi u / 2), ds/du = (hi - lo) (pi/2) sin(pi u) */
     const cg_index n_blocks = (n_pieces + RING_PIECE_BLOCK - 1) / RING_PIECE_BLOCK;
     double local[64 * 9];

@@ -846,19 +846,9 @@ def _oracle_ring_rule(panels=8, ratio=0.25):
 
 
 def _oracle_kernel_3d(kernel):
-    """W(d²) of the full 3-D kernel inside its support."""
-    c = float(kernel.radius)
-    if kernel.kind == 0:
-        w = float(kernel.width)
-        norm = (math.sqrt(2.0 * math.pi) * w) ** 3
-        if kernel.truncated:
-            x = c / w
-            norm *= math.erf(x / math.sqrt(2.0)) - math.sqrt(2.0 / math.pi) * x * math.exp(-0.5 * x * x)
-        return lambda d2: np.exp(-0.5 * d2 / (w * w)) / norm
-    if kernel.kind == 1:
-        C = 105.0 / (16.0 * math.pi * c ** 3)
-        return lambda d2: C * (1.0 + 3.0 * np.sqrt(d2) / c) * (1.0 - np.sqrt(d2) / c) ** 3
-    return lambda d2: np.full(np.shape(d2), 3.0 / (4.0 * math.pi * c ** 3))
+    """W(d²) of the full 3-D kernel (OracleKernel's)."""
+    twin = oracle_kernel_of(kernel, 3)
+    return lambda d2: twin.marginal(d2, 3, 1.0)
 
 
 def oracle_ring_moments(kernel, r, h, rho):
