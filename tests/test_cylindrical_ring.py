@@ -99,14 +99,18 @@ def basis(theta):
     return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def scalar_kernel(kernel):
+    """W(d) of the full 3-D kernel for one distance d (the oracle's, for scalar quadrature)."""
+    ok = oracle_kernel_of(kernel, 3)
+    if isinstance(kernel, cg.Gaussian):
+        return lambda d: math.exp(-d * d / (2 * kernel.width ** 2)) / ok.gaussian_norm(3) if d < kernel.radius else 0.0
+    return lambda d: float(ok.full(np.array(d)))
+
+
 def oracle_ring(kernel, sources, r, zs, wz):
     """θ (and z) averages of sum_i values_i W(x - q_i) with x on the ring, values rotated into (e_r, e_θ, e_z)
     (axis z through the origin). sources: [(q (3,), value (scalar, 3 or 3x3 Cartesian))]."""
-    ok = oracle_kernel_of(kernel, 3)
-    if isinstance(kernel, cg.Gaussian):
-        W = lambda d: math.exp(-d * d / (2 * kernel.width ** 2)) / ok.gaussian_norm(3) if d < kernel.radius else 0.0
-    else:
-        W = lambda d: float(ok.full(np.array(d)))
+    W = scalar_kernel(kernel)
     c = kernel.radius
     shape = np.shape(sources[0][1])
     total = np.zeros(shape)
@@ -397,11 +401,7 @@ def test_uniform_ring_of_particles_rotates_rigidly():
 def segment_oracle(kernel, start, vector, value, g, r, z):
     """(1/2π) ∫_0^1 ds ∫ dθ W(|x(θ) - start - s vector|) Σ_ab g_ab (R(θ) value R(θ)ᵀ)_ab by nested QUADPACK
     (θ with breakpoints at the support's edges; s adaptive, which finds the square-root ends)."""
-    ok = oracle_kernel_of(kernel, 3)
-    if isinstance(kernel, cg.Gaussian):
-        W = lambda d: math.exp(-d * d / (2 * kernel.width ** 2)) / ok.gaussian_norm(3) if d < kernel.radius else 0.0
-    else:
-        W = lambda d: float(ok.full(np.array(d)))
+    W = scalar_kernel(kernel)
     c = kernel.radius
 
     def inner(s):
