@@ -1,7 +1,9 @@
-"""Random snapshots for the tests: flowing and fixed particles, bulk, boundary and wall contacts."""
+"""Random snapshots for the tests (flowing and fixed particles, bulk, boundary and wall contacts) and a
+run on the narrow vector build."""
 import numpy as np
 
 import cgbound as cg
+from cgbound import _core
 
 
 def random_snapshot(seed, dim=3, n=14, n_fixed=4, n_bulk=8, n_fixed_contacts=4, n_wall=3,
@@ -112,3 +114,12 @@ class ForbiddenCore:
                 raise AssertionError(f"_core.{name} ran {self._reason}")
             return forbidden
         return getattr(self._real, name)
+
+
+def narrow_build(compute):
+    """compute() with the AVX2/baseline build of the vector paths (the default restored after)."""
+    previous = _core.set_wide_vectors(False)
+    try:
+        return compute()
+    finally:
+        _core.set_wide_vectors(previous)

@@ -14,6 +14,7 @@ import pytest
 import cgbound as cg
 from cgbound import _core, _engine
 from oracle import oracle_kernel_of, oracle_scatter_segments, oracle_target
+from helpers import narrow_build
 from stability_log import record
 from test_hard_cases import mp_psi, rel_error
 
@@ -220,10 +221,6 @@ def test_thread_counts_and_vector_builds_bit_for_bit(dim, cutoff):
     for k in (2, 3):
         with cg.threads(k):
             assert np.array_equal(one, stress()), k
-    previous = _core.set_wide_vectors(False)
-    try:
-        with cg.threads(1):
-            narrow = stress()
-    finally:
-        _core.set_wide_vectors(previous)
+    with cg.threads(1):
+        narrow = narrow_build(lambda: stress())
     assert np.array_equal(one, narrow)

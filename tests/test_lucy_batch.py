@@ -12,6 +12,7 @@ import pytest
 
 import cgbound as cg
 from cgbound import _core, _engine
+from helpers import narrow_build
 from stability_log import record
 from test_hard_cases import rel_error
 from test_lucy_closed_form import grid_nodes
@@ -240,11 +241,7 @@ def test_slab_schedule_thread_counts_bit_for_bit(n0):
         assert np.count_nonzero(one) > 0
         for t in (2, 3, 4, 5):
             assert np.array_equal(one, run(t)), (type(kernel).__name__, segments, t)
-        previous = _core.set_wide_vectors(False)
-        try:
-            narrow = run(2)
-        finally:
-            _core.set_wide_vectors(previous)
+        narrow = narrow_build(lambda: run(2))
         assert np.array_equal(one, narrow), (type(kernel).__name__, segments, "narrow build")
 
 
@@ -275,9 +272,5 @@ def test_lattice_points_equal_node_by_node(dim, kernel):
                 for t in (2, 3):
                     many = scatter(box, shape, make(R), pos, None, values, n_threads=t, segments=False)
                     assert np.array_equal(fast, many), what + f" {t} threads"
-            previous = _core.set_wide_vectors(False)
-            try:
-                narrow = scatter(box, shape, make(R), pos, None, values, segments=False)
-            finally:
-                _core.set_wide_vectors(previous)
+            narrow = narrow_build(lambda: scatter(box, shape, make(R), pos, None, values, segments=False))
             assert np.array_equal(fast, narrow), what + " narrow build"

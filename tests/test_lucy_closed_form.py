@@ -9,6 +9,7 @@ import pytest
 
 import cgbound as cg
 from cgbound import _core, _engine
+from helpers import narrow_build
 from stability_log import record
 from test_hard_cases import rel_error
 from test_lucy_lines import mp_lucy_psi
@@ -166,10 +167,6 @@ def test_thread_counts_and_vector_builds_bit_for_bit(dim):
     for k in (2, 3):
         with cg.threads(k):
             assert np.array_equal(one, stress()), k
-    previous = _core.set_wide_vectors(False)
-    try:
-        with cg.threads(1):
-            narrow = stress()
-    finally:
-        _core.set_wide_vectors(previous)
+    with cg.threads(1):
+        narrow = narrow_build(lambda: stress())
     assert np.array_equal(one, narrow)

@@ -6,7 +6,7 @@ import pytest
 
 import cgbound as cg
 from cgbound import _core, _engine
-from helpers import assert_fields_close, random_snapshot
+from helpers import assert_fields_close, narrow_build, random_snapshot
 from oracle import OracleKernel, oracle_coarse_grain
 from stability_log import record
 from test_hard_cases import boundary_snapshot, psi_of_boundary_stress, rel_error
@@ -241,11 +241,7 @@ def test_rows_equal_node_by_node_bit_for_bit(periodic):
                     slow_kernel._per_node = True
                     fast = cg.coarse_grain(snap, grid, fast_kernel, fields=fields)
                     slow = cg.coarse_grain(snap, grid, slow_kernel, fields=fields)
-                    previous = _core.set_wide_vectors(False)
-                    try:
-                        narrow = cg.coarse_grain(snap, grid, fast_kernel, fields=fields)
-                    finally:
-                        _core.set_wide_vectors(previous)
+                    narrow = narrow_build(lambda: cg.coarse_grain(snap, grid, fast_kernel, fields=fields))
                     for name in fields:
                         what = f"{name} dim {dim} R {R} {make.__name__} averaged {average}"
                         assert np.array_equal(fast[name], slow[name]), what

@@ -6,17 +6,8 @@ import pytest
 import cgbound as cg
 from cgbound.rotation import SPIN_FIELDS
 from cgbound import _core
-from helpers import random_snapshot
+from helpers import narrow_build, random_snapshot
 from test_oracle import averagings, grid_for
-
-
-def narrow_build(compute):
-    """compute() with the AVX2/baseline build of the separable path."""
-    previous = _core.set_wide_vectors(False)
-    try:
-        return compute()
-    finally:
-        _core.set_wide_vectors(previous)
 
 
 def test_switch_and_restore():
