@@ -548,10 +548,25 @@ static double heaviside_chord_integral(const segment_frame *f, double b, double 
 {
     const double t0 = t_at(f, s0), t1 = t_at(f, s1);
     const double c0 = fmin(1.0, fmax(-1.0, t0 / b)), c1 = fmin(1.0, fmax(-1.0, t1 / b));
-    /* int sqrt(b^2 - t^2) dt = b^2 (x sqrt(1-x^2) + asin x) / 2, x = t / b */
-    const double F0 = c0 * sqrt(fmax(0.0, 1.0 - c0 * c0)) + asin(c0);
-    const double F1 = c1 * sqrt(fmax(0.0, 1.0 - c1 * c1)) + asin(c1);
-    return b * b * (F0 - F1) / f->L; /* 2 * (1/2) */
+    /* int sqrt(b^2 - t^2) dt = b^2 F(x) / 2, F(x) = x sqrt(1-x^2) + asin x, x = t / b */
+    const double dc = c0 - c1; /* >= 0: t decreases along the segment */
+    if (dc >= 0.5) {
+        const double F0 = c0 * sqrt(fmax(0.0, 1.0 - c0 * c0)) + asin(c0);
+        const double F1 = c1 * sqrt(fmax(0.0, 1.0 - c1 * c1)) + asin(c1);
+        return b * b * (F0 - F1) / f->L; /* 2 * (1/2) */
+    }
+    /* F0 - F1 for a short chord would cancel (F0 ~ F1); with S = sqrt(1 - c^2) and
+       S0 - S1 = -dc (c0 + c1) / (S0 + S1), both parts are dc times sums of one sign:
+         c0 S0 - c1 S1     = dc [(S0 + S1) / 2 - (c0 + c1)^2 / 2(S0 + S1)]
+         asin c0 - asin c1 = asin(c0 S1 - c1 S0) = asin(dc [(S0 + S1) / 2 + (c0 + c1)^2 / 2(S0 + S1)])
+       (the asin identity holds as c0 c1 >= 0 or c0^2 + c1^2 <= 1 when dc < 1/2). dc itself
+       is taken from the length, t0 - t1 = (s1 - s0) L, not from c0 - c1, which cancels. */
+    const double S0 = sqrt(fmax(0.0, 1.0 - c0 * c0)), S1 = sqrt(fmax(0.0, 1.0 - c1 * c1));
+    const double sum = S0 + S1;
+    if (!(sum > 0.0)) return 0.0; /* both ends at the same pole: an empty chord */
+    const double d = (s1 - s0) * f->L / b;
+    const double half = 0.5 * sum, skew = 0.5 * (c0 + c1) * (c0 + c1) / sum;
+    return b * b * (d * (half - skew) + asin(d * (half + skew))) / f->L;
 }
 
 /* the n-point Gauss-Legendre rule applied to the (cut-off) kernel along the segment */
