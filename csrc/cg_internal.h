@@ -232,6 +232,7 @@ typedef struct job {
     int separable;             /* use cg_visit_separable (Gaussian on a grid) */
     int lucy_rows;             /* use cg_visit_lucy (Lucy's and Heaviside's segments on a grid) */
     int ball_rows;             /* use cg_visit_ball_points (Lucy's, Heaviside's points on a grid) */
+    int gradient_rows;         /* use cg_visit_gradient_points (gradients of points on a grid) */
     int wide;                  /* ... its AVX-512 build (and cg_visit_lucy's) */
     int lucy_box;              /* cg_visit_lucy may evaluate whole boxes: a grid of >= 2 resolved axes, all spaced */
     double inv_spacing[3];     /* grids: 1 / spacing (0 where the spacing is 0) */
@@ -338,6 +339,8 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
    of the stencil narrowed to the support ball, the node-by-node numbers bit
    for bit. Returns 1 (it visited the object). */
 int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double *x);
+/* cg_gradient_rows.c: kernel gradients of points on a grid, the support ball's rows only */
+int cg_visit_gradient_points(const job *jb, double *out, cg_index obj, const double *x);
 
 /* An AVX-512 build of the separable path (cg_separable_wide.c) exists on
    x86-64 with GCC; cg_separable_wide_available() says whether this CPU runs it

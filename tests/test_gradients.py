@@ -84,6 +84,33 @@ def test_core_gradient_matches_the_oracle_on_grids(dim, average, name, periodic)
     assert_fields_close(got, expected, 1e-12, f"{name} {average}")
 
 
+@pytest.mark.parametrize("dim,average", LAYOUTS)
+@pytest.mark.parametrize("name", ["gaussian", "gaussian-smooth", "lucy"])
+@pytest.mark.parametrize("periodic", [False, True])
+def test_gradient_rows_equal_node_by_node_bit_for_bit(dim, average, name, periodic):
+    """Gradients of points on grids visit only the support ball's rows (cg_gradient_rows.c, the full kernels'
+    factors a row at a time): the same sums as every node of the stencil box evaluated on its own, bit for bit,
+    on fine and coarse grids (a support of many and of few nodes) and nodes exactly on particles."""
+    box = small_box(dim, [periodic] * (dim - 1) + [False])
+    kernel = KERNELS[name]
+    for n in (4, 23):
+        grid = cg.Grid(box, n, average=average)
+        pos, vals = random_objects(box, 40, 11 + dim + n, width=3)
+        nodes = np.stack(np.meshgrid(*grid.axis_coordinates, indexing="ij"), -1).reshape(-1, dim)
+        pos[:3] = nodes[[0, len(nodes) // 2, -1]]
+        target = _engine.core_target(grid, box)
+        results = []
+        for per_node in (False, True):
+            kernel._per_node = per_node
+            try:
+                results.append(_engine.scatter_points(target, _engine.core_kernel(kernel, grid.avg_extent), pos,
+                                                      vals, gradient=True))
+            finally:
+                kernel._per_node = False
+        assert np.count_nonzero(results[1]) > 0
+        assert np.array_equal(results[0], results[1]), (name, average, n)
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("name", ["gaussian", "lucy"])
 def test_core_gradient_matches_the_oracle_at_points(dim, name):
