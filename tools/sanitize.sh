@@ -15,7 +15,8 @@
 #      the ASan runtime must be loaded first) and fails if the log contains
 #      "ERROR: AddressSanitizer" or "runtime error:" or if pytest fails.
 #
-# Extra arguments are passed to pytest (e.g. -k, -x).
+# Extra arguments are passed to pytest (e.g. -k, -x, or -n 2: pytest-xdist is installed, and each
+# worker's sanitizer reports go to their own log files, which are all checked).
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 venv="${CGBOUND_ASAN_VENV:-/tmp/cgbound-asan-venv}"
@@ -33,7 +34,7 @@ python3 -m venv "$venv"
 # shellcheck disable=SC1091
 source "$venv/bin/activate"
 python -m pip install -q --upgrade pip "setuptools>=77" wheel
-python -m pip install -q numpy scipy pytest mpmath hypothesis h5py meshio xarray matplotlib
+python -m pip install -q numpy scipy pytest pytest-xdist mpmath hypothesis h5py meshio xarray matplotlib
 
 # 3. sanitized build (non-editable install into the venv)
 export CGBOUND_SANITIZE=1
