@@ -64,7 +64,7 @@ setup(
             "cgbound._core",
             sources=SOURCES,
             include_dirs=["csrc", numpy.get_include()],
-            depends=["csrc/cg.h", "csrc/cg_internal.h"],
+            depends=sorted(os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "csrc", "*.h"))),
         )
     ],
     cmdclass={"build_ext": BuildExt},

@@ -33,6 +33,7 @@
  * same results bit for bit.
  */
 #include "cg_internal.h"
+#include "cg_vmath.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -146,48 +147,8 @@ INLINE void block_add(double *restrict o, double scale, const double *restrict w
     }
 }
 
-/* exp_in_place is called on whole vectors of this many values where it can */
+/* cg_exp_in_place is called on whole vectors of this many values where it can */
 #define EXP_PAD 8
-
-/* x[i] = exp(x[i]) for x[i] <= 0, in a loop the compiler vectorises (libm's
-   exp is one call per value). exp(x) = 2^k exp(r), k = round(x / ln 2), with
-   r = x - k ln 2 (two-part ln 2, exact products) in [-0.347, 0.347] and
-   exp(r) by its Taylor polynomial of degree 13 (remainder < 5e-18); 2^k is
-   built in the exponent bits from the rounding shifter's mantissa. Within 2
-   ulp of the exact value; 0 below -708 (where exp is subnormal). */
-INLINE void exp_in_place(double *restrict x, cg_index n)
-{
-    const double log2e = 1.4426950408889634, shifter = 0x1.8p52;
-    const double ln2_hi = 6.93147180369123816490e-01, ln2_lo = 1.90821492927058770002e-10;
-    const uint64_t shifter_bits = UINT64_C(0x4338000000000000);
-    for (cg_index i = 0; i < n; ++i) {
-        const double x0 = x[i];
-        const double v = x0 < -708.0 ? -708.0 : (x0 > 0.0 ? 0.0 : x0);
-        const double shifted = v * log2e + shifter; /* k in the low bits of the mantissa */
-        const double kd = shifted - shifter;
-        const double r = (v - kd * ln2_hi) - kd * ln2_lo;
-        double p = 1.0 / 6227020800.0;
-        p = p * r + 1.0 / 479001600.0;
-        p = p * r + 1.0 / 39916800.0;
-        p = p * r + 1.0 / 3628800.0;
-        p = p * r + 1.0 / 362880.0;
-        p = p * r + 1.0 / 40320.0;
-        p = p * r + 1.0 / 5040.0;
-        p = p * r + 1.0 / 720.0;
-        p = p * r + 1.0 / 120.0;
-        p = p * r + 1.0 / 24.0;
-        p = p * r + 1.0 / 6.0;
-        p = p * r + 0.5;
-        p = p * r + 1.0;
-        p = p * r + 1.0;
-        uint64_t bits;
-        memcpy(&bits, &shifted, sizeof bits);
-        bits = (bits - shifter_bits + 1023) << 52; /* 2^k */
-        double two_k;
-        memcpy(&two_k, &bits, sizeof two_k);
-        x[i] = x0 < -708.0 ? 0.0 : p * two_k;
-    }
-}
 
 /* erfcx(x) = exp(x^2) erfc(x) for x >= 0 (in place): (1 + 2x) erfcx(x) is a
    Chebyshev series in y = (x - 4) / (x + 4), which maps [0, inf) to [-1, 1)
@@ -291,7 +252,7 @@ INLINE void cut_lanes(cg_index n, const double *restrict q0, const double *restr
                       double *restrict ea, double *restrict c0, double *restrict c1)
 {
     /* half the exponents: exp(x / 2)^2 reaches the subnormal values down to
-       exp(-1416) where exp_in_place stops at exp(-708) (far nodes, cutoffs
+       exp(-1416) where cg_exp_in_place stops at exp(-708) (far nodes, cutoffs
        beyond 37 w) */
     const double inv_L2 = 1.0 / L2, L = sqrt(L2), inv4w2 = 0.25 / (w * w);
     const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w);
@@ -369,9 +330,9 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
     for (cg_index m = n; m < n_padded; ++m) b->q[0][m] = b->q[1][m] = b->q[2][m] = 0.0;
     cut_lanes(n_padded, b->q[0], b->q[1], b->q[2], e[0], e[1], e[2], L2, R2, w, b->a2, b->t0, b->span, e0, e1, ea,
               c0, c1);
-    exp_in_place(e0, n_padded);
-    exp_in_place(e1, n_padded);
-    exp_in_place(ea, n_padded);
+    cg_exp_in_place(e0, n_padded);
+    cg_exp_in_place(e1, n_padded);
+    cg_exp_in_place(ea, n_padded);
     erfcx_in_place(c0, n_padded);
     erfcx_in_place(c1, n_padded);
     double *restrict value = b->value;
@@ -393,7 +354,7 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
                 arg[g * n_short + m] = -(a2s[i] + t * t * L2) * (0.5 * inv2w2); /* halved, as in cut_lanes */
             }
         const cg_index n_args = (cg_index)CUT_FALLBACK_POINTS * n_short;
-        exp_in_place(arg, n_args);
+        cg_exp_in_place(arg, n_args);
         for (int m = 0; m < n_short; ++m) {
             const int i = short_lane[m];
             double sum = 0.0;
@@ -788,7 +749,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         const size_t n_all = (size_t)G * per_table, n_padded = (n_all + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
         for (size_t m = 0; m < n_all; ++m) ex_all[m] = -d2_all[m] * inv2w2;
         for (size_t m = n_all; m < n_all + EXP_PAD; ++m) ex_all[m] = 0.0; /* read past by rows_of_rule */
-        exp_in_place(ex_all, (cg_index)n_padded);
+        cg_exp_in_place(ex_all, (cg_index)n_padded);
     }
     /* hybrid: squared distances of the nodes to the two ends, per slot */
     double *endA[3] = {NULL, NULL, NULL}, *endB[3] = {NULL, NULL, NULL};
