@@ -137,10 +137,10 @@ def ring_kernel(kernel):
                       float(kernel.radius), int(kernel.truncated), 1.0)
 
 
-def ring_moments(kernel, r, h, rho, n_threads=0):
+def ring_moments(kernel, r, h, rho, gradient=False, n_threads=0):
     """The angular moments (3, n) of the 3-D kernel over the ring of radius ``r`` seen by sources at axial offsets
-    ``h`` and radii ``rho`` (csrc/cg_ring.c)."""
-    return _core.ring_moments(ring_kernel(kernel), r, h, rho, n_threads=n_threads)
+    ``h`` and radii ``rho`` (csrc/cg_ring.c); with ``gradient`` those of W'(d)/d (grad W = W'(d)/d (x - q))."""
+    return _core.ring_moments(ring_kernel(kernel), r, h, rho, gradient=gradient, n_threads=n_threads)
 
 
 def ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, n_threads=0):

@@ -8,11 +8,12 @@ weights, and only then turned into fields by the same :func:`~cgbound.fields.der
 (velocity = averaged momentum / averaged density, never an average of ratios; the kinetic stress is the
 spread about the averaged velocity, -(k - p p / rho) of the averaged primaries, as on a Grid's averaged axes).
 
-On a θ-averaged grid the sums over points (particles, contact points) and the contact and boundary
-stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring` (round-off); the
-rest (the extended stress's ray term, every primary of a θ-resolved grid) uses the quadrature below.
+On a θ-averaged grid the sums over points (particles, contact points), the gradient primaries and the contact
+and boundary stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring`
+(round-off); the rest (the extended stress's ray term, every primary of a θ-resolved grid) uses the quadrature
+below.
 
-On a z-averaged grid the point sums are averaged over z exactly too (:func:`~cgbound.cylindrical_ring.axial_rule`);
+On a z-averaged grid the point sums and gradients are averaged over z exactly too (:func:`~cgbound.cylindrical_ring.axial_rule`);
 the line integrals still take the Gauss-Legendre rule in z below.
 
 Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
@@ -30,8 +31,8 @@ from .fields import ROTATION_FIELDS, check_fields, derive
 from .grid import Points
 from .kernels import Gaussian, check_kernel
 from .pipeline import prepare, shape_fields
-from .primaries import (GRADIENT_PRIMARIES, POINT_PRIMARIES, PRIMARIES, compute_primaries, point_sources,
-                        segment_sources)
+from .primaries import (GRADIENT_PRIMARIES, POINT_PRIMARIES, PRIMARIES, compute_primaries, gradient_sources,
+                        point_sources, segment_sources)
 from .result import Result
 from .snapshot import Snapshot
 
@@ -109,10 +110,10 @@ def ring_sums(job, grid, needed):
     (its snapshot, kernel and split contacts; its target is not used).
 
     On a θ-averaged grid the sums over points (particles, contact points) and the contact and boundary
-    stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring` (on a z-averaged
-    grid the point sums exactly averaged over z, the line integrals on Gauss-Legendre points in z); the extended
-    stress's rays, the gradient primaries and every primary of a θ-resolved grid come from the Cartesian
-    engine at the quadrature points."""
+    stress's line integrals and the gradient primaries are the exact ring integrals of
+    :mod:`cgbound.cylindrical_ring` (on a z-averaged grid the point sums and gradients exactly averaged over z,
+    the line integrals on Gauss-Legendre points in z); the extended stress's rays and every primary of a
+    θ-resolved grid come from the Cartesian engine at the quadrature points."""
     zero = np.zeros(3)
     averaged = {}
     if grid.theta_averaged:
@@ -132,7 +133,12 @@ def ring_sums(job, grid, needed):
                     starts, vectors, values = segment_sources(job.snapshot, part)
                     averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors,
                                                            values.reshape(-1, 3, 3), z_nodes, z_weights)
-        for name in needed & POINT_PRIMARIES - set(averaged):      # no data (velocities, body force, contacts)
+        positions, rows = gradient_sources(job.snapshot, needed, zero)
+        if rows and len(positions):
+            sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank - 1) for name, v in rows],
+                                gradient=True)
+            averaged.update({name: g for (name, _), g in zip(rows, sums)})
+        for name in needed & (POINT_PRIMARIES | GRADIENT_PRIMARIES) - set(averaged):   # no data (velocities, ...)
             averaged[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
     rest = needed - set(averaged)
     if not rest:

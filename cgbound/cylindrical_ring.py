@@ -22,9 +22,10 @@ import numpy as np
 from . import _engine
 from .kernels import Gaussian, Lucy
 
-def ring_moments(kernel, r, h, rho):
+def ring_moments(kernel, r, h, rho, gradient=False):
     """(M₀, M₁, M₂) of pairs (ring radius r, axial offset h = z - ζ, source radius ρ), arrays of one shape
-    (broadcast), shape (3,) + that shape; 0 for pairs whose closest approach is outside the support."""
+    (broadcast), shape (3,) + that shape; 0 for pairs whose closest approach is outside the support. With
+    ``gradient`` the moments (N₀, N₁, N₂) of G = W'(d)/d instead (∇W(x - q) = G (x - q))."""
     r, h, rho = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (r, h, rho)))
     out = np.zeros((3,) + r.shape)
     flat_r, flat_h, flat_rho, flat_out = r.ravel(), h.ravel(), rho.ravel(), out.reshape(3, -1)
@@ -32,7 +33,7 @@ def ring_moments(kernel, r, h, rho):
     for k, radius in enumerate(radii):
         pick = np.flatnonzero(ring == k) if len(radii) > 1 else slice(None)
         flat_out[:, pick] = _engine.ring_moments(kernel, float(radius), np.ascontiguousarray(flat_h[pick]),
-                                                 np.ascontiguousarray(flat_rho[pick]))
+                                                 np.ascontiguousarray(flat_rho[pick]), gradient=gradient)
     return out
 
 
@@ -172,25 +173,61 @@ def axial_rule(kernel, r, rho, zeta, lo, hi):
     return pair, z - zeta[pair, None], weight
 
 
-def accumulate(out, columns, own, s, M, nodes):
-    """Add the θ-averaged contributions of sources ``s`` with moments M (3, pairs) to ``nodes`` of ``out``."""
+def rotate_gradient(values, rank, r, rho, M):
+    """The θ-average of the local components of ``values`` (pairs, 3, ...) in the sources' own basis at θ = φ
+    times the kernel's gradient ∇W = G (x - q), the gradient index last, from the moments of G and their
+    first moments in h: M = (N₀, N₁, N₂, ⟨h G⟩₀, ⟨h G⟩₁) (5, pairs). In the node's local basis
+    x - q = (r - ρ cos t, ρ sin t, h) and a vector v' turns into (v'_r cos t + v'_θ sin t, v'_θ cos t - v'_r sin t,
+    v'_z); terms odd in t average out."""
+    N0, N1, N2, H0, H1 = M
+    radial = r * N0 - rho * N1                       # ⟨G (r - ρ cos t)⟩
+    if rank == 0:
+        return np.stack([values * radial, np.zeros_like(radial), values * H0], axis=-1)
+    along = r * N1 - 0.5 * rho * (N0 + N2)           # ⟨G cos t (r - ρ cos t)⟩
+    across = 0.5 * rho * (N0 - N2)                   # ⟨G ρ sin² t⟩
+    v_r, v_t, v_z = values[:, 0], values[:, 1], values[:, 2]
+    out = np.zeros(values.shape + (3,))
+    out[:, 0, 0], out[:, 0, 1], out[:, 0, 2] = v_r * along, v_t * across, v_r * H1
+    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = v_t * along, -v_r * across, v_t * H1
+    out[:, 2, 0], out[:, 2, 2] = v_z * radial, v_z * H0
+    return out
+
+
+def gradient_moments(kernel, r, h, rho):
+    """(N₀, N₁, N₂, h N₀, h N₁) of G = W'(d)/d for pairs (r, h, ρ) (broadcast): (5,) + their shape."""
+    N = ring_moments(kernel, r, h, rho, gradient=True)
+    return np.concatenate([N, h * N[:2]])
+
+
+def accumulate(out, columns, own, s, M, nodes, r=None, rho=None):
+    """Add the θ-averaged contributions of sources ``s`` with moments M (3, pairs) to ``nodes`` of ``out``;
+    with ``rho`` (the sources' radii, seen from rings of radius ``r``) gradients with the moments of
+    :func:`gradient_moments` (5, pairs)."""
     for (_, rank), v, acc in zip(columns, own, out):
-        contrib = rotate_averaged(v[s], rank, M).reshape(len(s), -1)
+        if rho is None:
+            contrib = rotate_averaged(v[s], rank, M)
+        else:
+            contrib = rotate_gradient(v[s], rank, r, rho[s], M)
+        contrib = contrib.reshape(len(s), -1)
         flat = acc.reshape(acc.shape[0], -1)
         for col in range(contrib.shape[1]):
             flat[:, col] += np.bincount(nodes, weights=contrib[:, col], minlength=flat.shape[0])
 
 
-def ring_average(grid, kernel, positions, columns):
-    """θ-averages at every node of a θ-averaged CylindricalGrid of sum_i values_i W(x - q_i).
+def ring_average(grid, kernel, positions, columns, gradient=False):
+    """θ-averages at every node of a θ-averaged CylindricalGrid of sum_i values_i W(x - q_i) (with ``gradient``:
+    of sum_i values_i ∇W(x - q_i), the derivative's index last).
 
     positions: (S, 3) Cartesian sources; columns: [(values (S,) + (3,) * rank Cartesian, rank)]. A z-averaged
-    grid averages exactly over its extent (:func:`axial_rule`). Returns [(n_r * n_z,) + (3,) * rank] in the
-    local basis, nodes in C order.
+    grid averages exactly over its extent (:func:`axial_rule`). Returns [(n_r * n_z,) + (3,) * rank] (with
+    ``gradient`` rank + 1) in the local basis, nodes in C order.
     """
     c = float(kernel.radius)
     n_r, n_z = len(grid.r), len(grid.z)
-    out = [np.zeros((n_r * n_z,) + (3,) * rank) for _, rank in columns]
+    extra = 1 if gradient else 0
+    out = [np.zeros((n_r * n_z,) + (3,) * (rank + extra)) for _, rank in columns]
+    moments = (lambda r, h, rho: gradient_moments(kernel, r, h, rho)) if gradient else \
+        (lambda r, h, rho: ring_moments(kernel, r, h, rho))
     if not len(positions):
         return out
     # the region the rings' supports cover, as a Cartesian box (for the periodic images)
@@ -228,10 +265,11 @@ def ring_average(grid, kernel, positions, columns):
             pair, h, w = axial_rule(kernel, r, rho[src], zeta[src], *grid.z_extent)
             if not pair.size:
                 continue
-            M = ring_moments(kernel, r, h, rho[src][pair, None]).reshape(3, -1) * w.ravel()
+            M = moments(r, h, rho[src][pair, None])
+            M = M.reshape(len(M), -1) * w.ravel()
             point_source = np.repeat(pair, h.shape[1])
             M = np.stack([np.bincount(point_source, weights=m, minlength=src.size) for m in M])
-            accumulate(out, columns, own, src, M, np.full(src.size, k * n_z))
+            accumulate(out, columns, own, src, M, np.full(src.size, k * n_z), *((r, rho) if gradient else ()))
             continue
         h = z_nodes[:, :, None] - zeta[src][None, None, :]             # (n_z, 1, S')
         inside = (r - rho[src]) ** 2 + h * h < c * c
@@ -239,8 +277,8 @@ def ring_average(grid, kernel, positions, columns):
         if not zi.size:
             continue
         s = src[si]
-        M = ring_moments(kernel, r, h[zi, qi, si], rho[s])
-        accumulate(out, columns, own, s, M, k * n_z + node_z[zi])
+        M = moments(r, h[zi, qi, si], rho[s])
+        accumulate(out, columns, own, s, M, k * n_z + node_z[zi], *((r, rho) if gradient else ()))
     return out
 
 

@@ -622,5 +622,20 @@ def point_sources(snapshot, needed, u_ref, split=None):
     return groups
 
 
+def gradient_sources(snapshot, needed, u_ref):
+    """The needed gradient primaries (source PARTICLE_GRADIENTS) as point sources of the kernel's gradient:
+    (positions (S, D), [(name, values (S,) + (D,) * (rank - 1))]), values m for grad_rho and m (v - u_ref) for
+    grad_p_w (absent without velocities: zero), for targets that integrate the kernel themselves."""
+    rows = []
+    if "grad_rho" in needed or "grad_p_w" in needed:
+        m = flowing_rows(snapshot, snapshot.masses)
+        if "grad_rho" in needed:
+            rows.append(("grad_rho", m))
+        if "grad_p_w" in needed and snapshot.velocities is not None:
+            v = flowing_rows(snapshot, snapshot.velocities)
+            rows.append(("grad_p_w", m[:, None] * (v - u_ref)))
+    return flowing_rows(snapshot, snapshot.positions), rows
+
+
 #: the primaries :func:`point_sources` gives
 POINT_PRIMARIES = frozenset(p.name for p in PRIMARIES.values() if p.source in (PARTICLES, BOUNDARY_POINTS, BULK_POINTS))

@@ -616,15 +616,16 @@ static int index_converter(PyObject *obj, void *address)
 static PyObject *py_ring_moments(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
-    static char *kw[] = {"kernel", "r", "h", "rho", "n_threads", NULL};
+    static char *kw[] = {"kernel", "r", "h", "rho", "gradient", "n_threads", NULL};
     kernel_arg ka = {.target = &ring_space};
     double r;
+    int gradient = 0;
     input_array h = {.name = "h", .ndim = 1, .length = {NULL, NULL}};
     input_array rho = {.name = "rho", .ndim = 1, .length = {&h.rows, NULL}};
     int n_threads = 0;
     PyArrayObject *out = NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&dO&O&|O&", kw, kernel_converter, &ka, &r, array_converter, &h,
-                                     array_converter, &rho, threads_converter, &n_threads))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&dO&O&|pO&", kw, kernel_converter, &ka, &r, array_converter, &h,
+                                     array_converter, &rho, &gradient, threads_converter, &n_threads))
         goto done;
     if (!(r >= 0.0) || !isfinite(r)) {
         PyErr_Format(PyExc_ValueError, "r: expected a finite radius >= 0, got %R", PyTuple_GetItem(args, 1));
@@ -635,7 +636,8 @@ static PyObject *py_ring_moments(PyObject *self, PyObject *args, PyObject *kwds)
     if (!out) goto done;
     cg_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = cg_ring_moments(&ka.kernel, r, h.rows, array_data(&h), array_data(&rho), PyArray_DATA(out), n_threads);
+    st = cg_ring_moments(&ka.kernel, r, h.rows, array_data(&h), array_data(&rho), gradient, PyArray_DATA(out),
+                         n_threads);
     Py_END_ALLOW_THREADS
     if (st != CG_OK) {
         raise_status(st);
@@ -947,7 +949,8 @@ static PyMethodDef methods[] = {
     {"wrap", (PyCFunction)(void (*)(void))py_wrap, METH_VARARGS | METH_KEYWORDS,
      "wrap(positions, periodic, lower, upper) -> copy of positions wrapped into [lower, upper) on periodic axes."},
     {"ring_moments", (PyCFunction)(void (*)(void))py_ring_moments, METH_VARARGS | METH_KEYWORDS,
-     "ring_moments(kernel, r, h, rho, n_threads=0): the angular moments (3, n) of the 3-D kernel over rings."},
+     "ring_moments(kernel, r, h, rho, gradient=False, n_threads=0): the angular moments (3, n) of the 3-D kernel "
+     "(or of W'(d)/d) over rings."},
     {"ring_segment_sum", (PyCFunction)(void (*)(void))py_ring_segment_sum, METH_VARARGS | METH_KEYWORDS,
      "ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, n_threads=0): (3, 3)."},
     {"have_openmp", py_have_openmp, METH_NOARGS, "Whether the core was built with OpenMP."},

@@ -232,7 +232,9 @@ cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kerne
  * cg_ring_moments: for n pairs (h[i], rho[i]) the moments over the half arc
  * where d < R, M_m = (1/pi) int_0^Delta W(d(t)) cos(m t) dt, m = 0, 1, 2, to
  * round-off, written to moments[m * n + i] (0 for pairs whose closest approach
- * is outside the support).
+ * is outside the support). With gradient != 0 the same moments of
+ * G(d) = W'(d) / d instead of W (grad W(x - q) = G (x - q)); the Heaviside
+ * kernel has none (CG_ERR_UNSUPPORTED).
  *
  * cg_ring_segment_sum: out[9] += weight * sum over pieces q of
  * int_lo^hi (theta-average of tensors[segment[q]] carried by the point
@@ -244,7 +246,7 @@ cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kerne
  * to the axis point. Pieces in blocks summed in order (thread-count free).
  */
 cg_status cg_ring_moments(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
-                          double *moments, int n_threads);
+                          int gradient, double *moments, int n_threads);
 cg_status cg_ring_segment_sum(const cg_kernel *kernel, double r, double z, cg_index n_pieces, const cg_index *segment,
                               const double *lo, const double *hi, const cg_index *panels, cg_index n_segments,
                               const double *geometry, const double *tensors, double weight, double *out,

@@ -61,9 +61,11 @@ typedef struct ring_rule {
 #define RING_CLONES
 #endif
 
-/* the moments of one pair */
+/* the moments of one pair: of W, or with gradient != 0 of G = W'(d) / d (grad W = G (x - q)):
+   the Gaussian's G = -W / w^2; Lucy's G = -12 C (1 - x)^2 / R^2, x = d / R, with the same
+   branch points as W (odd powers of d), so the same panels. Heaviside has no G (0). */
 RING_CLONES static void ring_moments_one(const cg_kernel *k, const ring_rule *rule, double r, double h, double rho,
-                             double *M0, double *M1, double *M2)
+                                         int gradient, double *M0, double *M1, double *M2)
 {
     const double R = k->radius;
     const double d0sq = (r - rho) * (r - rho) + h * h;
@@ -76,6 +78,7 @@ RING_CLONES static void ring_moments_one(const cg_kernel *k, const ring_rule *ru
         half = s2 >= 1.0 ? M_PI : 2.0 * asin(sqrt(s2));
     }
     if (k->type == CG_KERNEL_HEAVISIDE) {
+        if (gradient) return;
         const double w0 = k->prefactor;
         *M0 = w0 * half / M_PI;
         if (rr > 0.0) {
@@ -134,7 +137,8 @@ RING_CLONES static void ring_moments_one(const cg_kernel *k, const ring_rule *ru
                 c1s[i] = 1.0 - 2.0 * s * s;
                 const double x = sqrt(d0sq + 4.0 * rr * s * s) * invR;
                 const double om = x < 1.0 ? 1.0 - x : 0.0; /* rounding at the arc's ends */
-                vs[i] = (1.0 + 3.0 * x) * om * om * om * rule->w[i];
+                const double lead = gradient ? om : (1.0 + 3.0 * x) * om * om;
+                vs[i] = lead * om * rule->w[i];
             }
             for (int i = 0; i < RING_POINTS; ++i) {
                 const double v = vs[i], c1 = c1s[i];
@@ -151,7 +155,9 @@ RING_CLONES static void ring_moments_one(const cg_kernel *k, const ring_rule *ru
         m1 *= half;
         m2 *= half;
     }
-    const double scale = k->prefactor / M_PI;
+    double scale = k->prefactor / M_PI;
+    if (gradient)
+        scale = k->type == CG_KERNEL_GAUSSIAN ? -scale / (k->width * k->width) : -12.0 * scale / (R * R);
     *M0 = m0 * scale;
     if (rr > 0.0) { /* on the axis the distance does not depend on theta: cos t and cos 2t average out */
         *M1 = m1 * scale;
@@ -179,9 +185,10 @@ static int ring_threads(int n_threads, cg_index work)
 }
 
 cg_status cg_ring_moments(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
-                          double *moments, int n_threads)
+                          int gradient, double *moments, int n_threads)
 {
     if (!ring_kernel_ok(kernel) || !(r >= 0.0) || !isfinite(r) || n < 0) return CG_ERR_ARGUMENT;
+    if (gradient && kernel->type == CG_KERNEL_HEAVISIDE) return CG_ERR_UNSUPPORTED;
     ring_rule rule;
     cg_gauss_legendre01(RING_POINTS, rule.x, rule.w);
     const int threads = ring_threads(n_threads, n);
@@ -190,7 +197,7 @@ cg_status cg_ring_moments(const cg_kernel *kernel, double r, cg_index n, const d
 #pragma omp parallel for schedule(static, 256) num_threads(threads)
 #endif
     for (cg_index i = 0; i < n; ++i)
-        ring_moments_one(kernel, &rule, r, h[i], rho[i], moments + i, moments + n + i, moments + 2 * n + i);
+        ring_moments_one(kernel, &rule, r, h[i], rho[i], gradient, moments + i, moments + n + i, moments + 2 * n + i);
     return CG_OK;
 }
 
@@ -265,7 +272,7 @@ cg_status cg_ring_segment_sum(const cg_kernel *kernel, double r, double z, cg_in
                     const double rho = hypot(p1, p2);
                     const double cphi = rho > 0.0 ? p1 / rho : 1.0, sphi = rho > 0.0 ? p2 / rho : 0.0;
                     double M0, M1, M2;
-                    ring_moments_one(kernel, &rule, r, h0 - s * g[5], rho, &M0, &M1, &M2);
+                    ring_moments_one(kernel, &rule, r, h0 - s * g[5], rho, 0, &M0, &M1, &M2);
                     ring_rotate_add(T, cphi, sphi, M0, M1, M2, wt, acc);
                 }
         }

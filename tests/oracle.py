@@ -851,12 +851,27 @@ def _oracle_kernel_3d(kernel):
     return lambda d2: twin.marginal(d2, 3, 1.0)
 
 
-def oracle_ring_moments(kernel, r, h, rho):
+def _oracle_kernel_gradient_factor_3d(kernel):
+    """G(d²) = W'(d) / d of the full 3-D kernel (grad W(x) = G x), from the textbook derivatives: the Gaussian's
+    -W / w², Lucy's d/dd [C (1 + 3x)(1 - x)³] / d = -12 C (1 - x)² / R² (x = d / R), factored so that it
+    stays exact at d = 0."""
+    twin = oracle_kernel_of(kernel, 3)
+    if twin.kind == "gaussian":
+        return lambda d2: -twin.marginal(d2, 3, 1.0) / twin.w**2
+    if twin.kind == "lucy":
+        R = twin.R
+        C = 105 / (16 * math.pi * R**3)
+        return lambda d2: np.where(d2 < R * R, -12 * C * (1 - np.sqrt(np.minimum(d2, R * R)) / R) ** 2 / R**2, 0.0)
+    raise ValueError("no gradient of the Heaviside kernel")
+
+
+def oracle_ring_moments(kernel, r, h, rho, gradient=False):
     """Twin of cg_ring_moments: (3, n) moments M_m = (1/π) ∫_0^Δ W(d(t)) cos(m t) dt by a graded composite
-    Gauss-Legendre rule (8 panels x 20 points for every kernel; Heaviside's closed form)."""
+    Gauss-Legendre rule (8 panels x 20 points for every kernel; Heaviside's closed form); with ``gradient``
+    those of G = W'(d) / d."""
     h, rho = np.asarray(h, dtype=float), np.asarray(rho, dtype=float)
     c = float(kernel.radius)
-    W = _oracle_kernel_3d(kernel)
+    W = _oracle_kernel_gradient_factor_3d(kernel) if gradient else _oracle_kernel_3d(kernel)
     d0sq = (r - rho) ** 2 + h * h
     rr = r * rho
     inside = d0sq < c * c

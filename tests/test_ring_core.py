@@ -62,6 +62,27 @@ def test_ring_moments_against_twin(name, r):
     np.testing.assert_array_less(np.abs(got - want) / scale(kernel, want), 1e-12)
 
 
+@pytest.mark.parametrize("name", [k for k in KERNELS if k != "heaviside"])
+@pytest.mark.parametrize("r", [0.0, 1e-6, 0.4, 2.5, 40.0])
+def test_gradient_moments_against_twin(name, r):
+    """The moments of G = W'(d)/d (gradient=True) against the twin's graded rule on the textbook derivative,
+    scaled by each pair's N₀ (G has one sign), floored as the moments of W are."""
+    kernel = KERNELS[name]
+    h, rho = pairs(kernel, r, seed=3)
+    got = _engine.ring_moments(kernel, r, h, rho, gradient=True)
+    want = oracle_ring_moments(kernel, r, h, rho, gradient=True)
+    inside = (r - rho) ** 2 + h * h < float(kernel.radius) ** 2
+    assert np.all(got[:, ~inside] == 0.0) and np.all(want[0, inside] < 0.0)
+    floor = 1e-4 * np.abs(oracle_ring_moments(kernel, 0.0, np.zeros(1), np.zeros(1), gradient=True)[0, 0])
+    np.testing.assert_array_less(np.abs(got - want) / np.maximum(np.abs(want[0]), floor), 1e-12)
+    assert not np.allclose(got, _engine.ring_moments(kernel, r, h, rho))
+
+
+def test_heaviside_has_no_gradient_moments():
+    with pytest.raises(NotImplementedError):
+        _engine.ring_moments(KERNELS["heaviside"], 1.0, np.zeros(2), np.ones(2), gradient=True)
+
+
 def test_ring_moments_of_a_gaussian_ring_in_closed_form():
     """Without a cutoff in reach (the whole ring inside a wide support), the Gaussian's moments are the scaled
     Bessel functions: M_m = 2 W(d0 ...) e^{-β} I_m(β) with β = r ρ / w² (an independent closed form)."""
