@@ -36,6 +36,9 @@
 
 #include <math.h>
 #include <stdint.h>
+#if defined(CG_SEPARABLE_WIDE) && defined(__GNUC__) && !defined(__clang__)
+#include <immintrin.h> /* the AVX-512 build's mask test (mask_bits) */
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -549,7 +552,11 @@ INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, cons
 typedef int64_t vwl __attribute__((vector_size(8 * VW)));
 
 /* lane l of a mask (all ones or zero) as bit l: a horizontal OR in halving
-   steps (lane extracts one by one cost more than the rest of a row) */
+   steps (lane extracts one by one cost more than the rest of a row); in the
+   AVX-512 build one test into a mask register */
+#if VW == 8 && defined(CG_SEPARABLE_WIDE) && defined(__GNUC__) && !defined(__clang__)
+INLINE uint64_t mask_bits(vwl m) { return (uint64_t)_mm512_test_epi64_mask((__m512i)m, (__m512i)m); }
+#else
 INLINE uint64_t mask_bits(vwl m)
 {
 #if VW == 8
@@ -577,6 +584,7 @@ INLINE uint64_t mask_bits(vwl m)
 #endif
     return (uint64_t)b[0];
 }
+#endif
 
 INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index stride_j, cg_index n0, cg_index n1,
                          cg_index n2, int G, double *const (*d2)[3], double *const (*ex)[3], const double *gw,
