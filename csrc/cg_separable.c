@@ -37,6 +37,9 @@
 
 #include <math.h>
 #include <stdint.h>
+#if defined(CG_SEPARABLE_WIDE) && defined(__GNUC__) && !defined(__clang__)
+#include <immintrin.h> /* the AVX-512 build's mask test (mask_bits) */
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -510,7 +513,11 @@ INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, cons
 typedef int64_t vwl __attribute__((vector_size(8 * VW)));
 
 /* lane l of a mask (all ones or zero) as bit l: a horizontal OR in halving
-   steps (lane extracts one by one cost more than the rest of a row) */
+   steps (lane extracts one by one cost more than the rest of a row); in the
+   AVX-512 build one test into a mask register */
+#if VW == 8 && defined(CG_SEPARABLE_WIDE) && defined(__GNUC__) && !defined(__clang__)
+INLINE uint64_t mask_bits(vwl m) { return (uint64_t)_mm512_test_epi64_mask((__m512i)m, (__m512i)m); }
+#else
 INLINE uint64_t mask_bits(vwl m)
 {
 #if VW == 8
@@ -538,6 +545,7 @@ INLINE uint64_t mask_bits(vwl m)
 #endif
     return (uint64_t)b[0];
 }
+#endif
 
 INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index stride_j, cg_index n0, cg_index n1,
                          cg_index n2, int G, double *const (*d2)[3], double *const (*ex)[3], const double *gw,
@@ -810,6 +818,86 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                    the ball (an interval: two balls meet the row in intervals) */
                 const double a01 = endA[0][i] + endA[1][j], b01 = endB[0][i] + endB[1][j];
                 const double *za = endA[2], *zb = endB[2];
+#ifdef HAVE_V4D
+                if (n2 <= 64) {
+                    /* the same tests as the walks and loops below, VW nodes at a time, as bits */
+                    const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
+                    uint64_t in_bits = 0, cand_bits = 0;
+                    const vwd a01v = (vwd){0.0} + a01, b01v = (vwd){0.0} + b01, R2v = (vwd){0.0} + R2;
+                    for (cg_index kw = 0; kw < n2; kw += VW) {
+                        vwd zav, zbv;
+                        memcpy(&zav, za + kw, sizeof zav);
+                        memcpy(&zbv, zb + kw, sizeof zbv);
+                        in_bits |= mask_bits((vwl)(a01v + zav < R2v) & (vwl)(b01v + zbv < R2v)) << kw;
+                    }
+                    in_bits &= valid;
+                    if (far_check && in_bits) {
+                        /* of the rule's nodes, those at most FAR_BEYOND_END w beyond the ends */
+                        const double pij = cslot[0][i] * es[0] + cslot[1][j] * es[1];
+                        const vwd pv = (vwd){0.0} + pij, e2v = (vwd){0.0} + es[2];
+                        const vwd lov = (vwd){0.0} + far_lo, hiv = (vwd){0.0} + far_hi;
+                        uint64_t near_bits = 0;
+                        for (cg_index kw = 0; kw < n2; kw += VW) {
+                            vwd zc;
+                            memcpy(&zc, cslot[2] + kw, sizeof zc);
+                            const vwd p = pv + zc * e2v;
+                            near_bits |= mask_bits((vwl)(p >= lov) & (vwl)(p <= hiv)) << kw;
+                        }
+                        /* as the walks: the first and last near node of [first, last] inside */
+                        const int fa = __builtin_ctzll(in_bits), fb = 63 - __builtin_clzll(in_bits);
+                        const uint64_t span_ab = (fb == 63 ? ~UINT64_C(0) : (UINT64_C(1) << (fb + 1)) - 1) &
+                                                 ~((UINT64_C(1) << fa) - 1);
+                        near_bits &= span_ab;
+                        in_bits = 0;
+                        if (near_bits) {
+                            const int na = __builtin_ctzll(near_bits), nb = 63 - __builtin_clzll(near_bits);
+                            in_bits = (nb == 63 ? ~UINT64_C(0) : (UINT64_C(1) << (nb + 1)) - 1) &
+                                      ~((UINT64_C(1) << na) - 1);
+                        }
+                    } else if (in_bits) {
+                        const int fa = __builtin_ctzll(in_bits), fb = 63 - __builtin_clzll(in_bits);
+                        in_bits = (fb == 63 ? ~UINT64_C(0) : (UINT64_C(1) << (fb + 1)) - 1) & ~((UINT64_C(1) << fa) - 1);
+                    }
+                    if (in_bits) {
+                        k0 = __builtin_ctzll(in_bits);
+                        k1 = 64 - __builtin_clzll(in_bits);
+                        inside_row(row, k0, k1, G, ci, (double *const(*)[3])ex, j);
+                    }
+                    /* the capsule's nodes (row_distance2's operations) outside the rule's interval */
+                    {
+                        const double exs = es[0], eys = es[1], ezs = es[2];
+                        const double xq = cslot[0][i], yq = cslot[1][j], pxy = xq * exs + yq * eys;
+                        const vwd pxyv = (vwd){0.0} + pxy, ezv = (vwd){0.0} + ezs, il = (vwd){0.0} + inv_L2;
+                        const vwd zero = {0.0}, one = (vwd){0.0} + 1.0, Rm = (vwd){0.0} + R2_margin;
+                        const vwd xv = (vwd){0.0} + xq, yv = (vwd){0.0} + yq;
+                        const vwd exv = (vwd){0.0} + exs, eyv = (vwd){0.0} + eys;
+                        for (cg_index kw = 0; kw < n2; kw += VW) {
+                            vwd z;
+                            memcpy(&z, cslot[2] + kw, sizeof z);
+                            vwd t = (pxyv + z * ezv) * il;
+                            const vwl below = (vwl)(t < zero);
+                            t = (vwd)((vwl)t & ~below); /* 0.0 where below (its bits are 0) */
+                            const vwl above = (vwl)(t > one);
+                            t = (vwd)(((vwl)t & ~above) | ((vwl)one & above));
+                            const vwd d0 = xv - t * exv, d1 = yv - t * eyv, d2k = z - t * ezv;
+                            const vwd dd = (d0 * d0 + d1 * d1) + d2k * d2k;
+                            cand_bits |= mask_bits((vwl)(dd < Rm)) << kw;
+                        }
+                    }
+                    cand_bits &= valid & ~in_bits;
+                    while (cand_bits) {
+                        const cg_index k = __builtin_ctzll(cand_bits);
+                        cand_bits &= cand_bits - 1;
+                        if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
+                        const int m = cuts.n++;
+                        cuts.q[0][m] = cslot[0][i];
+                        cuts.q[1][m] = cslot[1][j];
+                        cuts.q[2][m] = cslot[2][k];
+                        cuts.node[m] = base + k * stride[2];
+                    }
+                    goto row_done;
+                }
+#endif
                 cg_index a = 0, b = n2;
                 while (a < b && !(a01 + za[a] < R2 && b01 + zb[a] < R2)) ++a;
                 while (b > a && !(a01 + za[b - 1] < R2 && b01 + zb[b - 1] < R2)) --b;
@@ -846,6 +934,9 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                     cuts.node[m] = base + k * stride[2];
                 }
             }
+#ifdef HAVE_V4D
+        row_done:
+#endif
             if (k0 >= k1) continue;
             if (jb->mode == MODE_VALUE) {
                 block_add(out + (base + k0 * stride[2]) * jb->out_width, 1.0, row + k0, k1 - k0, values, nv);

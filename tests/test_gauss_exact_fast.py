@@ -224,3 +224,25 @@ def test_thread_counts_and_vector_builds_bit_for_bit(dim, cutoff):
     with cg.threads(1):
         narrow = narrow_build(lambda: stress())
     assert np.array_equal(one, narrow)
+
+
+@pytest.mark.parametrize("nz", [41, 321])
+@pytest.mark.parametrize("cutoff", [3.0, 5.0, 12.0])
+def test_row_bookkeeping_short_and_long_rows(nz, cutoff):
+    """A row's rule interval, its far-node trim and its closed-form nodes are found as vector masks where the
+    stencil's rows along the last axis have at most 64 nodes (nz = 41: rows of 10 to 38 nodes), by scalar walks
+    where they are longer (nz = 321: rows of 72 to 300 nodes): both against the node-by-node path (value-relative too), and the
+    two vector builds bit for bit. Cutoffs 5 w and 12 w with segments shorter than w have nodes more than 4 w
+    beyond an end inside the ball (the far trim)."""
+    rng = np.random.default_rng(7 * nz + int(cutoff))
+    w = 0.3
+    box = cg.Box([0, 0, 0], [8, 8, 8])
+    shape = (9, 9, nz)
+    starts = rng.uniform(3.0, 5.0, size=(5, 3))
+    d = rng.normal(size=(5, 3))
+    vectors = d / np.linalg.norm(d, axis=1)[:, None] * np.array([0.0, 0.1, 0.5, 0.9, 1.7])[:, None] * w
+    assert_grid_equals_node_by_node(box, shape, starts, vectors, w, cutoff, f"nz = {nz}, cutoff {cutoff:g} w",
+                                    value_floor=1e-12)
+    _, _, wide = gauss_grid_psi(box, shape, starts, vectors, w, cutoff)
+    _, _, narrow = narrow_build(lambda: gauss_grid_psi(box, shape, starts, vectors, w, cutoff))
+    assert np.array_equal(wide, narrow)
