@@ -189,9 +189,11 @@ static int ray_length(const job *jb, const double *x, const double *e, double *s
 }
 
 /* One object: resolve its coordinates, turn a ray into a finite segment, and
-   visit all periodic images that can reach the target. */
+   visit all periodic images that can reach the target. With factors, its
+   values are the thread's row 0 (visit_range formed them). */
 static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_index obj)
 {
+    const cg_index row = jb->factors ? 0 : obj;
     const cg_target *t = jb->target;
     const int nr = t->n_resolved, D = t->dim;
     const double R = jb->kernel->radius;
@@ -205,7 +207,7 @@ static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_inde
            point set) receives the same weight */
         const double dummy[3] = {0.0, 0.0, 0.0};
         const cg_index P = cg_target_size(t);
-        for (cg_index p = 0; p < P; ++p) cg_accumulate(jb, out, obj, p, jb->kernel->prefactor, dummy);
+        for (cg_index p = 0; p < P; ++p) cg_accumulate(jb, out, row, p, jb->kernel->prefactor, dummy);
         return CG_OK;
     }
     if (jb->is_segment && jb->ray) {
@@ -238,7 +240,7 @@ static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_inde
         for (int a = 0; a < nr; ++a) xs[a] = t->periodic[a] ? x[a] + (double)k[a] * t->period[a] : x[a];
         /* an image counts as a visit: up to MAX_IMAGES of them may miss the target */
         if (++count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
-        const cg_status st = visit_nodes(jb, out, sc, obj, xs, e, scale, &count);
+        const cg_status st = visit_nodes(jb, out, sc, row, xs, e, scale, &count);
         if (st != CG_OK) return st;
         int a = nr - 1;
         while (a >= 0) {
@@ -425,11 +427,30 @@ static cg_index *spatial_order(const job *jb)
     return order;
 }
 
+/* values[r * D + c] = 0.0 + factors[r] * vec[c] (einsum's "ni,nj->nij": a zero is +0) */
+static void outer_values(const job *jb, cg_index obj, double *values)
+{
+    const int D = jb->target->dim, nf = jb->n_factors;
+    const double *f = jb->factors + obj * nf, *v = jb->vecs + obj * D;
+    for (int r = 0; r < nf; ++r)
+        for (int c = 0; c < D; ++c) values[r * D + c] = 0.0 + f[r] * v[c];
+}
+
 /* Objects order[begin..end) (or begin..end) into out, one thread; stops at the
-   first error of any thread (recorded in *failed). */
-static void visit_range(const job *jb, double *out, scratch *sc, const cg_index *order, cg_index begin,
+   first error of any thread (recorded in *failed). With factors, each
+   object's values are formed in this thread's row of values (a copy of the
+   job pointing at it) just before the object is visited. */
+static void visit_range(const job *shared, double *out, scratch *sc, const cg_index *order, cg_index begin,
                         cg_index end, int *failed)
 {
+    job own;
+    double values[CG_MAX_OUTER_VALUES];
+    const job *jb = shared;
+    if (shared->factors) {
+        own = *shared;
+        own.values = values;
+        jb = &own;
+    }
     for (cg_index o = begin; o < end; ++o) {
         if (load_status(failed) != CG_OK) return;
         if (interrupted(jb)) { store_status(failed, CG_ERR_INTERRUPTED); return; }
@@ -438,14 +459,18 @@ static void visit_range(const job *jb, double *out, scratch *sc, const cg_index 
             /* sorted objects are read out of input order: fetch ahead */
             const cg_index next = order[o + PREFETCH_AHEAD];
             __builtin_prefetch(jb->positions + next * jb->target->dim);
-            if (jb->values) {
+            if (jb->factors) {
+                __builtin_prefetch(jb->factors + next * jb->n_factors);
+            } else if (jb->values) {
                 __builtin_prefetch(jb->values + next * jb->n_values);
                 __builtin_prefetch(jb->values + next * jb->n_values + jb->n_values - 1); /* may span two lines */
             }
             if (jb->vecs) __builtin_prefetch(jb->vecs + next * jb->target->dim);
         }
 #endif
-        const cg_status s = scatter_object(jb, out, sc, order ? order[o] : o);
+        const cg_index obj = order ? order[o] : o;
+        if (jb->factors) outer_values(jb, obj, values);
+        const cg_status s = scatter_object(jb, out, sc, obj);
         if (s != CG_OK) { store_status(failed, s); return; }
     }
 }
@@ -679,6 +704,29 @@ cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
                               int gradient, double *out)
 {
     return scatter_values(target, kernel, n, starts, 1, vecs, ray, n_values, values, gradient, out, 0);
+}
+
+cg_status cg_scatter_segments_outer(const cg_target *target, const cg_kernel *kernel,
+                                    cg_index n, const double *starts, const double *vecs,
+                                    int ray, int n_factors, const double *factors,
+                                    int gradient, double *out)
+{
+    if (n < 0 || n_factors < 1 || n_factors * target->dim > CG_MAX_OUTER_VALUES || !factors) return CG_ERR_ARGUMENT;
+    job jb;
+    memset(&jb, 0, sizeof jb);
+    jb.target = target;
+    jb.kernel = kernel;
+    jb.mode = gradient ? MODE_GRADIENT : MODE_VALUE;
+    jb.is_segment = 1;
+    jb.ray = ray;
+    jb.n = n;
+    jb.positions = starts;
+    jb.vecs = vecs;
+    jb.factors = factors;
+    jb.n_factors = n_factors;
+    jb.n_values = n_factors * target->dim;
+    jb.out_width = gradient ? jb.n_values * target->n_resolved : jb.n_values;
+    return run(&jb, out);
 }
 
 cg_status cg_scatter_segment_moments(const cg_target *target, const cg_kernel *kernel,
