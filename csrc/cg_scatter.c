@@ -486,6 +486,13 @@ static void visit_range(const job *shared, double *out, scratch *sc, const cg_in
 #define SLAB_COLOURS 3
 #define SLAB_MIN 6
 
+/* Each slab's objects are run as this many tasks, one after the other (part
+   k + 1 starts when part k is done: they overlap), so that the last tasks of a
+   run are short: with whole slabs, 2 threads and an odd count of equal slabs
+   one thread ran the last slab alone (a tenth of W1's contact stress). The
+   per-node order of the terms is that of whole slabs. */
+#define SLAB_PARTS 4
+
 typedef struct slab_plan {
     cg_index n_slabs;
     cg_index *start;   /* n_slabs + 1: slab s holds objects[start[s]..start[s + 1]) */
@@ -584,10 +591,14 @@ static cg_status run(job *jb, double *out)
            a barrier after each colour (which leaves a thread idle when a
            colour's slab count is odd): every node still receives its terms
            slab by slab in colour order, so the sums are those of the
-           colour-by-colour order whatever the number of threads. Tasks are
-           taken in list order, so a slab only waits for slabs already taken. */
-        const cg_index S = plan.n_slabs;
-        cg_index *task = malloc((size_t)S * sizeof *task);
+           colour-by-colour order whatever the number of threads. A slab is
+           run as SLAB_PARTS tasks (its objects cut in order), part k after
+           part k - 1; the list holds a colour's parts k of every slab, then
+           its parts k + 1, so that tasks taken together seldom wait for each
+           other. Tasks are taken in list order, so a task only waits for
+           tasks already taken. done[s] counts the parts of slab s done. */
+        const cg_index S = plan.n_slabs, n_all = S * SLAB_PARTS;
+        cg_index *task = malloc((size_t)n_all * sizeof *task);
         int *done = calloc((size_t)S, sizeof *done);
         if (!task || !done) {
             free(task);
@@ -597,7 +608,8 @@ static cg_status run(job *jb, double *out)
         }
         cg_index n_tasks = 0;
         for (int colour = 0; colour < SLAB_COLOURS; ++colour)
-            for (cg_index s = colour; s < S; s += SLAB_COLOURS) task[n_tasks++] = s;
+            for (int part = 0; part < SLAB_PARTS; ++part)
+                for (cg_index s = colour; s < S; s += SLAB_COLOURS) task[n_tasks++] = s * SLAB_PARTS + part;
         cg_index next_task = 0;
 #ifdef _OPENMP
 #pragma omp parallel num_threads(n_threads) if (n_threads > 1)
@@ -610,24 +622,30 @@ static cg_status run(job *jb, double *out)
 #pragma omp atomic capture
 #endif
                 i = next_task++;
-                if (i >= S) break;
-                const cg_index s = task[i];
+                if (i >= n_all) break;
+                const cg_index s = task[i] / SLAB_PARTS;
+                const int part = (int)(task[i] % SLAB_PARTS);
                 const cg_index colour = s % SLAB_COLOURS;
                 for (cg_index d = -2; d <= 2; ++d) {
                     const cg_index p = s + d;
                     if (d == 0 || p < 0 || p >= S || p % SLAB_COLOURS >= colour) continue;
-                    for (long spins = 0; !load_status(done + p); ++spins) {
+                    for (long spins = 0; load_status(done + p) < SLAB_PARTS; ++spins) {
                         if (spins > 64) slab_wait();
                     }
+                }
+                for (long spins = 0; load_status(done + s) < part; ++spins) {
+                    if (spins > 64) slab_wait();
                 }
 #ifdef _OPENMP
 #pragma omp flush
 #endif
-                visit_range(jb, out, &sc, plan.objects, plan.start[s], plan.start[s + 1], &failed);
+                const cg_index first = plan.start[s], count = plan.start[s + 1] - first;
+                visit_range(jb, out, &sc, plan.objects, first + count * part / SLAB_PARTS,
+                            first + count * (part + 1) / SLAB_PARTS, &failed);
 #ifdef _OPENMP
 #pragma omp flush
 #endif
-                store_status(done + s, 1);
+                store_status(done + s, part + 1);
             }
             free(sc.buf);
         }
