@@ -388,9 +388,12 @@ static double stencil_estimate(const job *jb)
    depends only on the input): consecutive objects then write to the same
    rows of the output, which stays in cache. Input order in unsorted data can
    make every object a cache miss (4x slower at 1e6 particles). Returns NULL
-   when not worth it or when memory is short (the input order is as right). */
-static cg_index *spatial_order(const job *jb)
+   when not worth it or when memory is short (the input order is as right).
+   *ends (if not NULL on return; the caller frees it): where each bucket's
+   objects end in the order, min(P, n) of them. */
+static cg_index *spatial_order(const job *jb, cg_index **ends)
 {
+    *ends = NULL;
     const cg_target *t = jb->target;
     const cg_index n = jb->n;
     if (!t->is_grid || t->n_resolved == 0 || n < MIN_OBJECTS_TO_SORT) return NULL;
@@ -423,7 +426,7 @@ static cg_index *spatial_order(const job *jb)
     for (cg_index b = 0; b < buckets; ++b) start[b + 1] += start[b];
     for (cg_index o = 0; o < n; ++o) order[start[bucket_of[o]]++] = o;
     free(bucket_of);
-    free(start);
+    *ends = start; /* each start[b] has moved to the end of bucket b */
     return order;
 }
 
@@ -507,10 +510,18 @@ static void free_slabs(slab_plan *plan)
     plan->n_slabs = 0;
 }
 
+/* with at least one object per node the buckets of spatial_order are the
+   nodes (while node * P is exact in a double), row-major: its order is then
+   already by slab (the nearest node along the first axis, as plan_slabs
+   finds it), and the slabs' starts are bucket ends */
+#define NODE_BUCKETS_MAX 90000000
+
 /* 1 with a plan, 0 when slabs do not apply (or memory is short: the
-   per-thread copies are as right) */
-static int plan_slabs(const job *jb, const cg_index *order, slab_plan *plan)
+   per-thread copies are as right). *order (spatial_order's, or NULL) is
+   taken over (set to NULL) when it is the plan's order itself. */
+static int plan_slabs(const job *jb, cg_index **order_owned, const cg_index *ends, slab_plan *plan)
 {
+    const cg_index *order = *order_owned;
     const cg_target *t = jb->target;
     plan->n_slabs = 0;
     plan->start = plan->objects = NULL;
@@ -528,6 +539,18 @@ static int plan_slabs(const job *jb, const cg_index *order, slab_plan *plan)
     const double width = ceil(reach / h) + 2.0;
     if (!(width * SLAB_MIN <= (double)n0)) return 0;
     const cg_index W = (cg_index)width, n_slabs = (n0 + W - 1) / W;
+    const cg_index P = cg_target_size(t);
+    if (order && ends && n >= P && P <= NODE_BUCKETS_MAX) {
+        plan->start = malloc(((size_t)n_slabs + 1) * sizeof *plan->start);
+        if (!plan->start) return 0;
+        const cg_index per_plane = P / n0; /* nodes with one index along the first axis */
+        for (cg_index s = 0; s < n_slabs; ++s) plan->start[s] = s == 0 ? 0 : ends[s * W * per_plane - 1];
+        plan->start[n_slabs] = n;
+        plan->objects = *order_owned;
+        *order_owned = NULL;
+        plan->n_slabs = n_slabs;
+        return 1;
+    }
     plan->start = calloc((size_t)n_slabs + 1, sizeof *plan->start);
     plan->objects = malloc((size_t)n * sizeof *plan->objects);
     cg_index *slab_of = malloc((size_t)n * sizeof *slab_of);
@@ -581,10 +604,13 @@ static cg_status run(job *jb, double *out)
     const double work = (double)jb->n * stencil_estimate(jb);
     if (work < MIN_WORK_PER_THREAD || work < 2.0 * (double)P * (double)width) n_threads = 1;
 #endif
-    cg_index *order = spatial_order(jb);
+    cg_index *ends;
+    cg_index *order = spatial_order(jb, &ends);
     int failed = CG_OK;
     slab_plan plan;
-    if (plan_slabs(jb, order, &plan)) {
+    const int slabs = plan_slabs(jb, &order, ends, &plan);
+    free(ends);
+    if (slabs) {
         free(order);
         /* The slabs in colour order, each started as soon as the slabs it
            overlaps (|s' - s| <= 2) of an earlier colour are done, instead of

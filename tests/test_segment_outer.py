@@ -141,3 +141,32 @@ def test_bad_factors_are_refused():
     with pytest.raises(ValueError, match="factors: expected at least one column"):
         _core.scatter_segments_outer(target, core_kernel, starts, vectors, np.ones((4, 0)))
     assert LUCY == KERNELS["lucy"][0] and OracleKernel      # the sweep's tables, as imported
+
+
+@pytest.mark.parametrize("kind", ["Lucy", "Gaussian"])
+def test_slab_plan_from_node_buckets_as_general_plan(kind):
+    """With at least one object per node the slabs are read off the spatial order's node buckets
+    (csrc/cg_scatter.c, plan_slabs); with fewer, they are counted object by object. Segments given in node order
+    keep that order in both, so adding objects far outside the grid (they reach no node: they add nothing) to pass
+    from the one plan to the other must leave every bit of the sums as it was, for 1 and 2 threads."""
+    n = 24
+    box, starts, vectors, forces = lattice_segments(n)
+    grid = cg.Grid(box, (2 * n, 2 * n, 2 * n))                     # P = 8 n^3 > 3 n^2 (n - 1) segments
+    h = box.lengths / (2 * n)
+    node = np.floor((starts - (box.lower + 0.5 * h)) / h + 0.5).astype(int)
+    by_node = np.lexsort((node[:, 2], node[:, 1], node[:, 0]))
+    starts, vectors, forces = starts[by_node], vectors[by_node], forces[by_node]
+    values = oracle_outer_values(forces, vectors)
+    P = grid.size
+    assert len(starts) < P
+    extra = P - len(starts) + 5
+    far_starts = np.vstack([starts, np.full((extra, 3), -1e3)])
+    far_vectors = np.vstack([vectors, np.tile([[0.5, 0.0, 0.0]], (extra, 1))])
+    far_values = np.vstack([values, np.ones((extra, 9))])
+    kernel = {"Lucy": cg.Lucy(1.5), "Gaussian": cg.Gaussian(0.5, cutoff=1.5)}[kind]
+    target, ck = _engine.core_target(grid, box), _engine.core_kernel(kernel, 1.0)
+    for nt in (1, 2):
+        counted = _core.scatter_segments(target, ck, starts, vectors, values, n_threads=nt)
+        from_buckets = _core.scatter_segments(target, ck, far_starts, far_vectors, far_values, n_threads=nt)
+        assert np.count_nonzero(counted) > 0.5 * counted.size
+        assert same_bits(from_buckets, counted), nt
