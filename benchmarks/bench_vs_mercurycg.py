@@ -1,6 +1,6 @@
 """cgbound side by side with MercuryCG (MercuryDPM's serial coarse-graining tool) on the W1 lattice, one run.
 
-    python benchmarks/bench_vs_mercurycg.py [--mercurycg PATH] [--repeat 3] [--mercury-repeat 1]
+    python benchmarks/bench_vs_mercurycg.py [--mercurycg PATH] [--repeat 3] [--mercury-repeat 3]
                                             [--threads 1,2] [--kernels gauss,gauss-auto,gauss5,lucy]
                                             [--workdir DIR]
 
@@ -8,8 +8,18 @@ W1: the 46^3 simple-cubic lattice of benchmarks/workloads.py (97,336 particles, 
 of 46^3 nodes; fields density, momentum, momentum flux and contact stress. The lattice is written as two
 MercuryDPM frames (NAME.data, NAME.fstat, with cgbound.readers.mercury's writer) and MercuryCG (PATH, optional:
 without it only cgbound is timed) is run on them with -coordinates O (reading only) and -coordinates XYZ for each
-kernel; its kernel time per frame is (XYZ run - O run) / 2, the best of --mercury-repeat runs each. cgbound
-coarse-grains the same snapshot in this process: the median of --repeat runs of one frame per thread count.
+kernel. MercuryCG prints no timing of its own, so its kernel time is a difference of whole runs:
+
+    kernel time per frame = (best XYZ run - best reading run) / 2
+
+where a run is the wall time of the whole process, the reading run (-coordinates O: the files read, the contacts
+assigned, no grid) is the same reading and set-up the XYZ run does, and the difference over the 2 frames is what
+the XYZ run spends on its grid (evaluating the kernel at the nodes and writing the .stat file). Each run is repeated
+--mercury-repeat times (default 3) and the best taken: a reading run slowed by a busy neighbour would otherwise make
+the difference too small (the reading run is the larger share of a Lucy run), so every run's wall and CPU time
+(user + system of the child) are printed too, and the kernel time from the CPU times beside it.
+cgbound coarse-grains the same snapshot in this process: the median of --repeat runs of one frame per thread
+count.
 
 Kernels (MercuryCG's Gauss has cutoff 3w, renormalised over the cut ball):
   gauss       Gaussian w = 1.0, cutoff 3w, exact line integrals (MercuryCG -function Gauss -w 1.0)
@@ -20,6 +30,7 @@ Prints the CPU model, core count, thread count, vector build and load average wi
 """
 import argparse
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -56,26 +67,39 @@ def write_frames(snap, directory):
     write_mercury(frames, os.path.join(directory, NAME + ".data"), os.path.join(directory, NAME + ".fstat"))
 
 
+def children_cpu():
+    """User + system CPU seconds of this process' finished children."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
 def run_mercurycg(exe, directory, args, repeat):
-    """Best wall time of `repeat` runs of MercuryCG NAME args (in directory)."""
-    best = None
+    """Wall and CPU times (lists, one per run) of `repeat` runs of MercuryCG NAME args (in directory)."""
+    walls, cpus = [], []
     for _ in range(repeat):
         out = os.path.join(directory, "out.stat")
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), children_cpu()
         proc = subprocess.run([exe, NAME] + args + ["-o", out], cwd=directory, stdout=subprocess.PIPE,
                               stderr=subprocess.STDOUT, text=True)
-        elapsed = time.perf_counter() - start
+        walls.append(time.perf_counter() - start)
+        cpus.append(children_cpu() - start_cpu)
         if proc.returncode != 0:
             raise RuntimeError(f"MercuryCG {' '.join(args)} failed ({proc.returncode}):\n{proc.stdout[-2000:]}")
-        best = elapsed if best is None else min(best, elapsed)
-    return best
+    return walls, cpus
+
+
+def run_times(label, walls, cpus):
+    """One line of raw run times, best first."""
+    return (f"# MercuryCG {label}: wall " + " ".join(f"{w:.2f}" for w in walls) + " s; CPU "
+            + " ".join(f"{c:.2f}" for c in cpus) + f" s (best wall {min(walls):.2f}, best CPU {min(cpus):.2f})")
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--mercurycg", help="path of the MercuryCG executable (optional)")
     parser.add_argument("--repeat", type=int, default=3, help="cgbound runs per kernel and thread count")
-    parser.add_argument("--mercury-repeat", type=int, default=1, help="MercuryCG runs per kernel (~16 s each)")
+    parser.add_argument("--mercury-repeat", type=int, default=3,
+                        help="MercuryCG runs of the reading and of each kernel, the best taken (~8-20 s each)")
     parser.add_argument("--threads", default="2", help="comma-separated cgbound thread counts (default 2)")
     parser.add_argument("--kernels", default="gauss,gauss-auto,gauss5,lucy", help=f"some of {','.join(KERNELS)}")
     parser.add_argument("--workdir", help="where to write the MercuryDPM files (default: a temporary directory)")
@@ -106,7 +130,10 @@ def main():
             upper = float(snap.box.upper[0])
             xyz = ["-coordinates", "XYZ", "-n", str(N), "-x", "0", f"{upper}", "-y", "0", f"{upper}",
                    "-z", "0", f"{upper}"]
+            print(f"# MercuryCG: {exe}; kernel time per frame = (best XYZ run - best reading run) / 2, runs of "
+                  f"2 frames, best of {args.mercury_repeat} each")
             reading = run_mercurycg(exe, directory, ["-coordinates", "O"], args.mercury_repeat)
+            print(run_times("reading run (-coordinates O)", *reading), flush=True)
             runs = {}
             for key in kernels:
                 spec = KERNELS[key][2]
@@ -115,9 +142,13 @@ def main():
                 function, w = spec
                 runs[spec] = run_mercurycg(exe, directory, xyz + ["-function", function, "-w", str(w)],
                                            args.mercury_repeat)
-            mercury = {key: (runs[KERNELS[key][2]] - reading) / 2.0 for key in kernels if KERNELS[key][2] in runs}
-            print(f"# MercuryCG: {exe}; reading run (-coordinates O, 2 frames) {reading:.2f} s; kernel time per "
-                  f"frame = (XYZ run - reading run) / 2, best of {args.mercury_repeat}")
+                print(run_times(f"XYZ run -function {function} -w {w}", *runs[spec]), flush=True)
+                kernel_wall = (min(runs[spec][0]) - min(reading[0])) / 2.0
+                kernel_cpu = (min(runs[spec][1]) - min(reading[1])) / 2.0
+                print(f"# MercuryCG {function} kernel time per frame: {kernel_wall:.3f} s from wall times, "
+                      f"{kernel_cpu:.3f} s from CPU times", flush=True)
+            mercury = {key: (min(runs[KERNELS[key][2]][0]) - min(reading[0])) / 2.0 for key in kernels
+                       if KERNELS[key][2] in runs}
         finally:
             if not args.workdir:
                 shutil.rmtree(directory, ignore_errors=True)

@@ -83,6 +83,13 @@ def scatter_segments(target, kernel, starts, vectors, values, ray=False, gradien
                                   n_threads=n_threads)
 
 
+def scatter_segments_outer(target, kernel, starts, vectors, factors, ray=False, gradient=False, n_threads=0):
+    """scatter_segments with the values factors_c (x) vectors_c (flat (n, F*D), each 0.0 + a product), formed in
+    the core segment by segment instead of as an (n, F*D) array."""
+    return _core.scatter_segments_outer(target, kernel, starts, vectors, factors, ray=ray, gradient=gradient,
+                                        n_threads=n_threads)
+
+
 def scatter_segment_moments(target, kernel, starts, vectors, values, gradient=False, n_threads=0):
     """sum_c values_c times the kernel's first moment along starts_c + s vectors_c, int_0^1 s W(r - starts_c
     - s vectors_c) ds, or its gradient (the full-dimensional kernel: no averaged axis)."""

@@ -14,7 +14,7 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 from ._engine import (core_kernel, core_target, scatter_fluctuation, scatter_points, scatter_segment_moments,
-                      scatter_segments)
+                      scatter_segments, scatter_segments_outer)
 from ._threads import get_num_threads
 
 #: what a primary sums over
@@ -327,8 +327,11 @@ def segment_sum(snapshot, part, target, kernel, P, nt, ray=False):
     dim = snapshot.dim
     if not part["i"].size:
         return np.zeros((P, dim, dim))
-    start, vector, values = segment_sources(snapshot, part)
-    return scatter_segments(target, kernel, start, vector, values, ray=ray, n_threads=nt).reshape(P, dim, dim)
+    # the values -f a = f (x) (-a) ((-f) a is -(f a) exactly), formed by the core segment by segment: the
+    # values of segment_sources without its (n, D*D) array
+    start, vector = np.take(snapshot.positions, part["i"], axis=0), np.negative(part["branch"])
+    return scatter_segments_outer(target, kernel, start, vector, part["force"], ray=ray,
+                                  n_threads=nt).reshape(P, dim, dim)
 
 
 def segment_sources(snapshot, part):

@@ -434,11 +434,13 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
     static char *kw_segments[] = {"target", "kernel", "starts", "vectors", "values", "ray", "gradient", "n_threads",
                                   NULL};
     static char *kw_moments[] = {"target", "kernel", "starts", "vectors", "values", "gradient", "n_threads", NULL};
+    static char *kw_outer[] = {"target", "kernel", "starts", "vectors", "factors", "ray", "gradient", "n_threads",
+                               NULL};
     converted_target ct = {0};
     kernel_arg ka = {.target = &ct};
     input_array pos = {.name = segments ? "starts" : "positions", .ndim = 2, .length = {NULL, &ct.dim}};
     input_array vec = {.name = "vectors", .ndim = 2, .length = {&pos.rows, &ct.dim}};
-    input_array val = {.name = "values", .ndim = 2, .length = {&pos.rows, NULL}};
+    input_array val = {.name = segments == 3 ? "factors" : "values", .ndim = 2, .length = {&pos.rows, NULL}};
     int ray = 0, gradient = 0, n_threads = 0;
     PyArrayObject *out = NULL;
     int parsed;
@@ -447,7 +449,8 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
                                              kernel_converter, &ka, array_converter, &pos, array_converter, &vec,
                                              array_converter, &val, &gradient, threads_converter, &n_threads);
     else if (segments)
-        parsed = PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&|ppO&", kw_segments, target_converter, &ct,
+        parsed = PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&|ppO&", segments == 3 ? kw_outer : kw_segments,
+                                             target_converter, &ct,
                                              kernel_converter, &ka, array_converter, &pos, array_converter, &vec,
                                              array_converter, &val, &ray, &gradient, threads_converter, &n_threads);
     else
@@ -455,11 +458,19 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
                                              kernel_converter, &ka, array_converter, &pos, array_converter, &val,
                                              &gradient, threads_converter, &n_threads);
     if (!parsed) goto done;
-    const int n_values = (int)PyArray_DIM(val.array, 1);
-    if (n_values < 1) {
-        PyErr_SetString(PyExc_ValueError, "values: expected at least one column");
+    const npy_intp n_columns = PyArray_DIM(val.array, 1);
+    if (n_columns < 1) {
+        PyErr_Format(PyExc_ValueError, "%s: expected at least one column", val.name);
         goto done;
     }
+    if (segments == 3 && n_columns * ct.dim > CG_MAX_OUTER_VALUES) {
+        PyErr_Format(PyExc_ValueError, "factors: expected at most %d columns (%d values per segment with %d-D "
+                     "vectors), got %zd", (int)(CG_MAX_OUTER_VALUES / ct.dim), CG_MAX_OUTER_VALUES, (int)ct.dim,
+                     (Py_ssize_t)n_columns);
+        goto done;
+    }
+    /* the values per object: the factors' outer products with the vectors */
+    const int n_values = (int)(segments == 3 ? n_columns * ct.dim : n_columns);
     ct.target.n_threads = n_threads;
     npy_intp extra[2] = {n_values, ct.target.n_resolved};
     out = zeros(ct.size, gradient ? 2 : 1, extra);
@@ -471,6 +482,9 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
     if (segments == 2)
         st = cg_scatter_segment_moments(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec),
                                         n_values, array_data(&val), gradient, PyArray_DATA(out));
+    else if (segments == 3)
+        st = cg_scatter_segments_outer(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec), ray,
+                                       (int)n_columns, array_data(&val), gradient, PyArray_DATA(out));
     else if (segments)
         st = cg_scatter_segments(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec), ray,
                                  n_values, array_data(&val), gradient, PyArray_DATA(out));
@@ -506,6 +520,12 @@ static PyObject *py_scatter_segments(PyObject *self, PyObject *args, PyObject *k
 {
     (void)self;
     return py_scatter(args, kwds, 1);
+}
+
+static PyObject *py_scatter_segments_outer(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    return py_scatter(args, kwds, 3);
 }
 
 static PyObject *py_scatter_segment_moments(PyObject *self, PyObject *args, PyObject *kwds)
@@ -938,6 +958,10 @@ static PyMethodDef methods[] = {
     {"scatter_segments", (PyCFunction)(void (*)(void))py_scatter_segments, METH_VARARGS | METH_KEYWORDS,
      "scatter_segments(target, kernel, starts, vectors, values, ray=False, gradient=False, n_threads=0)\n\n"
      "Sum of values[o] * int_0^S M(node - starts[o] - s vectors[o]) ds, S = 1 or infinity (ray)."},
+    {"scatter_segments_outer", (PyCFunction)(void (*)(void))py_scatter_segments_outer, METH_VARARGS | METH_KEYWORDS,
+     "scatter_segments_outer(target, kernel, starts, vectors, factors, ray=False, gradient=False, n_threads=0)\n\n"
+     "scatter_segments with values[o] = factors[o] (x) vectors[o] (flat, 0.0 + each product), formed in the core "
+     "per segment (cg_scatter_segments_outer)."},
     {"scatter_segment_moments", (PyCFunction)(void (*)(void))py_scatter_segment_moments, METH_VARARGS | METH_KEYWORDS,
      "scatter_segment_moments(target, kernel, starts, vectors, values, gradient=False, n_threads=0)\n\n"
      "Sum of values[o] * int_0^1 s M(node - starts[o] - s vectors[o]) ds (the kernel's first moment)."},

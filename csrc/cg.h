@@ -202,6 +202,22 @@ cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
                               int gradient, double *out);
 
 /*
+ * Segment objects whose values are an outer product with their own vector:
+ * as cg_scatter_segments with values[o, r * D + c] = 0.0 + factors[o, r] *
+ * vecs[o, c] (r < n_factors, c < D; the 0.0 + makes a zero +0, as NumPy's
+ * einsum "ni,nj->nij" does), formed per object as the sums need them: no
+ * n x (n_factors D) array. The contact stress -f (x) b along -b is
+ * factors = f, vecs = -b ((-f) b = f (-b) exactly). n_factors D <=
+ * CG_MAX_OUTER_VALUES (CG_ERR_ARGUMENT otherwise); out as for
+ * cg_scatter_segments with n_values = n_factors D.
+ */
+#define CG_MAX_OUTER_VALUES 27
+cg_status cg_scatter_segments_outer(const cg_target *target, const cg_kernel *kernel,
+                                    cg_index n, const double *starts, const double *vecs,
+                                    int ray, int n_factors, const double *factors,
+                                    int gradient, double *out);
+
+/*
  * Segment objects weighted by the kernel's first moment along them:
  * out[p, k] += sum_o values[o, k] * chi_o(node_p), chi_o(r) = int_0^1 s M(r -
  * start_o - s vec_o) ds (cg_kernel_line_moment); gradient as for segments.

@@ -223,6 +223,9 @@ typedef struct job {
     const double *vecs;        /* n x D or NULL */
     int n_values;
     const double *values;      /* n x n_values */
+    const double *factors;     /* or NULL; else values are factors (x) vecs, formed per object
+                                  (cg_scatter_segments_outer): n x n_factors */
+    int n_factors;
     const double *masses;      /* fluctuation */
     const double *velocities;  /* fluctuation, n x D */
     const double *node_velocity; /* fluctuation, P x D */

@@ -191,9 +191,11 @@ static int ray_length(const job *jb, const double *x, const double *e, double *s
 }
 
 /* One object: resolve its coordinates, turn a ray into a finite segment, and
-   visit all periodic images that can reach the target. */
+   visit all periodic images that can reach the target. With factors, its
+   values are the thread's row 0 (visit_range formed them). */
 static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_index obj)
 {
+    const cg_index row = jb->factors ? 0 : obj;
     const cg_target *t = jb->target;
     const int nr = t->n_resolved, D = t->dim;
     const double R = jb->kernel->radius;
@@ -207,7 +209,7 @@ static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_inde
            point set) receives the same weight */
         const double dummy[3] = {0.0, 0.0, 0.0};
         const cg_index P = cg_target_size(t);
-        for (cg_index p = 0; p < P; ++p) cg_accumulate(jb, out, obj, p, jb->kernel->prefactor, dummy);
+        for (cg_index p = 0; p < P; ++p) cg_accumulate(jb, out, row, p, jb->kernel->prefactor, dummy);
         return CG_OK;
     }
     if (jb->is_segment && jb->ray) {
@@ -240,7 +242,7 @@ static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_inde
         for (int a = 0; a < nr; ++a) xs[a] = t->periodic[a] ? x[a] + (double)k[a] * t->period[a] : x[a];
         /* an image counts as a visit: up to MAX_IMAGES of them may miss the target */
         if (++count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
-        const cg_status st = visit_nodes(jb, out, sc, obj, xs, e, scale, &count);
+        const cg_status st = visit_nodes(jb, out, sc, row, xs, e, scale, &count);
         if (st != CG_OK) return st;
         int a = nr - 1;
         while (a >= 0) {
@@ -390,9 +392,12 @@ static double stencil_estimate(const job *jb)
    depends only on the input): consecutive objects then write to the same
    rows of the output, which stays in cache. Input order in unsorted data can
    make every object a cache miss (4x slower at 1e6 particles). Returns NULL
-   when not worth it or when memory is short (the input order is as right). */
-static cg_index *spatial_order(const job *jb)
+   when not worth it or when memory is short (the input order is as right).
+   *ends (if not NULL on return; the caller frees it): where each bucket's
+   objects end in the order, min(P, n) of them. */
+static cg_index *spatial_order(const job *jb, cg_index **ends)
 {
+    *ends = NULL;
     const cg_target *t = jb->target;
     const cg_index n = jb->n;
     if (!t->is_grid || t->n_resolved == 0 || n < MIN_OBJECTS_TO_SORT) return NULL;
@@ -425,15 +430,34 @@ static cg_index *spatial_order(const job *jb)
     for (cg_index b = 0; b < buckets; ++b) start[b + 1] += start[b];
     for (cg_index o = 0; o < n; ++o) order[start[bucket_of[o]]++] = o;
     free(bucket_of);
-    free(start);
+    *ends = start; /* each start[b] has moved to the end of bucket b */
     return order;
 }
 
+/* values[r * D + c] = 0.0 + factors[r] * vec[c] (einsum's "ni,nj->nij": a zero is +0) */
+static void outer_values(const job *jb, cg_index obj, double *values)
+{
+    const int D = jb->target->dim, nf = jb->n_factors;
+    const double *f = jb->factors + obj * nf, *v = jb->vecs + obj * D;
+    for (int r = 0; r < nf; ++r)
+        for (int c = 0; c < D; ++c) values[r * D + c] = 0.0 + f[r] * v[c];
+}
+
 /* Objects order[begin..end) (or begin..end) into out, one thread; stops at the
-   first error of any thread (recorded in *failed). */
-static void visit_range(const job *jb, double *out, scratch *sc, const cg_index *order, cg_index begin,
+   first error of any thread (recorded in *failed). With factors, each
+   object's values are formed in this thread's row of values (a copy of the
+   job pointing at it) just before the object is visited. */
+static void visit_range(const job *shared, double *out, scratch *sc, const cg_index *order, cg_index begin,
                         cg_index end, int *failed)
 {
+    job own;
+    double values[CG_MAX_OUTER_VALUES];
+    const job *jb = shared;
+    if (shared->factors) {
+        own = *shared;
+        own.values = values;
+        jb = &own;
+    }
     for (cg_index o = begin; o < end; ++o) {
         if (load_status(failed) != CG_OK) return;
         if (interrupted(jb)) { store_status(failed, CG_ERR_INTERRUPTED); return; }
@@ -442,14 +466,18 @@ static void visit_range(const job *jb, double *out, scratch *sc, const cg_index 
             /* sorted objects are read out of input order: fetch ahead */
             const cg_index next = order[o + PREFETCH_AHEAD];
             __builtin_prefetch(jb->positions + next * jb->target->dim);
-            if (jb->values) {
+            if (jb->factors) {
+                __builtin_prefetch(jb->factors + next * jb->n_factors);
+            } else if (jb->values) {
                 __builtin_prefetch(jb->values + next * jb->n_values);
                 __builtin_prefetch(jb->values + next * jb->n_values + jb->n_values - 1); /* may span two lines */
             }
             if (jb->vecs) __builtin_prefetch(jb->vecs + next * jb->target->dim);
         }
 #endif
-        const cg_status s = scatter_object(jb, out, sc, order ? order[o] : o);
+        const cg_index obj = order ? order[o] : o;
+        if (jb->factors) outer_values(jb, obj, values);
+        const cg_status s = scatter_object(jb, out, sc, obj);
         if (s != CG_OK) { store_status(failed, s); return; }
     }
 }
@@ -465,6 +493,13 @@ static void visit_range(const job *jb, double *out, scratch *sc, const cg_index 
 #define SLAB_COLOURS 3
 #define SLAB_MIN 6
 
+/* Each slab's objects are run as this many tasks, one after the other (part
+   k + 1 starts when part k is done: they overlap), so that the last tasks of a
+   run are short: with whole slabs, 2 threads and an odd count of equal slabs
+   one thread ran the last slab alone (a tenth of W1's contact stress). The
+   per-node order of the terms is that of whole slabs. */
+#define SLAB_PARTS 4
+
 typedef struct slab_plan {
     cg_index n_slabs;
     cg_index *start;   /* n_slabs + 1: slab s holds objects[start[s]..start[s + 1]) */
@@ -479,10 +514,18 @@ static void free_slabs(slab_plan *plan)
     plan->n_slabs = 0;
 }
 
+/* with at least one object per node the buckets of spatial_order are the
+   nodes (while node * P is exact in a double), row-major: its order is then
+   already by slab (the nearest node along the first axis, as plan_slabs
+   finds it), and the slabs' starts are bucket ends */
+#define NODE_BUCKETS_MAX 90000000
+
 /* 1 with a plan, 0 when slabs do not apply (or memory is short: the
-   per-thread copies are as right) */
-static int plan_slabs(const job *jb, const cg_index *order, slab_plan *plan)
+   per-thread copies are as right). *order (spatial_order's, or NULL) is
+   taken over (set to NULL) when it is the plan's order itself. */
+static int plan_slabs(const job *jb, cg_index **order_owned, const cg_index *ends, slab_plan *plan)
 {
+    const cg_index *order = *order_owned;
     const cg_target *t = jb->target;
     plan->n_slabs = 0;
     plan->start = plan->objects = NULL;
@@ -500,6 +543,18 @@ static int plan_slabs(const job *jb, const cg_index *order, slab_plan *plan)
     const double width = ceil(reach / h) + 2.0;
     if (!(width * SLAB_MIN <= (double)n0)) return 0;
     const cg_index W = (cg_index)width, n_slabs = (n0 + W - 1) / W;
+    const cg_index P = cg_target_size(t);
+    if (order && ends && n >= P && P <= NODE_BUCKETS_MAX) {
+        plan->start = malloc(((size_t)n_slabs + 1) * sizeof *plan->start);
+        if (!plan->start) return 0;
+        const cg_index per_plane = P / n0; /* nodes with one index along the first axis */
+        for (cg_index s = 0; s < n_slabs; ++s) plan->start[s] = s == 0 ? 0 : ends[s * W * per_plane - 1];
+        plan->start[n_slabs] = n;
+        plan->objects = *order_owned;
+        *order_owned = NULL;
+        plan->n_slabs = n_slabs;
+        return 1;
+    }
     plan->start = calloc((size_t)n_slabs + 1, sizeof *plan->start);
     plan->objects = malloc((size_t)n * sizeof *plan->objects);
     cg_index *slab_of = malloc((size_t)n * sizeof *slab_of);
@@ -553,20 +608,27 @@ static cg_status run(job *jb, double *out)
     const double work = (double)jb->n * stencil_estimate(jb);
     if (work < MIN_WORK_PER_THREAD || work < 2.0 * (double)P * (double)width) n_threads = 1;
 #endif
-    cg_index *order = spatial_order(jb);
+    cg_index *ends;
+    cg_index *order = spatial_order(jb, &ends);
     int failed = CG_OK;
     slab_plan plan;
-    if (plan_slabs(jb, order, &plan)) {
+    const int slabs = plan_slabs(jb, &order, ends, &plan);
+    free(ends);
+    if (slabs) {
         free(order);
         /* The slabs in colour order, each started as soon as the slabs it
            overlaps (|s' - s| <= 2) of an earlier colour are done, instead of
            a barrier after each colour (which leaves a thread idle when a
            colour's slab count is odd): every node still receives its terms
            slab by slab in colour order, so the sums are those of the
-           colour-by-colour order whatever the number of threads. Tasks are
-           taken in list order, so a slab only waits for slabs already taken. */
-        const cg_index S = plan.n_slabs;
-        cg_index *task = malloc((size_t)S * sizeof *task);
+           colour-by-colour order whatever the number of threads. A slab is
+           run as SLAB_PARTS tasks (its objects cut in order), part k after
+           part k - 1; the list holds a colour's parts k of every slab, then
+           its parts k + 1, so that tasks taken together seldom wait for each
+           other. Tasks are taken in list order, so a task only waits for
+           tasks already taken. done[s] counts the parts of slab s done. */
+        const cg_index S = plan.n_slabs, n_all = S * SLAB_PARTS;
+        cg_index *task = malloc((size_t)n_all * sizeof *task);
         int *done = calloc((size_t)S, sizeof *done);
         if (!task || !done) {
             free(task);
@@ -576,7 +638,8 @@ static cg_status run(job *jb, double *out)
         }
         cg_index n_tasks = 0;
         for (int colour = 0; colour < SLAB_COLOURS; ++colour)
-            for (cg_index s = colour; s < S; s += SLAB_COLOURS) task[n_tasks++] = s;
+            for (int part = 0; part < SLAB_PARTS; ++part)
+                for (cg_index s = colour; s < S; s += SLAB_COLOURS) task[n_tasks++] = s * SLAB_PARTS + part;
         cg_index next_task = 0;
 #ifdef _OPENMP
 #pragma omp parallel num_threads(n_threads) if (n_threads > 1)
@@ -589,24 +652,30 @@ static cg_status run(job *jb, double *out)
 #pragma omp atomic capture
 #endif
                 i = next_task++;
-                if (i >= S) break;
-                const cg_index s = task[i];
+                if (i >= n_all) break;
+                const cg_index s = task[i] / SLAB_PARTS;
+                const int part = (int)(task[i] % SLAB_PARTS);
                 const cg_index colour = s % SLAB_COLOURS;
                 for (cg_index d = -2; d <= 2; ++d) {
                     const cg_index p = s + d;
                     if (d == 0 || p < 0 || p >= S || p % SLAB_COLOURS >= colour) continue;
-                    for (long spins = 0; !load_status(done + p); ++spins) {
+                    for (long spins = 0; load_status(done + p) < SLAB_PARTS; ++spins) {
                         if (spins > 64) slab_wait();
                     }
+                }
+                for (long spins = 0; load_status(done + s) < part; ++spins) {
+                    if (spins > 64) slab_wait();
                 }
 #ifdef _OPENMP
 #pragma omp flush
 #endif
-                visit_range(jb, out, &sc, plan.objects, plan.start[s], plan.start[s + 1], &failed);
+                const cg_index first = plan.start[s], count = plan.start[s + 1] - first;
+                visit_range(jb, out, &sc, plan.objects, first + count * part / SLAB_PARTS,
+                            first + count * (part + 1) / SLAB_PARTS, &failed);
 #ifdef _OPENMP
 #pragma omp flush
 #endif
-                store_status(done + s, 1);
+                store_status(done + s, part + 1);
             }
             free(sc.buf);
         }
@@ -683,6 +752,29 @@ cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
                               int gradient, double *out)
 {
     return scatter_values(target, kernel, n, starts, 1, vecs, ray, n_values, values, gradient, out, 0);
+}
+
+cg_status cg_scatter_segments_outer(const cg_target *target, const cg_kernel *kernel,
+                                    cg_index n, const double *starts, const double *vecs,
+                                    int ray, int n_factors, const double *factors,
+                                    int gradient, double *out)
+{
+    if (n < 0 || n_factors < 1 || n_factors * target->dim > CG_MAX_OUTER_VALUES || !factors) return CG_ERR_ARGUMENT;
+    job jb;
+    memset(&jb, 0, sizeof jb);
+    jb.target = target;
+    jb.kernel = kernel;
+    jb.mode = gradient ? MODE_GRADIENT : MODE_VALUE;
+    jb.is_segment = 1;
+    jb.ray = ray;
+    jb.n = n;
+    jb.positions = starts;
+    jb.vecs = vecs;
+    jb.factors = factors;
+    jb.n_factors = n_factors;
+    jb.n_values = n_factors * target->dim;
+    jb.out_width = gradient ? jb.n_values * target->n_resolved : jb.n_values;
+    return run(&jb, out);
 }
 
 cg_status cg_scatter_segment_moments(const cg_target *target, const cg_kernel *kernel,

@@ -942,3 +942,10 @@ def oracle_ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, ten
             which.append(np.full(len(u), segment[q]))
     cat = [np.concatenate(a) if a else np.zeros(0) for a in (h, rho, cphi, sphi, wt, which)]
     return oracle_ring_tensor_sum(kernel, r, *cat[:5], cat[5].astype(int), tensors)
+
+
+def oracle_outer_values(factors, vectors):
+    """Twin of the values _core.scatter_segments_outer forms per segment: factors_r * vectors_c, flat (n, F*D),
+    each as NumPy's einsum "ni,nj->nij" gives it (0.0 + the product: a zero is +0)."""
+    factors, vectors = np.asarray(factors, float), np.asarray(vectors, float)
+    return (0.0 + factors[:, :, None] * vectors[:, None, :]).reshape(factors.shape[0], -1)
