@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from .cylindrical import CylindricalGrid
-from .cylindrical_ring import ring_average, ring_average_segments
+from .cylindrical_ring import axial_line_average, ring_average, ring_average_segments
 from .fields import ROTATION_FIELDS, check_fields, derive
 from .grid import Points
 from .kernels import Gaussian, check_kernel
@@ -133,6 +133,13 @@ def ring_sums(job, grid, needed):
                     averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors,
                                                            values.reshape(-1, 3, 3), z_nodes, z_weights)
         for name in needed & POINT_PRIMARIES - set(averaged):      # no data (velocities, body force, contacts)
+            averaged[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
+    elif grid.z_averaged:            # θ resolved: the point sums' z-averages are exact line integrals
+        for positions, columns in point_sources(job.snapshot, needed, zero, job.split):
+            sums = axial_line_average(grid, job.kernel, positions,
+                                      [(v, PRIMARIES[name].rank) for name, v in columns])
+            averaged.update({name: s for (name, _), s in zip(columns, sums)})
+        for name in needed & POINT_PRIMARIES - set(averaged):
             averaged[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
     rest = needed - set(averaged)
     if not rest:
