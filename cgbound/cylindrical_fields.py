@@ -12,8 +12,10 @@ On a θ-averaged grid the sums over points (particles, contact points) and the c
 stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring` (round-off); the
 rest (the extended stress's ray term, every primary of a θ-resolved grid) uses the quadrature below.
 
-On a z-averaged grid the point sums are averaged over z exactly too (:func:`~cgbound.cylindrical_ring.axial_rule`);
-the line integrals still take the Gauss-Legendre rule in z below.
+On a z-averaged grid the point sums are averaged over z exactly too (:func:`~cgbound.cylindrical_ring.axial_rule`
+on θ-averaged grids; on θ-resolved ones :func:`~cgbound.cylindrical_ring.axial_line_average`, the kernel's exact
+line integral along each node's z-line); the line integrals (contact and boundary stress) still take the
+Gauss-Legendre rule in z below (docs/guide/cylindrical.md gives its measured error).
 
 Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
 smooth integrand: exact to round-off for a Gaussian whose cutoff jump is below round-off, cutoff >= 9 w;
@@ -110,8 +112,9 @@ def ring_sums(job, grid, needed):
 
     On a θ-averaged grid the sums over points (particles, contact points) and the contact and boundary
     stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring` (on a z-averaged
-    grid the point sums exactly averaged over z, the line integrals on Gauss-Legendre points in z); the extended
-    stress's rays, the gradient primaries and every primary of a θ-resolved grid come from the Cartesian
+    grid the point sums exactly averaged over z, the line integrals on Gauss-Legendre points in z); on a
+    θ-resolved z-averaged grid the point sums are exact line integrals along each node's z-line. The extended
+    stress's rays, the gradient primaries and the other primaries of a θ-resolved grid come from the Cartesian
     engine at the quadrature points."""
     zero = np.zeros(3)
     averaged = {}

@@ -14,6 +14,10 @@ that keep the exponent's change per panel small; Lucy, whose odd power d³ has b
 t = ±i ε next to t = 0 when the ring passes close to the source, by panels graded towards t = 0).
 ``tests/test_cylindrical_ring.py`` checks them against 32-digit adaptive quadrature at 1e-12, and
 ``tests/test_ring_core.py`` the C entry points against their NumPy twins.
+
+On θ-RESOLVED z-averaged grids there is no ring: :func:`axial_line_average` takes the z-average of the point sums
+as the kernel's exact line integral along each node's z-line (the core's segment integrals;
+``tests/test_cylindrical_zline.py``).
 """
 import math
 
