@@ -99,3 +99,13 @@ def test_zero_sources_and_outside():
     assert out[0].shape == (6,) and not out[0].any()
     far = axial_line_average(grid, cg.Lucy(0.5), np.array([[0.0, 0.0, 10.0]]), [(np.ones(1), 0)])
     assert not far[0].any()
+
+
+def test_thread_counts_agree_bit_for_bit():
+    snap = snapshot(True, n=40)
+    grid = cg.CylindricalGrid(snap.box, (0, 0, 0), "z", r=(0.0, 2.0, 5), theta=7)
+    columns = [(snap.masses, 0), (snap.masses[:, None] * snap.velocities, 1)]
+    one = axial_line_average(grid, cg.Lucy(1.2), snap.positions, columns, n_threads=1)
+    two = axial_line_average(grid, cg.Lucy(1.2), snap.positions, columns, n_threads=2)
+    for a, b in zip(one, two):
+        assert np.array_equal(a, b)
