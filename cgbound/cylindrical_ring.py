@@ -374,7 +374,7 @@ def axial_line_average(grid, kernel, positions, columns, n_threads=0):
     nodes = np.ascontiguousarray(grid.cartesian(R, T, np.full(R.shape, lo)))
     vectors = np.ascontiguousarray(np.broadcast_to(-(hi - lo) * grid.e_z, pos.shape))
     flat = np.ascontiguousarray(np.concatenate([v.reshape(len(pos), -1) for v in vals], axis=1))
-    target = _engine.CoreTarget(3, (0, 1, 2), None, nodes, [False] * 3, [1.0] * 3)
+    target = _engine.point_target(nodes)         # the nodes in unbounded space (images are explicit sources)
     sums = _engine.scatter_segments(target, _engine.ring_kernel(kernel), np.ascontiguousarray(pos), vectors, flat,
                                     n_threads=n_threads)
     sums = np.asarray(sums).reshape(R.size, -1)
