@@ -6,6 +6,10 @@ Gauss-Legendre points over the box's extent, i.e. the cost of a z-resolved grid 
 prints, per kernel, the ring-moment evaluations per (ring, source) pair of both, and the CPU time of the
 z-averaged grid (exact) and of the z-resolved grid with z_points nodes (the old rule's work), one thread,
 median of 3, interleaved. Fields: density and momentum (point sums only).
+
+Then the θ-RESOLVED z-averaged grid (r = (0, 4, 8), 16 θ): the exact path (one line integral per
+(node, source), cylindrical_ring.axial_line_average) against the Gauss-Legendre rule it replaced (the Cartesian
+engine at z_points(L, kernel) points per node, emulated here with cylindrical_fields.quadrature), interleaved.
 """
 import os
 import sys
@@ -17,7 +21,15 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import cgbound as cg  # noqa: E402
 from cgbound.cylindrical_fields import z_points  # noqa: E402
 from cgbound.cylindrical_ring import axial_rule  # noqa: E402
+from cgbound.cylindrical_fields import quadrature  # noqa: E402
 from common import header, timed  # noqa: E402
+
+
+def old_theta_resolved(snap, grid, kernel, fields):
+    """The replaced rule: the Cartesian engine at Gauss-Legendre points in z, averaged per node."""
+    pos, _, weights, starts = quadrature(grid, kernel)
+    res = cg.coarse_grain(snap, cg.Points(pos), kernel, fields=fields)
+    return np.add.reduceat(np.asarray(res["density"]).ravel() * weights, starts)
 
 
 def main():
@@ -46,6 +58,15 @@ def main():
             t_new = timed(lambda: cg.coarse_grain(snap, averaged, kernel, fields=fields), 3, cpu=True)[2]
             t_old = timed(lambda: cg.coarse_grain(snap, resolved, kernel, fields=fields), 3, cpu=True)[2]
             print(f"{kernel!r}, {exact_pts:.1f} / {old_pts:.1f}, {t_new:.2f}, {t_old:.2f}, {t_new / t_old:.2f}")
+        print("# theta-resolved z-averaged grid: kernel, CPU s: exact line integrals, old GL rule (points), ratio")
+        for kernel in (cg.Gaussian(0.5), cg.Lucy(1.5), cg.Heaviside(1.0)):
+            grid = cg.CylindricalGrid(box, (0, 0, 0), "z", r=(0, 4, 8), theta=16)
+            t_new, t_old = [], []
+            for _ in range(3):       # interleaved
+                t_new.append(timed(lambda: cg.coarse_grain(snap, grid, kernel, fields=fields), 1, cpu=True)[2])
+                t_old.append(timed(lambda: old_theta_resolved(snap, grid, kernel, fields), 1, cpu=True)[2])
+            a, b = float(np.median(t_new)), float(np.median(t_old))
+            print(f"{kernel!r}, {a:.3f}, {b:.3f} ({z_points(L, kernel)}), {a / b:.2f}")
 
 
 if __name__ == "__main__":

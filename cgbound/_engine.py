@@ -65,12 +65,6 @@ def core_kernel(kernel, avg_extent, longest_branch=None):
                       int(kernel.per_node), int(kernel.lower_dimensional), int(mercurycg))
 
 
-def exact_line_kernel(kernel):
-    """The core's description of ``kernel`` with exact line integrals whatever its ``line_quadrature`` (for
-    averages along lines that are not contact branches, where the user's branch rule does not apply)."""
-    return core_kernel(kernel, 1.0)._replace(line_points=0, mercurycg_line=0)
-
-
 def scatter_points(target, kernel, positions, values, gradient=False, n_threads=0):
     """sum_i values_i W(r - positions_i) at the target's nodes (or its gradient), shape (P, K[, D])."""
     return _core.scatter_points(target, kernel, positions, values, gradient=gradient, n_threads=n_threads)

@@ -12,10 +12,13 @@ On a θ-averaged grid the sums over points (particles, contact points), the grad
 and boundary stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring`
 (round-off); the rest (the extended stress's ray term, every primary of a θ-resolved grid) uses the quadrature
 below, except on a θ-resolved z-averaged grid, whose point sums and gradients are the kernel's exact line
-integrals along each node's z-line (:func:`axial_line_sums`).
+integrals along each node's z-line (:func:`~cgbound.cylindrical_ring.axial_line_average`).
 
-On a z-averaged grid the point sums and gradients are averaged over z exactly too (:func:`~cgbound.cylindrical_ring.axial_rule`);
-the line integrals still take the Gauss-Legendre rule in z below.
+On a z-averaged grid the point sums and gradients are averaged over z exactly too
+(:func:`~cgbound.cylindrical_ring.axial_rule` on θ-averaged grids; on θ-resolved ones
+:func:`~cgbound.cylindrical_ring.axial_line_average`, the kernel's exact line integral along each node's
+z-line); the line integrals (contact and boundary stress) still take the Gauss-Legendre rule in z below
+(docs/guide/cylindrical.md gives its measured error).
 
 Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
 smooth integrand: exact to round-off for a Gaussian whose cutoff jump is below round-off, cutoff >= 9 w;
@@ -27,9 +30,8 @@ import math
 import numpy as np
 
 from .cylindrical import CylindricalGrid
-from .cylindrical_ring import ring_average, ring_average_segments
+from .cylindrical_ring import axial_line_average, ring_average, ring_average_segments
 from .fields import ROTATION_FIELDS, check_fields, derive
-from . import _engine
 from .grid import Points
 from .kernels import Gaussian, check_kernel
 from .pipeline import prepare, shape_fields
@@ -114,8 +116,9 @@ def ring_sums(job, grid, needed):
     On a θ-averaged grid the sums over points (particles, contact points) and the contact and boundary
     stress's line integrals and the gradient primaries are the exact ring integrals of
     :mod:`cgbound.cylindrical_ring` (on a z-averaged grid the point sums and gradients exactly averaged over z,
-    the line integrals on Gauss-Legendre points in z); the extended stress's rays and every primary of a
-    θ-resolved grid come from the Cartesian engine at the quadrature points."""
+    the line integrals on Gauss-Legendre points in z); on a θ-resolved z-averaged grid the point sums and
+    gradients are exact line integrals along each node's z-line. The extended stress's rays and the other
+    primaries of a θ-resolved grid come from the Cartesian engine at the quadrature points."""
     zero = np.zeros(3)
     averaged = {}
     if grid.theta_averaged:
@@ -142,8 +145,18 @@ def ring_sums(job, grid, needed):
             averaged.update({name: g for (name, _), g in zip(rows, sums)})
         for name in needed & (POINT_PRIMARIES | GRADIENT_PRIMARIES) - set(averaged):   # no data (velocities, ...)
             averaged[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
-    elif grid.z_averaged:
-        averaged.update(axial_line_sums(job, grid, needed))
+    elif grid.z_averaged:            # θ resolved: the z-averages are exact line integrals along the z-lines
+        for positions, columns in point_sources(job.snapshot, needed, zero, job.split):
+            sums = axial_line_average(grid, job.kernel, positions,
+                                      [(v, PRIMARIES[name].rank) for name, v in columns])
+            averaged.update({name: s for (name, _), s in zip(columns, sums)})
+        positions, rows = gradient_sources(job.snapshot, needed, zero)
+        if rows and len(positions):
+            sums = axial_line_average(grid, job.kernel, positions,
+                                      [(v, PRIMARIES[name].rank - 1) for name, v in rows], gradient=True)
+            averaged.update({name: g for (name, _), g in zip(rows, sums)})
+        for name in needed & (POINT_PRIMARIES | GRADIENT_PRIMARIES) - set(averaged):
+            averaged[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
     rest = needed - set(averaged)
     if not rest:
         return averaged
@@ -157,49 +170,6 @@ def ring_sums(job, grid, needed):
         averaged[name] = np.ascontiguousarray(np.add.reduceat(local, starts, axis=0))   # (nodes,) + (3,) * rank
     return averaged
 
-
-
-def axial_line_sums(job, grid, needed):
-    """On a θ-resolved, z-averaged grid: the point sums and the gradient primaries averaged exactly over z, as
-    line integrals of the kernel. The average at the node (r, θ) of W(x(r, θ, z) - q) over z in [lo, hi] is
-    ∫_0^1 W(x' - (q - s L e_z)) ds, x' = x(r, θ, lo), L = hi - lo: the core's exact line integral of a segment
-    from q along -L e_z, seen from x' (and its gradient with respect to x' the z-average of ∇W). Returns
-    {name: (n_nodes,) + (3,) * rank} in the local basis, nodes in C order (r, θ)."""
-    lo, hi = grid.z_extent
-    rs, thetas = np.meshgrid(grid.r, grid.theta, indexing="ij")
-    rs, thetas = rs.ravel(), thetas.ravel()
-    starts = grid.cartesian(rs, thetas, np.full(rs.shape, lo))
-    basis = grid.basis(thetas)
-    target = _engine.core_target(Points(starts), job.snapshot.box)
-    kernel = _engine.exact_line_kernel(job.kernel)
-    zero = np.zeros(3)
-    out = {}
-
-    def lines(positions, values, gradient):
-        vectors = np.ascontiguousarray(np.broadcast_to(-(hi - lo) * grid.e_z, positions.shape))
-        return _engine.scatter_segments(target, kernel, np.ascontiguousarray(positions, dtype=float), vectors,
-                                        np.ascontiguousarray(values.reshape(len(positions), -1)), gradient=gradient)
-
-    for positions, columns in point_sources(job.snapshot, needed, zero, job.split):
-        if not len(positions):
-            continue
-        block = np.concatenate([v.reshape(len(positions), -1) for _, v in columns], axis=1)
-        sums, col = lines(positions, block, False), 0
-        for name, v in columns:
-            rank, width = PRIMARIES[name].rank, v[0].size
-            out[name] = rotate(sums[:, col:col + width].reshape((-1,) + (3,) * rank), rank, basis)
-            col += width
-    positions, rows = gradient_sources(job.snapshot, needed, zero)
-    if rows and len(positions):
-        block = np.concatenate([v.reshape(len(positions), -1) for _, v in rows], axis=1)
-        sums, col = lines(positions, block, True), 0                       # (nodes, width, 3)
-        for name, v in rows:
-            rank, width = PRIMARIES[name].rank, v[0].size
-            out[name] = rotate(sums[:, col:col + width].reshape((-1,) + (3,) * rank), rank, basis)
-            col += width
-    for name in needed & (POINT_PRIMARIES | GRADIENT_PRIMARIES) - set(out):     # no data
-        out[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
-    return {name: np.ascontiguousarray(v) for name, v in out.items()}
 
 
 def check_ring_arguments(snapshot, grid, kernel, fields, convention="tension", species=None):

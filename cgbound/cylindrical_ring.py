@@ -14,6 +14,10 @@ that keep the exponent's change per panel small; Lucy, whose odd power d³ has b
 t = ±i ε next to t = 0 when the ring passes close to the source, by panels graded towards t = 0).
 ``tests/test_cylindrical_ring.py`` checks them against 32-digit adaptive quadrature at 1e-12, and
 ``tests/test_ring_core.py`` the C entry points against their NumPy twins.
+
+On θ-RESOLVED z-averaged grids there is no ring: :func:`axial_line_average` takes the z-average of the point sums
+as the kernel's exact line integral along each node's z-line (the core's segment integrals;
+``tests/test_cylindrical_zline.py``).
 """
 import math
 
@@ -379,4 +383,53 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                 panels = np.clip(np.ceil((b - a) * length[cand[seg]] / scale), 1, MAX_PANELS).astype(int)
                 out[k * n_z + j] += _engine.ring_segment_sum(kernel, float(r), float(zq), cand[seg], a, b, panels,
                                                              geometry, tensors, float(wq))
+    return out
+
+
+def axial_line_average(grid, kernel, positions, columns, gradient=False, n_threads=0):
+    """z-averages at every node of a θ-RESOLVED z-averaged CylindricalGrid of sum_i values_i W(x - q_i), exact.
+
+    The average of W(x(r, θ, z) - q) over z in [lo, hi] is the kernel's line integral
+    ∫₀¹ W(x(r, θ, lo) - q + s (hi - lo) e_z) ds: the segment from q to q - (hi - lo) e_z seen from x(r, θ, lo),
+    which the core integrates exactly (its contact-stress line integrals). Periodic images along the box's
+    periodic axes are explicit sources. positions: (S, 3) Cartesian; columns: [(values (S,) + (3,) * rank, rank)].
+    Returns [(n_nodes,) + (3,) * rank] in the local basis (e_r, e_θ, e_z), nodes in C order (n_r, n_θ, 1). With
+    ``gradient`` the z-average of sum_i values_i ∇W(x - q_i) (the line integral's gradient with respect to the
+    node), the derivative's index last: rank + 1.
+    """
+    c = float(kernel.radius)
+    lo, hi = grid.z_extent
+    R, T = np.meshgrid(grid.r, grid.theta, indexing="ij")
+    R, T = R.ravel(), T.ravel()
+    extra = 1 if gradient else 0
+    out = [np.zeros((R.size,) + (3,) * (rank + extra)) for _, rank in columns]
+    if not len(positions):
+        return out
+    r_top = float(grid.r.max()) + c
+    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
+    reach_lo = grid.axis_point + np.minimum((lo - c) * grid.e_z, (hi + c) * grid.e_z) - disc
+    reach_hi = grid.axis_point + np.maximum((lo - c) * grid.e_z, (hi + c) * grid.e_z) + disc
+    pos, vals = periodic_sources(grid.box, positions, [v for v, _ in columns], reach_lo, reach_hi)
+    if not len(pos):
+        return out
+    nodes = np.ascontiguousarray(grid.cartesian(R, T, np.full(R.shape, lo)))
+    vectors = np.ascontiguousarray(np.broadcast_to(-(hi - lo) * grid.e_z, pos.shape))
+    flat = np.ascontiguousarray(np.concatenate([v.reshape(len(pos), -1) for v in vals], axis=1))
+    target = _engine.point_target(nodes)         # the nodes in unbounded space (images are explicit sources)
+    sums = _engine.scatter_segments(target, _engine.ring_kernel(kernel), np.ascontiguousarray(pos), vectors, flat,
+                                    gradient=gradient, n_threads=n_threads)
+    sums = np.asarray(sums).reshape(R.size, -1)          # (nodes, width[, 3]) flat: each value's 3 derivatives
+    basis = grid.basis(T)
+    k = 0
+    for o, (_, rank) in zip(out, columns):
+        rank = rank + extra
+        size = 3 ** rank
+        v = sums[:, k:k + size].reshape((R.size,) + (3,) * rank)
+        k += size
+        if rank == 0:
+            o[...] = v
+        elif rank == 1:
+            o[...] = np.einsum("nia,na->ni", basis, v)
+        else:
+            o[...] = np.einsum("nia,nab,njb->nij", basis, v, basis)
     return out
