@@ -52,8 +52,10 @@ def both(i, j, force, point, n, fixed=None):
 
 @pytest.mark.parametrize("seed", range(40))
 @pytest.mark.parametrize("shuffle_pairs", [False, True])
-def test_pairs_in_turn_keep_the_oracles_lines(seed, shuffle_pairs):
-    i, j, force, point, n = fstat_lines(np.random.default_rng(seed), shuffle_pairs=shuffle_pairs)
+@pytest.mark.parametrize("walls", [10, 0])
+def test_pairs_in_turn_keep_the_oracles_lines(seed, shuffle_pairs, walls):
+    i, j, force, point, n = fstat_lines(np.random.default_rng(seed), walls=walls, shuffle_pairs=shuffle_pairs)
+    assert walls or np.all(j >= 0)
     got, want = both(i, j, force, point, n)
     assert got is not None and isinstance(want, np.ndarray)
 
@@ -62,7 +64,7 @@ def test_pairs_in_turn_keep_the_oracles_lines(seed, shuffle_pairs):
 @pytest.mark.parametrize("damage", ["duplicate", "force", "point", "drop", "swap", "one side twice", "other particle", "other partner"])
 def test_damaged_pair_lines_leave_the_fast_path(seed, damage):
     rng = np.random.default_rng(seed)
-    i, j, force, point, n = fstat_lines(rng, shuffle_pairs=bool(seed % 2))
+    i, j, force, point, n = fstat_lines(rng, walls=10 * (seed % 3 > 0), shuffle_pairs=bool(seed % 2))
     pair = np.flatnonzero(j >= 0)
     k = int(pair[2 * rng.integers(len(pair) // 2)])     # the first line of a pair
     if damage == "duplicate":     # the pair listed again, in turn, later (or earlier) in the file

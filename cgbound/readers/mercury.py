@@ -473,6 +473,8 @@ def lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point):
     if lines.size % 2:
         return None
     a, b = lines[0::2], lines[1::2]
+    if lines.size == i.size:      # no wall line: the two sides are every other row (views, not gathers)
+        a, b = slice(0, None, 2), slice(1, None, 2)
     ia, ja, ib, jb = i[a], jraw[a], i[b], jraw[b]
     if not (np.array_equal(ia, jb) and np.array_equal(ja, ib)):
         return None
@@ -487,4 +489,4 @@ def lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point):
     dc = np.linalg.norm(pa - point[b], axis=1)
     if np.any((df > tol_force) | (dc > tol_point)):
         return None
-    return np.where(ia < ib, a, b)
+    return np.where(ia < ib, lines[0::2], lines[1::2])
