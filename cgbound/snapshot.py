@@ -3,7 +3,7 @@
 import numpy as np
 
 from ._engine import minimum_image as core_minimum_image
-from ._validate import bool_array, finite_number, index_array, real_array
+from ._validate import abs_max_per_row, bool_array, finite_number, index_array, real_array
 from .box import Box
 from .units import as_units
 
@@ -189,13 +189,14 @@ class Snapshot:
         """Masses x velocities x velocities (the momentum flux) and forces x branches (the contact stress)
         must be finite doubles; else the fields would be inf or NaN without a word."""
         flow = ~self.fixed
-        largest = [np.abs(self.masses[flow]).max(initial=0.0)]
+        pick = flow if self.fixed.any() else slice(None)   # every particle flows: views, not copies
+        largest = [np.abs(self.masses[pick]).max(initial=0.0)]
         if self.body_force is not None and flow.any():
             with np.errstate(over="ignore"):
-                largest.append(float((self.masses[flow] * np.abs(self.body_force[flow]).max(axis=1)).max()))
+                largest.append(float((self.masses[pick] * abs_max_per_row(self.body_force[pick])).max()))
         if self.velocities is not None and flow.any():
-            m = self.masses[flow]
-            speed = np.abs(self.velocities[flow]).max(axis=1)
+            m = self.masses[pick]
+            speed = abs_max_per_row(self.velocities[pick])
             with np.errstate(over="ignore"):
                 flux = m * speed * speed
             bad = ~(flux <= LARGEST_PRODUCT)
@@ -207,7 +208,7 @@ class Snapshot:
             largest += [float(flux.max()), float((m * speed).max())]
         if self.radii is not None and flow.any():
             with np.errstate(over="ignore"):
-                volume = 4.2 * self.radii[flow] ** self.dim      # > the ball's volume in 2D and 3D
+                volume = 4.2 * self.radii[pick] ** self.dim      # > the ball's volume in 2D and 3D
             bad = ~(volume <= LARGEST_PRODUCT)
             if np.any(bad):
                 k = int(np.flatnonzero(flow)[np.flatnonzero(bad)[0]])
@@ -216,10 +217,10 @@ class Snapshot:
             largest.append(float(volume.max()))
         c = self.contacts
         if len(c):
-            force = np.abs(c.force).max(axis=1)
-            reach = np.abs(self.positions).max(axis=1)
+            force = abs_max_per_row(c.force)
+            reach = abs_max_per_row(self.positions)
             # |branch| <= |r_i| + |r_j or the contact point| (before the minimum image, which only shortens it)
-            other = np.where(c.j >= 0, reach[np.where(c.j >= 0, c.j, 0)], np.abs(c.point).max(axis=1))
+            other = np.where(c.j >= 0, reach[np.where(c.j >= 0, c.j, 0)], abs_max_per_row(c.point))
             with np.errstate(over="ignore"):
                 branch = reach[c.i] + other
                 product = force * branch * 2.0

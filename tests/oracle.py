@@ -949,3 +949,39 @@ def oracle_outer_values(factors, vectors):
     each as NumPy's einsum "ni,nj->nij" gives it (0.0 + the product: a zero is +0)."""
     factors, vectors = np.asarray(factors, float), np.asarray(vectors, float)
     return (0.0 + factors[:, :, None] * vectors[:, None, :]).reshape(factors.shape[0], -1)
+
+
+def oracle_one_listing_per_pair(i, jraw, force, point, radii, fixed, rtol):
+    """The .fstat pairing of MercuryReader before the in-turn fast path (cgbound/readers/mercury.py, session 9):
+    which lines to keep (N bools; wall lines False), or the ValueError's kind ("too many", "inconsistent",
+    "once") for the pair whose first line comes first. Groups lines by a stable sort of the pair's key."""
+    keep = np.zeros(i.shape, bool)
+    scale = float(np.max(np.linalg.norm(force, axis=1))) if len(force) else 0.0
+    lscale = 2.0 * float(np.max(radii)) if radii.size else 1.0
+    lines = np.flatnonzero(jraw >= 0)
+    if not lines.size:
+        return keep
+    lo, hi = np.minimum(i, jraw)[lines], np.maximum(i, jraw)[lines]
+    key = lo * (int(hi.max()) + 1) + hi
+    order = np.argsort(key, kind="stable")
+    skey, sline = key[order], lines[order]
+    first = np.flatnonzero(np.r_[True, skey[1:] != skey[:-1]])
+    count = np.diff(np.r_[first, skey.size])
+    k1 = sline[first]
+    keep[k1[count == 1]] = True
+    two = count == 2
+    k2 = np.where(two, sline[np.minimum(first + 1, skey.size - 1)], k1)
+    too_many = (count > 2) | (two & (i[k1] == i[k2]))
+    df = np.linalg.norm(force[k1] + force[k2], axis=1)
+    dc = np.linalg.norm(point[k1] - point[k2], axis=1)
+    inconsistent = two & ~too_many & ((df > rtol * max(scale, 1e-300)) | (dc > rtol * lscale))
+    bad = np.flatnonzero(too_many | inconsistent)
+    if bad.size:
+        g = int(bad[np.argmin(k1[bad])])
+        return "too many" if too_many[g] else "inconsistent"
+    lonely = (count == 1) & ~fixed[i[k1]] & ~fixed[jraw[k1]]
+    if np.any(lonely):
+        return "once"
+    p, q = k1[two], k2[two]
+    keep[np.where(i[p] < i[q], p, q)] = True
+    return keep

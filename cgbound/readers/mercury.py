@@ -415,6 +415,11 @@ class MercuryReader(FrameReader):
         lines = np.flatnonzero(jraw >= 0)
         if not lines.size:
             return keep
+        tol_force, tol_point = self.rtol * max(scale, 1e-300), self.rtol * lscale
+        first = lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point)
+        if first is not None:
+            keep[first] = True
+            return keep
         lo, hi = np.minimum(i, jraw)[lines], np.maximum(i, jraw)[lines]
         key = lo * (int(hi.max()) + 1) + hi
         span = int(key.max()) + 1
@@ -432,7 +437,7 @@ class MercuryReader(FrameReader):
         too_many = (count > 2) | (two & (i[k1] == i[k2]))
         df = np.linalg.norm(force[k1] + force[k2], axis=1)
         dc = np.linalg.norm(point[k1] - point[k2], axis=1)
-        inconsistent = two & ~too_many & ((df > self.rtol * max(scale, 1e-300)) | (dc > self.rtol * lscale))
+        inconsistent = two & ~too_many & ((df > tol_force) | (dc > tol_point))
         bad = np.flatnonzero(too_many | inconsistent)
         if bad.size:
             g = int(bad[np.argmin(k1[bad])])
@@ -457,3 +462,31 @@ class MercuryReader(FrameReader):
         p, q = k1[two], k2[two]
         keep[np.where(i[p] < i[q], p, q)] = True
         return keep
+
+
+def lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point):
+    """The kept line of each pair when the pair lines come in turn, as MercuryDPM writes them: each pair
+    from both sides on consecutive pair lines (wall lines may sit between), no pair twice, opposite
+    forces and the same contact point within the tolerances; None otherwise (then the general pairing
+    by a sort, which reports what is wrong). The kept line is the one with i < j. No sort: one pass of
+    comparisons, and a sort of the pairs' keys only when they are not in increasing order already."""
+    if lines.size % 2:
+        return None
+    a, b = lines[0::2], lines[1::2]
+    if lines.size == i.size:      # no wall line: the two sides are every other row (views, not gathers)
+        a, b = slice(0, None, 2), slice(1, None, 2)
+    ia, ja, ib, jb = i[a], jraw[a], i[b], jraw[b]
+    if not (np.array_equal(ia, jb) and np.array_equal(ja, ib)):
+        return None
+    lo, hi = np.minimum(ia, ja), np.maximum(ia, ja)
+    key = lo * (int(hi.max()) + 1) + hi
+    if not np.all(key[1:] > key[:-1]):
+        key = np.sort(key)
+        if np.any(key[1:] == key[:-1]):
+            return None
+    fa, pa = force[a], point[a]
+    df = np.linalg.norm(fa + force[b], axis=1)
+    dc = np.linalg.norm(pa - point[b], axis=1)
+    if np.any((df > tol_force) | (dc > tol_point)):
+        return None
+    return np.where(ia < ib, lines[0::2], lines[1::2])
