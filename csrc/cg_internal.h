@@ -315,6 +315,43 @@ static inline int stencil_range(const job *jb, const double *bmin, const double 
 
 /* Advance the multi-index idx over the stencil box first..last along axes 0..n-1 (the last fastest);
    returns 0 once every index has been visited. */
+/* The stencil box of a ball of radius R around a point x (resolved
+   coordinates) on a grid: stencil_range of [x - R, x + R]; 0 when the box
+   misses the nodes. */
+static inline int ball_stencil(const job *jb, const double *x, double R, cg_index *first, cg_index *last,
+                               cg_index *stride)
+{
+    double bmin[3], bmax[3];
+    for (int a = 0; a < jb->target->n_resolved; ++a) {
+        bmin[a] = x[a] - R;
+        bmax[a] = x[a] + R;
+        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return 0;
+    }
+    return stencil_range(jb, bmin, bmax, first, last, stride);
+}
+
+/* The nodes k0..k1 of a grid row along axis `row` (within first..last) that
+   the ball of squared radius `bound` around coordinate xr reaches, for a row
+   at squared distance p2 from the centre along the other axes: none (k1 < k0)
+   when p2 >= bound; all of first..last when the row's spacing is 0. A node
+   of slack each way covers the rounding of 1 / spacing. */
+static inline void ball_row(const job *jb, int row, double xr, double bound, double p2, cg_index first,
+                            cg_index last, cg_index *k0, cg_index *k1)
+{
+    *k0 = first;
+    *k1 = last;
+    if (!(jb->spacing[row] > 0.0)) return;
+    if (!(p2 < bound)) {
+        *k1 = first - 1;
+        return;
+    }
+    const double half = sqrt(bound - p2), c0 = jb->target->coords[row][0], inv_h = jb->inv_spacing[row];
+    const double klo = floor((xr - half - c0) * inv_h) - 1.0;
+    const double khi = ceil((xr + half - c0) * inv_h) + 1.0;
+    if (klo > (double)*k0) *k0 = (cg_index)klo;
+    if (khi < (double)*k1) *k1 = (cg_index)khi;
+}
+
 static inline int stencil_next(cg_index *idx, const cg_index *first, const cg_index *last, int n)
 {
     for (int a = n - 1; a >= 0; --a) {

@@ -451,17 +451,11 @@ int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double 
     const cg_target *t = jb->target;
     const int nr = t->n_resolved;
     const double R = jb->kernel->radius;
-    double bmin[3], bmax[3];
-    for (int a = 0; a < nr; ++a) {
-        bmin[a] = x[a] - R;
-        bmax[a] = x[a] + R;
-        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return 1;
-    }
     cg_index first[3], last[3], stride[3];
-    if (!stencil_range(jb, bmin, bmax, first, last, stride)) return 1;
+    if (!ball_stencil(jb, x, R, first, last, stride)) return 1;
     const int row = nr - 1;
     const double *zc = t->coords[row];
-    const double h = jb->spacing[row], inv_h = jb->inv_spacing[row], xr = x[row];
+    const double xr = x[row];
     const double bound = R * R * (1.0 + 1e-6);
     double rho2[BALL_BATCH], w[BALL_BATCH];
     cg_index node[BALL_BATCH];
@@ -475,18 +469,8 @@ int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double 
             p2 += q * q;
             base += idx[a] * stride[a];
         }
-        cg_index k0 = first[row], k1 = last[row];
-        if (h > 0.0) {
-            if (!(p2 < bound)) k1 = k0 - 1;
-            else {
-                const double half = sqrt(bound - p2);
-                /* (a node of slack each way covers the rounding of inv_h) */
-                const double klo = floor((xr - half - zc[0]) * inv_h) - 1.0;
-                const double khi = ceil((xr + half - zc[0]) * inv_h) + 1.0;
-                if (klo > (double)k0) k0 = (cg_index)klo;
-                if (khi < (double)k1) k1 = (cg_index)khi;
-            }
-        }
+        cg_index k0, k1;
+        ball_row(jb, row, xr, bound, p2, first[row], last[row], &k0, &k1);
         for (cg_index k = k0; k <= k1; ++k) {
             if (count == BALL_BATCH) {
                 ball_flush(jb, out, obj, count, rho2, node, w);
