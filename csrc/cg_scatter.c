@@ -715,11 +715,17 @@ static cg_status run(job *jb, double *out)
     return (cg_status)failed;
 }
 
-/* points and segments share one job layout */
+/* points and segments share one job layout; with factors (n_factors per
+   object) the values are formed per segment as factors (x) vecs */
 static cg_status scatter_values(const cg_target *target, const cg_kernel *kernel, cg_index n,
                                 const double *positions, int is_segment, const double *vecs, int ray,
-                                int n_values, const double *values, int gradient, double *out, int moment)
+                                int n_values, const double *values, const double *factors, int n_factors,
+                                int gradient, double *out, int moment)
 {
+    if (factors) {
+        if (n_factors < 1 || n_factors * target->dim > CG_MAX_OUTER_VALUES) return CG_ERR_ARGUMENT;
+        n_values = n_factors * target->dim;
+    }
     if (n < 0 || n_values < 1) return CG_ERR_ARGUMENT;
     job jb;
     memset(&jb, 0, sizeof jb);
@@ -733,6 +739,8 @@ static cg_status scatter_values(const cg_target *target, const cg_kernel *kernel
     jb.vecs = vecs;
     jb.n_values = n_values;
     jb.values = values;
+    jb.factors = factors;
+    jb.n_factors = factors ? n_factors : 0;
     jb.out_width = gradient ? n_values * target->n_resolved : n_values;
     jb.moment = moment;
     return run(&jb, out);
@@ -743,7 +751,7 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
                             int n_values, const double *values,
                             int gradient, double *out)
 {
-    return scatter_values(target, kernel, n, positions, 0, NULL, 0, n_values, values, gradient, out, 0);
+    return scatter_values(target, kernel, n, positions, 0, NULL, 0, n_values, values, NULL, 0, gradient, out, 0);
 }
 
 cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
@@ -751,7 +759,7 @@ cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
                               int ray, int n_values, const double *values,
                               int gradient, double *out)
 {
-    return scatter_values(target, kernel, n, starts, 1, vecs, ray, n_values, values, gradient, out, 0);
+    return scatter_values(target, kernel, n, starts, 1, vecs, ray, n_values, values, NULL, 0, gradient, out, 0);
 }
 
 cg_status cg_scatter_segments_outer(const cg_target *target, const cg_kernel *kernel,
@@ -759,22 +767,8 @@ cg_status cg_scatter_segments_outer(const cg_target *target, const cg_kernel *ke
                                     int ray, int n_factors, const double *factors,
                                     int gradient, double *out)
 {
-    if (n < 0 || n_factors < 1 || n_factors * target->dim > CG_MAX_OUTER_VALUES || !factors) return CG_ERR_ARGUMENT;
-    job jb;
-    memset(&jb, 0, sizeof jb);
-    jb.target = target;
-    jb.kernel = kernel;
-    jb.mode = gradient ? MODE_GRADIENT : MODE_VALUE;
-    jb.is_segment = 1;
-    jb.ray = ray;
-    jb.n = n;
-    jb.positions = starts;
-    jb.vecs = vecs;
-    jb.factors = factors;
-    jb.n_factors = n_factors;
-    jb.n_values = n_factors * target->dim;
-    jb.out_width = gradient ? jb.n_values * target->n_resolved : jb.n_values;
-    return run(&jb, out);
+    if (!factors) return CG_ERR_ARGUMENT;
+    return scatter_values(target, kernel, n, starts, 1, vecs, ray, 0, NULL, factors, n_factors, gradient, out, 0);
 }
 
 cg_status cg_scatter_segment_moments(const cg_target *target, const cg_kernel *kernel,
@@ -782,7 +776,7 @@ cg_status cg_scatter_segment_moments(const cg_target *target, const cg_kernel *k
                                      int n_values, const double *values,
                                      int gradient, double *out)
 {
-    return scatter_values(target, kernel, n, starts, 1, vecs, 0, n_values, values, gradient, out, 1);
+    return scatter_values(target, kernel, n, starts, 1, vecs, 0, n_values, values, NULL, 0, gradient, out, 1);
 }
 
 cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kernel,
