@@ -952,15 +952,30 @@ def oracle_outer_values(factors, vectors):
 
 
 def oracle_one_listing_per_pair(i, jraw, force, point, radii, fixed, rtol):
-    """The .fstat pairing of MercuryReader before the in-turn fast path (cgbound/readers/mercury.py, session 9):
-    which lines to keep (N bools; wall lines False), or the ValueError's kind ("too many", "inconsistent",
-    "once") for the pair whose first line comes first. Groups lines by a stable sort of the pair's key."""
+    """Twin of MercuryReader's .fstat pairing (cgbound/readers/mercury.py): which lines to keep (N bools; wall
+    lines False), or the ValueError's kind ("too many", "inconsistent", "once") for the pair whose first line
+    comes first. A plain loop: the pair lines grouped in a dict by their pair, in file order."""
     keep = np.zeros(i.shape, bool)
     scale = float(np.max(np.linalg.norm(force, axis=1))) if len(force) else 0.0
     lscale = 2.0 * float(np.max(radii)) if radii.size else 1.0
-    lines = np.flatnonzero(jraw >= 0)
-    if not lines.size:
-        return keep
+    groups = {}
+    for k in np.flatnonzero(jraw >= 0):
+        groups.setdefault((min(i[k], jraw[k]), max(i[k], jraw[k])), []).append(int(k))
+    pairs = sorted(groups.values(), key=lambda ks: ks[0])          # by the pair's first line
+    for ks in pairs:
+        if len(ks) > 2 or (len(ks) == 2 and i[ks[0]] == i[ks[1]]):
+            return "too many"
+        if len(ks) == 2:
+            p, q = ks
+            if (np.linalg.norm(force[p] + force[q]) > rtol * max(scale, 1e-300)
+                    or np.linalg.norm(point[p] - point[q]) > rtol * lscale):
+                return "inconsistent"
+    for ks in pairs:
+        if len(ks) == 1 and not fixed[i[ks[0]]] and not fixed[jraw[ks[0]]]:
+            return "once"
+    for ks in pairs:
+        keep[ks[0] if len(ks) == 1 or i[ks[0]] < i[ks[1]] else ks[1]] = True
+    return keep
     lo, hi = np.minimum(i, jraw)[lines], np.maximum(i, jraw)[lines]
     key = lo * (int(hi.max()) + 1) + hi
     order = np.argsort(key, kind="stable")
