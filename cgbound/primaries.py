@@ -329,16 +329,21 @@ def segment_sum(snapshot, part, target, kernel, P, nt, ray=False):
         return np.zeros((P, dim, dim))
     # the values -f a = f (x) (-a) ((-f) a is -(f a) exactly), formed by the core segment by segment: the
     # values of segment_sources without its (n, D*D) array
-    start, vector = np.take(snapshot.positions, part["i"], axis=0), np.negative(part["branch"])
+    start, vector = segment_geometry(snapshot, part)
     return scatter_segments_outer(target, kernel, start, vector, part["force"], ray=ray,
                                   n_threads=nt).reshape(P, dim, dim)
 
 
+def segment_geometry(snapshot, part):
+    """The segments of ``part`` (of split_contacts): starts (the flowing particle's centre) and vectors (-a, to
+    its partner or contact point)."""
+    return np.take(snapshot.positions, part["i"], axis=0), np.negative(part["branch"])
+
+
 def segment_sources(snapshot, part):
-    """The segments of ``part`` (of split_contacts): starts (the flowing particle's centre), vectors (-a, to its
-    partner or contact point) and values -f a, flat (n, D*D)."""
-    start = np.take(snapshot.positions, part["i"], axis=0)
-    return start, np.negative(part["branch"]), negated_outer(part["force"], part["branch"])
+    """The segments of ``part`` (of split_contacts), :func:`segment_geometry`, with their values -f a, flat
+    (n, D*D)."""
+    return (*segment_geometry(snapshot, part), negated_outer(part["force"], part["branch"]))
 
 
 def boundary_point_sum(snapshot, boundary, target, kernel, P, nt):
