@@ -33,7 +33,7 @@ from .cylindrical import CylindricalGrid
 from .cylindrical_ring import axial_line_average, ring_average, ring_average_segments
 from .fields import ROTATION_FIELDS, check_fields, derive
 from .grid import Points
-from .kernels import Gaussian, check_kernel
+from .kernels import Gaussian
 from .pipeline import prepare, shape_fields
 from .primaries import (GRADIENT_PRIMARIES, POINT_PRIMARIES, PRIMARIES, compute_primaries, gradient_sources,
                         point_sources, segment_sources)
@@ -47,19 +47,37 @@ def kernel_scale(kernel):
     return float(width) if width is not None else float(kernel.radius) / 3.0
 
 
+#: the most trapezoidal points on one ring (the quadrature's memory grows with them)
+MAX_THETA_POINTS = 1e6
+
+
 def theta_points(r, kernel):
     """Trapezoidal points on a ring of radius r: the Fourier modes of exp(r ρ cos θ / w²) decay like
     exp(-k² w² / 2 r ρ) for particles out to ρ = r + cutoff, so k ~ sqrt(80 r ρ) / w leaves < 1e-17."""
     w = kernel_scale(kernel)
     rho = r + float(kernel.radius)
-    n = int(max(16, math.ceil(math.sqrt(80.0 * r * rho) / w) + 16))
+    n = max(16.0, math.ceil(math.sqrt(80.0 * r * rho) / w) + 16.0)
+    if n > MAX_THETA_POINTS:
+        raise ValueError(f"kernel: a kernel scale of {w:g} on rings of radius up to {r:g} needs {n:.3g} points per "
+                         f"ring for the fields still computed by quadrature (at most {MAX_THETA_POINTS:g}); use a "
+                         "wider kernel or a smaller radial range")
+    n = int(n)
     # compact kernels (Lucy, Heaviside) are finitely smooth in θ: the rule converges algebraically; twice the points
     return n if isinstance(kernel, Gaussian) else 2 * n
 
 
+#: the most Gauss-Legendre points over the axial extent (the rule's eigenproblem grows as their cube)
+MAX_Z_POINTS = 1e4
+
+
 def z_points(length, kernel):
     """Gauss-Legendre points over an axial extent ``length`` (about 2 per kernel scale, and 8 more)."""
-    return int(math.ceil(2.0 * length / kernel_scale(kernel)) + 8)
+    n = math.ceil(2.0 * length / kernel_scale(kernel)) + 8.0
+    if n > MAX_Z_POINTS:
+        raise ValueError(f"kernel: a kernel scale of {kernel_scale(kernel):g} over an axial extent of {length:g} "
+                         f"needs {n:.3g} points in z for the fields still computed by quadrature (at most "
+                         f"{MAX_Z_POINTS:g}); use a wider kernel, or resolve z (z=(z_min, z_max, n_z))")
+    return int(n)
 
 
 def quadrature(grid, kernel):
@@ -122,22 +140,22 @@ def ring_sums(job, grid, needed):
     zero = np.zeros(3)
     averaged = {}
     if grid.theta_averaged:
-        if grid.z_averaged:          # for the line integrals (the point sums average over z exactly)
-            lo, hi = grid.z_extent
-            x, wz = np.polynomial.legendre.leggauss(z_points(hi - lo, job.kernel))
-            z_nodes = (0.5 * (hi + lo) + 0.5 * (hi - lo) * x)[None, :]
-            z_weights = 0.5 * wz[None, :]
-        else:
-            z_nodes, z_weights = grid.z[:, None], np.ones((len(grid.z), 1))
         for positions, columns in point_sources(job.snapshot, needed, zero, job.split):
             sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank) for name, v in columns])
             averaged.update({name: s for (name, _), s in zip(columns, sums)})
-        if job.split is not None:
-            for name, part in (("sb", job.split[0]), ("sw", job.split[1])):
-                if name in needed:
-                    starts, vectors, values = segment_sources(job.snapshot, part)
-                    averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors,
-                                                           values.reshape(-1, 3, 3), z_nodes, z_weights)
+        lines = [(name, part) for name, part in zip(("sb", "sw"), job.split or ()) if name in needed]
+        if lines:
+            if grid.z_averaged:      # the line integrals' z rule (the point sums average over z exactly)
+                lo, hi = grid.z_extent
+                x, wz = np.polynomial.legendre.leggauss(z_points(hi - lo, job.kernel))
+                z_nodes = (0.5 * (hi + lo) + 0.5 * (hi - lo) * x)[None, :]
+                z_weights = 0.5 * wz[None, :]
+            else:
+                z_nodes, z_weights = grid.z[:, None], np.ones((len(grid.z), 1))
+            for name, part in lines:
+                starts, vectors, values = segment_sources(job.snapshot, part)
+                averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors, values.reshape(-1, 3, 3),
+                                                       z_nodes, z_weights)
         positions, rows = gradient_sources(job.snapshot, needed, zero)
         if rows and len(positions):
             sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank - 1) for name, v in rows],
@@ -201,9 +219,7 @@ def ring_primaries(snapshot, grid, kernel, fields, convention="tension", species
     docs/guide/cylindrical.md). On a z-averaged grid the fields do not depend on z: the z column is zero,
     as along a Grid's averaged axes.
     """
-    check_ring_arguments(snapshot, grid, kernel, fields, convention, species)
-    positions, angles, weights, starts = quadrature(grid, check_kernel(kernel))
-    job = prepare(snapshot, Points(positions), kernel, fields, convention, species)
+    job = check_ring_arguments(snapshot, grid, kernel, fields, convention, species)   # (its target is not used)
     zero = np.zeros(3)       # a reference velocity constant in Cartesian components is not one in (r, θ, z)
     # the kinetic stress of a ring is the velocity spread about the ring's averaged velocity (as on a Grid's
     # averaged axes): -(k - p p / rho) from the averaged primaries, not the average of pointwise spreads

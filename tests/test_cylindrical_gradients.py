@@ -196,3 +196,20 @@ def test_theta_resolved_z_averaged_point_sums_are_exact(kernel, periodic):
             want[[6, 9, 12, 15]] = 0.0               # averaged over z: the z column is zero
             assert np.abs(want).max() > 0
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+
+
+def test_kernels_too_narrow_for_the_quadrature_are_refused_by_name():
+    """A kernel far narrower than the grid: the exact paths (point sums, gradients) still work; the fields still
+    taken by quadrature (here the contact stress's z rule, the extended stress's θ rule) are refused by the kernel
+    argument's name, not by an overflow deep in NumPy."""
+    snap = snapshot()
+    tiny = cg.Lucy(1e-59)
+    grid = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.2, 2.0, 3))
+    out = cg.coarse_grain(snap, grid, tiny, fields=("density", "density_gradient"))
+    assert np.all(np.isfinite(out.density)) and np.all(np.isfinite(out.density_gradient))
+    for fields in (("contact_stress",), ("extended_stress",)):
+        with pytest.raises(ValueError, match="^kernel: a kernel scale of .* needs .* points"):
+            cg.coarse_grain(snap, grid, tiny, fields=fields)
+    resolved = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.2, 2.0, 3), z=(-0.5, 0.5, 2))
+    with pytest.raises(ValueError, match="^kernel: a kernel scale of .* points per ring"):
+        cg.coarse_grain(snap, resolved, tiny, fields=("extended_stress",))
