@@ -1,8 +1,11 @@
 """The readers' fast paths against plain references: the LAMMPS contacts' atom positions (consecutive IDs
-by subtraction, others by a search) against a dict of the IDs."""
+by subtraction, others by a search) against a dict of the IDs; the C line count against bytes.count."""
+import mmap
+
 import numpy as np
 import pytest
 
+from cgbound.readers._text import count_lines
 from cgbound.readers.lammps import contact_indices
 
 BIG = np.iinfo(np.int64).max
@@ -56,3 +59,31 @@ def test_contact_indices_match_a_dict_of_the_ids(name, absent):
 def test_contact_indices_of_no_atoms_are_an_error():
     with pytest.raises(ValueError, match="contact between atom IDs 1 and 2"):
         contact_indices(np.zeros(0, np.int64), np.array([1]), np.array([2]), "p", 0)
+
+
+def lines_by_count(text):
+    """Reference: newlines, plus one for a last line without one."""
+    return text.count(b"\n") + (1 if text and not text.endswith(b"\n") else 0)
+
+
+@pytest.mark.parametrize("text", [b"", b"\n", b"a", b"a\n", b"\n\n\n", b"a\r\nb\r\n", b"1 2\n3 4",
+                                  b"x" * 7 + b"\n" * 9 + b"y" * 17, bytes(range(256)) * 3, b"\n" * 64 + b"z"])
+def test_count_lines_matches_bytes_count(text):
+    assert count_lines(text) == lines_by_count(text)
+    for start in range(0, len(text) + 1, 3):      # every alignment of the 8-byte words
+        for stop in range(start, len(text) + 1, 5):
+            assert count_lines(text, start, stop) == lines_by_count(text[start:stop]), (start, stop)
+
+
+def test_count_lines_on_random_text_and_an_mmap(tmp_path):
+    rng = np.random.default_rng(5)
+    text = rng.choice(np.frombuffer(b"0123456789 .-e\t\r\n\n", np.uint8), 100_003).tobytes()
+    path = tmp_path / "t.txt"
+    path.write_bytes(text)
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+        assert count_lines(mm) == lines_by_count(text)
+        assert count_lines(mm, 11, 99_999) == lines_by_count(text[11:99_999])
+    with pytest.raises(ValueError, match="start, stop: expected 0 <= start <= stop"):
+        count_lines(text, 5, 4)
+    with pytest.raises(ValueError, match="start, stop: expected 0 <= start <= stop"):
+        count_lines(text, 0, len(text) + 1)
