@@ -465,7 +465,7 @@ class LammpsReader(FrameReader):
                 break
         else:
             raise ValueError(f"{path}: no position columns (x y z, xu yu zu, xs ys zs or xsu ysu zsu)")
-        if self.wrap:
+        if self.wrap and any(box.periodic):    # (wrapping moves coordinates along periodic axes only)
             pos = box.wrap(pos)
         types = tab.integers("type")[order] if "type" in tab else np.ones(n, np.int64)
         vel = cols(("vx", "vy", "vz"), "velocities") if "vx" in tab else None
@@ -530,7 +530,7 @@ class LammpsReader(FrameReader):
         k = np.flatnonzero(tab[names[0]][order] != 0)
         force = self._vectors(tab, names[1:4], order[k])
         point = self._vectors(tab, names[4:7], order[k])
-        if self.wrap:
+        if self.wrap and any(box.periodic):
             point = box.wrap(point)
         wall_j = np.full(k.shape, -1, np.int64)
         return k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), np.full(k.shape, np.nan)
@@ -569,7 +569,9 @@ class LammpsReader(FrameReader):
         if names.get("branch"):
             branch = self._vectors(tab, names["branch"])
         else:
-            branch = box.minimum_image(pos[i] - pos[j])
+            branch = pos[i] - pos[j]
+            if any(box.periodic):   # (the minimum image changes components along periodic axes only)
+                branch = box.minimum_image(branch)
         dist = np.linalg.norm(branch, axis=1)
         if radii is None:
             raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or 'diameter' column")
@@ -583,7 +585,7 @@ class LammpsReader(FrameReader):
             raise ValueError(f"{path}: two atoms at the same position at timestep {timestep}")
         normal = branch / dist[:, None]
         point = pos[i] - (radii[i] - 0.5 * overlap)[:, None] * normal
-        if self.wrap:
+        if self.wrap and any(box.periodic):
             point = box.wrap(point)
         contact_ids = np.stack([ids[i], ids[j]], axis=1)
         return i, j, force, point, contact_ids, overlap

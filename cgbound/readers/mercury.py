@@ -354,7 +354,10 @@ class MercuryReader(FrameReader):
         d = self.dim    # cgbound's axes are MercuryDPM's first d components
         point = rows[:, 3:3 + d]       # a strided view; Contacts gets the kept rows' copy
         overlap = rows[:, 6]
-        force = self._forces_on_i(rows, line_of, d, box.minimum_image(pos[i] - point))
+        arm = pos[i] - point
+        if any(box.periodic):   # (the minimum image changes components along periodic axes only)
+            arm = box.minimum_image(arm)
+        force = self._forces_on_i(rows, line_of, d, arm)
         wall = jraw < 0
         keep = wall | self._one_listing_per_pair(i, jraw, force, point, radii, line_of, fixed)
         sel = np.flatnonzero(keep)
