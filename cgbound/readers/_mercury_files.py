@@ -65,9 +65,7 @@ def scan_windows(path, size=None, line_starts=True):
     def lines(data, lo, hi):
         return find_lines(data, b"", lo, hi) if line_starts else None
 
-    def count(starts, data, lo, hi):
-        return len(starts) if line_starts else 0
-    line = 1
+    line = 1 if line_starts else None
     if is_gzip(path):
         checkpoints, buf, base = [], bytearray(), 0
         for chunk in iter_chunks(path, checkpoints=checkpoints):
@@ -80,12 +78,12 @@ def scan_windows(path, size=None, line_starts=True):
             window = bytes(buf[:cut])
             del buf[:cut]
             starts = lines(window, 0, cut)
-            yield window, 0, cut, base, line if line_starts else None, starts
-            base, line = base + cut, line + count(starts, window, 0, cut)
+            yield window, 0, cut, base, line, starts
+            base, line = base + cut, (line + len(starts) if line_starts else None)
         _remember_checkpoints(path, checkpoints)
         if buf:
             window = bytes(buf)
-            yield window, 0, len(window), base, line if line_starts else None, lines(window, 0, len(window))
+            yield window, 0, len(window), base, line, lines(window, 0, len(window))
         return
     with open(path, "rb") as fh:
         total = os.fstat(fh.fileno()).st_size
@@ -102,8 +100,8 @@ def scan_windows(path, size=None, line_starts=True):
                         cut = mm.find(b"\n", hi)
                     hi = total if cut < 0 else cut + 1
                 starts = lines(mm, lo, hi)
-                yield mm, lo, hi, 0, line if line_starts else None, starts
-                line += count(starts, mm, lo, hi)
+                yield mm, lo, hi, 0, line, starts
+                line = (line + len(starts)) if line_starts else None
                 lo = hi
         finally:
             try:
