@@ -87,3 +87,38 @@ def test_count_lines_on_random_text_and_an_mmap(tmp_path):
         count_lines(text, 5, 4)
     with pytest.raises(ValueError, match="start, stop: expected 0 <= start <= stop"):
         count_lines(text, 0, len(text) + 1)
+
+
+def lines_in_turn_by_norms(i, jraw, force, point, lines, tol_force, tol_point):
+    """The twin of lines_in_turn's tolerance test as it was written: np.linalg.norm of every pair, compared."""
+    a, b = lines[0::2], lines[1::2]
+    df = np.linalg.norm(force[a] + force[b], axis=1)
+    dc = np.linalg.norm(point[a] - point[b], axis=1)
+    return not np.any((df > tol_force) | (dc > tol_point))
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_lines_in_turn_tolerances_match_the_norms(seed):
+    from cgbound.readers.mercury import lines_in_turn
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(1, 60))
+    lo = np.sort(rng.choice(10 * m, m, replace=False))
+    hi = lo + 1 + rng.integers(0, 5, m)
+    i, jraw = np.empty(2 * m, np.int64), np.empty(2 * m, np.int64)
+    i[0::2], jraw[0::2], i[1::2], jraw[1::2] = lo, hi, hi, lo
+    scale = 10.0 ** rng.integers(-200, 200)
+    force = np.empty((2 * m, 3))
+    force[0::2] = rng.normal(size=(m, 3)) * scale
+    force[1::2] = -force[0::2] + rng.normal(size=(m, 3)) * scale * 10.0 ** rng.integers(-18, 1)
+    point = np.repeat(rng.normal(size=(m, 3)), 2, axis=0) + rng.normal(size=(2 * m, 3)) * 10.0 ** rng.integers(-18, 1)
+    if seed % 4 == 1:
+        force[rng.integers(0, 2 * m)] = np.nan
+    if seed % 4 == 2:
+        force[rng.integers(0, 2 * m), 0] = 1e308    # its square overflows
+    lines = np.arange(2 * m)
+    for tol_force in (0.0, scale * 1e-9, scale * 1e-3, scale, np.inf):
+        for tol_point in (0.0, 1e-12, 1e-6, 1.0):
+            got = lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point)
+            assert (got is not None) == lines_in_turn_by_norms(i, jraw, force, point, lines, tol_force, tol_point)
+            if got is not None:
+                np.testing.assert_array_equal(got, np.where(i[0::2] < i[1::2], lines[0::2], lines[1::2]))
