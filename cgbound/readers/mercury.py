@@ -359,10 +359,14 @@ class MercuryReader(FrameReader):
             arm = box.minimum_image(arm)
         force = self._forces_on_i(rows, line_of, d, arm)
         wall = jraw < 0
-        keep = wall | self._one_listing_per_pair(i, jraw, force, point, radii, line_of, fixed)
-        sel = np.flatnonzero(keep)
-        j = np.where(wall, -1, jraw)[sel]
-        wall_index = np.where(wall, -1 - jraw, -1)[sel]
+        keep = self._one_listing_per_pair(i, jraw, force, point, radii, line_of, fixed)
+        if wall.any():
+            sel = np.flatnonzero(wall | keep)
+            j = np.where(wall, -1, jraw)[sel]
+            wall_index = np.where(wall, -1 - jraw, -1)[sel]
+        else:                   # (no wall line: the partners as they are)
+            sel = np.flatnonzero(keep)
+            j, wall_index = jraw[sel], np.full(sel.size, -1, np.int64)
         return Contacts(i[sel], j, force[sel], point[sel]), wall_index, overlap[sel]
 
     def _partners(self, ints, line_of, n):
