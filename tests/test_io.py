@@ -130,7 +130,7 @@ def test_snapshot_files_of_older_versions_read_the_same(tmp_path):
         same_snapshot(b, c)
 
 
-@pytest.mark.parametrize("compression", ["zip", "GZIP", 4, True])
+@pytest.mark.parametrize("compression", ["zip", "GZIP", 4, True, np.array(["gzip", "lzf"]), ("gzip",)])
 def test_snapshot_file_compression_is_checked_by_name(tmp_path, compression):
     with pytest.raises(ValueError, match="compression: expected one of"):
         write_snapshots(tmp_path / "x.h5", [random_snapshot(0, dim=3)], compression=compression)

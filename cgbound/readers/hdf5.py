@@ -72,7 +72,7 @@ def write_snapshots(path, snapshots, provenance=None, compression=None):
     several times slower to read) or "lzf" (in between). The file is written beside the target and
     renamed into place, so an existing file is never left half-written.
     """
-    if compression not in COMPRESSIONS:
+    if compression is not None and not (isinstance(compression, str) and compression in COMPRESSIONS):
         raise ValueError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
     h5py = _h5py()
     from .._version import __version__
