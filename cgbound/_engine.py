@@ -118,6 +118,11 @@ def text_find_lines(data, start, stop, prefix):
     return _core.text_find_lines(data, start, stop, prefix)
 
 
+def text_count_lines(data, start, stop):
+    """The lines of ``data[start:stop]``: its newlines, plus one if it does not end with one."""
+    return _core.text_count_lines(data, start, stop)
+
+
 def have_openmp():
     """Whether the core was built with OpenMP threads."""
     return _core.have_openmp()

@@ -936,6 +936,24 @@ done:
     return ret;
 }
 
+static PyObject *py_text_count_lines(PyObject *self, PyObject *args)
+{
+    (void)self;
+    text_buffer data = {0};
+    Py_ssize_t start, stop;
+    PyObject *ret = NULL;
+    if (!PyArg_ParseTuple(args, "O&nn", convert_text_buffer, &data, &start, &stop)) return NULL;
+    if (check_text_range(&data, start, stop)) {
+        int64_t count;
+        Py_BEGIN_ALLOW_THREADS
+        count = cg_text_count_lines((const char *)data.view.buf + start, (size_t)(stop - start));
+        Py_END_ALLOW_THREADS
+        ret = PyLong_FromLongLong((long long)count);
+    }
+    release_text_buffer(&data);
+    return ret;
+}
+
 #define CG_TEXT_METHODS                                                                                             \
     {"text_parse_table", py_text_parse_table, METH_VARARGS,                                                         \
      "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1) -> (values, ints, nrows, end, "         \
@@ -945,7 +963,10 @@ done:
      "Errors are returned, not raised: cgbound.readers._text turns them into messages."},                           \
         {"text_find_lines", py_text_find_lines, METH_VARARGS,                                                       \
          "text_find_lines(data, start, stop, prefix) -> int64 offsets (from the start of data) of the lines of "    \
-         "data[start:stop] that start with prefix."},
+         "data[start:stop] that start with prefix."},                                                                \
+        {"text_count_lines", py_text_count_lines, METH_VARARGS,                                                     \
+         "text_count_lines(data, start, stop) -> the lines of data[start:stop] (cg_text_count_lines): its '\\n' "   \
+         "bytes, plus one if it is not empty and does not end with one."},
 
 /* ================================================================== */
 /* end of the text-parsing block                                        */

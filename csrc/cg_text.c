@@ -608,19 +608,15 @@ cg_status cg_text_parse_table_threads(const char *text, size_t length, int64_t n
 }
 
 /* '\n' bytes in a word: a byte b is zero in x = w ^ 0x0a..0a iff the high bit of ~(((x & 0x7f..7f) + 0x7f..7f) | x
-   | 0x7f..7f) is set (exact: the masked add cannot carry across bytes) */
+   | 0x7f..7f) is set (exact: the masked add cannot carry across bytes). Those high bits are counted by moving
+   each to its byte's low bit and summing the eight bytes into the top one with one multiplication (at most 8,
+   so no carry): a builtin popcount without -mpopcnt is a library call per word, three times slower. */
 static int newlines_in_word(uint64_t w)
 {
     const uint64_t low7 = 0x7f7f7f7f7f7f7f7fULL;
     const uint64_t x = w ^ 0x0a0a0a0a0a0a0a0aULL;
     const uint64_t zero = ~(((x & low7) + low7) | x | low7);
-#if defined(__GNUC__) || defined(__clang__)
-    return __builtin_popcountll(zero);
-#else
-    int n = 0;
-    for (uint64_t z = zero; z; z &= z - 1) ++n;
-    return n;
-#endif
+    return (int)(((zero >> 7) * 0x0101010101010101ULL) >> 56);
 }
 
 int64_t cg_text_count_lines(const char *text, size_t length)

@@ -24,7 +24,8 @@ def main(argv=None):
     snap = result.snapshots[0]
     print(f"{scene}\nrelaxed at t = {snap.time:g} (kinetic energy {result.thermo['kinetic_energy'][-1]:.2e}); "
           f"{len(snap.contacts)} contacts; LAMMPS took {result.wall_time:.1f} s")
-    result.write_snapshots(args.out, provenance={"script": "scripts/make_boundary_2d_dataset.py"})
+    result.write_snapshots(args.out, provenance={"script": "scripts/make_boundary_2d_dataset.py"},
+                           compression="gzip")   # shipped with the package: small over fast
     print(f"wrote {args.out}")
     return 0
 

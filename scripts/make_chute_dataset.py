@@ -74,7 +74,7 @@ def embed(args, frames, info=None):
         info = json.loads(frames.provenance)
     embedded = [frames[k] for k in range(0, len(frames), args.embed_every)]
     info = dict(info, frame_interval=info["frame_interval"] * args.embed_every)
-    write_snapshots(args.out, embedded, provenance=info)
+    write_snapshots(args.out, embedded, provenance=info, compression="gzip")   # shipped: small over fast
     print(f"wrote {args.out} ({os.path.getsize(args.out) / 1e6:.2f} MB, {len(embedded)} frames, "
           f"t = {embedded[0].time:g} ... {embedded[-1].time:g})")
     return 0

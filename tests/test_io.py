@@ -67,6 +67,76 @@ def test_snapshot_file_keeps_angular_velocities_torques_and_moments_of_inertia(t
                                   cg.rotation_fields(snap, where, cg.Lucy(1.5), ("spin_density",))["spin_density"])
 
 
+def write_snapshots_before_0_10(path, snapshots):
+    """The layout write_snapshots wrote before the contiguous default (h5py's automatic chunks, gzip 4 and
+    shuffle on every non-empty dataset), kept here so files of older versions stay read."""
+    def put(group, name, data):
+        data = np.asarray(data)
+        kwargs = dict(chunks=True, compression="gzip", compression_opts=4, shuffle=True) if data.size else {}
+        group.create_dataset(name, data=data, **kwargs)
+
+    with h5py.File(path, "w", libver="latest") as f:
+        f.attrs["format"], f.attrs["schema_version"] = "cgbound-snapshots", 1
+        f.attrs["cgbound_version"], f.attrs["provenance"] = "0.9", "{}"
+        frames = f.create_group("frames")
+        for k, snap in enumerate(snapshots):
+            g = frames.create_group(f"{k:06d}")
+            g.attrs["time"] = snap.time
+            if k == 0:
+                b = f.create_group("box")
+                b.attrs["lower"], b.attrs["upper"] = snap.box.lower, snap.box.upper
+                b.attrs["periodic"] = np.array(snap.box.periodic)
+                f.attrs["dim"] = snap.dim
+            elif snap.box != snapshots[0].box:
+                g.attrs["lower"], g.attrs["upper"] = snap.box.lower, snap.box.upper
+                g.attrs["periodic"] = np.array(snap.box.periodic)
+            for name in ("positions", "masses", "velocities", "radii", "species", "body_force"):
+                if getattr(snap, name) is not None:
+                    put(g, name, np.ascontiguousarray(getattr(snap, name)))
+            if snap.fixed.any():
+                put(g, "fixed", snap.fixed)
+            c = g.create_group("contacts")
+            for name in ("i", "j", "force", "point"):
+                put(c, name, getattr(snap.contacts, name))
+        f.attrs["n_frames"] = len(snapshots)
+
+
+@pytest.mark.parametrize("compression", [None, "gzip", "lzf"])
+def test_snapshot_file_layouts_read_back_the_same(tmp_path, compression):
+    snaps = [random_snapshot(k, dim=3) for k in range(3)]
+    path = tmp_path / "snaps.h5"
+    write_snapshots(path, snaps, compression=compression)
+    with h5py.File(path, "r") as f:
+        for name in ("positions", "masses", "velocities"):
+            data = f["frames/000001"][name]
+            assert data.compression == compression, name
+            if compression is None:
+                assert data.chunks is None, name            # contiguous
+            else:                                           # chunks of whole rows
+                assert data.chunks[1:] == data.shape[1:] and data.shuffle, name
+    for a, b in zip(snaps, HDF5Snapshots(path)):
+        same_snapshot(a, b)
+
+
+def test_snapshot_files_of_older_versions_read_the_same(tmp_path):
+    snaps = [random_snapshot(k, dim=3) for k in range(3)]
+    old, new = tmp_path / "old.h5", tmp_path / "new.h5"
+    write_snapshots_before_0_10(old, snaps)
+    write_snapshots(new, snaps)
+    with h5py.File(old, "r") as f:
+        assert f["frames/000000/positions"].compression == "gzip"
+    for a, b, c in zip(snaps, HDF5Snapshots(old), HDF5Snapshots(new)):
+        same_snapshot(a, b)
+        same_snapshot(b, c)
+
+
+@pytest.mark.parametrize("compression", ["zip", "GZIP", 4, True, np.array(["gzip", "lzf"]), ("gzip",)])
+def test_snapshot_file_compression_is_checked_by_name(tmp_path, compression):
+    with pytest.raises(ValueError, match="compression: expected one of"):
+        write_snapshots(tmp_path / "x.h5", [random_snapshot(0, dim=3)], compression=compression)
+    assert not (tmp_path / "x.h5").exists()
+
+
 def test_snapshot_file_rejects_foreign_files(tmp_path):
     path = tmp_path / "other.h5"
     with h5py.File(path, "w") as f:

@@ -69,6 +69,28 @@ def test_genuine_dumps_match_loadtxt_bit_for_bit(path, compressed, tmp_path):
                 assert np.array_equal(as_int, values[:, columns.index(name)].astype(np.int64))
 
 
+def has_atom_id_columns(path):
+    """A dump local with compute property/local patom1 patom2 (c_pp[1], c_pp[2])."""
+    with open(path, "rb") as f:
+        return kind_of(path) == "local" and b" c_pp[1] c_pp[2]" in f.read(1 << 16)
+
+
+@pytest.mark.parametrize("path", [p for p in GENUINE if has_atom_id_columns(p)], ids=lambda p: os.path.relpath(p, DATA))
+def test_contact_ids_of_genuine_dumps_match_loadtxt(path):
+    """The atom-ID columns of a dump local, read as whole numbers (as int64 in the parse when written as
+    integers), against np.loadtxt's floats; the float values of the table bit for bit as well."""
+    index = scan_dump(path, "local")
+    for (offset, _), (ts, columns, values) in zip(index, loadtxt_frames(path)):
+        ids = ["c_pp[1]", "c_pp[2]"]
+        frame = index.read(offset, (), ids)
+        assert same_bits(frame["data"].values, values)
+        for name in ids:
+            got = frame["data"].integers(name)
+            assert got.dtype == np.int64
+            assert np.array_equal(got, values[:, columns.index(name)].astype(np.int64))
+            assert np.array_equal(got.astype(float), values[:, columns.index(name)])
+
+
 def test_gzipped_dumps_read_as_the_plain_ones(tmp_path):
     base = os.path.join(DATA, "lammps", "hooke3d")
     opts = dict(pair_values=GRAN_VALUES, walls=["w"], fixed_types=[2], body_force=(0, 0, -1.0))
@@ -386,7 +408,8 @@ def test_corrupted_dumps_read_the_same_or_fail_naming_the_file(name, tmp_path):
 
 
 @pytest.mark.parametrize("written, ok", [("15", True), ("15.000000", True), ("1.5e+01", True), ("15.5", False),
-                                          ("9007199254740993", False)])
+                                          ("9007199254740993", False), ("-9007199254740993", False),
+                                          ("-9223372036854775808", False)])
 def test_contact_ids_are_whole_numbers_in_any_float_format(written, ok, tmp_path):
     """The atom IDs of a dump local come from double-valued computes and follow the float format."""
     base = os.path.join(DATA, "lammps", "hooke3d")

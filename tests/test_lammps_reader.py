@@ -371,6 +371,7 @@ def test_dumps_during_a_run_are_refused_unless_asked(lammps_dir):
     ("fixed_types", [3], r"fixed_types: type\(s\) \[3\] select no particle .*types present: \[1, 2\]"),
     ("fixed_types", [2, 7], r"fixed_types: type\(s\) \[7\]"),
     ("fixed_ids", [10 ** 6], r"fixed_ids: atom ID\(s\) \[1000000\] are not in"),
+    ("fixed_ids", [1, 10 ** 6, 2, 0, 999999], r"fixed_ids: atom ID\(s\) \[0, 999999, 1000000\] are not in"),
 ])
 def test_a_selection_of_nothing_is_an_error(lammps_dir, option, value, message):
     with pytest.raises(ValueError, match=message):

@@ -110,6 +110,10 @@ def test_window_errors_name_the_line(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match=r"t\.fstat:4: contact line before the first '# time' header \(the first "
                                          r"header is on line 5\)"):
         scan_fstat(path)
+    path.write_bytes(b"\n\n\t  \n \t1 2 3\n" + genuine(".fstat"))    # text after blanks on its line
+    with pytest.raises(ValueError, match=r"t\.fstat:4: contact line before the first '# time' header \(the first "
+                                         r"header is on line 5\)"):
+        scan_fstat(path)
     path = tmp_path / "t.data"
     path.write_bytes(b"3 0 0 0 0 1 1 1\n" + b"0 0 0 0 0 0 0.5 0 0 0 0 0 0 1\n" * 2)
     with pytest.raises(ValueError, match=r"t\.data:1: the frame at t = 0 declares 3 particles but only 2 lines "

@@ -285,13 +285,31 @@ def _read_frame(buf, start, stop, kind, path, line, int_columns, integral_column
     if any(c in TEXT_COLUMNS for c in columns):
         head["data"] = _text_columns(buf, head, end, path, ints)
     else:
-        try:
-            table = _text.parse_table(buf, head["rows"], end, len(columns), int_columns=ints, nrows=n,
+        def parse(int_columns):
+            table = _text.parse_table(buf, head["rows"], end, len(columns), int_columns=int_columns, nrows=n,
                                       allow_nonfinite=False, name=path, frame=f"timestep {ts}",
                                       first_line=head["rows_line"], column_names=columns)
-        except ValueError as exc:
-            raise ValueError(f"{exc}{_hint(str(exc), columns, ints)}") from None
-        head["data"] = Table(table.values, columns, table.ints, [columns[k] for k in ints])
+            return Table(table.values, columns, table.ints, [columns[k] for k in int_columns])
+
+        head["data"] = None
+        integral = [k for k, c in enumerate(columns) if c in integral_columns and c not in wanted]
+        if integral:
+            # whole numbers written as integers (the usual output) parse as int64 in the same pass, instead
+            # of floats checked afterwards; a float format ('15.000000'), a value from 2**53 on (not an exact
+            # double, so not a double compute's ID) or a damaged file goes the general way below, which
+            # accepts or reports it as before
+            try:
+                table = parse(sorted(ints + integral))
+                if all(np.all((table.integers(columns[k]) > -2 ** 53) & (table.integers(columns[k]) < 2 ** 53))
+                       for k in integral):
+                    head["data"] = table
+            except ValueError:
+                pass
+        if head["data"] is None:
+            try:
+                head["data"] = parse(ints)
+            except ValueError as exc:
+                raise ValueError(f"{exc}{_hint(str(exc), columns, ints)}") from None
     for name in integral_columns:
         if name in head["data"] and name not in head["data"].integer_columns:
             head["data"].integer_columns[name] = _whole_numbers(head["data"][name], name, head, path)

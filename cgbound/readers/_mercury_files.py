@@ -14,7 +14,7 @@ import re
 
 import numpy as np
 
-from ._text import find_lines, gzip_checkpoints, iter_chunks, parse_table
+from ._text import count_lines, find_lines, gzip_checkpoints, iter_chunks, parse_table
 from ._text import read_range as _read_text_range
 from .files import is_gzip
 
@@ -50,16 +50,22 @@ def _remember_checkpoints(path, checkpoints):
 SCAN_WINDOW = 1 << 24
 
 
-def scan_windows(path, size=None):
+def scan_windows(path, size=None, line_starts=True):
     """The file as windows of whole lines: yields (data, lo, hi, base, first_line, starts).
 
     ``data[lo:hi]`` is the window (an mmap of a plain file, or a decompressed piece of a gzip file), ``base``
     its offset in data's coordinates subtracted from the file's (0 for an mmap), ``first_line`` the 1-based
-    line number of ``lo``, ``starts`` the offsets in data of the window's line starts. Each window but the
-    last ends with a newline; a line longer than ``size`` makes a longer window. Memory: one window.
+    line number of ``lo``, ``starts`` the offsets in data of the window's line starts. Without
+    ``line_starts``, starts and first_line are None (a caller that numbers lines counts them itself, once).
+    Each window but the last ends with a newline; a line longer than ``size`` makes a longer window. Memory:
+    one window.
     """
     size = SCAN_WINDOW if size is None else size
-    line = 1
+
+    def lines(data, lo, hi):
+        return find_lines(data, b"", lo, hi) if line_starts else None
+
+    line = 1 if line_starts else None
     if is_gzip(path):
         checkpoints, buf, base = [], bytearray(), 0
         for chunk in iter_chunks(path, checkpoints=checkpoints):
@@ -71,13 +77,13 @@ def scan_windows(path, size=None):
                 continue
             window = bytes(buf[:cut])
             del buf[:cut]
-            starts = find_lines(window, b"")
+            starts = lines(window, 0, cut)
             yield window, 0, cut, base, line, starts
-            base, line = base + cut, line + len(starts)
+            base, line = base + cut, (line + len(starts) if line_starts else None)
         _remember_checkpoints(path, checkpoints)
         if buf:
             window = bytes(buf)
-            yield window, 0, len(window), base, line, find_lines(window, b"")
+            yield window, 0, len(window), base, line, lines(window, 0, len(window))
         return
     with open(path, "rb") as fh:
         total = os.fstat(fh.fileno()).st_size
@@ -93,9 +99,9 @@ def scan_windows(path, size=None):
                     if cut < 0:
                         cut = mm.find(b"\n", hi)
                     hi = total if cut < 0 else cut + 1
-                starts = find_lines(mm, b"", lo, hi)
+                starts = lines(mm, lo, hi)
                 yield mm, lo, hi, 0, line, starts
-                line += len(starts)
+                line = (line + len(starts)) if line_starts else None
                 lo = hi
         finally:
             try:
@@ -186,25 +192,32 @@ def scan_data(path, dim):
 def scan_fstat(path):
     """Frames of a .fstat file: list of (offset of the first header line, its line number, time, marker,
     offset of the frame's first interaction line, end of its lines, line number of that offset).
-    One pass over windows of the file, keeping only the '#' lines."""
+    One pass over windows of the file, keeping only the '#' lines (the lines between them are counted,
+    not recorded)."""
     heads, ends, lines, texts = [], [], [], []
     size, text_line = 0, None         # text_line: the line of the first text before the first header
     text_after = False                # whether the lines after the last header hold text
-    with contextlib.closing(scan_windows(path)) as windows:
-        for data, lo, hi, base, first_line, starts in windows:
+    line = 1                          # the line number of the window's start, counted here
+    with contextlib.closing(scan_windows(path, line_starts=False)) as windows:
+        for data, lo, hi, base, _, _ in windows:
             size = base + hi
-            found = find_lines(data, b"#", lo, hi)
+            found = find_lines(data, b"#", lo, hi).tolist()
             if not heads and text_line is None:
-                text = _TEXT.search(data, lo, int(found[0]) if len(found) else hi)
-                if text is not None:
-                    text_line = first_line + int(np.searchsorted(starts, text.start(), side="right")) - 1
-            for h, k in zip(found.tolist(), np.searchsorted(starts, found).tolist()):
+                text = _TEXT.search(data, lo, found[0] if found else hi)
+                if text is not None:   # its line: the newlines before it in the window
+                    at = text.start()
+                    text_line = line + count_lines(data, lo, at) - (at > lo and data[at - 1] != 10)
+            at = lo
+            for h in found:
+                line += count_lines(data, at, h)   # at and h start lines: the lines from one to the other
+                at = h
                 e = data.find(b"\n", h, hi)
                 e = hi if e < 0 else e + 1
                 heads.append(base + h)
                 ends.append(base + e)
-                lines.append(first_line + k)
+                lines.append(line)
                 texts.append(bytes(data[h + 1:e]))
+            line += count_lines(data, at, hi)          # on to the next window's first line
             # whether the lines after the last header so far hold text (the search stops at the first)
             if len(found):
                 text_after = _TEXT.search(data, ends[-1] - base, hi) is not None

@@ -155,6 +155,13 @@ def find_lines(data, prefix, start=0, stop=None):
     return _engine.text_find_lines(data, start, stop, prefix)
 
 
+def count_lines(data, start=0, stop=None):
+    """The lines of data[start:stop] (its newlines, plus one if it is not empty and does not end with one),
+    counted by the C text layer 8 bytes at a time; no offsets are kept."""
+    stop = _size(data) if stop is None else stop
+    return _engine.text_count_lines(data, start, stop)
+
+
 def _is_gzip(path):
     with open(path, "rb") as f:
         return f.read(2) == b"\x1f\x8b"

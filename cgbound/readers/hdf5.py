@@ -17,8 +17,11 @@ Schema (version 1)::
         moments_of_inertia  (N,)      float64   optional (as given to the Snapshot)
         contacts/i, contacts/j (M,) int64; contacts/force, contacts/point (M, D) float64
 
-Datasets are chunked and gzip-compressed. A frame with another box than /box stores its
-own box attrs on the frame group.
+Datasets are stored contiguous and uncompressed by default (the fastest to read: float64 simulation data
+compresses poorly, and decompression cost more than the rest of a frame's reading), or, with
+``compression="gzip"`` or ``"lzf"``, in chunks of whole rows (about 1 MiB) with the shuffle filter; files
+written by older versions (h5py's automatic chunks, gzip 4 and shuffle) read the same. A frame with
+another box than /box stores its own box attrs on the frame group. See docs/guide/reading-data.md.
 """
 import json
 import os
@@ -44,20 +47,33 @@ def _h5py():
     return h5py
 
 
-def _put(group, name, data):
+#: the compressions write_snapshots offers: None (contiguous, the default), or a filter on whole-row chunks
+COMPRESSIONS = (None, "gzip", "lzf")
+#: bytes per chunk of a compressed dataset (whole rows): large enough that the per-chunk cost is negligible
+CHUNK_BYTES = 1 << 20
+
+
+def _put(group, name, data, compression=None):
     data = np.asarray(data)
     kwargs = {}
-    if data.size > 0:
-        kwargs = dict(chunks=True, compression="gzip", compression_opts=4, shuffle=True)
+    if data.size > 0 and compression is not None:
+        row_bytes = data.itemsize * int(np.prod(data.shape[1:], dtype=np.int64))
+        rows = max(1, min(data.shape[0], CHUNK_BYTES // max(row_bytes, 1)))
+        kwargs = dict(chunks=(rows,) + data.shape[1:], compression=compression, shuffle=True)
+        if compression == "gzip":
+            kwargs["compression_opts"] = 4
     group.create_dataset(name, data=data, **kwargs)
 
 
-def write_snapshots(path, snapshots, provenance=None):
+def write_snapshots(path, snapshots, provenance=None, compression=None):
     """Write snapshots (an iterable of Snapshot) to ``path`` in the schema above; returns the count.
 
-    The file is written beside the target and renamed into place, so an existing file
-    is never left half-written.
+    compression: None (the default: contiguous datasets, the fastest to read), "gzip" (smaller files,
+    several times slower to read) or "lzf" (in between). The file is written beside the target and
+    renamed into place, so an existing file is never left half-written.
     """
+    if compression is not None and not (isinstance(compression, str) and compression in COMPRESSIONS):
+        raise ValueError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
     h5py = _h5py()
     from .._version import __version__
 
@@ -87,17 +103,17 @@ def write_snapshots(path, snapshots, provenance=None):
                 elif snap.box != box:
                     g.attrs["lower"], g.attrs["upper"] = snap.box.lower, snap.box.upper
                     g.attrs["periodic"] = np.array(snap.box.periodic)
-                _put(g, "positions", snap.positions)
-                _put(g, "masses", snap.masses)
+                _put(g, "positions", snap.positions, compression)
+                _put(g, "masses", snap.masses, compression)
                 for name in _OPTIONAL:
                     value = getattr(snap, name)
                     if name == "fixed" and not value.any():
                         continue
                     if value is not None:
-                        _put(g, name, np.ascontiguousarray(value))
+                        _put(g, name, np.ascontiguousarray(value), compression)
                 c = g.create_group("contacts")
                 for name in ("i", "j", "force", "point"):
-                    _put(c, name, getattr(snap.contacts, name))
+                    _put(c, name, getattr(snap.contacts, name), compression)
                 count += 1
             f.attrs["n_frames"] = count
 

@@ -196,12 +196,24 @@ class LammpsFrame:
 
 
 def contact_indices(ids, id1, id2, path, timestep):
-    """Positions in the sorted atom ``ids`` of the contacts' atom IDs; every ID must be there."""
-    i = np.searchsorted(ids, id1)
-    j = np.searchsorted(ids, id2)
-    bad = (i >= ids.size) | (j >= ids.size)
-    bad |= ids[np.minimum(i, ids.size - 1)] != id1
-    bad |= ids[np.minimum(j, ids.size - 1)] != id2
+    """Positions in the sorted, distinct atom ``ids`` of the contacts' atom IDs; every ID must be there."""
+    n = ids.size
+    if n and int(ids[-1]) - int(ids[0]) == n - 1:
+        # sorted distinct IDs spanning n values are consecutive (LAMMPS numbers atoms 1..N): the position is
+        # the ID minus the first, for IDs within [first, last] (the bounds are compared, not the differences,
+        # which could wrap around in int64)
+        first, last = ids[0], ids[-1]
+        bad = (id1 < first) | (id1 > last) | (id2 < first) | (id2 > last)
+        i, j = id1 - first, id2 - first
+    elif n:
+        i = np.searchsorted(ids, id1)
+        j = np.searchsorted(ids, id2)
+        bad = (i >= n) | (j >= n)
+        bad |= ids[np.minimum(i, n - 1)] != id1
+        bad |= ids[np.minimum(j, n - 1)] != id2
+    else:      # no atoms: every contact names an absent ID
+        i = j = np.zeros(id1.shape, np.int64)
+        bad = np.ones(id1.shape, bool)
     if np.any(bad):
         k = int(np.flatnonzero(bad)[0])
         raise ValueError(f"{path}: contact between atom IDs {id1[k]} and {id2[k]} at timestep {timestep}: "
@@ -400,7 +412,10 @@ class LammpsReader(FrameReader):
         if missing:
             raise ValueError(f"fixed_types: type(s) {missing} select no particle in {self.atoms_path} at timestep "
                              f"{timestep} (types present: {sorted(set(types.tolist()))})")
-        absent = np.setdiff1d(self.fixed_ids, ids)
+        # ids are sorted and distinct (_atoms), fixed_ids too: a search instead of setdiff1d's sort of all ids
+        at = np.searchsorted(ids, self.fixed_ids)
+        absent = self.fixed_ids[(at >= ids.size) | (ids[np.minimum(at, ids.size - 1)] != self.fixed_ids)] \
+            if ids.size else self.fixed_ids
         if absent.size:
             raise ValueError(f"fixed_ids: atom ID(s) {absent[:10].tolist()} are not in {self.atoms_path} at "
                              f"timestep {timestep}")
@@ -450,7 +465,7 @@ class LammpsReader(FrameReader):
                 break
         else:
             raise ValueError(f"{path}: no position columns (x y z, xu yu zu, xs ys zs or xsu ysu zsu)")
-        if self.wrap:
+        if self.wrap and any(box.periodic):    # (wrapping moves coordinates along periodic axes only)
             pos = box.wrap(pos)
         types = tab.integers("type")[order] if "type" in tab else np.ones(n, np.int64)
         vel = cols(("vx", "vy", "vz"), "velocities") if "vx" in tab else None
@@ -515,7 +530,7 @@ class LammpsReader(FrameReader):
         k = np.flatnonzero(tab[names[0]][order] != 0)
         force = self._vectors(tab, names[1:4], order[k])
         point = self._vectors(tab, names[4:7], order[k])
-        if self.wrap:
+        if self.wrap and any(box.periodic):
             point = box.wrap(point)
         wall_j = np.full(k.shape, -1, np.int64)
         return k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), np.full(k.shape, np.nan)
@@ -554,20 +569,23 @@ class LammpsReader(FrameReader):
         if names.get("branch"):
             branch = self._vectors(tab, names["branch"])
         else:
-            branch = box.minimum_image(pos[i] - pos[j])
+            branch = pos[i] - pos[j]
+            if any(box.periodic):   # (the minimum image changes components along periodic axes only)
+                branch = box.minimum_image(branch)
         dist = np.linalg.norm(branch, axis=1)
         if radii is None:
             raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or 'diameter' column")
         overlap = radii[i] + radii[j] - dist
-        keep = np.ones(m, bool)
         if self.drop_inactive:
             keep = (overlap > 0) | np.any(force != 0, axis=1)
-        i, j, force, branch, dist, overlap = i[keep], j[keep], force[keep], branch[keep], dist[keep], overlap[keep]
+            if not keep.all():     # (every row kept: no copies)
+                i, j, force, branch, dist, overlap = (i[keep], j[keep], force[keep], branch[keep], dist[keep],
+                                                      overlap[keep])
         if np.any(dist == 0):
             raise ValueError(f"{path}: two atoms at the same position at timestep {timestep}")
         normal = branch / dist[:, None]
         point = pos[i] - (radii[i] - 0.5 * overlap)[:, None] * normal
-        if self.wrap:
+        if self.wrap and any(box.periodic):
             point = box.wrap(point)
         contact_ids = np.stack([ids[i], ids[j]], axis=1)
         return i, j, force, point, contact_ids, overlap
@@ -592,7 +610,10 @@ def _joined_contacts(parts, dim):
     """Contacts, contact IDs and overlaps from the (i, j, force, point, ids, overlap) of each source."""
     if not parts:
         return Contacts.empty(dim), np.zeros((0, 2), np.int64), np.zeros(0)
-    i, j, force, point, ids, overlap = (np.concatenate(column) for column in zip(*parts))
+    if len(parts) == 1:    # one source (the pair dump): its arrays as they are, Contacts copies them once
+        i, j, force, point, ids, overlap = parts[0]
+    else:
+        i, j, force, point, ids, overlap = (np.concatenate(column) for column in zip(*parts))
     return Contacts(i, j, force.reshape(-1, dim), point.reshape(-1, dim)), ids.reshape(-1, 2), overlap
 
 

@@ -354,12 +354,19 @@ class MercuryReader(FrameReader):
         d = self.dim    # cgbound's axes are MercuryDPM's first d components
         point = rows[:, 3:3 + d]       # a strided view; Contacts gets the kept rows' copy
         overlap = rows[:, 6]
-        force = self._forces_on_i(rows, line_of, d, box.minimum_image(pos[i] - point))
+        arm = pos[i] - point
+        if any(box.periodic):   # (the minimum image changes components along periodic axes only)
+            arm = box.minimum_image(arm)
+        force = self._forces_on_i(rows, line_of, d, arm)
         wall = jraw < 0
-        keep = wall | self._one_listing_per_pair(i, jraw, force, point, radii, line_of, fixed)
-        sel = np.flatnonzero(keep)
-        j = np.where(wall, -1, jraw)[sel]
-        wall_index = np.where(wall, -1 - jraw, -1)[sel]
+        keep = self._one_listing_per_pair(i, jraw, force, point, radii, line_of, fixed)
+        if wall.any():
+            sel = np.flatnonzero(wall | keep)
+            j = np.where(wall, -1, jraw)[sel]
+            wall_index = np.where(wall, -1 - jraw, -1)[sel]
+        else:                   # (no wall line: the partners as they are)
+            sel = np.flatnonzero(keep)
+            j, wall_index = jraw[sel], np.full(sel.size, -1, np.int64)
         return Contacts(i[sel], j, force[sel], point[sel]), wall_index, overlap[sel]
 
     def _partners(self, ints, line_of, n):
@@ -410,7 +417,9 @@ class MercuryReader(FrameReader):
         twice from one side, or inconsistently. Vectorised: lines grouped by a sort on the pair's key."""
         path = self.fstat_path
         keep = np.zeros(i.shape, bool)
-        scale = float(np.max(np.linalg.norm(force, axis=1))) if len(force) else 0.0
+        # the largest |force| of a line: the square root of the largest sum of squares, which is the largest
+        # of np.linalg.norm's values (sqrt is correctly rounded, so monotone) without a root per line
+        scale = math.sqrt(float(np.max(squared_norms(force)))) if len(force) else 0.0
         lscale = 2.0 * float(np.max(radii)) if radii.size else 1.0
         lines = np.flatnonzero(jraw >= 0)
         if not lines.size:
@@ -484,9 +493,16 @@ def lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point):
         key = np.sort(key)
         if np.any(key[1:] == key[:-1]):
             return None
-    fa, pa = force[a], point[a]
-    df = np.linalg.norm(fa + force[b], axis=1)
-    dc = np.linalg.norm(pa - point[b], axis=1)
-    if np.any((df > tol_force) | (dc > tol_point)):
+    # some |f_a + f_b| > tol_force, or some |c_a - c_b| > tol_point, as np.linalg.norm(...) > tol would find
+    # it: the largest norm is the root of the largest sum of squares (sqrt is monotone); fmax skips NaN as
+    # the comparisons do
+    df = math.sqrt(float(np.fmax.reduce(squared_norms(force[a] + force[b]))))
+    dc = math.sqrt(float(np.fmax.reduce(squared_norms(point[a] - point[b]))))
+    if df > tol_force or dc > tol_point:
         return None
     return np.where(ia < ib, lines[0::2], lines[1::2])
+
+
+def squared_norms(vectors):
+    """x . x of each row, summed as np.linalg.norm sums them (its values are the roots of these)."""
+    return np.add.reduce(vectors * vectors, axis=1)

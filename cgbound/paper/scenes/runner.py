@@ -59,13 +59,14 @@ class SceneRun:
         with open(os.path.join(self.workdir, lmp_input.INPUT_FILE)) as f:
             return f.read()
 
-    def write_snapshots(self, path, provenance=None):
-        """Write the frames to ``path`` in cgbound's HDF5 format (atomically); returns the count."""
+    def write_snapshots(self, path, provenance=None, compression=None):
+        """Write the frames to ``path`` in cgbound's HDF5 format (atomically; ``compression`` as
+        :func:`cgbound.readers.write_snapshots` takes it); returns the count."""
         from ...readers.hdf5 import write_snapshots
         info = {"scene": self.scene.name, "effects": list(self.scene.effects), "engine": "LAMMPS",
                 "input_script": self.input_script, "lammps_wall_time_s": self.wall_time}
         info.update(provenance or {})
-        return write_snapshots(path, self.snapshots, provenance=info)
+        return write_snapshots(path, self.snapshots, provenance=info, compression=compression)
 
 
 def _thermo(log_text):

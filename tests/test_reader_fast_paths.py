@@ -1,0 +1,124 @@
+"""The readers' fast paths against plain references: the LAMMPS contacts' atom positions (consecutive IDs
+by subtraction, others by a search) against a dict of the IDs; the C line count against bytes.count."""
+import mmap
+
+import numpy as np
+import pytest
+
+from cgbound.readers._text import count_lines
+from cgbound.readers.lammps import contact_indices
+
+BIG = np.iinfo(np.int64).max
+
+
+def positions_by_dict(ids, id1, id2):
+    """Reference: the position of each ID in a dict; None where an ID is absent."""
+    where = {int(v): k for k, v in enumerate(ids)}
+    out = [(where.get(int(a)), where.get(int(b))) for a, b in zip(id1, id2)]
+    bad = [k for k, (a, b) in enumerate(out) if a is None or b is None]
+    return out, bad
+
+
+ID_SETS = {
+    "1..N": np.arange(1, 101, dtype=np.int64),
+    "0..N-1": np.arange(0, 100, dtype=np.int64),
+    "negative, consecutive": np.arange(-50, 50, dtype=np.int64),
+    "near the int64 top": BIG - np.arange(99, -1, -1, dtype=np.int64),
+    "near the int64 bottom": -BIG - 1 + np.arange(100, dtype=np.int64),
+    "with gaps": np.sort(np.random.default_rng(1).choice(10 ** 6, 100, replace=False)).astype(np.int64),
+    "one gap": np.r_[np.arange(1, 50), np.arange(51, 102)].astype(np.int64),
+    "one atom": np.array([7], np.int64),
+}
+
+
+@pytest.mark.parametrize("name", sorted(ID_SETS))
+@pytest.mark.parametrize("absent", [False, True])
+def test_contact_indices_match_a_dict_of_the_ids(name, absent):
+    ids = ID_SETS[name]
+    rng = np.random.default_rng(len(name))
+    id1, id2 = rng.choice(ids, 500), rng.choice(ids, 500)
+    if absent:   # IDs just outside, far outside (where ID - first wraps around in int64) and in a gap
+        strangers = [int(ids[0]) - 1, int(ids[-1]) + 1, -BIG - 1, BIG, int(ids[0]) + (1 if ids.size > 1 else 0)]
+        strangers = [v for v in strangers if -BIG - 1 <= v <= BIG and v not in set(ids.tolist())]
+        k = rng.choice(500, len(strangers), replace=False)
+        id2[k] = strangers
+    expected, bad = positions_by_dict(ids, id1, id2)
+    if bad:
+        k = bad[0]
+        with pytest.raises(ValueError, match=rf"dump\.local: contact between atom IDs {id1[k]} and {id2[k]} at "
+                                             rf"timestep 40: an ID is not in the atoms dump"):
+            contact_indices(ids, id1, id2, "dump.local", 40)
+        return
+    assert not absent or name == "one atom"
+    i, j = contact_indices(ids, id1, id2, "dump.local", 40)
+    assert i.dtype == j.dtype == np.int64
+    np.testing.assert_array_equal(i, [a for a, _ in expected])
+    np.testing.assert_array_equal(j, [b for _, b in expected])
+
+
+def test_contact_indices_of_no_atoms_are_an_error():
+    with pytest.raises(ValueError, match="contact between atom IDs 1 and 2"):
+        contact_indices(np.zeros(0, np.int64), np.array([1]), np.array([2]), "p", 0)
+
+
+def lines_by_count(text):
+    """Reference: newlines, plus one for a last line without one."""
+    return text.count(b"\n") + (1 if text and not text.endswith(b"\n") else 0)
+
+
+@pytest.mark.parametrize("text", [b"", b"\n", b"a", b"a\n", b"\n\n\n", b"a\r\nb\r\n", b"1 2\n3 4",
+                                  b"x" * 7 + b"\n" * 9 + b"y" * 17, bytes(range(256)) * 3, b"\n" * 64 + b"z"])
+def test_count_lines_matches_bytes_count(text):
+    assert count_lines(text) == lines_by_count(text)
+    for start in range(0, len(text) + 1, 3):      # every alignment of the 8-byte words
+        for stop in range(start, len(text) + 1, 5):
+            assert count_lines(text, start, stop) == lines_by_count(text[start:stop]), (start, stop)
+
+
+def test_count_lines_on_random_text_and_an_mmap(tmp_path):
+    rng = np.random.default_rng(5)
+    text = rng.choice(np.frombuffer(b"0123456789 .-e\t\r\n\n", np.uint8), 100_003).tobytes()
+    path = tmp_path / "t.txt"
+    path.write_bytes(text)
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+        assert count_lines(mm) == lines_by_count(text)
+        assert count_lines(mm, 11, 99_999) == lines_by_count(text[11:99_999])
+    with pytest.raises(ValueError, match="start, stop: expected 0 <= start <= stop"):
+        count_lines(text, 5, 4)
+    with pytest.raises(ValueError, match="start, stop: expected 0 <= start <= stop"):
+        count_lines(text, 0, len(text) + 1)
+
+
+def lines_in_turn_by_norms(i, jraw, force, point, lines, tol_force, tol_point):
+    """The twin of lines_in_turn's tolerance test as it was written: np.linalg.norm of every pair, compared."""
+    a, b = lines[0::2], lines[1::2]
+    df = np.linalg.norm(force[a] + force[b], axis=1)
+    dc = np.linalg.norm(point[a] - point[b], axis=1)
+    return not np.any((df > tol_force) | (dc > tol_point))
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_lines_in_turn_tolerances_match_the_norms(seed):
+    from cgbound.readers.mercury import lines_in_turn
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(1, 60))
+    lo = np.sort(rng.choice(10 * m, m, replace=False))
+    hi = lo + 1 + rng.integers(0, 5, m)
+    i, jraw = np.empty(2 * m, np.int64), np.empty(2 * m, np.int64)
+    i[0::2], jraw[0::2], i[1::2], jraw[1::2] = lo, hi, hi, lo
+    scale = 10.0 ** rng.integers(-200, 200)
+    force = np.empty((2 * m, 3))
+    force[0::2] = rng.normal(size=(m, 3)) * scale
+    force[1::2] = -force[0::2] + rng.normal(size=(m, 3)) * scale * 10.0 ** rng.integers(-18, 1)
+    point = np.repeat(rng.normal(size=(m, 3)), 2, axis=0) + rng.normal(size=(2 * m, 3)) * 10.0 ** rng.integers(-18, 1)
+    if seed % 4 == 1:
+        force[rng.integers(0, 2 * m)] = np.nan
+    if seed % 4 == 2:
+        force[rng.integers(0, 2 * m), 0] = 1e308    # its square overflows
+    lines = np.arange(2 * m)
+    for tol_force in (0.0, scale * 1e-9, scale * 1e-3, scale, np.inf):
+        for tol_point in (0.0, 1e-12, 1e-6, 1.0):
+            got = lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point)
+            assert (got is not None) == lines_in_turn_by_norms(i, jraw, force, point, lines, tol_force, tol_point)
+            if got is not None:
+                np.testing.assert_array_equal(got, np.where(i[0::2] < i[1::2], lines[0::2], lines[1::2]))
