@@ -85,6 +85,14 @@ typedef v4d vwd;
 #define VW 4
 #endif
 
+/* x in every lane (an initializer: 0.0 + x, the other spelling, costs an
+   addition where x may be -0.0) */
+#if VW == 8
+#define SPLAT(x) ((vwd){(x), (x), (x), (x), (x), (x), (x), (x)})
+#else
+#define SPLAT(x) ((vwd){(x), (x), (x), (x)})
+#endif
+
 /* o[k * nv + c] += (scale * w[k]) * v[c] for k < nk, c < nv (1.0 * w[k] is
    w[k]): a rank-one update of nk contiguous nodes of nv values each */
 INLINE void block_add_n(double *restrict o, double scale, const double *restrict w, cg_index nk,
@@ -181,28 +189,40 @@ INLINE double erfcx_one(double x)
     return ((y * b1 - b2) + ERFCX_CHEB[0]) / (1.0 + 2.0 * x);
 }
 
-/* x[i] = erfcx(x[i]) for n a multiple of VW: VW lanes at a time in vector
-   registers (the same operations in the same order as erfcx_one) */
-INLINE void erfcx_in_place(double *restrict x, cg_index n)
+/* x[i] = erfcx(x[i]) and z[i] = erfcx(z[i]) for n a multiple of VW: VW
+   lanes of each at a time in vector registers (the same operations in the
+   same order as erfcx_one; the two recurrences interleave, as each step
+   waits for the previous one's result) */
+INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n)
 {
 #ifdef HAVE_V4D
-    const vwd one = (vwd){0.0} + 1.0, four = (vwd){0.0} + 4.0;
+    const vwd one = SPLAT(1.0), four = SPLAT(4.0);
     for (cg_index i = 0; i < n; i += VW) {
-        vwd xv;
+        vwd xv, zv;
         memcpy(&xv, x + i, sizeof xv);
-        const vwd y = (xv - four) / (xv + four), y2 = y + y;
-        vwd b1 = {0.0}, b2 = {0.0};
+        memcpy(&zv, z + i, sizeof zv);
+        const vwd yx = (xv - four) / (xv + four), yx2 = yx + yx;
+        const vwd yz = (zv - four) / (zv + four), yz2 = yz + yz;
+        vwd bx1 = {0.0}, bx2 = {0.0}, bz1 = {0.0}, bz2 = {0.0};
 #pragma GCC unroll 32
         for (int j = ERFCX_TERMS - 1; j >= 1; --j) {
-            const vwd bj = (y2 * b1 - b2) + ERFCX_CHEB[j];
-            b2 = b1;
-            b1 = bj;
+            const vwd bxj = (yx2 * bx1 - bx2) + ERFCX_CHEB[j];
+            const vwd bzj = (yz2 * bz1 - bz2) + ERFCX_CHEB[j];
+            bx2 = bx1;
+            bx1 = bxj;
+            bz2 = bz1;
+            bz1 = bzj;
         }
-        const vwd r = ((y * b1 - b2) + ERFCX_CHEB[0]) / (one + (xv + xv));
-        memcpy(x + i, &r, sizeof r);
+        const vwd rx = ((yx * bx1 - bx2) + ERFCX_CHEB[0]) / (one + (xv + xv));
+        const vwd rz = ((yz * bz1 - bz2) + ERFCX_CHEB[0]) / (one + (zv + zv));
+        memcpy(x + i, &rx, sizeof rx);
+        memcpy(z + i, &rz, sizeof rz);
     }
 #else
-    for (cg_index i = 0; i < n; ++i) x[i] = erfcx_one(x[i]);
+    for (cg_index i = 0; i < n; ++i) {
+        x[i] = erfcx_one(x[i]);
+        z[i] = erfcx_one(z[i]);
+    }
 #endif
 }
 
@@ -336,8 +356,7 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
     cg_exp_in_place(e0, n_padded);
     cg_exp_in_place(e1, n_padded);
     cg_exp_in_place(ea, n_padded);
-    erfcx_in_place(c0, n_padded);
-    erfcx_in_place(c1, n_padded);
+    erfcx_in_place2(c0, c1, n_padded);
     double *restrict value = b->value;
     cut_values(n_padded, b->t0, b->span, e0, e1, ea, c0, c1, factor, value, is_short);
     const double *a2s = b->a2, *t0s = b->t0, *spans = b->span;
@@ -472,23 +491,24 @@ INLINE void rows_of_one_point(const job *jb, double *out, cg_index obj, cg_index
    rows are summed 8 at a time */
 #define ROW_PAD 8
 
-/* row[k] = sum_g (ci[g] gy_g[j]) gz_g[k] for k in [a, b), summed in rule order
-   as a scalar loop would, VW nodes at a time: writes up to 7 doubles past b
-   (ROW_PAD) and reads as far past the tables (in scratch memory, followed by
-   more tables or the row; the values there are not used) */
-INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, const double *ci,
-                       double *const (*ex)[3], cg_index j)
+/* row[k] = sum_g (ci[g] gy_j[g]) gz[g][k] for k in [a, b), summed in rule order
+   as a scalar loop would, VW nodes at a time (gy_j: the row's y weights of the
+   G points, contiguous): writes up to 7 doubles past b (ROW_PAD) and reads as
+   far past the tables (in scratch memory, followed by more tables or the row;
+   the values there are not used) */
+INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, const double *restrict ci,
+                       const double *restrict gy_j, const double *const *gz)
 {
     double cij[CG_MAX_LINE_POINTS];
-    for (int g = 0; g < G; ++g) cij[g] = ci[g] * ex[g][1][j];
+    for (int g = 0; g < G; ++g) cij[g] = ci[g] * gy_j[g];
     for (cg_index k = a; k < b; k += VW) {
 #ifdef HAVE_V4D
         vwd acc = {0.0};
         for (int g = 0; g < G; ++g) {
-            const vwd c = (vwd){0.0} + cij[g]; /* broadcast (0 + c is c) */
-            vwd gz;
-            memcpy(&gz, ex[g][2] + k, sizeof gz);
-            acc += c * gz;
+            const vwd c = SPLAT(cij[g]);
+            vwd gzk;
+            memcpy(&gzk, gz[g] + k, sizeof gzk);
+            acc += c * gzk;
         }
         memcpy(row + k, &acc, sizeof acc);
 #else
@@ -496,7 +516,7 @@ INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, cons
         for (cg_index m = k; m < end; ++m) row[m] = 0.0;
         for (int g = 0; g < G; ++g) {
             const double c = cij[g];
-            for (cg_index m = k; m < end; ++m) row[m] += c * ex[g][2][m];
+            for (cg_index m = k; m < end; ++m) row[m] += c * gz[g][m];
         }
 #endif
     }
@@ -558,7 +578,7 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
         dz_min[g] = d2[g][2][argmin(d2[g][2], n2)];
     }
     const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
-    const vwd R2w = (vwd){0.0} + R2;
+    const vwd R2w = SPLAT(R2);
     for (cg_index i = 0; i < n0; ++i) {
         /* per point: its rows [j0, j1) in this plane (as in rows_of_one_point) */
         cg_index j0[CG_MAX_LINE_POINTS], j1[CG_MAX_LINE_POINTS];
@@ -585,7 +605,7 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
                 for (int g = 0; g < G; ++g) {
                     if (j < j0[g] || j >= j1[g]) continue;
                     const double s01 = si[g] + d2[g][1][j], c = ci[g] * ex[g][1][j];
-                    const vwd sw = (vwd){0.0} + s01, cw = (vwd){0.0} + c; /* broadcasts (0 + x is x) */
+                    const vwd sw = SPLAT(s01), cw = SPLAT(c);
                     vwd dz, gz;
                     memcpy(&dz, d2[g][2] + kw, sizeof dz);
                     memcpy(&gz, ex[g][2] + kw, sizeof gz);
@@ -692,10 +712,12 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     }
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
-    /* tables d2, g per rule point; end-point tables (hybrid); node coordinates; a row */
+    /* tables d2, g per rule point; end-point tables, a cut batch, a row's distances
+       and the transposed y tables (hybrid); node coordinates; a row */
     /* the row has ROW_PAD more doubles: the exact form's rows are summed 8 at a time */
-    const size_t need = (size_t)G * per_point + EXP_PAD + (hybrid ? per_point + CUT_BATCH_DOUBLES + n2 : 0) +
-                        (size_t)(n0 + n1 + n2) + 2 * ((size_t)n2 + ROW_PAD);
+    const size_t hybrid_need = hybrid ? per_point + CUT_BATCH_DOUBLES + n2 + (size_t)G * n1 : 0;
+    const size_t need = (size_t)G * per_point + EXP_PAD + hybrid_need + (size_t)(n0 + n1 + n2) +
+                        2 * ((size_t)n2 + ROW_PAD);
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *coord = buf + (size_t)G * per_point + EXP_PAD + (hybrid ? per_point : 0); /* node - x, per slot */
@@ -705,6 +727,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         for (cg_index k = n2; k < 2 * (n2 + ROW_PAD); ++k) row[k] = 0.0;
     if (hybrid) cut_batch_init(&cuts, row + n2 + ROW_PAD);
     double *dk = row + 2 * (n2 + ROW_PAD) + CUT_BATCH_DOUBLES; /* hybrid: a row's squared distances */
+    double *gy_t = dk + n2; /* hybrid: the y tables transposed, gy_t[j G + g] = ex[g][1][j] */
     /* node coordinates relative to x (points, and the exact form's ends) */
     double *cslot[3] = {coord, coord + n0, coord + n0 + n1};
     if (!jb->is_segment || hybrid) {
@@ -799,6 +822,11 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         return 1;
     }
     /* the exact form (hybrid) */
+    const double *gz_of[CG_MAX_LINE_POINTS];
+    for (int g = 0; g < G; ++g) {
+        gz_of[g] = ex[g][2];
+        for (cg_index j = 0; j < n1; ++j) gy_t[j * G + g] = ex[g][1][j];
+    }
     const double amp = scale * kn->prefactor, L = sqrt(L2);
     /* q . e of the nodes the rule keeps: at most FAR_BEYOND_END w beyond either end */
     const double far_lo = -FAR_BEYOND_END * w * L, far_hi = L2 + FAR_BEYOND_END * w * L;
@@ -823,7 +851,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                     /* the same tests as the walks and loops below, VW nodes at a time, as bits */
                     const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
                     uint64_t in_bits = 0, cand_bits = 0;
-                    const vwd a01v = (vwd){0.0} + a01, b01v = (vwd){0.0} + b01, R2v = (vwd){0.0} + R2;
+                    const vwd a01v = SPLAT(a01), b01v = SPLAT(b01), R2v = SPLAT(R2);
                     for (cg_index kw = 0; kw < n2; kw += VW) {
                         vwd zav, zbv;
                         memcpy(&zav, za + kw, sizeof zav);
@@ -834,8 +862,8 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                     if (far_check && in_bits) {
                         /* of the rule's nodes, those at most FAR_BEYOND_END w beyond the ends */
                         const double pij = cslot[0][i] * es[0] + cslot[1][j] * es[1];
-                        const vwd pv = (vwd){0.0} + pij, e2v = (vwd){0.0} + es[2];
-                        const vwd lov = (vwd){0.0} + far_lo, hiv = (vwd){0.0} + far_hi;
+                        const vwd pv = SPLAT(pij), e2v = SPLAT(es[2]);
+                        const vwd lov = SPLAT(far_lo), hiv = SPLAT(far_hi);
                         uint64_t near_bits = 0;
                         for (cg_index kw = 0; kw < n2; kw += VW) {
                             vwd zc;
@@ -861,16 +889,16 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                     if (in_bits) {
                         k0 = __builtin_ctzll(in_bits);
                         k1 = 64 - __builtin_clzll(in_bits);
-                        inside_row(row, k0, k1, G, ci, (double *const(*)[3])ex, j);
+                        inside_row(row, k0, k1, G, ci, gy_t + j * G, gz_of);
                     }
                     /* the capsule's nodes (row_distance2's operations) outside the rule's interval */
                     {
                         const double exs = es[0], eys = es[1], ezs = es[2];
                         const double xq = cslot[0][i], yq = cslot[1][j], pxy = xq * exs + yq * eys;
-                        const vwd pxyv = (vwd){0.0} + pxy, ezv = (vwd){0.0} + ezs, il = (vwd){0.0} + inv_L2;
-                        const vwd zero = {0.0}, one = (vwd){0.0} + 1.0, Rm = (vwd){0.0} + R2_margin;
-                        const vwd xv = (vwd){0.0} + xq, yv = (vwd){0.0} + yq;
-                        const vwd exv = (vwd){0.0} + exs, eyv = (vwd){0.0} + eys;
+                        const vwd pxyv = SPLAT(pxy), ezv = SPLAT(ezs), il = SPLAT(inv_L2);
+                        const vwd zero = {0.0}, one = SPLAT(1.0), Rm = SPLAT(R2_margin);
+                        const vwd xv = SPLAT(xq), yv = SPLAT(yq);
+                        const vwd exv = SPLAT(exs), eyv = SPLAT(eys);
                         for (cg_index kw = 0; kw < n2; kw += VW) {
                             vwd z;
                             memcpy(&z, cslot[2] + kw, sizeof z);
@@ -916,7 +944,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                 if (ia < ib) {
                     k0 = ia;
                     k1 = ib;
-                    inside_row(row, ia, ib, G, ci, (double *const(*)[3])ex, j);
+                    inside_row(row, ia, ib, G, ci, gy_t + j * G, gz_of);
                 }
                 /* elsewhere, the part inside the ball, at the nodes near enough to the
                    segment (the capsule: the exact form decides near its surface) */
