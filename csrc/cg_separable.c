@@ -887,14 +887,47 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     for (cg_index i = 0; i < n0; ++i) {
         double ci[CG_MAX_LINE_POINTS]; /* the rule's weights times the plane's */
         for (int g = 0; g < G; ++g) ci[g] = gw[g] * ex[g][0][i];
+        /* rows whose line misses the capsule carry nothing: the plane's rows that
+           meet it, as bits (n1 <= 64), VW rows at a time */
+        uint64_t plane_bits = ~UINT64_C(0);
+#ifdef HAVE_V4D
+        if (n1 <= 64) {
+            /* segment_distance2's operations on (x, y[j], 0) and (ex, ey, 0), less
+               the terms that are +0 (they change no sum or product here) */
+            const double xq = cslot[0][i], xe = xq * e2d[0];
+            const vwd xv = SPLAT(xq), xev = SPLAT(xe), exv = SPLAT(e2d[0]), eyv = SPLAT(e2d[1]);
+            const vwd il = SPLAT(inv_L2_2d), Rm = SPLAT(R2_margin), zero = {0.0}, one = SPLAT(1.0);
+            const vwl has_length = SPLAT(inv_L2_2d) > zero;
+            plane_bits = 0;
+            for (cg_index jw = 0; jw < n1; jw += VW) {
+                vwd y; /* reads up to VW - 1 past the plane's y (into cslot[2]; those bits are dropped) */
+                memcpy(&y, cslot[1] + jw, sizeof y);
+                vwd t = (xev + y * eyv) * il;
+                t = (vwd)((vwl)t & has_length);
+                const vwl below = (vwl)(t < zero);
+                t = (vwd)((vwl)t & ~below);
+                const vwl above = (vwl)(t > one);
+                t = (vwd)(((vwl)t & ~above) | ((vwl)one & above));
+                const vwd d0 = xv - t * exv, d1 = y - t * eyv;
+                plane_bits |= mask_bits((vwl)(d0 * d0 + d1 * d1 < Rm)) << jw;
+            }
+            plane_bits &= n1 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n1) - 1;
+        }
+#endif
         for (cg_index j = 0; j < n1; ++j) {
             /* the nodes of the row that receive anything: row[k0..k1) */
             cg_index k0 = n2, k1 = 0;
             const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + first[2] * stride[2];
             {
-                /* rows whose line misses the capsule carry nothing */
-                const double q2d[3] = {cslot[0][i], cslot[1][j], 0.0};
-                if (!(segment_distance2(q2d, e2d, inv_L2_2d) < R2_margin)) continue;
+#ifdef HAVE_V4D
+                if (n1 <= 64) {
+                    if (!((plane_bits >> j) & 1)) continue;
+                } else
+#endif
+                {
+                    const double q2d[3] = {cslot[0][i], cslot[1][j], 0.0};
+                    if (!(segment_distance2(q2d, e2d, inv_L2_2d) < R2_margin)) continue;
+                }
                 /* the rule is exact where both ends, hence the whole segment, lie inside
                    the ball (an interval: two balls meet the row in intervals) */
                 const double a01 = endA[0][i] + endA[1][j], b01 = endB[0][i] + endB[1][j];
