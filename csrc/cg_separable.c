@@ -915,14 +915,20 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         }
 #endif
         for (cg_index j = 0; j < n1; ++j) {
+#ifdef HAVE_V4D
+            if (n1 <= 64) {
+                /* on to the next row that meets the capsule */
+                const uint64_t rest = plane_bits >> j;
+                if (!rest) break;
+                j += (cg_index)__builtin_ctzll(rest);
+            }
+#endif
             /* the nodes of the row that receive anything: row[k0..k1) */
             cg_index k0 = n2, k1 = 0;
             const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + first[2] * stride[2];
             {
 #ifdef HAVE_V4D
-                if (n1 <= 64) {
-                    if (!((plane_bits >> j) & 1)) continue;
-                } else
+                if (n1 > 64)
 #endif
                 {
                     const double q2d[3] = {cslot[0][i], cslot[1][j], 0.0};
