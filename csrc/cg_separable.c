@@ -439,13 +439,20 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
             value[i] = (amp * sum) * spans[i];
         }
     }
-    for (int i = 0; i < n; ++i) {
-        const double v = value[i];
-        if (v == 0.0) continue; /* the segment misses this node's ball */
-        if (jb->mode == MODE_VALUE)
-            block_add(out + b->node[i] * jb->out_width, 1.0, &v, 1, jb->values + obj * jb->n_values, jb->n_values);
-        else
-            cg_accumulate(jb, out, obj, b->node[i], v, NULL);
+    /* (value 0: the segment misses this node's ball) */
+    if (jb->mode == MODE_VALUE) {
+        const double *restrict vals = jb->values + obj * jb->n_values;
+        const cg_index width = jb->out_width;
+        if (jb->n_values == 9) { /* 3D stress tensors: block_add's case 9, without its switch per node */
+            for (int i = 0; i < n; ++i)
+                if (value[i] != 0.0) block_add_n(out + b->node[i] * width, 1.0, &value[i], 1, vals, 9);
+        } else {
+            for (int i = 0; i < n; ++i)
+                if (value[i] != 0.0) block_add(out + b->node[i] * width, 1.0, &value[i], 1, vals, jb->n_values);
+        }
+    } else {
+        for (int i = 0; i < n; ++i)
+            if (value[i] != 0.0) cg_accumulate(jb, out, obj, b->node[i], value[i], NULL);
     }
 }
 
@@ -984,9 +991,10 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                         inside_row(row, k0, k1, G, ci, gy_t + j * G, gz_of);
                     }
                     /* the capsule's nodes (row_distance2's operations) outside the rule's interval */
+                    const double xq = cslot[0][i], yq = cslot[1][j];
                     {
                         const double exs = es[0], eys = es[1], ezs = es[2];
-                        const double xq = cslot[0][i], yq = cslot[1][j], pxy = xq * exs + yq * eys;
+                        const double pxy = xq * exs + yq * eys;
                         const vwd pxyv = SPLAT(pxy), ezv = SPLAT(ezs), il = SPLAT(inv_L2);
                         const vwd zero = {0.0}, one = SPLAT(1.0), Rm = SPLAT(R2_margin);
                         const vwd xv = SPLAT(xq), yv = SPLAT(yq);
@@ -1010,8 +1018,8 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                         cand_bits &= cand_bits - 1;
                         if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
                         const int m = cuts.n++;
-                        cuts.q[0][m] = cslot[0][i];
-                        cuts.q[1][m] = cslot[1][j];
+                        cuts.q[0][m] = xq;
+                        cuts.q[1][m] = yq;
                         cuts.q[2][m] = cslot[2][k];
                         cuts.node[m] = base + k * stride[2];
                     }
