@@ -813,6 +813,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
             d2[g][s] = p;
             ex[g][s] = ex_all + (p - d2_all);
             p += count[s];
+            if (hybrid) continue; /* below, in one loop per point */
             double *restrict dst = d2[g][s];
             const double *restrict node = cslot[s];
             const double shift = jb->is_segment ? gx[g] * es[s] : 0.0; /* the rule point - x */
@@ -838,7 +839,26 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     {
         /* whole vectors only (EXP_PAD): a scalar remainder would cost more than the rest */
         const size_t n_all = (size_t)G * per_table, n_padded = (n_all + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
-        for (size_t m = 0; m < n_all; ++m) ex_all[m] = -d2_all[m] * inv2w2;
+        if (hybrid) {
+            /* the exact form reads no d2 table: the exponents straight from the node
+               coordinates (coord: node - x, slot after slot, as the tables), the same
+               operations as above, a loop over all slots per point; the first d2
+               table holds each position's slot component of e (a missing slot's one
+               node: 0 - 0, as above) */
+            double *restrict e_at = d2_all;
+            for (int s = 0; s < 3; ++s)
+                for (cg_index k = 0; k < count[s]; ++k) e_at[cslot[s] - coord + k] = es[s];
+            for (int g = 0; g < G; ++g) {
+                const double gg = gx[g];
+                double *restrict dst = ex_all + (size_t)g * per_table;
+                for (size_t m = 0; m < per_table; ++m) {
+                    const double q = coord[m] - gg * e_at[m];
+                    dst[m] = -(q * q) * inv2w2;
+                }
+            }
+        } else {
+            for (size_t m = 0; m < n_all; ++m) ex_all[m] = -d2_all[m] * inv2w2;
+        }
         for (size_t m = n_all; m < n_all + EXP_PAD; ++m) ex_all[m] = 0.0; /* read past by rows_of_rule */
         cg_exp_in_place(ex_all, (cg_index)n_padded);
     }
