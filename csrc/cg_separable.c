@@ -772,10 +772,10 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     }
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
-    /* tables d2, g per rule point; end-point tables, a cut batch, a row's distances
-       and the transposed y tables (hybrid); node coordinates; a row */
+    /* tables d2, g per rule point; end-point tables, a cut batch and a row's
+       distances (hybrid); node coordinates; a row */
     /* the row has ROW_PAD more doubles: the exact form's rows are summed 8 at a time */
-    const size_t hybrid_need = hybrid ? per_point + CUT_BATCH_DOUBLES + n2 + (size_t)G * n1 : 0;
+    const size_t hybrid_need = hybrid ? per_point + CUT_BATCH_DOUBLES + n2 : 0;
     const size_t need = (size_t)G * per_point + EXP_PAD + hybrid_need + (size_t)(n0 + n1 + n2) +
                         2 * ((size_t)n2 + ROW_PAD);
     double *buf = scratch_get(sc, need);
@@ -787,7 +787,6 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         for (cg_index k = n2; k < 2 * (n2 + ROW_PAD); ++k) row[k] = 0.0;
     if (hybrid) cut_batch_init(&cuts, row + n2 + ROW_PAD);
     double *dk = row + 2 * (n2 + ROW_PAD) + CUT_BATCH_DOUBLES; /* hybrid: a row's squared distances */
-    double *gy_t = dk + n2; /* hybrid: the y tables transposed, gy_t[j G + g] = ex[g][1][j] */
     /* node coordinates relative to x (points, and the exact form's ends) */
     double *cslot[3] = {coord, coord + n0, coord + n0 + n1};
     if (!jb->is_segment || hybrid) {
@@ -803,7 +802,8 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         }
     }
     /* per rule point g and slot s: d2[g][s][k] = (node - point)^2 and
-       ex[g][s][k] = exp(-d2 / 2w^2); all exponentials in one vectorised call */
+       ex[g][s][k] = exp(-d2 / 2w^2) (the exact form: its own layout, below); all
+       exponentials in one vectorised call */
     double *d2[CG_MAX_LINE_POINTS][3], *ex[CG_MAX_LINE_POINTS][3];
     const size_t per_table = (size_t)(n0 + n1 + n2);
     double *d2_all = buf, *ex_all = buf + (size_t)G * per_table;
@@ -841,19 +841,25 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         const size_t n_all = (size_t)G * per_table, n_padded = (n_all + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
         if (hybrid) {
             /* the exact form reads no d2 table: the exponents straight from the node
-               coordinates (coord: node - x, slot after slot, as the tables), the same
-               operations as above, a loop over all slots per point; the first d2
-               table holds each position's slot component of e (a missing slot's one
-               node: 0 - 0, as above) */
-            double *restrict e_at = d2_all;
-            for (int s = 0; s < 3; ++s)
-                for (cg_index k = 0; k < count[s]; ++k) e_at[cslot[s] - coord + k] = es[s];
+               coordinates (node - x), the same operations as above, laid out for the
+               rows' loops: slots 0 and 1 point-fastest (a plane's and a row's G weights
+               contiguous), slot 2 point by point (a missing slot's one node: 0 - 0 = 0,
+               as above) */
+            for (int s = 0; s < 2; ++s) {
+                double *restrict dst = ex_all + (s == 0 ? 0 : (size_t)G * n0);
+                const double e_s = es[s];
+                for (cg_index k = 0; k < count[s]; ++k)
+                    for (int g = 0; g < G; ++g) {
+                        const double q = cslot[s][k] - gx[g] * e_s;
+                        dst[k * G + g] = -(q * q) * inv2w2;
+                    }
+            }
             for (int g = 0; g < G; ++g) {
-                const double gg = gx[g];
-                double *restrict dst = ex_all + (size_t)g * per_table;
-                for (size_t m = 0; m < per_table; ++m) {
-                    const double q = coord[m] - gg * e_at[m];
-                    dst[m] = -(q * q) * inv2w2;
+                const double shift = gx[g] * es[2];
+                double *restrict dst = ex_all + (size_t)G * (n0 + n1) + (size_t)g * n2;
+                for (cg_index k = 0; k < n2; ++k) {
+                    const double q = cslot[2][k] - shift;
+                    dst[k] = -(q * q) * inv2w2;
                 }
             }
         } else {
@@ -902,18 +908,16 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         return 1;
     }
     /* the exact form (hybrid) */
-    const double *gz_of[CG_MAX_LINE_POINTS];
-    for (int g = 0; g < G; ++g) {
-        gz_of[g] = ex[g][2];
-        for (cg_index j = 0; j < n1; ++j) gy_t[j * G + g] = ex[g][1][j];
-    }
+    /* the rule's weights as laid out above: gx_t[i G + g], gy_t[j G + g], gz_of[g][k] */
+    const double *gx_t = ex_all, *gy_t = ex_all + (size_t)G * n0, *gz_of[CG_MAX_LINE_POINTS];
+    for (int g = 0; g < G; ++g) gz_of[g] = ex_all + (size_t)G * (n0 + n1) + (size_t)g * n2;
     const double amp = scale * kn->prefactor, L = sqrt(L2);
     /* q . e of the nodes the rule keeps: at most FAR_BEYOND_END w beyond either end */
     const double far_lo = -FAR_BEYOND_END * w * L, far_hi = L2 + FAR_BEYOND_END * w * L;
     const int far_check = R - L > FAR_BEYOND_END * w; /* else no node with both ends inside is that far */
     for (cg_index i = 0; i < n0; ++i) {
         double ci[CG_MAX_LINE_POINTS]; /* the rule's weights times the plane's */
-        for (int g = 0; g < G; ++g) ci[g] = gw[g] * ex[g][0][i];
+        for (int g = 0; g < G; ++g) ci[g] = gw[g] * gx_t[i * G + g];
         /* rows whose line misses the capsule carry nothing: the plane's rows that
            meet it, as bits (n1 <= 64), VW rows at a time */
         uint64_t plane_bits = ~UINT64_C(0);
