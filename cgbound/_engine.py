@@ -143,6 +143,12 @@ def wide_vectors():
     return _core.wide_vectors()
 
 
+def gaussian_erfcx(x):
+    """Tests: erfcx(x) = exp(x^2) erfc(x) for finite x >= 0 (a 1-D array), as the exact Gaussian line integrals
+    evaluate it."""
+    return _core.gaussian_erfcx(x)
+
+
 def ring_kernel(kernel):
     """The core's description of ``kernel`` as the full 3-D kernel (the ring entry points)."""
     return CoreKernel(kernel.kind, float(kernel.width if kernel.width is not None else kernel.radius),

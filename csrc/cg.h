@@ -85,6 +85,11 @@ int cg_default_threads(void);
 int cg_set_wide_vectors(int allow);
 int cg_wide_vectors(void);
 
+/* out[i] = erfcx(x[i]) = exp(x^2) erfc(x) for x[i] >= 0, as the exact
+   Gaussian line integrals evaluate it (the AVX2/baseline build; the AVX-512
+   one gives the same bits); for tests. out may be x. */
+void cg_gaussian_erfcx(const double *x, double *out, cg_index n);
+
 typedef enum cg_kernel_type {
     CG_KERNEL_GAUSSIAN = 0,
     CG_KERNEL_LUCY = 1,

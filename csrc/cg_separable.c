@@ -85,6 +85,14 @@ typedef v4d vwd;
 #define VW 4
 #endif
 
+/* x in every lane (an initializer: 0.0 + x, the other spelling, costs an
+   addition where x may be -0.0) */
+#if VW == 8
+#define SPLAT(x) ((vwd){(x), (x), (x), (x), (x), (x), (x), (x)})
+#else
+#define SPLAT(x) ((vwd){(x), (x), (x), (x)})
+#endif
+
 /* o[k * nv + c] += (scale * w[k]) * v[c] for k < nk, c < nv (1.0 * w[k] is
    w[k]): a rank-one update of nk contiguous nodes of nv values each */
 INLINE void block_add_n(double *restrict o, double scale, const double *restrict w, cg_index nk,
@@ -169,8 +177,35 @@ static const double ERFCX_CHEB[ERFCX_TERMS] = {
     -3.1704898956330886e-17, -8.193570309884333e-18, 1.2459819733129574e-18,
 };
 
+/* erfcx on [0, ERFCX_SHORT_MAX], where the cut nodes' arguments lie for
+   cutoffs up to 4 sqrt(2) w (|t| / (sqrt(2) w) with |t| at most the cutoff):
+   a Chebyshev series in v = (3x - 4) / (x + 4), which maps [0, 4] to [-1, 1]
+   (the half of the series above's y range that these x reach; 19 terms,
+   fitted in 40-digit arithmetic, the next below 7e-20; one division instead
+   of two). Within 3.5 ulp of the exact value on [0, 4] (the series above: 3.4
+   there; both checked against mpmath in tests/test_gauss_exact_fast.py). */
+#define ERFCX_SHORT_MAX 4.0
+#define ERFCX_SHORT_TERMS 19
+static const double ERFCX_SHORT_CHEB[ERFCX_SHORT_TERMS] = {
+    0.4558856333139209,     -0.4079050615574189,     0.10862689023855111,    -0.023057900796451525,
+    0.003931427060498061,   -0.0005332297234880755,  5.562820647003941e-05,  -4.085096451392684e-06,
+    1.5104177078146664e-07, 5.963346571331681e-09,   -1.0531881840670427e-09, 2.3253332596099296e-11,
+    4.528134170145485e-12,  -2.611068402078748e-13,  -2.0272500136325893e-14, 1.815116950550159e-15,
+    1.1428033970938386e-16, -1.1445685677338689e-17, -8.348437223169942e-19,
+};
+
 INLINE double erfcx_one(double x)
 {
+    if (!(x > ERFCX_SHORT_MAX)) {
+        const double v = (3.0 * x - 4.0) / (x + 4.0), v2 = v + v;
+        double b1 = 0.0, b2 = 0.0;
+        for (int j = ERFCX_SHORT_TERMS - 1; j >= 1; --j) {
+            const double bj = (v2 * b1 - b2) + ERFCX_SHORT_CHEB[j];
+            b2 = b1;
+            b1 = bj;
+        }
+        return (v * b1 - b2) + ERFCX_SHORT_CHEB[0];
+    }
     const double y = (x - 4.0) / (x + 4.0), y2 = y + y;
     double b1 = 0.0, b2 = 0.0;
     for (int j = ERFCX_TERMS - 1; j >= 1; --j) {
@@ -181,28 +216,68 @@ INLINE double erfcx_one(double x)
     return ((y * b1 - b2) + ERFCX_CHEB[0]) / (1.0 + 2.0 * x);
 }
 
-/* x[i] = erfcx(x[i]) for n a multiple of VW: VW lanes at a time in vector
-   registers (the same operations in the same order as erfcx_one) */
-INLINE void erfcx_in_place(double *restrict x, cg_index n)
-{
 #ifdef HAVE_V4D
-    const vwd one = (vwd){0.0} + 1.0, four = (vwd){0.0} + 4.0;
-    for (cg_index i = 0; i < n; i += VW) {
-        vwd xv;
-        memcpy(&xv, x + i, sizeof xv);
-        const vwd y = (xv - four) / (xv + four), y2 = y + y;
-        vwd b1 = {0.0}, b2 = {0.0};
+typedef int64_t vwl __attribute__((vector_size(8 * VW)));
+
+/* erfcx_one's short series, VW lanes */
+INLINE vwd erfcx_short(vwd x)
+{
+    const vwd v = (SPLAT(3.0) * x - SPLAT(4.0)) / (x + SPLAT(4.0)), v2 = v + v;
+    vwd b1 = {0.0}, b2 = {0.0};
 #pragma GCC unroll 32
-        for (int j = ERFCX_TERMS - 1; j >= 1; --j) {
-            const vwd bj = (y2 * b1 - b2) + ERFCX_CHEB[j];
-            b2 = b1;
-            b1 = bj;
+    for (int j = ERFCX_SHORT_TERMS - 1; j >= 1; --j) {
+        const vwd bj = (v2 * b1 - b2) + ERFCX_SHORT_CHEB[j];
+        b2 = b1;
+        b1 = bj;
+    }
+    return (v * b1 - b2) + ERFCX_SHORT_CHEB[0];
+}
+
+/* erfcx_one's long series, VW lanes */
+INLINE vwd erfcx_long(vwd x)
+{
+    const vwd y = (x - SPLAT(4.0)) / (x + SPLAT(4.0)), y2 = y + y;
+    vwd b1 = {0.0}, b2 = {0.0};
+#pragma GCC unroll 32
+    for (int j = ERFCX_TERMS - 1; j >= 1; --j) {
+        const vwd bj = (y2 * b1 - b2) + ERFCX_CHEB[j];
+        b2 = b1;
+        b1 = bj;
+    }
+    return ((y * b1 - b2) + ERFCX_CHEB[0]) / (SPLAT(1.0) + (x + x));
+}
+#endif
+
+/* x[i] = erfcx(x[i]) and z[i] = erfcx(z[i]) for n a multiple of VW, as
+   erfcx_one: VW lanes of each at a time in vector registers (the two short
+   series side by side, their recurrences interleaved: each step waits for the
+   previous one's result); the long series only where some argument of the
+   batch exceeds ERFCX_SHORT_MAX (cutoffs beyond 4 sqrt(2) w), lane by lane */
+INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n)
+{
+    int beyond = 0;
+    for (cg_index i = 0; i < n; ++i) beyond |= (x[i] > ERFCX_SHORT_MAX) | (z[i] > ERFCX_SHORT_MAX);
+#ifdef HAVE_V4D
+    const vwd limit = SPLAT(ERFCX_SHORT_MAX);
+    for (cg_index i = 0; i < n; i += VW) {
+        vwd xv, zv;
+        memcpy(&xv, x + i, sizeof xv);
+        memcpy(&zv, z + i, sizeof zv);
+        vwd rx = erfcx_short(xv), rz = erfcx_short(zv);
+        if (beyond) {
+            const vwl fx = xv > limit, fz = zv > limit;
+            rx = (vwd)(((vwl)erfcx_long(xv) & fx) | ((vwl)rx & ~fx));
+            rz = (vwd)(((vwl)erfcx_long(zv) & fz) | ((vwl)rz & ~fz));
         }
-        const vwd r = ((y * b1 - b2) + ERFCX_CHEB[0]) / (one + (xv + xv));
-        memcpy(x + i, &r, sizeof r);
+        memcpy(x + i, &rx, sizeof rx);
+        memcpy(z + i, &rz, sizeof rz);
     }
 #else
-    for (cg_index i = 0; i < n; ++i) x[i] = erfcx_one(x[i]);
+    (void)beyond;
+    for (cg_index i = 0; i < n; ++i) {
+        x[i] = erfcx_one(x[i]);
+        z[i] = erfcx_one(z[i]);
+    }
 #endif
 }
 
@@ -336,8 +411,7 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
     cg_exp_in_place(e0, n_padded);
     cg_exp_in_place(e1, n_padded);
     cg_exp_in_place(ea, n_padded);
-    erfcx_in_place(c0, n_padded);
-    erfcx_in_place(c1, n_padded);
+    erfcx_in_place2(c0, c1, n_padded);
     double *restrict value = b->value;
     cut_values(n_padded, b->t0, b->span, e0, e1, ea, c0, c1, factor, value, is_short);
     const double *a2s = b->a2, *t0s = b->t0, *spans = b->span;
@@ -365,13 +439,20 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
             value[i] = (amp * sum) * spans[i];
         }
     }
-    for (int i = 0; i < n; ++i) {
-        const double v = value[i];
-        if (v == 0.0) continue; /* the segment misses this node's ball */
-        if (jb->mode == MODE_VALUE)
-            block_add(out + b->node[i] * jb->out_width, 1.0, &v, 1, jb->values + obj * jb->n_values, jb->n_values);
-        else
-            cg_accumulate(jb, out, obj, b->node[i], v, NULL);
+    /* (value 0: the segment misses this node's ball) */
+    if (jb->mode == MODE_VALUE) {
+        const double *restrict vals = jb->values + obj * jb->n_values;
+        const cg_index width = jb->out_width;
+        if (jb->n_values == 9) { /* 3D stress tensors: block_add's case 9, without its switch per node */
+            for (int i = 0; i < n; ++i)
+                if (value[i] != 0.0) block_add_n(out + b->node[i] * width, 1.0, &value[i], 1, vals, 9);
+        } else {
+            for (int i = 0; i < n; ++i)
+                if (value[i] != 0.0) block_add(out + b->node[i] * width, 1.0, &value[i], 1, vals, jb->n_values);
+        }
+    } else {
+        for (int i = 0; i < n; ++i)
+            if (value[i] != 0.0) cg_accumulate(jb, out, obj, b->node[i], value[i], NULL);
     }
 }
 
@@ -472,23 +553,24 @@ INLINE void rows_of_one_point(const job *jb, double *out, cg_index obj, cg_index
    rows are summed 8 at a time */
 #define ROW_PAD 8
 
-/* row[k] = sum_g (ci[g] gy_g[j]) gz_g[k] for k in [a, b), summed in rule order
-   as a scalar loop would, VW nodes at a time: writes up to 7 doubles past b
-   (ROW_PAD) and reads as far past the tables (in scratch memory, followed by
-   more tables or the row; the values there are not used) */
-INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, const double *ci,
-                       double *const (*ex)[3], cg_index j)
+/* row[k] = sum_g (ci[g] gy_j[g]) gz[g][k] for k in [a, b), summed in rule order
+   as a scalar loop would, VW nodes at a time (gy_j: the row's y weights of the
+   G points, contiguous): writes up to 7 doubles past b (ROW_PAD) and reads as
+   far past the tables (in scratch memory, followed by more tables or the row;
+   the values there are not used) */
+INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, const double *restrict ci,
+                       const double *restrict gy_j, const double *const *gz)
 {
     double cij[CG_MAX_LINE_POINTS];
-    for (int g = 0; g < G; ++g) cij[g] = ci[g] * ex[g][1][j];
+    for (int g = 0; g < G; ++g) cij[g] = ci[g] * gy_j[g];
     for (cg_index k = a; k < b; k += VW) {
 #ifdef HAVE_V4D
         vwd acc = {0.0};
         for (int g = 0; g < G; ++g) {
-            const vwd c = (vwd){0.0} + cij[g]; /* broadcast (0 + c is c) */
-            vwd gz;
-            memcpy(&gz, ex[g][2] + k, sizeof gz);
-            acc += c * gz;
+            const vwd c = SPLAT(cij[g]);
+            vwd gzk;
+            memcpy(&gzk, gz[g] + k, sizeof gzk);
+            acc += c * gzk;
         }
         memcpy(row + k, &acc, sizeof acc);
 #else
@@ -496,7 +578,7 @@ INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, cons
         for (cg_index m = k; m < end; ++m) row[m] = 0.0;
         for (int g = 0; g < G; ++g) {
             const double c = cij[g];
-            for (cg_index m = k; m < end; ++m) row[m] += c * ex[g][2][m];
+            for (cg_index m = k; m < end; ++m) row[m] += c * gz[g][m];
         }
 #endif
     }
@@ -510,8 +592,6 @@ INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, cons
    doubles past the z tables and writes as far past the row (ROW_PAD; the
    values there are not used). */
 #ifdef HAVE_V4D
-typedef int64_t vwl __attribute__((vector_size(8 * VW)));
-
 /* lane l of a mask (all ones or zero) as bit l: a horizontal OR in halving
    steps (lane extracts one by one cost more than the rest of a row); in the
    AVX-512 build one test into a mask register */
@@ -558,7 +638,7 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
         dz_min[g] = d2[g][2][argmin(d2[g][2], n2)];
     }
     const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
-    const vwd R2w = (vwd){0.0} + R2;
+    const vwd R2w = SPLAT(R2);
     for (cg_index i = 0; i < n0; ++i) {
         /* per point: its rows [j0, j1) in this plane (as in rows_of_one_point) */
         cg_index j0[CG_MAX_LINE_POINTS], j1[CG_MAX_LINE_POINTS];
@@ -585,7 +665,7 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
                 for (int g = 0; g < G; ++g) {
                     if (j < j0[g] || j >= j1[g]) continue;
                     const double s01 = si[g] + d2[g][1][j], c = ci[g] * ex[g][1][j];
-                    const vwd sw = (vwd){0.0} + s01, cw = (vwd){0.0} + c; /* broadcasts (0 + x is x) */
+                    const vwd sw = SPLAT(s01), cw = SPLAT(c);
                     vwd dz, gz;
                     memcpy(&dz, d2[g][2] + kw, sizeof dz);
                     memcpy(&gz, ex[g][2] + kw, sizeof gz);
@@ -692,10 +772,12 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     }
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
-    /* tables d2, g per rule point; end-point tables (hybrid); node coordinates; a row */
+    /* tables d2, g per rule point; end-point tables, a cut batch and a row's
+       distances (hybrid); node coordinates; a row */
     /* the row has ROW_PAD more doubles: the exact form's rows are summed 8 at a time */
-    const size_t need = (size_t)G * per_point + EXP_PAD + (hybrid ? per_point + CUT_BATCH_DOUBLES + n2 : 0) +
-                        (size_t)(n0 + n1 + n2) + 2 * ((size_t)n2 + ROW_PAD);
+    const size_t hybrid_need = hybrid ? per_point + CUT_BATCH_DOUBLES + n2 : 0;
+    const size_t need = (size_t)G * per_point + EXP_PAD + hybrid_need + (size_t)(n0 + n1 + n2) +
+                        2 * ((size_t)n2 + ROW_PAD);
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *coord = buf + (size_t)G * per_point + EXP_PAD + (hybrid ? per_point : 0); /* node - x, per slot */
@@ -720,7 +802,8 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         }
     }
     /* per rule point g and slot s: d2[g][s][k] = (node - point)^2 and
-       ex[g][s][k] = exp(-d2 / 2w^2); all exponentials in one vectorised call */
+       ex[g][s][k] = exp(-d2 / 2w^2) (the exact form: its own layout, below); all
+       exponentials in one vectorised call */
     double *d2[CG_MAX_LINE_POINTS][3], *ex[CG_MAX_LINE_POINTS][3];
     const size_t per_table = (size_t)(n0 + n1 + n2);
     double *d2_all = buf, *ex_all = buf + (size_t)G * per_table;
@@ -730,6 +813,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
             d2[g][s] = p;
             ex[g][s] = ex_all + (p - d2_all);
             p += count[s];
+            if (hybrid) continue; /* below, in one loop per point */
             double *restrict dst = d2[g][s];
             const double *restrict node = cslot[s];
             const double shift = jb->is_segment ? gx[g] * es[s] : 0.0; /* the rule point - x */
@@ -755,7 +839,32 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     {
         /* whole vectors only (EXP_PAD): a scalar remainder would cost more than the rest */
         const size_t n_all = (size_t)G * per_table, n_padded = (n_all + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
-        for (size_t m = 0; m < n_all; ++m) ex_all[m] = -d2_all[m] * inv2w2;
+        if (hybrid) {
+            /* the exact form reads no d2 table: the exponents straight from the node
+               coordinates (node - x), the same operations as above, laid out for the
+               rows' loops: slots 0 and 1 point-fastest (a plane's and a row's G weights
+               contiguous), slot 2 point by point (a missing slot's one node: 0 - 0 = 0,
+               as above) */
+            for (int s = 0; s < 2; ++s) {
+                double *restrict dst = ex_all + (s == 0 ? 0 : (size_t)G * n0);
+                const double e_s = es[s];
+                for (cg_index k = 0; k < count[s]; ++k)
+                    for (int g = 0; g < G; ++g) {
+                        const double q = cslot[s][k] - gx[g] * e_s;
+                        dst[k * G + g] = -(q * q) * inv2w2;
+                    }
+            }
+            for (int g = 0; g < G; ++g) {
+                const double shift = gx[g] * es[2];
+                double *restrict dst = ex_all + (size_t)G * (n0 + n1) + (size_t)g * n2;
+                for (cg_index k = 0; k < n2; ++k) {
+                    const double q = cslot[2][k] - shift;
+                    dst[k] = -(q * q) * inv2w2;
+                }
+            }
+        } else {
+            for (size_t m = 0; m < n_all; ++m) ex_all[m] = -d2_all[m] * inv2w2;
+        }
         for (size_t m = n_all; m < n_all + EXP_PAD; ++m) ex_all[m] = 0.0; /* read past by rows_of_rule */
         cg_exp_in_place(ex_all, (cg_index)n_padded);
     }
@@ -799,21 +908,63 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         return 1;
     }
     /* the exact form (hybrid) */
+    /* the rule's weights as laid out above: gx_t[i G + g], gy_t[j G + g], gz_of[g][k] */
+    const double *gx_t = ex_all, *gy_t = ex_all + (size_t)G * n0, *gz_of[CG_MAX_LINE_POINTS];
+    for (int g = 0; g < G; ++g) gz_of[g] = ex_all + (size_t)G * (n0 + n1) + (size_t)g * n2;
     const double amp = scale * kn->prefactor, L = sqrt(L2);
     /* q . e of the nodes the rule keeps: at most FAR_BEYOND_END w beyond either end */
     const double far_lo = -FAR_BEYOND_END * w * L, far_hi = L2 + FAR_BEYOND_END * w * L;
     const int far_check = R - L > FAR_BEYOND_END * w; /* else no node with both ends inside is that far */
     for (cg_index i = 0; i < n0; ++i) {
         double ci[CG_MAX_LINE_POINTS]; /* the rule's weights times the plane's */
-        for (int g = 0; g < G; ++g) ci[g] = gw[g] * ex[g][0][i];
+        for (int g = 0; g < G; ++g) ci[g] = gw[g] * gx_t[i * G + g];
+        /* rows whose line misses the capsule carry nothing: the plane's rows that
+           meet it, as bits (n1 <= 64), VW rows at a time */
+        uint64_t plane_bits = ~UINT64_C(0);
+#ifdef HAVE_V4D
+        if (n1 <= 64) {
+            /* segment_distance2's operations on (x, y[j], 0) and (ex, ey, 0), less
+               the terms that are +0 (they change no sum or product here) */
+            const double xq = cslot[0][i], xe = xq * e2d[0];
+            const vwd xv = SPLAT(xq), xev = SPLAT(xe), exv = SPLAT(e2d[0]), eyv = SPLAT(e2d[1]);
+            const vwd il = SPLAT(inv_L2_2d), Rm = SPLAT(R2_margin), zero = {0.0}, one = SPLAT(1.0);
+            const vwl has_length = SPLAT(inv_L2_2d) > zero;
+            plane_bits = 0;
+            for (cg_index jw = 0; jw < n1; jw += VW) {
+                vwd y; /* reads up to VW - 1 past the plane's y (into cslot[2]; those bits are dropped) */
+                memcpy(&y, cslot[1] + jw, sizeof y);
+                vwd t = (xev + y * eyv) * il;
+                t = (vwd)((vwl)t & has_length);
+                const vwl below = (vwl)(t < zero);
+                t = (vwd)((vwl)t & ~below);
+                const vwl above = (vwl)(t > one);
+                t = (vwd)(((vwl)t & ~above) | ((vwl)one & above));
+                const vwd d0 = xv - t * exv, d1 = y - t * eyv;
+                plane_bits |= mask_bits((vwl)(d0 * d0 + d1 * d1 < Rm)) << jw;
+            }
+            plane_bits &= n1 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n1) - 1;
+        }
+#endif
         for (cg_index j = 0; j < n1; ++j) {
+#ifdef HAVE_V4D
+            if (n1 <= 64) {
+                /* on to the next row that meets the capsule */
+                const uint64_t rest = plane_bits >> j;
+                if (!rest) break;
+                j += (cg_index)__builtin_ctzll(rest);
+            }
+#endif
             /* the nodes of the row that receive anything: row[k0..k1) */
             cg_index k0 = n2, k1 = 0;
             const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + first[2] * stride[2];
             {
-                /* rows whose line misses the capsule carry nothing */
-                const double q2d[3] = {cslot[0][i], cslot[1][j], 0.0};
-                if (!(segment_distance2(q2d, e2d, inv_L2_2d) < R2_margin)) continue;
+#ifdef HAVE_V4D
+                if (n1 > 64)
+#endif
+                {
+                    const double q2d[3] = {cslot[0][i], cslot[1][j], 0.0};
+                    if (!(segment_distance2(q2d, e2d, inv_L2_2d) < R2_margin)) continue;
+                }
                 /* the rule is exact where both ends, hence the whole segment, lie inside
                    the ball (an interval: two balls meet the row in intervals) */
                 const double a01 = endA[0][i] + endA[1][j], b01 = endB[0][i] + endB[1][j];
@@ -823,7 +974,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                     /* the same tests as the walks and loops below, VW nodes at a time, as bits */
                     const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
                     uint64_t in_bits = 0, cand_bits = 0;
-                    const vwd a01v = (vwd){0.0} + a01, b01v = (vwd){0.0} + b01, R2v = (vwd){0.0} + R2;
+                    const vwd a01v = SPLAT(a01), b01v = SPLAT(b01), R2v = SPLAT(R2);
                     for (cg_index kw = 0; kw < n2; kw += VW) {
                         vwd zav, zbv;
                         memcpy(&zav, za + kw, sizeof zav);
@@ -834,8 +985,8 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                     if (far_check && in_bits) {
                         /* of the rule's nodes, those at most FAR_BEYOND_END w beyond the ends */
                         const double pij = cslot[0][i] * es[0] + cslot[1][j] * es[1];
-                        const vwd pv = (vwd){0.0} + pij, e2v = (vwd){0.0} + es[2];
-                        const vwd lov = (vwd){0.0} + far_lo, hiv = (vwd){0.0} + far_hi;
+                        const vwd pv = SPLAT(pij), e2v = SPLAT(es[2]);
+                        const vwd lov = SPLAT(far_lo), hiv = SPLAT(far_hi);
                         uint64_t near_bits = 0;
                         for (cg_index kw = 0; kw < n2; kw += VW) {
                             vwd zc;
@@ -861,16 +1012,17 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                     if (in_bits) {
                         k0 = __builtin_ctzll(in_bits);
                         k1 = 64 - __builtin_clzll(in_bits);
-                        inside_row(row, k0, k1, G, ci, (double *const(*)[3])ex, j);
+                        inside_row(row, k0, k1, G, ci, gy_t + j * G, gz_of);
                     }
                     /* the capsule's nodes (row_distance2's operations) outside the rule's interval */
+                    const double xq = cslot[0][i], yq = cslot[1][j];
                     {
                         const double exs = es[0], eys = es[1], ezs = es[2];
-                        const double xq = cslot[0][i], yq = cslot[1][j], pxy = xq * exs + yq * eys;
-                        const vwd pxyv = (vwd){0.0} + pxy, ezv = (vwd){0.0} + ezs, il = (vwd){0.0} + inv_L2;
-                        const vwd zero = {0.0}, one = (vwd){0.0} + 1.0, Rm = (vwd){0.0} + R2_margin;
-                        const vwd xv = (vwd){0.0} + xq, yv = (vwd){0.0} + yq;
-                        const vwd exv = (vwd){0.0} + exs, eyv = (vwd){0.0} + eys;
+                        const double pxy = xq * exs + yq * eys;
+                        const vwd pxyv = SPLAT(pxy), ezv = SPLAT(ezs), il = SPLAT(inv_L2);
+                        const vwd zero = {0.0}, one = SPLAT(1.0), Rm = SPLAT(R2_margin);
+                        const vwd xv = SPLAT(xq), yv = SPLAT(yq);
+                        const vwd exv = SPLAT(exs), eyv = SPLAT(eys);
                         for (cg_index kw = 0; kw < n2; kw += VW) {
                             vwd z;
                             memcpy(&z, cslot[2] + kw, sizeof z);
@@ -890,8 +1042,8 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                         cand_bits &= cand_bits - 1;
                         if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
                         const int m = cuts.n++;
-                        cuts.q[0][m] = cslot[0][i];
-                        cuts.q[1][m] = cslot[1][j];
+                        cuts.q[0][m] = xq;
+                        cuts.q[1][m] = yq;
                         cuts.q[2][m] = cslot[2][k];
                         cuts.node[m] = base + k * stride[2];
                     }
@@ -916,7 +1068,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                 if (ia < ib) {
                     k0 = ia;
                     k1 = ib;
-                    inside_row(row, ia, ib, G, ci, (double *const(*)[3])ex, j);
+                    inside_row(row, ia, ib, G, ci, gy_t + j * G, gz_of);
                 }
                 /* elsewhere, the part inside the ball, at the nodes near enough to the
                    segment (the capsule: the exact form decides near its surface) */
@@ -979,4 +1131,17 @@ int cg_separable_wide_available(void)
 }
 
 int cg_wide_vectors(void) { return cg_separable_wide_available(); }
+
+void cg_gaussian_erfcx(const double *x, double *out, cg_index n)
+{
+    /* through the batches' routine, VW lanes at a time (a padded copy) */
+    double a[CUT_BATCH], b[CUT_BATCH];
+    for (cg_index i0 = 0; i0 < n; i0 += CUT_BATCH) {
+        const cg_index m = n - i0 < CUT_BATCH ? n - i0 : CUT_BATCH;
+        const cg_index padded = (m + VW - 1) / VW * VW;
+        for (cg_index i = 0; i < padded; ++i) a[i] = b[i] = i < m ? x[i0 + i] : 0.0;
+        erfcx_in_place2(a, b, padded);
+        for (cg_index i = 0; i < m; ++i) out[i0 + i] = a[i];
+    }
+}
 #endif
