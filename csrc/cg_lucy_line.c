@@ -121,14 +121,20 @@ INLINE double lucy_value_frame(double u, double t_far, double a2, double L, doub
 {
     /* (the flags are written as comparisons of doubles where used: int
        flags mixed with them keep GCC 12 from vectorising the loop) */
-    const double b2 = R * R - a2;
+    const double R2 = R * R, b2 = R2 - a2;
     const double s2 = a2 * inv * inv;
-    /* the ends, clipped to the support (u > b, t_far < -b), reflected below so that t0 >= |t1| */
-    const double b = sqrt(b2 > 0.0 ? b2 : 0.0);
-    const double hi_p = u < b ? u : b, lo_p = t_far > -b ? t_far : -b;
+    /* the ends, clipped to the support (u > b, t_far < -b: the end outside
+       the ball), reflected below so that t0 >= |t1|. One square root per
+       end, independent of each other: r at an end inside the ball, b at a
+       clipped one (where r = 1) */
+    const double ru2 = a2 + u * u, rt2 = a2 + t_far * t_far;
+    const int clip_hi = u > 0.0 && ru2 > R2, clip_lo = t_far < 0.0 && rt2 > R2;
+    const double b2_ = b2 > 0.0 ? b2 : 0.0;
+    const double root_hi = sqrt(clip_hi ? b2_ : ru2), root_lo = sqrt(clip_lo ? b2_ : rt2);
+    const double hi_p = clip_hi ? root_hi : u, lo_p = clip_lo ? -root_lo : t_far;
     const double hi = hi_p * inv, lo = lo_p * inv;
-    const double r_hi = sqrt(s2 + hi * hi), r_lo = sqrt(s2 + lo * lo);
-    const double d = !(u <= b) || !(t_far >= -b) ? (hi_p - lo_p) * inv : L * inv;
+    const double r_hi = clip_hi ? 1.0 : root_hi * inv, r_lo = clip_lo ? 1.0 : root_lo * inv;
+    const double d = clip_hi || clip_lo ? (hi_p - lo_p) * inv : L * inv;
     const int flip = hi <= 0.0;
     const double t0 = flip ? -lo : hi, t1 = flip ? -hi : lo;
     const double r0 = flip ? r_lo : r_hi, r1 = flip ? r_hi : r_lo;
