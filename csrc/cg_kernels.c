@@ -160,6 +160,16 @@ static double lucy_marginal2(double z)
     return om2 * om2 * (0.1 + z * (0.4 + 0.5 * z));
 }
 
+/* cg_kernel_value of Lucy's (lucy != 0) or Heaviside's kernel averaged over
+   two axes, of prefactor C and radius R: its one place, inlined where the
+   kernel's type and constants are taken once for many values */
+static inline double marginal2_value(int lucy, double C, double R, double rho2)
+{
+    if (!(rho2 < R * R)) return 0.0;
+    if (lucy) return C * lucy_marginal2(sqrt(rho2) / R);
+    return C * M_PI * (R * R - rho2);
+}
+
 /* ------------------------------------------------------------------ */
 /* point values and gradients                                           */
 
@@ -176,12 +186,12 @@ double cg_kernel_value(const cg_kernel *k, double rho2)
         const double x = sqrt(rho2) / R;
         if (n_avg == 0) return k->prefactor * lucy_profile(x);
         if (n_avg == 1) return k->prefactor * lucy_marginal1(x);
-        return k->prefactor * lucy_marginal2(x);
+        return marginal2_value(1, k->prefactor, R, rho2);
     }
     default: { /* Heaviside */
         if (n_avg == 0) return k->prefactor;
         if (n_avg == 1) return k->prefactor * 2.0 * sqrt(R * R - rho2);
-        return k->prefactor * M_PI * (R * R - rho2);
+        return marginal2_value(0, k->prefactor, R, rho2);
     }
     }
 }
@@ -532,12 +542,15 @@ static double polynomial_line_1d(const cg_kernel *k, const segment_frame *f, dou
     if (t1 >= 0.0) { lo[0] = t1; len[0] = span; }
     else if (t0 <= 0.0) { lo[0] = -t0; len[0] = span; }
     else { lo[0] = lo[1] = 0.0; len[0] = t0; len[1] = -t1; pieces = 2; }
+    /* (cg_kernel_value's arithmetic, without its dispatch per value) */
+    const int lucy = k->type == CG_KERNEL_LUCY;
+    const double C = k->prefactor, R = k->radius;
     double sum = 0.0;
     for (int i = 0; i < pieces; ++i) {
         const double half = 0.5 * len[i], mid = lo[i] + half;
         for (int j = 0; j < 4; ++j) {
             const double ta = mid + half * GL8_X[j], tb = mid - half * GL8_X[j];
-            sum += GL8_W[j] * half * (cg_kernel_value(k, ta * ta) + cg_kernel_value(k, tb * tb));
+            sum += GL8_W[j] * half * (marginal2_value(lucy, C, R, ta * ta) + marginal2_value(lucy, C, R, tb * tb));
         }
     }
     return sum / f->L;

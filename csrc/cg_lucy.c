@@ -224,7 +224,8 @@ static void lucy_add_row(lucy_visit *v, double f0, double f1, cg_index base)
 
 /* every node of the box first..last (2-D or 3-D), no narrowing: rows of
    nodes gathered a run at a time (runs of a few nodes: scalar code beats
-   the vectoriser's set-up) */
+   the vectoriser's set-up); a box that fits in the batch (the common case)
+   without checking the batch's room, its row offsets formed once */
 #if defined(__GNUC__) && !defined(__clang__)
 __attribute__((optimize("no-tree-vectorize")))
 #endif
@@ -233,34 +234,51 @@ static void lucy_add_box(lucy_visit *v, const cg_target *t, const double *x, con
 {
     const int row = v->row;
     const cg_index n0 = row == 2 ? last[0] - first[0] + 1 : 1;
-    const cg_index k0 = first[row], k1 = last[row];
+    const cg_index k0 = first[row], k1 = last[row], nk = k1 - k0 + 1;
     const cg_index ja = first[row - 1], jb_ = last[row - 1], sj = stride[row - 1];
     const double *zc = v->zc, xr = v->x_row, *yc = t->coords[row - 1], xj = x[row - 1];
-    double *restrict q0 = v->qb[0], *restrict q1 = v->qb[1], *restrict q2 = v->qb[2];
-    cg_index *restrict node = v->node;
+    /* 3-D: (f0, fj, z) into (q0, q1, q2); 2-D: (fj, z, 0) */
+    double *qa = v->qb[0], *qj = v->qb[row - 1], *qz = v->qb[row], *q2 = v->qb[2];
+    cg_index *node = v->node;
     int c = v->count;
+    const int fits = n0 * (jb_ - ja + 1) * nk <= LUCY_BATCH - c;
+    double zq[LUCY_BATCH];
+    if (fits)
+        for (cg_index m = 0; m < nk; ++m) zq[m] = zc[k0 + m] - xr;
     for (cg_index i = 0; i < n0; ++i) {
         const cg_index ii = row == 2 ? first[0] + i : 0;
         const double f0 = row == 2 ? t->coords[0][ii] - x[0] : 0.0;
-        cg_index base = (row == 2 ? ii * stride[0] : 0) + ja * sj;
+        cg_index base = (row == 2 ? ii * stride[0] : 0) + ja * sj + k0;
         for (cg_index j = ja; j <= jb_; ++j, base += sj) {
             const double fj = yc[j] - xj;
-            for (cg_index k = k0; k <= k1; ++k) {
+            if (fits) {
+                double *pa = qa + c, *pj = qj + c, *pz = qz + c, *p2 = q2 + c;
+                cg_index *pn = node + c;
+                for (cg_index m = 0; m < nk; ++m) {
+                    if (row == 2) pa[m] = f0; else p2[m] = 0.0;
+                    pj[m] = fj;
+                    pz[m] = zq[m];
+                    pn[m] = base + m;
+                }
+                c += (int)nk;
+                continue;
+            }
+            for (cg_index k = 0; k < nk;) {
                 if (c == LUCY_BATCH) {
                     v->count = c;
                     lucy_values_flush(v);
                     c = 0;
                 }
-                if (row == 2) {
-                    q0[c] = f0;
-                    q1[c] = fj;
-                    q2[c] = zc[k] - xr;
-                } else {
-                    q0[c] = fj;
-                    q1[c] = zc[k] - xr;
-                    q2[c] = 0.0;
+                const cg_index room = LUCY_BATCH - c, left = nk - k;
+                const int run = (int)(left < room ? left : room);
+                for (int m = 0; m < run; ++m) {
+                    if (row == 2) qa[c + m] = f0; else q2[c + m] = 0.0;
+                    qj[c + m] = fj;
+                    qz[c + m] = zc[k0 + k + m] - xr;
+                    node[c + m] = base + k + m;
                 }
-                node[c++] = base + k;
+                c += run;
+                k += run;
             }
         }
     }

@@ -22,7 +22,8 @@
  * a ratio of positives (r0 >= r1 after the reflection), with t1 + r1 taken
  * as a^2 / (r1 - t1) when t1 < 0. Its factor a^4 makes the term vanish with
  * a, so for a^2 < 1e-200 R^2 (where a^4 underflows) it is left out.
- * The log1p is fdlibm's (musl's) in branch-free form: the same bits as a
+ * The log is fdlibm's (musl's) polynomial in branch-free form, taken from
+ * the ratio X = N/D without forming it (lucy_log_ratio): the same bits as a
  * scalar evaluation on every instruction set (ISO C: no FMA contraction).
  * What cancellation remains is that of W itself near the support's edge: an
  * absolute error of order eps C (the field's scale).
@@ -57,38 +58,47 @@ static inline double double_of(uint64_t u)
     return x;
 }
 
-/* log1p(X) for X >= 0 (finite; other X give garbage, which callers mask):
-   musl's log1p without its branches and with its two divisions merged into
-   one (two more roundings in s and c, whose terms are smaller than the
-   result by f^2 and an ulp), error about 1 ulp */
-INLINE double lucy_log1p(double X)
+/* log(1 + N/D) (D > 1e-290, N >= 0; other inputs give garbage, which
+   callers mask) and c/D' in one division, where D' is D scaled by a power
+   of two into [1, 2): with M = 2^-e D' and N' the same scaling of N,
+   1 + N/D = 2^k m/D' for m the mantissa of D' + N' in [1, 2) taken to within
+   a factor sqrt(2) of D' (k from the exponents), and
+   log(m/D') = 2 atanh(s), s = (m - D') / (m + D') (m - D' exact, |s| <= 0.172),
+   by fdlibm's (musl's) polynomial: log = 2s + s R(s^2). For N' < (sqrt(2) - 1) D'
+   (k = 0) s = N' / (2D' + N') instead, free of the rounding of D' + N' (X
+   small: a short segment). The one division 1/(c (m + D')) also gives
+   *c_over = 1/c times what it is asked for (the caller's r0 - r1). Error
+   about 2 ulp. */
+INLINE double lucy_log_ratio(double N, double D, double c, double c_num, double *c_over)
 {
     const double ln2_hi = 6.93147180369123816490e-01, ln2_lo = 1.90821492927058770002e-10;
     const double Lg1 = 6.666666666666735130e-01, Lg2 = 3.999999999940941908e-01, Lg3 = 2.857142874366239149e-01,
                  Lg4 = 2.222219843214978396e-01, Lg5 = 1.818357216161805012e-01, Lg6 = 1.531383769920937332e-01,
                  Lg7 = 1.479819860511658591e-01;
-    const double u = 1.0 + X;
-    const uint64_t ub = bits_of(u);
-    /* k such that u / 2^k is in [sqrt(2)/2, sqrt(2)) */
-    const uint64_t hu = ub + ((uint64_t)(0x3ff00000 - 0x3fe6a09e) << 32);
-    const uint64_t kb = hu >> 52; /* k + 1023 */
-    /* k as a double, exactly: 2^52 + (k + 1023) - (2^52 + 1023) */
-    const double dk = double_of(UINT64_C(0x4330000000000000) | kb) - 4503599627371519.0;
-    const double m = double_of(((hu & UINT64_C(0x000fffff00000000)) + ((uint64_t)0x3fe6a09e << 32)) |
-                               (ub & UINT64_C(0xffffffff)));
-    /* k = 0: f = X exactly; else f = m - 1 with the correction c ~ log(1+X) - log(u);
-       c's division by u and s = f / (2 + f) share one reciprocal */
-    const int small = kb == 1023;
-    const double f = small ? X : m - 1.0;
-    const double two_f = 2.0 + f, rec = 1.0 / (two_f * u);
-    const double c_big = (kb >= 1025 ? 1.0 - (u - X) : X - (u - 1.0)) * (two_f * rec);
-    const double c = small || kb >= 1023 + 54 ? 0.0 : c_big;
-    const double hfsq = 0.5 * f * f;
-    const double s = f * (u * rec);
-    const double z = s * s, w = z * z;
+    const double sqrt2 = 1.41421356237309504880;
+    const uint64_t mant = UINT64_C(0x000fffffffffffff), one = UINT64_C(0x3ff0000000000000);
+    const int ok = D > 1e-290;
+    const uint64_t db = bits_of(D);
+    /* D' = D 2^-e in [1, 2), N' = N 2^-e (exact: 2^-e = 2^(1023 - (e + 1023)) is a normal double) */
+    const double Ds = ok ? double_of((db & mant) | one) : 1.0;
+    const double Ns = ok ? N * double_of((UINT64_C(2046) - (db >> 52)) << 52) : 0.0;
+    const int small = Ns < (sqrt2 - 1.0) * Ds;
+    const double U = Ds + Ns;
+    const uint64_t ub = bits_of(U);
+    /* the exponent k of U as a double, exactly: 2^52 + (k + 1023) - (2^52 + 1023) */
+    const double dk0 = double_of(UINT64_C(0x4330000000000000) | (ub >> 52)) - 4503599627371519.0;
+    const double m0 = double_of((ub & mant) | one);
+    const double m = m0 > sqrt2 * Ds ? 0.5 * m0 : (m0 * sqrt2 < Ds ? 2.0 * m0 : m0);
+    const double dk = m0 > sqrt2 * Ds ? dk0 + 1.0 : (m0 * sqrt2 < Ds ? dk0 - 1.0 : dk0);
+    const double num = small ? Ns : m - Ds, den = small ? 2.0 * Ds + Ns : m + Ds;
+    const double k = small ? 0.0 : dk;
+    const double rec = ok ? 1.0 / (c * den) : 0.0;
+    *c_over = c_num * den * rec;
+    const double sv = num * c * rec;
+    const double z = sv * sv, w = z * z;
     const double t1 = w * (Lg2 + w * (Lg4 + w * Lg6));
     const double t2 = z * (Lg1 + w * (Lg3 + w * (Lg5 + w * Lg7)));
-    return s * (hfsq + (t2 + t1)) + (dk * ln2_lo + c) - hfsq + f + dk * ln2_hi;
+    return k * ln2_hi + (k * ln2_lo + (2.0 * sv + sv * (t1 + t2)));
 }
 
 /* The frame of a node at offset q (3 components, the unused ones 0) from the
@@ -107,28 +117,32 @@ INLINE void lucy_frame(double q0, double q1, double q2, const double *n, const d
 
 /* int P(x) dt / R over the part of the line inside the support (units of R),
    P = (1 + 3x)(1 - x)^3, for a node of frame (u, t_far, a2) (lucy_frame) and
-   a segment of length L; 0 outside the support. Three square roots (b and
-   each end's r, taken from the end's t even where the support clips it: r = 1
-   there, but an r consistent with t to its last bit keeps the cancellation
-   near the support's edge at its old size) and two divisions per node:
-   r0 - r1 and the log's argument X share one
-   reciprocal, 1/((r0 + r1) h) with h the denominator of X (see the top of
-   the file). Where that product is below 1e-290 (a node within 1e-145 R of
-   a segment as short) the reciprocal is taken as 0: r0 - r1 then only
-   enters multiplied by t1 (as small) and X only with a factor a^4 that
-   underflows. */
+   a segment of length L; 0 outside the support. Two square roots (one per
+   end: its r if the end is inside the ball, else b, r being 1 there), both
+   from the frame, so neither waits for the other, and one division:
+   r0 - r1 and the log of 1 + X share it (lucy_log_ratio), X = N/(rsum h)
+   with h the denominator of X (see the top of the file). Where rsum h is
+   below 1e-290 (a node within 1e-145 R of a segment as short) the
+   reciprocal is taken as 0: r0 - r1 then only enters multiplied by t1 (as
+   small) and X only with a factor a^4 that underflows. */
 INLINE double lucy_value_frame(double u, double t_far, double a2, double L, double R, double inv)
 {
     /* (the flags are written as comparisons of doubles where used: int
        flags mixed with them keep GCC 12 from vectorising the loop) */
-    const double b2 = R * R - a2;
+    const double R2 = R * R, b2 = R2 - a2;
     const double s2 = a2 * inv * inv;
-    /* the ends, clipped to the support (u > b, t_far < -b), reflected below so that t0 >= |t1| */
-    const double b = sqrt(b2 > 0.0 ? b2 : 0.0);
-    const double hi_p = u < b ? u : b, lo_p = t_far > -b ? t_far : -b;
+    /* the ends, clipped to the support (u > b, t_far < -b: the end outside
+       the ball), reflected below so that t0 >= |t1|. One square root per
+       end, independent of each other: r at an end inside the ball, b at a
+       clipped one (where r = 1) */
+    const double ru2 = a2 + u * u, rt2 = a2 + t_far * t_far;
+    const int clip_hi = u > 0.0 && ru2 > R2, clip_lo = t_far < 0.0 && rt2 > R2;
+    const double b2_ = b2 > 0.0 ? b2 : 0.0;
+    const double root_hi = sqrt(clip_hi ? b2_ : ru2), root_lo = sqrt(clip_lo ? b2_ : rt2);
+    const double hi_p = clip_hi ? root_hi : u, lo_p = clip_lo ? -root_lo : t_far;
     const double hi = hi_p * inv, lo = lo_p * inv;
-    const double r_hi = sqrt(s2 + hi * hi), r_lo = sqrt(s2 + lo * lo);
-    const double d = !(u <= b) || !(t_far >= -b) ? (hi_p - lo_p) * inv : L * inv;
+    const double r_hi = clip_hi ? 1.0 : root_hi * inv, r_lo = clip_lo ? 1.0 : root_lo * inv;
+    const double d = clip_hi || clip_lo ? (hi_p - lo_p) * inv : L * inv;
     const int flip = hi <= 0.0;
     const double t0 = flip ? -lo : hi, t1 = flip ? -hi : lo;
     const double r0 = flip ? r_lo : r_hi, r1 = flip ? r_hi : r_lo;
@@ -138,19 +152,18 @@ INLINE double lucy_value_frame(double u, double t_far, double a2, double L, doub
     const double Jr2 = s2 * d + J2;
     const double Jr4 = s2 * s2 * d + 2.0 * s2 * J2 + J4;
     const double rsum = r0 + r1;
-    /* X = (d + dr) / (t1 + r1), t1 + r1 = a^2 / (r1 - t1) when t1 < 0 */
+    /* X = (d + dr) / (t1 + r1), t1 + r1 = a^2 / (r1 - t1) when t1 < 0;
+       X = N / (rsum h); r0 - r1 = d (t0 + t1) / rsum from the same division */
     const int with_log = s2 > 1e-200;
     const int across = t1 < 0.0;
     const double h = across ? (with_log ? s2 : 1.0) : t1 + r1, g = across ? r1 - t1 : 1.0;
-    const double pden = rsum * h;
-    const double rec = 1.0 / (pden > 1e-290 ? pden : INFINITY);
-    const double dr = d * sum * (h * rec); /* r0 - r1 = d (t0 + t1) / (r0 + r1) */
+    double dr;
+    /* asinh(t0/a) - asinh(t1/a) = log1p(X) */
+    const double log_x = lucy_log_ratio(d * (rsum + sum) * g, rsum * h, rsum, d * sum, &dr);
     const double rr = r0 * r0 + r0 * r1 + r1 * r1;
     const double D2 = d * r0 + t1 * dr;
     const double D1 = d * r0 * r0 * r0 + t1 * dr * rr;
-    /* asinh(t0/a) - asinh(t1/a) = log1p(X) */
-    const double X = d * (rsum + sum) * (g * rec);
-    const double D3 = with_log ? lucy_log1p(X) : 0.0;
+    const double D3 = with_log ? log_x : 0.0;
     const double Jr3 = 0.25 * D1 + 0.375 * s2 * D2 + 0.375 * s2 * s2 * D3;
     const double acc = d - 6.0 * Jr2 + 8.0 * Jr3 - 3.0 * Jr4;
     return b2 > 0.0 && hi > lo && d > 0.0 ? acc : 0.0;
