@@ -319,9 +319,11 @@ def support_crossings(r, h0, x0, a_perp, a_z, c):
     return np.where((real > 0.0) & (real < 1.0), real, np.nan)
 
 
-def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weights):
+def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weights, gradient=False):
     """θ-averages at every node of a θ-averaged CylindricalGrid of sum_k values_k ∫_0^1 W(x - starts_k - s vectors_k) ds
-    (values (K, 3, 3) Cartesian), in the local basis: (n_r * n_z, 3, 3).
+    (values (K, 3, 3) Cartesian), in the local basis: (n_r * n_z, 3, 3). With ``gradient`` (Gaussian and Lucy) the
+    θ-averages of their gradients, (n_r * n_z, 3, 3, 3) with [a, b, c] = ∂σ_ab/∂x_c in the local basis (the same
+    pieces and s-points; the C core's ring_segment_gradient_sum).
 
     Along each segment the θ-average is analytic in s between the s where the point enters or leaves the torus
     of the ring's support and where the whole ring enters it (:func:`support_crossings`), with a square-root
@@ -330,7 +332,7 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
     pieces are found here, their sums are taken by the C core's ring_segment_sum)."""
     c = float(kernel.radius)
     n_r, n_z = len(grid.r), z_nodes.shape[0]
-    out = np.zeros((n_r * n_z, 3, 3))
+    out = np.zeros((n_r * n_z, 3, 3) + ((3,) if gradient else ()))
     keep = np.einsum("ki,ki->k", vectors, vectors) > 0.0
     starts, vectors, values = starts[keep], vectors[keep], values[keep]
     if not len(starts):
@@ -382,7 +384,7 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                 # panels in u no longer than the kernel's scale along the segment: the integrand varies on it
                 panels = np.clip(np.ceil((b - a) * length[cand[seg]] / scale), 1, MAX_PANELS).astype(int)
                 out[k * n_z + j] += _engine.ring_segment_sum(kernel, float(r), float(zq), cand[seg], a, b, panels,
-                                                             geometry, tensors, float(wq))
+                                                             geometry, tensors, float(wq), gradient=gradient)
     return out
 
 
