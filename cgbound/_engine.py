@@ -145,7 +145,7 @@ def ring_kernel(kernel):
 
 
 def ring_moments(kernel, r, h, rho, gradient=False, n_moments=3, n_threads=0):
-    """The angular moments (n_moments, n), m = 0 .. n_moments - 1 (at most 3), of the 3-D kernel over the ring of
+    """The angular moments (n_moments, n), m = 0 .. n_moments - 1 (n_moments 1 to 4), of the 3-D kernel over the ring of
     radius ``r`` seen by sources at axial offsets ``h`` and radii ``rho`` (csrc/cg_ring.c); with ``gradient`` those
     of W'(d)/d (grad W = W'(d)/d (x - q))."""
     return _core.ring_moments(ring_kernel(kernel), r, h, rho, gradient=gradient, n_moments=n_moments,

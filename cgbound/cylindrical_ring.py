@@ -349,8 +349,9 @@ def graded_cuts(roots, panel, at_real):
     get anyway, one kernel scale): at s* and s* ± 1/4, 1/16, ... down to their distance ε from s*, s* their real
     part clipped into [0, 1] (as the θ panels of csrc/cg_ring.c towards t = 0: a piece then stays about its
     length away from them; the cut at s* keeps them off the middle of a piece, where the end-clustered map
-    s(u) brings them closest to the points). ``at_real``: also for branch points on [0, 1] itself (ε = 0: graded to the last level); without it
-    those are left to the caller's cuts (the end-clustered rule handles a square root at a piece's end)."""
+    s(u) brings them closest to the points). ``at_real``: also for branch points on [0, 1] itself (ε = 0:
+    graded to the last level); without it those are left to the caller's cuts (the end-clustered rule handles a
+    square root at a piece's end)."""
     centre = np.clip(roots.real, 0.0, 1.0)
     eps = np.abs(roots - centre)
     near = eps < panel[:, None]
@@ -390,7 +391,9 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
     of the ring's support and where the whole ring enters it (:func:`support_crossings`), with a square-root
     behaviour at those ends: each piece gets 20-point Gauss-Legendre in u on panels no longer than the kernel's
     scale, s = a + (b - a) sin²(π u / 2), which makes it analytic; each s-point the exact ring moments (the
-    pieces are found here, their sums are taken by the C core's ring_segment_sum)."""
+    pieces are found here, their sums are taken by the C core's ring_segment_sum). Lucy's pieces are also
+    graded towards the branch points next to the segment (:func:`lucy_cuts`: its closest approach to the ring,
+    near misses of the support's edges)."""
     c = float(kernel.radius)
     n_r, n_z = len(grid.r), z_nodes.shape[0]
     out = np.zeros((n_r * n_z, 3, 3) + ((3,) if gradient else ()))

@@ -247,10 +247,11 @@ static void ring_rotate_add(const double *T, double c, double s, double M0, doub
  * average exactly (omega p has degree <= 6 < 8, and p's degree <= 3 sees only N_0..N_3). */
 #define RING_GRADIENT_ANGLES 8
 
-static const double ring_angle_cos[RING_GRADIENT_ANGLES] = {1.0, 0.70710678118654752440, 0.0, -0.70710678118654752440,
-                                                            -1.0, -0.70710678118654752440, 0.0, 0.70710678118654752440};
-static const double ring_angle_sin[RING_GRADIENT_ANGLES] = {0.0, 0.70710678118654752440, 1.0, 0.70710678118654752440,
-                                                            0.0, -0.70710678118654752440, -1.0, -0.70710678118654752440};
+#define RING_HALF_SQRT2 0.70710678118654752440
+static const double ring_angle_cos[RING_GRADIENT_ANGLES] = {1.0,  RING_HALF_SQRT2,  0.0, -RING_HALF_SQRT2,
+                                                            -1.0, -RING_HALF_SQRT2, 0.0, RING_HALF_SQRT2};
+static const double ring_angle_sin[RING_GRADIENT_ANGLES] = {0.0, RING_HALF_SQRT2,  1.0,  RING_HALF_SQRT2,
+                                                            0.0, -RING_HALF_SQRT2, -1.0, -RING_HALF_SQRT2};
 
 /* acc[27] += wt * theta-average of (B T B^T)_ab (B (x - p))_c G(d) over the ring (r, z), [a, b, c] = d T_ab / d x_c
    in the local basis, for the tensor T (ring frame) carried by the point (p1, p2) (ring frame, from the axis,
