@@ -371,8 +371,8 @@ def lucy_cuts(r, h0, x0, a_perp, a_z, c, panel):
     quartic of :func:`segment_quartic` with c = 0, next to the real axis at the segment's closest approach to the
     ring when it passes close, on it when it passes through. Where a segment just misses the edge of the
     ring's support, or just misses holding the whole ring, the support's square roots form a close complex pair
-    that :func:`support_crossings` does not cut at (a pair 0.03 from the real axis left 2e-6 in a gradient).
-    Both are graded towards; plus the support crossings themselves."""
+    that :func:`support_crossings` does not cut at (a pair 0.008 from the real axis, on a segment 3.6 long, left
+    2e-6 in a gradient). Both are graded towards; plus the support crossings themselves."""
     coef = segment_quartic(r, h0, x0, a_perp, a_z, c)
     roots = quartic_roots(coef)
     crossings = real_roots(coef, roots)
