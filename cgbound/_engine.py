@@ -155,15 +155,18 @@ def ring_kernel(kernel):
                       float(kernel.radius), int(kernel.truncated), 1.0)
 
 
-def ring_moments(kernel, r, h, rho, gradient=False, n_threads=0):
-    """The angular moments (3, n) of the 3-D kernel over the ring of radius ``r`` seen by sources at axial offsets
-    ``h`` and radii ``rho`` (csrc/cg_ring.c); with ``gradient`` those of W'(d)/d (grad W = W'(d)/d (x - q))."""
-    return _core.ring_moments(ring_kernel(kernel), r, h, rho, gradient=gradient, n_threads=n_threads)
+def ring_moments(kernel, r, h, rho, gradient=False, n_moments=3, n_threads=0):
+    """The angular moments (n_moments, n), m = 0 .. n_moments - 1 (n_moments 1 to 4), of the 3-D kernel over the ring of
+    radius ``r`` seen by sources at axial offsets ``h`` and radii ``rho`` (csrc/cg_ring.c); with ``gradient`` those
+    of W'(d)/d (grad W = W'(d)/d (x - q))."""
+    return _core.ring_moments(ring_kernel(kernel), r, h, rho, gradient=gradient, n_moments=n_moments,
+                              n_threads=n_threads)
 
 
-def ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, n_threads=0):
+def ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, gradient=False, n_threads=0):
     """``weight`` times the θ-averages at the ring (r, z), in (e_r, e_θ, e_z), of ``tensors`` spread along the pieces
     [lo, hi] of segments (``geometry`` rows: start and vector in the ring's frame, relative to the axis point),
-    each on ``panels`` Gauss-Legendre panels: (3, 3)."""
+    each on ``panels`` Gauss-Legendre panels: (3, 3). With ``gradient`` the θ-average of the gradient (Gaussian
+    and Lucy), (3, 3, 3) with [a, b, c] = ∂T_ab/∂x_c in (e_r, e_θ, e_z)."""
     return _core.ring_segment_sum(ring_kernel(kernel), r, z, segment, lo, hi, panels, geometry, tensors, weight,
-                                  n_threads=n_threads)
+                                  gradient=gradient, n_threads=n_threads)

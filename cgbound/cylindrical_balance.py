@@ -10,20 +10,22 @@ second index, as in Cartesian coordinates)::
     (div T)_z = ∂T_zr/∂r + ∂T_zz/∂z + T_zr/r
 
 The last terms (the hoop terms) come from the turning of the basis with θ. The averaged stresses and their
-r and z derivatives are exact: ring averages of the Cartesian sums and of their analytic gradients (the
-local basis does not depend on r or z), so the residual is round-off small when the θ rule is exact.
+r and z derivatives are the exact ring integrals of the Cartesian sums and of their analytic gradients (the
+local basis does not depend on r or z; :mod:`cgbound.cylindrical_ring`), so the residual is round-off small
+where the rules along the segments are (docs/guide/cylindrical.md, "Momentum balance").
 """
+import copy
+
 import numpy as np
 
-from ._engine import core_kernel, core_target, scatter_points, scatter_segments
-from ._memory import check_fits, core_threads
-from ._threads import get_num_threads
+from ._engine import core_kernel
 from ._validate import real_array
 from .cylindrical import CylindricalGrid
-from .cylindrical_fields import quadrature, rotate
+from .cylindrical_fields import line_z_rule
+from .cylindrical_ring import ring_average, ring_average_segments
 from .grid import Points, periodic_resolved_lengths
 from .kernels import check_kernel, check_reach
-from .primaries import longest_branch, negated_outer
+from .primaries import segment_sources
 from .residual import largest_term, relative_residual
 from .snapshot import Snapshot
 
@@ -89,9 +91,10 @@ def cylindrical_momentum_balance_residual(snapshot, grid, kernel, forces=None):
     snapshot : Snapshot (3-D)
     grid : CylindricalGrid with ``theta=None`` (fields averaged over θ); z resolved or averaged (then the
         ∂/∂z terms are the z-averages of the axial derivatives: the net flux through the ends)
-    kernel : Gaussian or Lucy. The θ average is a trapezoidal rule (cgbound.cylindrical_fields): exact to
-        round-off for a Gaussian with cutoff >= 9 w; for Lucy the hoop terms are balanced only to the rule's
-        accuracy (about 1e-7 of the largest term; docs/guide/cylindrical.md).
+    kernel : Gaussian or Lucy. The θ-averages are exact ring integrals (cgbound.cylindrical_ring), Lucy's with
+        the rule along the segments graded towards their closest approach to the ring. A Gaussian cut off at c
+        leaves its jump exp(-c²/2w²) at the cutoff, as the Cartesian balance does (about 1e-5 of the largest term
+        at the default 5 w, round-off from 9 w).
     forces : (N, 3) array, optional
         Total force on each particle, as for :func:`cgbound.momentum_balance_residual`.
 
@@ -116,44 +119,36 @@ def cylindrical_momentum_balance_residual(snapshot, grid, kernel, forces=None):
         forces = snapshot.particle_forces()
     else:
         forces = real_array(forces, "forces", ndim=2, shape=(snapshot.n_particles, 3))
-    positions, angles, weights, starts = quadrature(grid, kernel)
-    target = Points(positions)
-    Q = target.size
-    check_reach(kernel, 3, periodic_resolved_lengths(snapshot.box, target),
+    check_reach(kernel, 3, periodic_resolved_lengths(snapshot.box, Points(grid.axis_point[None, :])),
                 max(snapshot.largest_product, float(np.abs(forces).max(initial=0.0))), where="snapshot (or forces)")
-    # per quadrature point: one stress gradient (27 doubles per thread), its rotation, and the terms
-    threads = core_threads(max(snapshot.n_particles, len(snapshot.contacts)))
-    check_fits("grid", Q, threads * 27 + 2 * 27 + 9 * 3 + 9, what="the ring points of the momentum balance terms")
-    where = core_target(target, snapshot.box)
     point_kernel = core_kernel(kernel, 1.0)
     bulk, boundary = snapshot.split_contacts()
-    segment_kernel = core_kernel(kernel, 1.0, longest_branch(bulk, boundary))
     flow = snapshot.flowing
-    nt = get_num_threads()
-    basis = grid.basis(angles)                              # (Q, 3, 3): rows e_r, e_θ, e_z
-    radial_axial = basis[:, [0, 2], :]                      # the derivative directions kept: e_r, e_z
-
-    def average(local):
-        """The weighted sum of each node's points, shaped like the grid's fields."""
-        summed = np.add.reduceat(local * weights.reshape((-1,) + (1,) * (local.ndim - 1)), starts, axis=0)
-        return summed.reshape(grid.shape + local.shape[1:])
+    z_nodes, z_weights = line_z_rule(grid, kernel)
+    # on a z-averaged grid the point sums at the line integrals' axial points too (not exactly averaged over z):
+    # the balance holds on every ring, so it holds for the same weighted sum of rings
+    rings = grid
+    if grid.z_averaged:
+        rings = copy.copy(grid)
+        rings.z_range, rings.z = (0.0, 0.0, z_nodes.size), z_nodes.ravel()
 
     def vector(positions_, values):
-        return average(rotate(scatter_points(where, point_kernel, positions_, values, n_threads=nt), 1, basis))
+        summed = ring_average(rings, kernel, positions_, [(values, 1)])[0].reshape(len(grid.r), -1, 3)
+        if grid.z_averaged:
+            summed = (summed * z_weights.reshape(1, -1, 1)).sum(axis=1)
+        return summed.reshape(grid.shape + (3,))
 
     def stress_and_derivatives(part):
         """The θ-averaged stress of contacts ``part`` in (r, θ, z), and its ∂/∂r and ∂/∂z."""
         if not part["i"].size:
             zero = np.zeros(grid.shape + (3, 3))
             return zero, zero, zero.copy()
-        start = np.take(snapshot.positions, part["i"], axis=0)
-        values = negated_outer(part["force"], part["branch"])
-        vec = np.negative(part["branch"])
-        sigma = scatter_segments(where, segment_kernel, start, vec, values, n_threads=nt).reshape(Q, 3, 3)
-        grad = scatter_segments(where, segment_kernel, start, vec, values, gradient=True,
-                                n_threads=nt).reshape(Q, 3, 3, 3)         # [q, α, β, γ] = ∂σ_αβ/∂x_γ
-        local = np.einsum("qia,qjb,qkc,qabc->qijk", basis, basis, radial_axial, grad)
-        return average(rotate(sigma, 2, basis)), average(local[..., 0]), average(local[..., 1])
+        start, vec, values = segment_sources(snapshot, part)
+        values = values.reshape(-1, 3, 3)
+        sigma = ring_average_segments(grid, kernel, start, vec, values, z_nodes, z_weights)
+        grad = ring_average_segments(grid, kernel, start, vec, values, z_nodes, z_weights, gradient=True)
+        grad = grad.reshape(grid.shape + (3, 3, 3))                  # [..., α, β, γ] = ∂σ_αβ/∂x_γ, local basis
+        return sigma.reshape(grid.shape + (3, 3)), grad[..., 0], grad[..., 2]
 
     fields = {"forcing": vector(snapshot.positions[flow], forces[flow])}
     fields["contact_stress"], fields["contact_stress_dr"], fields["contact_stress_dz"] = stress_and_derivatives(bulk)

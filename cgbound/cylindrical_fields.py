@@ -117,6 +117,16 @@ def quadrature(grid, kernel):
     return np.concatenate(positions), np.concatenate(angles), np.concatenate(weights), np.array(starts)
 
 
+def line_z_rule(grid, kernel):
+    """The axial points (n_z, q) and weights of the line integrals on a θ-averaged grid: each z node itself, or on a
+    z-averaged grid Gauss-Legendre over its extent (the point sums average over z exactly)."""
+    if grid.z_averaged:
+        lo, hi = grid.z_extent
+        x, wz = np.polynomial.legendre.leggauss(z_points(hi - lo, kernel))
+        return (0.5 * (hi + lo) + 0.5 * (hi - lo) * x)[None, :], 0.5 * wz[None, :]
+    return grid.z[:, None], np.ones((len(grid.z), 1))
+
+
 def rotate(values, rank, basis):
     """Cartesian components (Q, 3, ...) of rank ``rank`` into the local basis rows ``basis`` (Q, 3, 3)."""
     if rank == 0:
@@ -145,13 +155,7 @@ def ring_sums(job, grid, needed):
             averaged.update({name: s for (name, _), s in zip(columns, sums)})
         lines = [(name, part) for name, part in zip(("sb", "sw"), job.split or ()) if name in needed]
         if lines:
-            if grid.z_averaged:      # the line integrals' z rule (the point sums average over z exactly)
-                lo, hi = grid.z_extent
-                x, wz = np.polynomial.legendre.leggauss(z_points(hi - lo, job.kernel))
-                z_nodes = (0.5 * (hi + lo) + 0.5 * (hi - lo) * x)[None, :]
-                z_weights = 0.5 * wz[None, :]
-            else:
-                z_nodes, z_weights = grid.z[:, None], np.ones((len(grid.z), 1))
+            z_nodes, z_weights = line_z_rule(grid, job.kernel)
             for name, part in lines:
                 starts, vectors, values = segment_sources(job.snapshot, part)
                 averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors, values.reshape(-1, 3, 3),

@@ -290,11 +290,10 @@ def ring_average(grid, kernel, positions, columns, gradient=False):
 MAX_PANELS = 256
 
 
-def support_crossings(r, h0, x0, a_perp, a_z, c):
-    """The s in (0, 1) where p(s) = start + s a crosses (r ∓ ρ(s))² + h(s)² = c² (the edge of the torus around
-    the ring, and where the whole ring enters the support): the real roots of the quartic
-    (Q + r² + h² - c²)² - 4 r² Q, Q = ρ(s)², h = h0 - s a_z; (K, 4), NaN where there is none. Near-double roots
-    (grazing) come as a close complex pair: their real part is kept, a harmless extra breakpoint."""
+def segment_quartic(r, h0, x0, a_perp, a_z, c):
+    """The coefficients (K, 5), highest power first, of (Q + r² + h² - c²)² - 4 r² Q in s, Q = ρ(s)² and
+    h = h0 - s a_z of the points p(s) = start + s a (in-plane start x0 and vector a_perp, axial a_z): zero where
+    (r ∓ ρ(s))² + h(s)² = c²."""
     q0 = np.einsum("ki,ki->k", x0, x0)
     q1 = 2.0 * np.einsum("ki,ki->k", x0, a_perp)
     q2 = np.einsum("ki,ki->k", a_perp, a_perp)
@@ -302,12 +301,31 @@ def support_crossings(r, h0, x0, a_perp, a_z, c):
     e1 = q1 - 2.0 * h0 * a_z
     e2 = q2 + a_z * a_z
     four = 4.0 * r * r
-    coef = np.stack([e2 * e2, 2.0 * e1 * e2, e1 * e1 + 2.0 * e0 * e2 - four * q2, 2.0 * e0 * e1 - four * q1,
+    return np.stack([e2 * e2, 2.0 * e1 * e2, e1 * e1 + 2.0 * e0 * e2 - four * q2, 2.0 * e0 * e1 - four * q1,
                      e0 * e0 - four * q0], axis=1)
-    comp = np.zeros((len(e0), 4, 4))
+
+
+def quartic_roots(coef):
+    """The complex roots (K, 4) of quartics ``coef`` (K, 5) (a nonzero leading coefficient): the eigenvalues of
+    their companion matrices."""
+    comp = np.zeros((len(coef), 4, 4))
     comp[:, 0, :] = -coef[:, 1:] / coef[:, :1]
     comp[:, 1, 0] = comp[:, 2, 1] = comp[:, 3, 2] = 1.0
-    roots = np.linalg.eigvals(comp)
+    return np.linalg.eigvals(comp)
+
+
+def support_crossings(r, h0, x0, a_perp, a_z, c):
+    """The s in (0, 1) where p(s) = start + s a crosses (r ∓ ρ(s))² + h(s)² = c² (the edge of the torus around
+    the ring, and where the whole ring enters the support): the real roots of the quartic
+    (Q + r² + h² - c²)² - 4 r² Q, Q = ρ(s)², h = h0 - s a_z; (K, 4), NaN where there is none. Near-double roots
+    (grazing) come as a close complex pair: their real part is kept, a harmless extra breakpoint."""
+    coef = segment_quartic(r, h0, x0, a_perp, a_z, c)
+    return real_roots(coef, quartic_roots(coef))
+
+
+def real_roots(coef, roots):
+    """The real roots in (0, 1) of the quartics ``coef`` (K, 5), from their complex ``roots`` (K, 4), polished; NaN
+    where there is none (:func:`support_crossings`)."""
     real = np.where(np.abs(roots.imag) < 1e-4, roots.real, np.nan)
     for _ in range(3):                                               # polish: Newton on the quartic
         p = ((((coef[:, :1] * real + coef[:, 1:2]) * real + coef[:, 2:3]) * real + coef[:, 3:4]) * real
@@ -319,18 +337,66 @@ def support_crossings(r, h0, x0, a_perp, a_z, c):
     return np.where((real > 0.0) & (real < 1.0), real, np.nan)
 
 
-def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weights):
+#: levels of the grading towards a near-singularity along a segment (0.25^12 ~ 6e-8 of the segment: the singular
+#: parts, at worst σ² log σ, then contribute ~1e-22 over the innermost panel)
+APPROACH_LEVELS = 12
+_APPROACH_GRADES = GRADING ** np.arange(1, APPROACH_LEVELS + 1)
+
+
+def graded_cuts(roots, panel, at_real):
+    """Cuts in s (K, 4 (2 APPROACH_LEVELS + 1)), NaN where there is none, grading the rule along each segment
+    towards the branch points ``roots`` (K, 4) closer than ``panel`` (K,; the length in s of the panels the pieces
+    get anyway, one kernel scale): at s* and s* ± 1/4, 1/16, ... down to their distance ε from s*, s* their real
+    part clipped into [0, 1] (as the θ panels of csrc/cg_ring.c towards t = 0: a piece then stays about its
+    length away from them; the cut at s* keeps them off the middle of a piece, where the end-clustered map
+    s(u) brings them closest to the points). ``at_real``: also for branch points on [0, 1] itself (ε = 0:
+    graded to the last level); without it those are left to the caller's cuts (the end-clustered rule handles a
+    square root at a piece's end)."""
+    centre = np.clip(roots.real, 0.0, 1.0)
+    eps = np.abs(roots - centre)
+    near = eps < panel[:, None]
+    if not at_real:
+        near &= eps > 0.0
+    steps = np.maximum(_APPROACH_GRADES[None, None, :], eps[..., None])          # (K, 4, levels)
+    cuts = np.concatenate([centre[..., None], centre[..., None] - steps, centre[..., None] + steps], axis=2)
+    cuts = np.where(near[..., None] & (cuts > 0.0) & (cuts < 1.0), cuts, np.nan)
+    return cuts.reshape(len(roots), -1)
+
+
+def lucy_cuts(r, h0, x0, a_perp, a_z, c, panel):
+    """The cuts (K, 16 APPROACH_LEVELS + 12) of Lucy's rule along the segments (``panel``: as :func:`graded_cuts`).
+
+    Lucy's odd powers of d make the θ-averages non-analytic where the ring's distance from the point p(s),
+    δ² = (r - ρ(s))² + h(s)², vanishes (δ⁴ log δ in the kernel, δ² log δ in its gradient): at the roots of the
+    quartic of :func:`segment_quartic` with c = 0, next to the real axis at the segment's closest approach to the
+    ring when it passes close, on it when it passes through. Where a segment just misses the edge of the
+    ring's support, or just misses holding the whole ring, the support's square roots form a close complex pair
+    that :func:`support_crossings` does not cut at (a pair 0.008 from the real axis, on a segment 3.6 long, left
+    2e-6 in a gradient). Both are graded towards; plus the support crossings themselves."""
+    coef = segment_quartic(r, h0, x0, a_perp, a_z, c)
+    roots = quartic_roots(coef)
+    crossings = real_roots(coef, roots)
+    near_support = graded_cuts(roots, panel, False)
+    approach = graded_cuts(quartic_roots(segment_quartic(r, h0, x0, a_perp, a_z, 0.0)), panel, True)
+    return np.concatenate([crossings, near_support, approach], axis=1)
+
+
+def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weights, gradient=False):
     """θ-averages at every node of a θ-averaged CylindricalGrid of sum_k values_k ∫_0^1 W(x - starts_k - s vectors_k) ds
-    (values (K, 3, 3) Cartesian), in the local basis: (n_r * n_z, 3, 3).
+    (values (K, 3, 3) Cartesian), in the local basis: (n_r * n_z, 3, 3). With ``gradient`` (Gaussian and Lucy) the
+    θ-averages of their gradients, (n_r * n_z, 3, 3, 3) with [a, b, c] = ∂σ_ab/∂x_c in the local basis (the same
+    pieces and s-points; the C core's ring_segment_gradient_sum).
 
     Along each segment the θ-average is analytic in s between the s where the point enters or leaves the torus
     of the ring's support and where the whole ring enters it (:func:`support_crossings`), with a square-root
     behaviour at those ends: each piece gets 20-point Gauss-Legendre in u on panels no longer than the kernel's
     scale, s = a + (b - a) sin²(π u / 2), which makes it analytic; each s-point the exact ring moments (the
-    pieces are found here, their sums are taken by the C core's ring_segment_sum)."""
+    pieces are found here, their sums are taken by the C core's ring_segment_sum). Lucy's pieces are also
+    graded towards the branch points next to the segment (:func:`lucy_cuts`: its closest approach to the ring,
+    near misses of the support's edges)."""
     c = float(kernel.radius)
     n_r, n_z = len(grid.r), z_nodes.shape[0]
-    out = np.zeros((n_r * n_z, 3, 3))
+    out = np.zeros((n_r * n_z, 3, 3) + ((3,) if gradient else ()))
     keep = np.einsum("ki,ki->k", vectors, vectors) > 0.0
     starts, vectors, values = starts[keep], vectors[keep], values[keep]
     if not len(starts):
@@ -366,10 +432,13 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                 if not cand.size:
                     continue
                 h0 = zq - zeta0[cand]
-                roots = support_crossings(r, h0, x0[cand], a_perp[cand], a_z[cand], c)
-                edges = np.sort(np.concatenate([np.zeros((cand.size, 1)), np.nan_to_num(roots, nan=1.0),
+                if isinstance(kernel, Lucy):
+                    cuts = lucy_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
+                else:
+                    cuts = support_crossings(r, h0, x0[cand], a_perp[cand], a_z[cand], c)
+                edges = np.sort(np.concatenate([np.zeros((cand.size, 1)), np.nan_to_num(cuts, nan=1.0),
                                                 np.ones((cand.size, 1))], axis=1), axis=1)
-                lo, hi = edges[:, :-1], edges[:, 1:]                   # (K, 5) pieces
+                lo, hi = edges[:, :-1], edges[:, 1:]                   # (K, pieces)
                 mid = 0.5 * (lo + hi)
                 px = x0[cand, None, :] + mid[..., None] * a_perp[cand, None, :]
                 rho_mid = np.hypot(px[..., 0], px[..., 1])
@@ -382,7 +451,7 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                 # panels in u no longer than the kernel's scale along the segment: the integrand varies on it
                 panels = np.clip(np.ceil((b - a) * length[cand[seg]] / scale), 1, MAX_PANELS).astype(int)
                 out[k * n_z + j] += _engine.ring_segment_sum(kernel, float(r), float(zq), cand[seg], a, b, panels,
-                                                             geometry, tensors, float(wq))
+                                                             geometry, tensors, float(wq), gradient=gradient)
     return out
 
 

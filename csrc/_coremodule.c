@@ -636,28 +636,32 @@ static int index_converter(PyObject *obj, void *address)
 static PyObject *py_ring_moments(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
-    static char *kw[] = {"kernel", "r", "h", "rho", "gradient", "n_threads", NULL};
+    static char *kw[] = {"kernel", "r", "h", "rho", "gradient", "n_moments", "n_threads", NULL};
     kernel_arg ka = {.target = &ring_space};
     double r;
-    int gradient = 0;
+    int gradient = 0, n_moments = 3;
     input_array h = {.name = "h", .ndim = 1, .length = {NULL, NULL}};
     input_array rho = {.name = "rho", .ndim = 1, .length = {&h.rows, NULL}};
     int n_threads = 0;
     PyArrayObject *out = NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&dO&O&|pO&", kw, kernel_converter, &ka, &r, array_converter, &h,
-                                     array_converter, &rho, &gradient, threads_converter, &n_threads))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&dO&O&|piO&", kw, kernel_converter, &ka, &r, array_converter, &h,
+                                     array_converter, &rho, &gradient, &n_moments, threads_converter, &n_threads))
         goto done;
     if (!(r >= 0.0) || !isfinite(r)) {
         PyErr_Format(PyExc_ValueError, "r: expected a finite radius >= 0, got %R", PyTuple_GetItem(args, 1));
         goto done;
     }
-    const npy_intp shape[2] = {3, h.rows};
+    if (n_moments < 1 || n_moments > 4) {
+        PyErr_Format(PyExc_ValueError, "n_moments: expected 1 to 4 (the moments m = 0..3), got %d", n_moments);
+        goto done;
+    }
+    const npy_intp shape[2] = {n_moments, h.rows};
     out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_DOUBLE, 0);
     if (!out) goto done;
     cg_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = cg_ring_moments(&ka.kernel, r, h.rows, array_data(&h), array_data(&rho), gradient, PyArray_DATA(out),
-                         n_threads);
+    st = cg_ring_moments(&ka.kernel, r, h.rows, array_data(&h), array_data(&rho), gradient, n_moments,
+                         PyArray_DATA(out), n_threads);
     Py_END_ALLOW_THREADS
     if (st != CG_OK) {
         raise_status(st);
@@ -673,7 +677,7 @@ static PyObject *py_ring_segment_sum(PyObject *self, PyObject *args, PyObject *k
 {
     (void)self;
     static char *kw[] = {"kernel", "r", "z", "segment", "lo", "hi", "panels", "geometry", "tensors", "weight",
-                         "n_threads", NULL};
+                         "gradient", "n_threads", NULL};
     static const npy_intp six = 6, nine = 9;
     kernel_arg ka = {.target = &ring_space};
     double r, z, weight;
@@ -683,12 +687,12 @@ static PyObject *py_ring_segment_sum(PyObject *self, PyObject *args, PyObject *k
     index_array panels = {.name = "panels", .length = &lo.rows};
     input_array geom = {.name = "geometry", .ndim = 2, .length = {NULL, &six}};
     input_array tens = {.name = "tensors", .ndim = 2, .length = {&geom.rows, &nine}};
-    int n_threads = 0;
+    int gradient = 0, n_threads = 0;
     PyArrayObject *out = NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&ddO&O&O&O&O&O&d|O&", kw, kernel_converter, &ka, &r, &z,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&ddO&O&O&O&O&O&d|pO&", kw, kernel_converter, &ka, &r, &z,
                                      index_converter, &segment, array_converter, &lo, array_converter, &hi,
                                      index_converter, &panels, array_converter, &geom, array_converter, &tens,
-                                     &weight, threads_converter, &n_threads))
+                                     &weight, &gradient, threads_converter, &n_threads))
         goto done;
     if (!(r >= 0.0) || !isfinite(r) || !isfinite(z) || !isfinite(weight)) {
         PyErr_SetString(PyExc_ValueError, "r, z, weight: expected finite numbers (r >= 0)");
@@ -698,14 +702,15 @@ static PyObject *py_ring_segment_sum(PyObject *self, PyObject *args, PyObject *k
         PyErr_SetString(PyExc_ValueError, "segment: expected one entry per piece (the length of lo)");
         goto done;
     }
-    const npy_intp shape[2] = {3, 3};
-    out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_DOUBLE, 0);
+    const npy_intp shape[3] = {3, 3, 3};
+    out = (PyArrayObject *)PyArray_ZEROS(gradient ? 3 : 2, shape, NPY_DOUBLE, 0);
     if (!out) goto done;
     cg_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = cg_ring_segment_sum(&ka.kernel, r, z, lo.rows, (const cg_index *)PyArray_DATA(segment.array),
-                             array_data(&lo), array_data(&hi), (const cg_index *)PyArray_DATA(panels.array),
-                             geom.rows, array_data(&geom), array_data(&tens), weight, PyArray_DATA(out), n_threads);
+    st = (gradient ? cg_ring_segment_gradient_sum : cg_ring_segment_sum)(
+        &ka.kernel, r, z, lo.rows, (const cg_index *)PyArray_DATA(segment.array), array_data(&lo), array_data(&hi),
+        (const cg_index *)PyArray_DATA(panels.array), geom.rows, array_data(&geom), array_data(&tens), weight,
+        PyArray_DATA(out), n_threads);
     Py_END_ALLOW_THREADS
     if (st == CG_ERR_ARGUMENT) {
         PyErr_SetString(PyExc_ValueError, "segment, lo, hi, panels: expected rows of geometry, "
@@ -1021,10 +1026,11 @@ static PyMethodDef methods[] = {
     {"wrap", (PyCFunction)(void (*)(void))py_wrap, METH_VARARGS | METH_KEYWORDS,
      "wrap(positions, periodic, lower, upper) -> copy of positions wrapped into [lower, upper) on periodic axes."},
     {"ring_moments", (PyCFunction)(void (*)(void))py_ring_moments, METH_VARARGS | METH_KEYWORDS,
-     "ring_moments(kernel, r, h, rho, gradient=False, n_threads=0): the angular moments (3, n) of the 3-D kernel "
-     "(or of W'(d)/d) over rings."},
+     "ring_moments(kernel, r, h, rho, gradient=False, n_moments=3, n_threads=0): the angular moments (n_moments, n) "
+     "of the 3-D kernel over rings."},
     {"ring_segment_sum", (PyCFunction)(void (*)(void))py_ring_segment_sum, METH_VARARGS | METH_KEYWORDS,
-     "ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, n_threads=0): (3, 3)."},
+     "ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, gradient=False, "
+     "n_threads=0): (3, 3), with gradient (3, 3, 3)."},
     {"have_openmp", py_have_openmp, METH_NOARGS, "Whether the core was built with OpenMP."},
     {"set_wide_vectors", py_set_wide_vectors, METH_O,
      "Internal: False makes the Gaussian on grids use its AVX2/baseline build instead of AVX-512 (identical "

@@ -251,11 +251,11 @@ cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kerne
  * The kernel must be the full 3-D kernel (dim 3, n_resolved 3, avg_extent 1).
  *
  * cg_ring_moments: for n pairs (h[i], rho[i]) the moments over the half arc
- * where d < R, M_m = (1/pi) int_0^Delta W(d(t)) cos(m t) dt, m = 0, 1, 2, to
- * round-off, written to moments[m * n + i] (0 for pairs whose closest approach
- * is outside the support). With gradient != 0 the same moments of
- * G(d) = W'(d) / d instead of W (grad W(x - q) = G (x - q)); the Heaviside
- * kernel has none (CG_ERR_UNSUPPORTED).
+ * where d < R, M_m = (1/pi) int_0^Delta W(d(t)) cos(m t) dt, m = 0 .. n_moments - 1
+ * (n_moments 1 to 4), to round-off, written to moments[m * n + i] (0 for pairs
+ * whose closest approach is outside the support). With gradient != 0 the same
+ * moments of G(d) = W'(d) / d instead of W (grad W(x - q) = G (x - q)); the
+ * Heaviside kernel has none (CG_ERR_UNSUPPORTED).
  *
  * cg_ring_segment_sum: out[9] += weight * sum over pieces q of
  * int_lo^hi (theta-average of tensors[segment[q]] carried by the point
@@ -265,13 +265,25 @@ cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kerne
  * Gauss-Legendre in u. geometry: per segment (x0_1, x0_2, zeta0, a_1, a_2,
  * a_z), the start and the vector in the ring's frame (e_1, e_2, e_z) relative
  * to the axis point. Pieces in blocks summed in order (thread-count free).
+ *
+ * cg_ring_segment_gradient_sum: as cg_ring_segment_sum (the same pieces and
+ * s-points), out[27] += the theta-average of the gradient, out[9 a + 3 b + c] =
+ * d T_ab / d x_c, a, b, c in the local basis (e_r, e_theta, e_z): at each
+ * s-point the moments of G, m = 0..3, and an 8-angle rule exact for the
+ * degree-3 trigonometric polynomial they weight. Gaussian and Lucy (the
+ * Heaviside kernel: CG_ERR_UNSUPPORTED); the truncated Gaussian's jump at
+ * the cutoff is not included, as in the Cartesian gradient.
  */
 cg_status cg_ring_moments(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
-                          int gradient, double *moments, int n_threads);
+                          int gradient, int n_moments, double *moments, int n_threads);
 cg_status cg_ring_segment_sum(const cg_kernel *kernel, double r, double z, cg_index n_pieces, const cg_index *segment,
                               const double *lo, const double *hi, const cg_index *panels, cg_index n_segments,
                               const double *geometry, const double *tensors, double weight, double *out,
                               int n_threads);
+cg_status cg_ring_segment_gradient_sum(const cg_kernel *kernel, double r, double z, cg_index n_pieces,
+                                       const cg_index *segment, const double *lo, const double *hi,
+                                       const cg_index *panels, cg_index n_segments, const double *geometry,
+                                       const double *tensors, double weight, double *out, int n_threads);
 
 /* Replace each row of vecs (n x D) by its minimum image along the periodic
    data axes (periodic[d] != 0, period[d] > 0). */

@@ -65,12 +65,12 @@ typedef struct ring_rule {
    the Gaussian's G = -W / w^2; Lucy's G = -12 C (1 - x)^2 / R^2, x = d / R, with the same
    branch points as W (odd powers of d), so the same panels. Heaviside has no G (0). */
 RING_CLONES static void ring_moments_one(const cg_kernel *k, const ring_rule *rule, double r, double h, double rho,
-                                         int gradient, double *M0, double *M1, double *M2)
+                                         int gradient, double *M)
 {
     const double R = k->radius;
     const double d0sq = (r - rho) * (r - rho) + h * h;
     const double rr = r * rho;
-    *M0 = *M1 = *M2 = 0.0;
+    M[0] = M[1] = M[2] = M[3] = 0.0;
     if (!(d0sq < R * R)) return;
     double half = M_PI; /* Delta */
     if (rr > 0.0) {
@@ -80,14 +80,15 @@ RING_CLONES static void ring_moments_one(const cg_kernel *k, const ring_rule *ru
     if (k->type == CG_KERNEL_HEAVISIDE) {
         if (gradient) return;
         const double w0 = k->prefactor;
-        *M0 = w0 * half / M_PI;
+        M[0] = w0 * half / M_PI;
         if (rr > 0.0) {
-            *M1 = w0 * sin(half) / M_PI;
-            *M2 = w0 * sin(2.0 * half) / (2.0 * M_PI);
+            M[1] = w0 * sin(half) / M_PI;
+            M[2] = w0 * sin(2.0 * half) / (2.0 * M_PI);
+            M[3] = w0 * sin(3.0 * half) / (3.0 * M_PI);
         }
         return;
     }
-    double m0 = 0.0, m1 = 0.0, m2 = 0.0;
+    double m0 = 0.0, m1 = 0.0, m2 = 0.0, m3 = 0.0;
     if (k->type == CG_KERNEL_GAUSSIAN) {
         const double inv = -0.5 / (k->width * k->width);
         const double sh = sin(0.5 * half);
@@ -105,15 +106,18 @@ RING_CLONES static void ring_moments_one(const cg_kernel *k, const ring_rule *ru
             cg_exp_in_place(ex, RING_POINTS);
             for (int i = 0; i < RING_POINTS; ++i) {
                 const double c1 = 1.0 - 2.0 * s2[i];
+                const double c2 = 2.0 * c1 * c1 - 1.0;
                 const double v = ex[i] * rule->w[i];
                 m0 += v;
                 m1 += v * c1;
-                m2 += v * (2.0 * c1 * c1 - 1.0);
+                m2 += v * c2;
+                m3 += v * (c1 * (2.0 * c2 - 1.0)); /* cos 3t = cos t (2 cos 2t - 1) */
             }
         }
         m0 *= step;
         m1 *= step;
         m2 *= step;
+        m3 *= step;
     } else { /* Lucy */
         /* graded panels [q^(k+1), q^k] of the half arc down to one that is at most 4 eps long, eps the branch
            points' distance from the real axis; the innermost panel [0, q^(K-1)] then keeps them a panel's
@@ -130,7 +134,7 @@ RING_CLONES static void ring_moments_one(const cg_kernel *k, const ring_rule *ru
         for (int p = 0; p < K; ++p) {
             const double bottom = p == K - 1 ? 0.0 : top * LUCY_RATIO;
             const double width = top - bottom;
-            double q0 = 0.0, q1 = 0.0, q2 = 0.0, c1s[RING_POINTS], vs[RING_POINTS];
+            double q0 = 0.0, q1 = 0.0, q2 = 0.0, q3 = 0.0, c1s[RING_POINTS], vs[RING_POINTS];
             for (int i = 0; i < RING_POINTS; ++i) { /* vectorised; the sums below keep their order */
                 const double t = half * (bottom + width * rule->x[i]);
                 const double s = cg_sin_half_pi(0.5 * t);
@@ -142,26 +146,31 @@ RING_CLONES static void ring_moments_one(const cg_kernel *k, const ring_rule *ru
             }
             for (int i = 0; i < RING_POINTS; ++i) {
                 const double v = vs[i], c1 = c1s[i];
+                const double c2 = 2.0 * c1 * c1 - 1.0;
                 q0 += v;
                 q1 += v * c1;
-                q2 += v * (2.0 * c1 * c1 - 1.0);
+                q2 += v * c2;
+                q3 += v * (c1 * (2.0 * c2 - 1.0));
             }
             m0 += q0 * width;
             m1 += q1 * width;
             m2 += q2 * width;
+            m3 += q3 * width;
             top = bottom;
         }
         m0 *= half;
         m1 *= half;
         m2 *= half;
+        m3 *= half;
     }
     double scale = k->prefactor / M_PI;
     if (gradient)
         scale = k->type == CG_KERNEL_GAUSSIAN ? -scale / (k->width * k->width) : -12.0 * scale / (R * R);
-    *M0 = m0 * scale;
-    if (rr > 0.0) { /* on the axis the distance does not depend on theta: cos t and cos 2t average out */
-        *M1 = m1 * scale;
-        *M2 = m2 * scale;
+    M[0] = m0 * scale;
+    if (rr > 0.0) { /* on the axis the distance does not depend on theta: cos m t (m >= 1) average out */
+        M[1] = m1 * scale;
+        M[2] = m2 * scale;
+        M[3] = m3 * scale;
     }
 }
 
@@ -185,9 +194,10 @@ static int ring_threads(int n_threads, cg_index work)
 }
 
 cg_status cg_ring_moments(const cg_kernel *kernel, double r, cg_index n, const double *h, const double *rho,
-                          int gradient, double *moments, int n_threads)
+                          int gradient, int n_moments, double *moments, int n_threads)
 {
-    if (!ring_kernel_ok(kernel) || !(r >= 0.0) || !isfinite(r) || n < 0) return CG_ERR_ARGUMENT;
+    if (!ring_kernel_ok(kernel) || !(r >= 0.0) || !isfinite(r) || n < 0 || n_moments < 1 || n_moments > 4)
+        return CG_ERR_ARGUMENT;
     if (gradient && kernel->type == CG_KERNEL_HEAVISIDE) return CG_ERR_UNSUPPORTED;
     ring_rule rule;
     cg_gauss_legendre01(RING_POINTS, rule.x, rule.w);
@@ -196,8 +206,11 @@ cg_status cg_ring_moments(const cg_kernel *kernel, double r, cg_index n, const d
 #ifdef _OPENMP
 #pragma omp parallel for schedule(static, 256) num_threads(threads)
 #endif
-    for (cg_index i = 0; i < n; ++i)
-        ring_moments_one(kernel, &rule, r, h[i], rho[i], gradient, moments + i, moments + n + i, moments + 2 * n + i);
+    for (cg_index i = 0; i < n; ++i) {
+        double M[4];
+        ring_moments_one(kernel, &rule, r, h[i], rho[i], gradient, M);
+        for (int m = 0; m < n_moments; ++m) moments[m * n + i] = M[m];
+    }
     return CG_OK;
 }
 
@@ -226,26 +239,72 @@ static void ring_rotate_add(const double *T, double c, double s, double M0, doub
     acc[8] += M0 * wt * T[8];
 }
 
-cg_status cg_ring_segment_sum(const cg_kernel *kernel, double r, double z, cg_index n_pieces, const cg_index *segment,
-                              const double *lo, const double *hi, const cg_index *panels, cg_index n_segments,
-                              const double *geometry, const double *tensors, double weight, double *out,
-                              int n_threads)
+/* ---- gradients: grad W(x - q) = G(d) (x - q), G = W'(d) / d ----
+ * The theta-average of G(d(t)) times a trigonometric polynomial p(t) of degree <= 3 in t (a tensor turned into
+ * the local basis, degree 2, times the local components of x - q = (r - rho cos t, rho sin t, h), degree 1)
+ * needs the gradient moments N_m, m = 0..3 (sin terms vanish: d is even in t). With the 8 angles
+ * t_j = 2 pi j / 8 and omega_j = (N_0 + 2 sum_{m=1..3} N_m cos(m t_j)) / 8, sum_j omega_j p(t_j) is that
+ * average exactly (omega p has degree <= 6 < 8, and p's degree <= 3 sees only N_0..N_3). */
+#define RING_GRADIENT_ANGLES 8
+
+#define RING_HALF_SQRT2 0.70710678118654752440
+static const double ring_angle_cos[RING_GRADIENT_ANGLES] = {1.0,  RING_HALF_SQRT2,  0.0, -RING_HALF_SQRT2,
+                                                            -1.0, -RING_HALF_SQRT2, 0.0, RING_HALF_SQRT2};
+static const double ring_angle_sin[RING_GRADIENT_ANGLES] = {0.0, RING_HALF_SQRT2,  1.0,  RING_HALF_SQRT2,
+                                                            0.0, -RING_HALF_SQRT2, -1.0, -RING_HALF_SQRT2};
+
+/* acc[27] += wt * theta-average of (B T B^T)_ab (B (x - p))_c G(d) over the ring (r, z), [a, b, c] = d T_ab / d x_c
+   in the local basis, for the tensor T (ring frame) carried by the point (p1, p2) (ring frame, from the axis,
+   radius rho, direction (c, s)) at the axial offset h = z - zeta, gradient moments N */
+static void ring_gradient_add(const double *T, double p1, double p2, double h, double r, const double *N, double wt,
+                              double *acc)
+{
+    const double rho = hypot(p1, p2);
+    const double cphi = rho > 0.0 ? p1 / rho : 1.0, sphi = rho > 0.0 ? p2 / rho : 0.0;
+    for (int j = 0; j < RING_GRADIENT_ANGLES; ++j) {
+        const double ct = ring_angle_cos[j], st = ring_angle_sin[j];
+        const double c2t = ct * ct - st * st, c3t = ct * (2.0 * c2t - 1.0);
+        const double omega = (N[0] + 2.0 * (N[1] * ct + N[2] * c2t + N[3] * c3t)) / RING_GRADIENT_ANGLES * wt;
+        if (omega == 0.0) continue;
+        const double c = cphi * ct - sphi * st, s = sphi * ct + cphi * st; /* theta = phi + t_j */
+        const double B[3][3] = {{c, s, 0.0}, {-s, c, 0.0}, {0.0, 0.0, 1.0}};
+        const double x1 = r * c - p1, x2 = r * s - p2;
+        const double g[3] = {c * x1 + s * x2, -s * x1 + c * x2, h};
+        double BT[3][3];
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) BT[a][b] = B[a][0] * T[b] + B[a][1] * T[3 + b] + B[a][2] * T[6 + b];
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) {
+                const double L = (BT[a][0] * B[b][0] + BT[a][1] * B[b][1] + BT[a][2] * B[b][2]) * omega;
+                for (int cc = 0; cc < 3; ++cc) acc[9 * a + 3 * b + cc] += L * g[cc];
+            }
+    }
+}
+
+/* the pieces of cg_ring_segment_sum (width 9) and cg_ring_segment_gradient_sum (width 27, gradient != 0): the same
+   s-points, blocks of pieces summed in order */
+static cg_status ring_segment_pieces(const cg_kernel *kernel, double r, double z, cg_index n_pieces,
+                                     const cg_index *segment, const double *lo, const double *hi,
+                                     const cg_index *panels, cg_index n_segments, const double *geometry,
+                                     const double *tensors, double weight, int gradient, double *out, int n_threads)
 {
     if (!ring_kernel_ok(kernel) || !(r >= 0.0) || !isfinite(r) || !isfinite(z) || !isfinite(weight) ||
         n_pieces < 0 || n_segments < 0)
         return CG_ERR_ARGUMENT;
+    if (gradient && kernel->type == CG_KERNEL_HEAVISIDE) return CG_ERR_UNSUPPORTED;
     for (cg_index i = 0; i < n_pieces; ++i)
         if (segment[i] < 0 || segment[i] >= n_segments || panels[i] < 1 || panels[i] > 1 << 20 ||
             !(lo[i] >= 0.0 && lo[i] <= hi[i] && hi[i] <= 1.0))
             return CG_ERR_ARGUMENT;
+    const int width = gradient ? 27 : 9;
     ring_rule rule;
     cg_gauss_legendre01(RING_POINTS, rule.x, rule.w);
     /* Gauss-Legendre in u on each panel, s = lo + (hi - lo) sin^2(pi u / 2), ds/du = (hi - lo) (pi/2) sin(pi u) */
     const cg_index n_blocks = (n_pieces + RING_PIECE_BLOCK - 1) / RING_PIECE_BLOCK;
-    double local[64 * 9];
+    double local[64 * 27];
     double *blocks = local;
-    if (n_blocks > 64) {
-        blocks = (double *)malloc((size_t)n_blocks * 9 * sizeof(double));
+    if (n_blocks * width > 64 * 27) {
+        blocks = (double *)malloc((size_t)n_blocks * width * sizeof(double));
         if (!blocks) return CG_ERR_NOMEM;
     }
     const int threads = ring_threads(n_threads, n_pieces * RING_POINTS);
@@ -254,7 +313,7 @@ cg_status cg_ring_segment_sum(const cg_kernel *kernel, double r, double z, cg_in
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
 #endif
     for (cg_index blk = 0; blk < n_blocks; ++blk) {
-        double acc[9] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+        double acc[27] = {0.0};
         const cg_index end = (blk + 1) * RING_PIECE_BLOCK < n_pieces ? (blk + 1) * RING_PIECE_BLOCK : n_pieces;
         for (cg_index q = blk * RING_PIECE_BLOCK; q < end; ++q) {
             const double *g = geometry + 6 * segment[q];
@@ -270,16 +329,38 @@ cg_status cg_ring_segment_sum(const cg_kernel *kernel, double r, double z, cg_in
                     const double wt = span * rule.w[i] * 0.5 * M_PI * sin(M_PI * u) / (double)P * weight;
                     const double p1 = g[0] + s * g[3], p2 = g[1] + s * g[4];
                     const double rho = hypot(p1, p2);
-                    const double cphi = rho > 0.0 ? p1 / rho : 1.0, sphi = rho > 0.0 ? p2 / rho : 0.0;
-                    double M0, M1, M2;
-                    ring_moments_one(kernel, &rule, r, h0 - s * g[5], rho, 0, &M0, &M1, &M2);
-                    ring_rotate_add(T, cphi, sphi, M0, M1, M2, wt, acc);
+                    double M[4];
+                    ring_moments_one(kernel, &rule, r, h0 - s * g[5], rho, gradient, M);
+                    if (gradient) {
+                        ring_gradient_add(T, p1, p2, h0 - s * g[5], r, M, wt, acc);
+                    } else {
+                        const double cphi = rho > 0.0 ? p1 / rho : 1.0, sphi = rho > 0.0 ? p2 / rho : 0.0;
+                        ring_rotate_add(T, cphi, sphi, M[0], M[1], M[2], wt, acc);
+                    }
                 }
         }
-        for (int c = 0; c < 9; ++c) blocks[9 * blk + c] = acc[c];
+        for (int c = 0; c < width; ++c) blocks[width * blk + c] = acc[c];
     }
     for (cg_index blk = 0; blk < n_blocks; ++blk)
-        for (int c = 0; c < 9; ++c) out[c] += blocks[9 * blk + c];
+        for (int c = 0; c < width; ++c) out[c] += blocks[width * blk + c];
     if (blocks != local) free(blocks);
     return CG_OK;
+}
+
+cg_status cg_ring_segment_sum(const cg_kernel *kernel, double r, double z, cg_index n_pieces, const cg_index *segment,
+                              const double *lo, const double *hi, const cg_index *panels, cg_index n_segments,
+                              const double *geometry, const double *tensors, double weight, double *out,
+                              int n_threads)
+{
+    return ring_segment_pieces(kernel, r, z, n_pieces, segment, lo, hi, panels, n_segments, geometry, tensors, weight,
+                               0, out, n_threads);
+}
+
+cg_status cg_ring_segment_gradient_sum(const cg_kernel *kernel, double r, double z, cg_index n_pieces,
+                                       const cg_index *segment, const double *lo, const double *hi,
+                                       const cg_index *panels, cg_index n_segments, const double *geometry,
+                                       const double *tensors, double weight, double *out, int n_threads)
+{
+    return ring_segment_pieces(kernel, r, z, n_pieces, segment, lo, hi, panels, n_segments, geometry, tensors, weight,
+                               1, out, n_threads);
 }

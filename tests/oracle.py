@@ -865,8 +865,8 @@ def _oracle_kernel_gradient_factor_3d(kernel):
     raise ValueError("no gradient of the Heaviside kernel")
 
 
-def oracle_ring_moments(kernel, r, h, rho, gradient=False):
-    """Twin of cg_ring_moments: (3, n) moments M_m = (1/π) ∫_0^Δ W(d(t)) cos(m t) dt by a graded composite
+def oracle_ring_moments(kernel, r, h, rho, gradient=False, n_moments=3):
+    """Twin of cg_ring_moments: (n_moments, n) moments M_m = (1/π) ∫_0^Δ W(d(t)) cos(m t) dt by a graded composite
     Gauss-Legendre rule (8 panels x 20 points for every kernel; Heaviside's closed form); with ``gradient``
     those of G = W'(d) / d."""
     h, rho = np.asarray(h, dtype=float), np.asarray(rho, dtype=float)
@@ -880,26 +880,27 @@ def oracle_ring_moments(kernel, r, h, rho, gradient=False):
     half = 2.0 * np.arcsin(np.sqrt(np.clip(s2, 0.0, 1.0)))
     if kernel.kind == 2:
         w0 = W(d0sq)
-        M = np.stack([w0 * half, w0 * np.sin(half), w0 * np.sin(2.0 * half) / 2.0]) / math.pi
+        M = np.stack([w0 * half] + [w0 * np.sin(m * half) / m for m in range(1, n_moments)]) / math.pi
     else:
         x, w = _oracle_ring_rule()
         t = half[:, None] * x
         s = np.sin(0.5 * t)
         values = W(np.minimum(d0sq[:, None] + 4.0 * rr[:, None] * s * s, c * c)) * (half[:, None] * w)
-        M = np.stack([values.sum(axis=1), (values * np.cos(t)).sum(axis=1),
-                      (values * np.cos(2.0 * t)).sum(axis=1)]) / math.pi
+        M = np.stack([(values * np.cos(m * t)).sum(axis=1) for m in range(n_moments)]) / math.pi
     M[:, ~inside] = 0.0
     M[1:, rr == 0] = 0.0
     return M
 
 
-def oracle_ring_tensor_sum(kernel, r, h, rho, cos_phi, sin_phi, weight, which, tensors):
+def oracle_ring_tensor_sum(kernel, r, h, rho, cos_phi, sin_phi, weight, which, tensors, gradient=False):
     """Twin of cg_ring_tensor_sum by the θ-average itself: (1/2π) ∫_{-Δ}^{Δ} W(d(t)) B(φ + t) T B(φ + t)ᵀ dt per
-    source (B the rows e_r, e_θ, e_z at the node's angle), the graded rule at ±t; (3, 3)."""
+    source (B the rows e_r, e_θ, e_z at the node's angle), the graded rule at ±t; (3, 3). With ``gradient`` the
+    θ-average of B T Bᵀ ⊗ B ∇W(x - q), ∇W = G(d) (x - q) with x - q = (r cos θ - ρ cos φ, r sin θ - ρ sin φ, h)
+    in Cartesian components: (3, 3, 3), the derivative's index last."""
     c = float(kernel.radius)
-    W = _oracle_kernel_3d(kernel)
+    W = _oracle_kernel_gradient_factor_3d(kernel) if gradient else _oracle_kernel_3d(kernel)
     x, w = _oracle_ring_rule()
-    out = np.zeros((3, 3))
+    out = np.zeros((3, 3, 3) if gradient else (3, 3))
     for i in range(len(h)):
         d0sq = (r - rho[i]) ** 2 + h[i] ** 2
         if not d0sq < c * c:
@@ -916,13 +917,18 @@ def oracle_ring_tensor_sum(kernel, r, h, rho, cos_phi, sin_phi, weight, which, t
             B[:, 1, 0], B[:, 1, 1] = -np.sin(theta), np.cos(theta)
             B[:, 2, 2] = 1.0
             values = W(np.minimum(d0sq + 4.0 * rr * np.sin(0.5 * t) ** 2, c * c)) * half * w / (2 * math.pi)
-            out += weight[i] * np.einsum("q,qia,ab,qjb->ij", values, B, T, B)
+            if not gradient:
+                out += weight[i] * np.einsum("q,qia,ab,qjb->ij", values, B, T, B)
+                continue
+            apart = np.stack([r * np.cos(theta) - rho[i] * cos_phi[i], r * np.sin(theta) - rho[i] * sin_phi[i],
+                              np.full(len(t), h[i])], axis=1)
+            out += weight[i] * np.einsum("q,qia,ab,qjb,qkc,qc->ijk", values, B, T, B, B, apart)
     return out
 
 
-def oracle_ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight):
-    """Twin of cg_ring_segment_sum: the s-points of each piece (20-point Gauss-Legendre in u on its panels,
-    s = lo + (hi - lo) sin²(π u / 2)) and their θ-averages by oracle_ring_tensor_sum; (3, 3)."""
+def _oracle_segment_points(z, segment, lo, hi, panels, geometry, weight):
+    """The s-points of cg_ring_segment_sum's pieces (20-point Gauss-Legendre in u on each piece's panels,
+    s = lo + (hi - lo) sin²(π u / 2)): their (h, ρ, cos φ, sin φ, weight, segment)."""
     x, w = np.polynomial.legendre.leggauss(20)
     x, w = 0.5 * (x + 1.0), 0.5 * w
     h, rho, cphi, sphi, wt, which = [], [], [], [], [], []
@@ -941,7 +947,14 @@ def oracle_ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, ten
             wt.append((hi[q] - lo[q]) * w * 0.5 * math.pi * np.sin(math.pi * u) / P * weight)
             which.append(np.full(len(u), segment[q]))
     cat = [np.concatenate(a) if a else np.zeros(0) for a in (h, rho, cphi, sphi, wt, which)]
-    return oracle_ring_tensor_sum(kernel, r, *cat[:5], cat[5].astype(int), tensors)
+    return cat[:5] + [cat[5].astype(int)]
+
+
+def oracle_ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, gradient=False):
+    """Twin of cg_ring_segment_sum (with ``gradient``, of cg_ring_segment_gradient_sum): the s-points of each piece
+    and their θ-averages by oracle_ring_tensor_sum; (3, 3), with ``gradient`` (3, 3, 3)."""
+    points = _oracle_segment_points(z, segment, lo, hi, panels, geometry, weight)
+    return oracle_ring_tensor_sum(kernel, r, *points, tensors, gradient=gradient)
 
 
 def oracle_outer_values(factors, vectors):

@@ -1,7 +1,8 @@
 """The ring entry points of the C core (csrc/cg_ring.c) against their NumPy twins (tests/oracle.py).
 
 cg_ring_moments: the angular moments of the 3-D kernel over a ring's arc; cg_ring_segment_sum: θ-averages
-of tensors spread along pieces of segments, rotated into the local basis. The twins use a different rule
+of tensors spread along pieces of segments, rotated into the local basis; cg_ring_segment_gradient_sum: the
+θ-averages of their gradients. The twins use a different rule
 (graded Gauss-Legendre for every kernel) and, for the tensors, the θ-average itself rather than the
 moment identities, so agreement at 1e-12 checks both the rules and the reduction.
 """
@@ -78,6 +79,23 @@ def test_gradient_moments_against_twin(name, r):
     assert not np.allclose(got, _engine.ring_moments(kernel, r, h, rho))
 
 
+@pytest.mark.parametrize("name, gradient", [(k, g) for k in KERNELS for g in (False, True)
+                                            if not (g and k == "heaviside")])
+@pytest.mark.parametrize("r", [0.0, 0.4, 2.5, 40.0])
+def test_fourth_moment_against_twin(name, gradient, r):
+    """n_moments=4 adds M₃ (of W, or of G) and leaves M₀..M₂ as they were."""
+    kernel = KERNELS[name]
+    h, rho = pairs(kernel, r, seed=5)
+    got = _engine.ring_moments(kernel, r, h, rho, gradient=gradient, n_moments=4)
+    want = oracle_ring_moments(kernel, r, h, rho, gradient=gradient, n_moments=4)
+    assert got.shape == (4, len(h))
+    assert np.array_equal(got[:3], _engine.ring_moments(kernel, r, h, rho, gradient=gradient))
+    if r > 0:
+        assert np.abs(want[3]).max() > 1e-3 * np.abs(want[0]).max()
+    floor = 1e-4 * np.abs(oracle_ring_moments(kernel, 0.0, np.zeros(1), np.zeros(1), gradient=gradient)[0, 0])
+    np.testing.assert_array_less(np.abs(got[3] - want[3]) / np.maximum(np.abs(want[0]), floor), 1e-12)
+
+
 def test_heaviside_has_no_gradient_moments():
     with pytest.raises(NotImplementedError):
         _engine.ring_moments(KERNELS["heaviside"], 1.0, np.zeros(2), np.ones(2), gradient=True)
@@ -131,12 +149,34 @@ def test_ring_segment_sum_against_twin(name, r):
     np.testing.assert_array_less(np.abs(got - want), 1e-12 * size)
 
 
+@pytest.mark.parametrize("name", [k for k in KERNELS if k != "heaviside"])
+@pytest.mark.parametrize("r", [0.0, 0.4, 3.0])
+def test_ring_segment_gradient_sum_against_twin(name, r):
+    """The twin takes the θ-average of B T Bᵀ ⊗ B G(d) (x - q) itself (no moments, no 8-angle rule)."""
+    kernel = KERNELS[name]
+    case = segment_case(kernel, r, 0.3)
+    got = _engine.ring_segment_sum(kernel, r, 0.3, *case, 0.7, gradient=True)
+    want = oracle_ring_segment_sum(kernel, r, 0.3, *case, 0.7, gradient=True)
+    assert got.shape == (3, 3, 3)
+    size = np.abs(want).max()
+    assert size > 0
+    np.testing.assert_array_less(np.abs(got - want), 1e-12 * size)
+
+
+def test_heaviside_has_no_segment_gradient():
+    kernel = KERNELS["heaviside"]
+    with pytest.raises(NotImplementedError):
+        _engine.ring_segment_sum(kernel, 1.0, 0.3, *segment_case(kernel, 1.0, 0.3), 1.0, gradient=True)
+
+
 def test_ring_segment_sum_does_not_depend_on_the_thread_count():
     kernel = KERNELS["lucy"]
     case = segment_case(kernel, 1.5, 0.0, n_segments=400, seed=8)
-    runs = [_engine.ring_segment_sum(kernel, 1.5, 0.0, *case, 1.0, n_threads=t) for t in (1, 2, 3)]
-    for other in runs[1:]:
-        assert np.array_equal(runs[0], other)
+    for gradient in (False, True):
+        runs = [_engine.ring_segment_sum(kernel, 1.5, 0.0, *case, 1.0, gradient=gradient, n_threads=t)
+                for t in (1, 2, 3)]
+        for other in runs[1:]:
+            assert np.array_equal(runs[0], other)
     rng = np.random.default_rng(5)
     h, rho = rng.uniform(-1, 1, 5000), rng.uniform(0, 3, 5000)
     moments = [_engine.ring_moments(kernel, 1.5, h, rho, n_threads=t) for t in (1, 2, 3)]
@@ -155,6 +195,9 @@ def test_ring_entry_points_refuse_bad_arguments():
         _engine.ring_moments(kernel, 1.0, np.array([0.0, np.nan, 0.0]), rho)
     with pytest.raises(ValueError, match="rho: expected length 3"):
         _engine.ring_moments(kernel, 1.0, h, np.ones(4))
+    for n_moments in (0, 5):
+        with pytest.raises(ValueError, match="n_moments: expected 1 to 4"):
+            _engine.ring_moments(kernel, 1.0, h, rho, n_moments=n_moments)
     with pytest.raises(ValueError, match="kernel"):
         _engine._core.ring_moments((0, -1.0, 1.0, 0, 1.0), 1.0, h, rho)
     segment, lo, hi, panels, geometry, tensors = segment_case(kernel, 1.0, 0.0, n_segments=3)
