@@ -30,6 +30,7 @@ import math
 import numpy as np
 
 from .cylindrical import CylindricalGrid
+from .cylindrical_axial import axial_line_integrals
 from .cylindrical_ring import axial_line_average, ring_average, ring_average_segments
 from .fields import ROTATION_FIELDS, check_fields, derive
 from .grid import Points
@@ -175,6 +176,7 @@ def ring_sums(job, grid, needed):
             averaged.update({name: g for (name, _), g in zip(rows, sums)})
         for name in needed & (POINT_PRIMARIES | GRADIENT_PRIMARIES) - set(averaged):
             averaged[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
+        averaged.update(axial_line_integrals(job, grid, needed))
     rest = needed - set(averaged)
     if not rest:
         return averaged
