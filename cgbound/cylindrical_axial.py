@@ -83,11 +83,13 @@ def column_pieces(kernel, d0, b, e_z, H, S):
     S = np.broadcast_to(np.asarray(S, dtype=float), (K,))
     breaks = np.concatenate([np.zeros((K, 1)), S[:, None], cyl, lo_roots, hi_roots], axis=1)
     breaks = np.where((breaks >= 0.0) & (breaks <= S[:, None]), breaks, np.nan)
-    cuts = [breaks, graded_cuts(cyl_centre, cyl_imag, S)]            # grazing the cylinder: a complex pair
-    # a cylinder root with another breakpoint close by: the root's square root sits just outside that piece
+    grazing = np.where(cyl_imag > 0.0, cyl_centre, np.nan)          # grazing the cylinder: a complex pair
+    cuts = [breaks, graded_cuts(grazing, cyl_imag, S)]
+    # a cylinder root with another breakpoint close by (not the segment's ends): the root's square root sits
+    # just outside the piece between them
     for j in range(2):
         root = cyl[:, j]
-        others = np.delete(breaks, 2 + j, axis=1)
+        others = np.delete(breaks[:, 2:], j, axis=1)
         gap = np.nanmin(np.where(np.abs(others - root[:, None]) > 0.0, np.abs(others - root[:, None]), np.inf), axis=1)
         cuts.append(graded_cuts(np.where(np.isfinite(root) & (root >= 0) & (root <= S), root, np.nan), gap, S))
     if isinstance(kernel, Lucy):         # d³: I is not analytic where p(s) meets the column's line or its ends
