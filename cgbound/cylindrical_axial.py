@@ -13,7 +13,8 @@ radius c (the kernel's support radius) around the column [x_lo, x_hi], and analy
 p(s) crosses the cylinder ρ = c about the column (square-root ends: the chord √(c² - ρ²)) or the spheres of
 radius c about x_lo and x_hi (where the chord starts to be clipped by the column's end): the roots of three
 quadratics in s. Each piece gets Gauss-Legendre points in u on panels no longer than the kernel's scale along the
-segment, s = s₀ + (s₁ - s₀) sin²(π u / 2) (analytic at square-root ends). Near-singularities get geometric cuts
+segment, s = s₀ + (s₁ - s₀) sin²(π u / 2) (analytic at square-root ends); the pieces are found here, their
+sums taken by the C core (csrc/cg_axial.c, ``cg_axial_segment_sum``). Near-singularities get geometric cuts
 towards them (ratio 1/4, a piece at most 3 times longer than its distance to one): a segment grazing the
 cylinder (a complex pair of roots), a cylinder root next to another breakpoint (its mirror in the next piece),
 and for Lucy, whose d³ term makes I non-analytic where p meets the column (ρ = 0) or its ends, the closest
@@ -22,8 +23,6 @@ leave the grid's reach along the box's walled axes first; periodic images are ex
 
 ``tests/test_cylindrical_axial.py`` checks the sums against nested adaptive quadrature (scipy) at 1e-12.
 """
-import math
-
 import numpy as np
 
 from . import _engine
@@ -31,9 +30,6 @@ from .cylindrical_ring import periodic_sources
 from .kernels import Gaussian, Lucy
 from .primaries import segment_sources
 
-#: Gauss-Legendre points per panel in u
-SEGMENT_POINTS = 20
-_G, _GW = np.polynomial.legendre.leggauss(SEGMENT_POINTS)
 #: at most this many panels per piece
 MAX_PANELS = 256
 #: geometric grading towards a near-singularity: ratio and levels (0.25^26 ~ 2e-16)
@@ -120,22 +116,6 @@ def kernel_scale(kernel):
     return float(kernel.width) if isinstance(kernel, Gaussian) else float(kernel.radius) / 3.0
 
 
-def piece_rule(seg, s0, s1, length, scale):
-    """Gauss-Legendre points of the pieces: (segment, s, weight) flat, sin²-mapped, panels in u no longer than
-    ``scale`` along the segment (of ``length``)."""
-    panels = np.clip(np.ceil((s1 - s0) * length[seg] / scale), 1, MAX_PANELS).astype(int)
-    piece = np.repeat(np.arange(len(seg)), panels)
-    first = np.cumsum(panels) - panels
-    k = np.arange(len(piece)) - first[piece]                       # panel index within its piece
-    n = panels[piece]
-    u = (k[:, None] + 0.5 * (_G + 1.0)) / n[:, None]               # (panels, 20) in [0, 1]
-    gw = 0.5 * _GW / n[:, None]
-    a, span = s0[piece, None], (s1 - s0)[piece, None]
-    s = a + span * np.sin(0.5 * math.pi * u) ** 2
-    w = span * (0.5 * math.pi) * np.sin(math.pi * u) * gw
-    return np.repeat(seg[piece], SEGMENT_POINTS), s.ravel(), w.ravel()
-
-
 def clip_rays(box, starts, vectors, reach_lo, reach_hi):
     """Rays start + s vector, s >= 0, as the segments of them inside [reach_lo, reach_hi] along the box's walled
     axes (the periodic ones are imaged later): (starts, vectors, factor = the s-length kept, the segment's
@@ -195,12 +175,10 @@ def axial_segment_average(grid, kernel, starts, vectors, values, ray=False, n_th
     length = np.sqrt(np.einsum("ki,ki->k", vectors, vectors))
     scale = kernel_scale(kernel)
     e_z = grid.e_z
-    bottoms = grid.cartesian(R, T, np.full(R.shape, lo))
-    core_kernel = _engine.ring_kernel(kernel)
-    column = -H * e_z
+    bottoms = np.ascontiguousarray(grid.cartesian(R, T, np.full(R.shape, lo)))
     # a quick candidate test per column: the segment's bounding box against the column's capsule's
     seg_lo, seg_hi = np.minimum(starts, starts + vectors), np.maximum(starts, starts + vectors)
-    basis = grid.basis(T)
+    segments, s0s, s1s, counts = [], [], [], np.zeros(R.size, dtype=np.int64)
     for n, x_lo in enumerate(bottoms):
         x_hi = x_lo + H * e_z
         cap_lo, cap_hi = np.minimum(x_lo, x_hi) - c, np.maximum(x_lo, x_hi) + c
@@ -208,18 +186,21 @@ def axial_segment_average(grid, kernel, starts, vectors, values, ray=False, n_th
         if not cand.size:
             continue
         seg, s0, s1 = column_pieces(kernel, starts[cand] - x_lo, vectors[cand], e_z, H, 1.0)
-        if not seg.size:
-            continue
-        which, s, w = piece_rule(seg, s0, s1, length[cand], scale)
-        k = cand[which]
-        points = np.ascontiguousarray(starts[k] + s[:, None] * vectors[k])
-        weighted = np.ascontiguousarray(values[k] * w[:, None])
-        sums = _engine.scatter_segments(_engine.point_target(x_lo[None, :]), core_kernel, points,
-                                        np.ascontiguousarray(np.broadcast_to(column, points.shape)), weighted,
-                                        n_threads=n_threads)
-        v = np.asarray(sums).reshape(3, 3)
-        out[n] = basis[n] @ v @ basis[n].T
-    return out
+        segments.append(cand[seg])
+        s0s.append(s0)
+        s1s.append(s1)
+        counts[n] = seg.size
+    if not counts.any():
+        return out
+    segment, s0, s1 = (np.concatenate(a) for a in (segments, s0s, s1s))
+    # panels in u no longer than the kernel's scale along the segment: I varies on it
+    panels = np.clip(np.ceil((s1 - s0) * length[segment] / scale), 1, MAX_PANELS).astype(np.int64)
+    first = np.concatenate([[0], np.cumsum(counts)])
+    sums = _engine.axial_segment_sum(kernel, bottoms, np.ascontiguousarray(-H * e_z), first, segment, s0, s1,
+                                     panels, np.ascontiguousarray(starts), np.ascontiguousarray(vectors),
+                                     np.ascontiguousarray(values), n_threads=n_threads)
+    basis = grid.basis(T)
+    return np.einsum("nia,nab,njb->nij", basis, np.asarray(sums).reshape(-1, 3, 3), basis)
 
 
 def axial_line_integrals(job, grid, needed):
