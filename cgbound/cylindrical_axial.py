@@ -56,10 +56,13 @@ def quadratic_roots(A, B, C):
 def graded_cuts(centre, distance, span):
     """Cuts at centre ± max(span 4^-k, distance), k = 1..26 ((K, 52)), NaN where the grading is not needed
     (distance at least a quarter of the span, or no centre)."""
-    need = np.isfinite(centre) & (distance < GRADING * span)
-    offsets = np.maximum(span[:, None] * _GRADES, distance[:, None])
-    cuts = np.concatenate([centre[:, None] - offsets, centre[:, None] + offsets], axis=1)
-    return np.where(need[:, None], cuts, np.nan)
+    with np.errstate(invalid="ignore"):
+        need = np.flatnonzero(np.isfinite(centre) & (distance < GRADING * span))
+    cuts = np.full((len(centre), 2 * GRADING_LEVELS), np.nan)
+    if need.size:
+        offsets = np.maximum(span[need, None] * _GRADES, distance[need, None])
+        cuts[need] = np.concatenate([centre[need, None] - offsets, centre[need, None] + offsets], axis=1)
+    return cuts
 
 
 def column_pieces(kernel, d0, b, e_z, H, S):
@@ -95,20 +98,31 @@ def column_pieces(kernel, d0, b, e_z, H, S):
             near_hi = np.sqrt(np.maximum(C_hi - np.where(A_s > 0, B_hi * B_hi / A_s, 0.0), 0.0) / A_s)
         cuts += [graded_cuts(cyl_centre, near_line, S), graded_cuts(lo_centre, near_lo, S),
                  graded_cuts(hi_centre, near_hi, S)]
-    edges = np.concatenate(cuts, axis=1)
-    edges = np.where((edges >= 0.0) & (edges <= S[:, None]), edges, np.nan)
-    edges = np.sort(edges, axis=1)                                   # NaN last
-    s0, s1 = edges[:, :-1], edges[:, 1:]
-    mid = 0.5 * (s0 + s1)
-    # inside the capsule at the piece's middle (the capsule's surface is made of breakpoints)
-    zeta = zeta0[:, None] + mid * beta[:, None]
-    rho2 = C_c[:, None] + mid * (2.0 * B_c[:, None] + mid * A_c[:, None])
-    d_lo = C_lo[:, None] + mid * (2.0 * B_lo[:, None] + mid * A_s[:, None])
-    d_hi = C_hi[:, None] + mid * (2.0 * B_hi[:, None] + mid * A_s[:, None])
-    with np.errstate(invalid="ignore"):
-        inside = (s1 > s0) & (rho2 < c * c) & (((zeta >= 0.0) & (zeta <= H)) | (d_lo < c * c) | (d_hi < c * c))
-    seg, piece = np.nonzero(inside)
-    return seg, s0[seg, piece], s1[seg, piece]
+    graded = np.concatenate(cuts[1:], axis=1)
+    graded = np.where((graded >= 0.0) & (graded <= S[:, None]), graded, np.nan)
+    # the rows with graded cuts (few) sorted apart from the others: most rows need only their breakpoints
+    fine = np.isfinite(graded).any(axis=1)
+    found = []
+    for rows, edges in ((np.flatnonzero(~fine), breaks[~fine]),
+                        (np.flatnonzero(fine), np.concatenate([breaks[fine], graded[fine]], axis=1))):
+        if not rows.size:
+            continue
+        edges = np.sort(edges, axis=1)                               # NaN last
+        s0, s1 = edges[:, :-1], edges[:, 1:]
+        mid = 0.5 * (s0 + s1)
+        # inside the capsule at the piece's middle (the capsule's surface is made of breakpoints)
+        k = rows[:, None]
+        zeta = zeta0[k] + mid * beta[k]
+        rho2 = C_c[k] + mid * (2.0 * B_c[k] + mid * A_c[k])
+        d_lo = C_lo[k] + mid * (2.0 * B_lo[k] + mid * A_s[k])
+        d_hi = C_hi[k] + mid * (2.0 * B_hi[k] + mid * A_s[k])
+        with np.errstate(invalid="ignore"):
+            inside = (s1 > s0) & (rho2 < c * c) & (((zeta >= 0.0) & (zeta <= H)) | (d_lo < c * c) | (d_hi < c * c))
+        seg, piece = np.nonzero(inside)
+        found.append((rows[seg], s0[seg, piece], s1[seg, piece]))
+    seg, s0, s1 = (np.concatenate(a) for a in zip(*found))
+    order = np.argsort(seg, kind="stable")                           # pieces in segment order
+    return seg[order], s0[order], s1[order]
 
 
 def kernel_scale(kernel):
