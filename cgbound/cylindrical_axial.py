@@ -30,8 +30,8 @@ from .cylindrical_ring import periodic_sources
 from .kernels import Gaussian, Lucy
 from .primaries import segment_sources
 
-#: at most this many panels per piece
-MAX_PANELS = 256
+#: at most this many panels per piece (the C core's limit; a piece needs one per kernel scale)
+MAX_PANELS = 1 << 20
 #: geometric grading towards a near-singularity: ratio and levels (0.25^26 ~ 2e-16)
 GRADING = 0.25
 GRADING_LEVELS = 26

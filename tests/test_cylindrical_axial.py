@@ -29,14 +29,14 @@ def quadratic_points(A, B, C, lo, hi):
     return [p for p in pts if lo < p < hi]
 
 
-def oracle_column_average(kernel, x_lo, H, a, b, S=1.0):
-    """(1/H) ∫₀^H dτ ∫₀^S ds W(|x_lo + τ e_z - a - s b|), e_z = (0, 0, 1), by nested QUADPACK: s split where the
+def oracle_column_average(kernel, x_lo, H, a, b, S=1.0, e=(0.0, 0.0, 1.0)):
+    """(1/H) ∫₀^H dτ ∫₀^S ds W(|x_lo + τ e - a - s b|) (e the unit axis) by nested QUADPACK: s split where the
     point's support sphere meets the segment's line and at the closest approach; τ where that sphere passes the
     segment's ends, becomes tangent to its line, and at the closest approaches."""
     W = float_kernel(kernel)
     c = float(kernel.radius)
     x_lo, a, b = (np.asarray(v, dtype=float) for v in (x_lo, a, b))
-    e = np.array([0.0, 0.0, 1.0])
+    e = np.asarray(e, dtype=float)
     bb = b @ b
 
     def inner(tau):
@@ -76,24 +76,28 @@ def oracle_sums(kernel, grid, starts, vectors, values, S=1.0, period=None):
     ray is farther from the axis than every column's support (the rays have an in-plane component)."""
     lo, hi = grid.z_extent
     c = float(kernel.radius)
+    e = grid.e_z
     shifts = [0.0] if period is None else [k * period for k in range(-2, 3)]
     out = []
+
+    def across(v):                       # the component across the axis
+        return np.linalg.norm(v - (v @ e) * e)
     for r in grid.r:
         for t in grid.theta:
-            x = np.array([r * math.cos(t), r * math.sin(t), lo])
+            x = grid.cartesian(r, t, lo)
             total = np.zeros((3, 3))
             for a, b, v in zip(starts, vectors, values):
                 for shift in shifts:
-                    a_k = a + np.array([0.0, 0.0, shift])
-                    # (skip what cannot reach the column: a bound on the segment's distance to it)
-                    S_k = S if np.isfinite(S) else (math.hypot(*a_k[:2]) + grid.r.max() + c) / math.hypot(*b[:2])
-                    if math.hypot(*(a_k[:2] - x[:2])) - math.hypot(*b[:2]) * S_k >= c:
+                    a_k = a + shift * e
+                    S_k = S if np.isfinite(S) else (across(a_k - grid.axis_point) + grid.r.max() + c) / across(b)
+                    if across(a_k - x) - across(b) * S_k >= c:
                         continue
-                    z_ends = a_k[2], a_k[2] + S_k * b[2]
-                    if min(z_ends) >= hi + c or max(z_ends) <= lo - c:
+                    z_ends = (a_k - x) @ e, (a_k + S_k * b - x) @ e
+                    if min(z_ends) >= hi - lo + c or max(z_ends) <= -c:
                         continue
-                    total += oracle_column_average(kernel, x, hi - lo, a_k, b, S_k) * v
-            out.append(basis(t) @ total @ basis(t).T)
+                    total += oracle_column_average(kernel, x, hi - lo, a_k, b, S_k, e) * v
+            B = grid.basis(t)
+            out.append(B @ total @ B.T)
     return np.array(out)
 
 
@@ -182,3 +186,25 @@ def test_ray_along_the_periodic_axis_is_refused():
     out = axial_segment_average(grid, cg.Lucy(1.0), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]),
                                 np.ones((1, 3, 3)))            # a segment is fine
     assert np.abs(out).max() > 0
+
+
+@pytest.mark.parametrize("kernel", [cg.Gaussian(0.4, cutoff=1.2), cg.Lucy(1.2)], ids=["gauss3w", "lucy"])
+def test_axis_along_x_with_a_periodic_axis(kernel):
+    """The axis along x (periodic), walls across it: contact and boundary stress and rays against the oracle."""
+    snap = contact_snapshot(True)
+    perm = [2, 0, 1]                                   # (x, y, z) -> the old (z, x, y)
+    pos = snap.positions[:, perm]
+    c = snap.contacts
+    box = cg.Box([-2, -3, -3], [2, 3, 3], periodic=[True, False, False])
+    snap = cg.Snapshot(pos, np.zeros_like(pos), snap.masses, box=box,
+                       contacts=cg.Contacts(c.i, c.j, c.force[:, perm], c.point[:, perm]))
+    from cgbound.cylindrical_fields import ring_primaries
+    grid = cg.CylindricalGrid(snap.box, (0, 0.1, -0.2), "x", r=(0.3, 1.5, 2), theta=3)
+    _, sums = ring_primaries(snap, grid, kernel, ["contact_stress", "boundary_stress", "extended_stress"])
+    for name, boundary, S in (("sb", False, 1.0), ("sw", True, 1.0), ("sx", True, np.inf)):
+        starts, vectors, values = segments(snap, boundary)
+        want = oracle_sums(kernel, grid, starts, vectors, values, S, 4.0)
+        got = np.asarray(sums[name]).reshape(want.shape)
+        scale = np.abs(want).max()
+        assert scale > 0
+        assert np.abs(got - want).max() <= TOL * scale, (name, np.abs(got - want).max() / scale)
