@@ -26,6 +26,7 @@ leave the grid's reach along the box's walled axes first; periodic images are ex
 import numpy as np
 
 from . import _engine
+from ._threads import get_num_threads
 from .cylindrical_ring import periodic_sources
 from .kernels import Gaussian, Lucy
 from .primaries import segment_sources
@@ -154,12 +155,13 @@ def clip_rays(box, starts, vectors, reach_lo, reach_hi):
     return starts[keep] + s_lo[:, None] * vectors[keep], (s_hi - s_lo)[:, None] * vectors[keep], keep, s_hi - s_lo
 
 
-def axial_segment_average(grid, kernel, starts, vectors, values, ray=False, n_threads=0):
+def axial_segment_average(grid, kernel, starts, vectors, values, ray=False, n_threads=None):
     """z-averages at every node of a θ-RESOLVED z-averaged CylindricalGrid of sum_k values_k ∫₀^S W(x - starts_k
     - s vectors_k) ds (S = 1, or ∞ with ``ray``), exact to round-off.
 
     starts, vectors: (K, 3) Cartesian; values: (K, 3, 3) Cartesian. Returns (n_nodes, 3, 3) in the local basis
-    (e_r, e_θ, e_z), nodes in C order (n_r, n_θ, 1). See the module's docstring for the rule.
+    (e_r, e_θ, e_z), nodes in C order (n_r, n_θ, 1). See the module's docstring for the rule. ``n_threads``:
+    the C core's threads (None: :func:`cgbound.get_num_threads`; the sums do not depend on it).
     """
     c = float(kernel.radius)
     lo, hi = grid.z_extent
@@ -212,7 +214,8 @@ def axial_segment_average(grid, kernel, starts, vectors, values, ray=False, n_th
     first = np.concatenate([[0], np.cumsum(counts)])
     sums = _engine.axial_segment_sum(kernel, bottoms, np.ascontiguousarray(-H * e_z), first, segment, s0, s1,
                                      panels, np.ascontiguousarray(starts), np.ascontiguousarray(vectors),
-                                     np.ascontiguousarray(values), n_threads=n_threads)
+                                     np.ascontiguousarray(values),
+                                     n_threads=get_num_threads() if n_threads is None else n_threads)
     basis = grid.basis(T)
     return np.einsum("nia,nab,njb->nij", basis, np.asarray(sums).reshape(-1, 3, 3), basis)
 
