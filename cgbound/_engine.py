@@ -170,3 +170,11 @@ def ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, w
     and Lucy), (3, 3, 3) with [a, b, c] = ∂T_ab/∂x_c in (e_r, e_θ, e_z)."""
     return _core.ring_segment_sum(ring_kernel(kernel), r, z, segment, lo, hi, panels, geometry, tensors, weight,
                                   gradient=gradient, n_threads=n_threads)
+
+
+def axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values, n_threads=0):
+    """Per column c (``bottoms`` (C, 3), pieces first[c]:first[c + 1]), the tensors ``values`` (K, 9) of segments
+    starts + s vectors times int_lo^hi of the kernel's exact line integral along ``column`` from the column's
+    bottom, seen from the segment's point s, summed over the pieces (csrc/cg_axial.c): (C, 9)."""
+    return _core.axial_segment_sum(ring_kernel(kernel), bottoms, column, first, segment, lo, hi, panels, starts,
+                                   vectors, values, n_threads=n_threads)

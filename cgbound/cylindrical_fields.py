@@ -12,12 +12,13 @@ On a θ-averaged grid the sums over points (particles, contact points), the grad
 and boundary stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring`
 (round-off); the rest (the extended stress's ray term, every primary of a θ-resolved grid) uses the quadrature
 below, except on a θ-resolved z-averaged grid, whose point sums and gradients are the kernel's exact line
-integrals along each node's z-line (:func:`~cgbound.cylindrical_ring.axial_line_average`).
+integrals along each node's z-line (:func:`~cgbound.cylindrical_ring.axial_line_average`), and whose stresses'
+line integrals and rays are exact z-averages too (:func:`~cgbound.cylindrical_axial.axial_segment_average`).
 
 On a z-averaged grid the point sums and gradients are averaged over z exactly too
 (:func:`~cgbound.cylindrical_ring.axial_rule` on θ-averaged grids; on θ-resolved ones
 :func:`~cgbound.cylindrical_ring.axial_line_average`, the kernel's exact line integral along each node's
-z-line); the line integrals (contact and boundary stress) still take the Gauss-Legendre rule in z below
+z-line); on θ-averaged grids the line integrals (contact and boundary stress) still take the Gauss-Legendre rule in z below
 (docs/guide/cylindrical.md gives its measured error).
 
 Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
@@ -30,6 +31,7 @@ import math
 import numpy as np
 
 from .cylindrical import CylindricalGrid
+from .cylindrical_axial import axial_line_integrals
 from .cylindrical_ring import axial_line_average, ring_average, ring_average_segments
 from .fields import ROTATION_FIELDS, check_fields, derive
 from .grid import Points
@@ -145,8 +147,10 @@ def ring_sums(job, grid, needed):
     stress's line integrals and the gradient primaries are the exact ring integrals of
     :mod:`cgbound.cylindrical_ring` (on a z-averaged grid the point sums and gradients exactly averaged over z,
     the line integrals on Gauss-Legendre points in z); on a θ-resolved z-averaged grid the point sums and
-    gradients are exact line integrals along each node's z-line. The extended stress's rays and the other
-    primaries of a θ-resolved grid come from the Cartesian engine at the quadrature points."""
+    gradients are exact line integrals along each node's z-line, and the stresses' line integrals and the
+    extended stress's rays exact z-averages (:mod:`cgbound.cylindrical_axial`). The extended stress's rays of a
+    θ-averaged grid and the other primaries of a θ-resolved grid come from the Cartesian engine at the
+    quadrature points."""
     zero = np.zeros(3)
     averaged = {}
     if grid.theta_averaged:
@@ -179,6 +183,7 @@ def ring_sums(job, grid, needed):
             averaged.update({name: g for (name, _), g in zip(rows, sums)})
         for name in needed & (POINT_PRIMARIES | GRADIENT_PRIMARIES) - set(averaged):
             averaged[name] = np.zeros((grid.size,) + (3,) * PRIMARIES[name].rank)
+        averaged.update(axial_line_integrals(job, grid, needed))
     rest = needed - set(averaged)
     if not rest:
         return averaged

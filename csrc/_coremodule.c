@@ -730,6 +730,77 @@ done:
     return (PyObject *)out;
 }
 
+static PyObject *py_axial_segment_sum(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    static char *kw[] = {"kernel", "bottoms", "column", "first", "segment", "lo", "hi", "panels", "starts",
+                         "vectors", "values", "n_threads", NULL};
+    static const npy_intp three = 3, nine = 9;
+    kernel_arg ka = {.target = &ring_space};
+    input_array bottoms = {.name = "bottoms", .ndim = 2, .length = {NULL, &three}};
+    input_array column = {.name = "column", .ndim = 1, .length = {&three, NULL}};
+    index_array first = {.name = "first", .length = NULL};
+    index_array segment = {.name = "segment", .length = NULL};
+    input_array lo = {.name = "lo", .ndim = 1, .length = {NULL, NULL}};
+    input_array hi = {.name = "hi", .ndim = 1, .length = {&lo.rows, NULL}};
+    index_array panels = {.name = "panels", .length = &lo.rows};
+    input_array starts = {.name = "starts", .ndim = 2, .length = {NULL, &three}};
+    input_array vectors = {.name = "vectors", .ndim = 2, .length = {&starts.rows, &three}};
+    input_array values = {.name = "values", .ndim = 2, .length = {&starts.rows, &nine}};
+    int n_threads = 0;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&O&O&O&O&O&O&|O&", kw, kernel_converter, &ka,
+                                     array_converter, &bottoms, array_converter, &column, index_converter, &first,
+                                     index_converter, &segment, array_converter, &lo, array_converter, &hi,
+                                     index_converter, &panels, array_converter, &starts, array_converter, &vectors,
+                                     array_converter, &values, threads_converter, &n_threads))
+        goto done;
+    if (PyArray_DIM(first.array, 0) != bottoms.rows + 1) {
+        PyErr_SetString(PyExc_ValueError, "first: expected one entry per column and one more (the pieces' end)");
+        goto done;
+    }
+    if (PyArray_DIM(segment.array, 0) != lo.rows) {
+        PyErr_SetString(PyExc_ValueError, "segment: expected one entry per piece (the length of lo)");
+        goto done;
+    }
+    if (((const cg_index *)PyArray_DATA(first.array))[bottoms.rows] != lo.rows) {
+        PyErr_SetString(PyExc_ValueError, "first: expected its last entry to be the number of pieces");
+        goto done;
+    }
+    const npy_intp shape[2] = {bottoms.rows, 9};
+    out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_DOUBLE, 0);
+    if (!out) goto done;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_axial_segment_sum(&ka.kernel, bottoms.rows, array_data(&bottoms), array_data(&column),
+                              (const cg_index *)PyArray_DATA(first.array),
+                              (const cg_index *)PyArray_DATA(segment.array), array_data(&lo), array_data(&hi),
+                              (const cg_index *)PyArray_DATA(panels.array), starts.rows, array_data(&starts),
+                              array_data(&vectors), array_data(&values), PyArray_DATA(out), n_threads);
+    Py_END_ALLOW_THREADS
+    if (st == CG_ERR_ARGUMENT) {
+        PyErr_SetString(PyExc_ValueError, "first, segment, lo, hi, panels, column: expected nondecreasing first "
+                                          "from 0, rows of starts, 0 <= lo <= hi <= 1, panels >= 1, a finite column "
+                                          "and the full 3-D kernel with exact line integrals");
+        Py_CLEAR(out);
+    } else if (st != CG_OK) {
+        raise_status(st);
+        Py_CLEAR(out);
+    }
+done:
+    release_array(&bottoms);
+    release_array(&column);
+    Py_CLEAR(first.array);
+    Py_CLEAR(segment.array);
+    release_array(&lo);
+    release_array(&hi);
+    Py_CLEAR(panels.array);
+    release_array(&starts);
+    release_array(&vectors);
+    release_array(&values);
+    return (PyObject *)out;
+}
+
 static PyObject *py_wrap(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
@@ -1031,6 +1102,9 @@ static PyMethodDef methods[] = {
     {"ring_segment_sum", (PyCFunction)(void (*)(void))py_ring_segment_sum, METH_VARARGS | METH_KEYWORDS,
      "ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, gradient=False, "
      "n_threads=0): (3, 3), with gradient (3, 3, 3)."},
+    {"axial_segment_sum", (PyCFunction)(void (*)(void))py_axial_segment_sum, METH_VARARGS | METH_KEYWORDS,
+     "axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values, "
+     "n_threads=0): (n_columns, 9)."},
     {"have_openmp", py_have_openmp, METH_NOARGS, "Whether the core was built with OpenMP."},
     {"set_wide_vectors", py_set_wide_vectors, METH_O,
      "Internal: False makes the Gaussian on grids use its AVX2/baseline build instead of AVX-512 (identical "

@@ -285,6 +285,26 @@ cg_status cg_ring_segment_gradient_sum(const cg_kernel *kernel, double r, double
                                        const cg_index *panels, cg_index n_segments, const double *geometry,
                                        const double *tensors, double weight, double *out, int n_threads);
 
+/*
+ * Columns of theta-resolved, z-averaged cylindrical grids (cg_axial.c): for
+ * each column c, out[9 c + k] += sum over its pieces q = first[c] ..
+ * first[c + 1] - 1 of values[9 segment[q] + k] int_lo^hi I_c(starts + s
+ * vectors) ds (of segment[q]'s rows), I_c(p) = int_0^1 W(bottoms_c - p -
+ * t column) dt the kernel's exact line integral along the column (the z-average
+ * at its nodes when column = -(hi - lo) e_z and bottoms_c the node at lo). Each
+ * piece [lo, hi] (0 <= lo <= hi <= 1) on panels[q] equal panels in u,
+ * s = lo + (hi - lo) sin^2(pi u / 2), 20-point Gauss-Legendre in u. The kernel
+ * must be the full 3-D kernel (dim 3, n_resolved 3, avg_extent 1, exact line
+ * integrals). first[0] = 0, nondecreasing; bottoms n_columns x 3; starts,
+ * vectors n_segments x 3; values n_segments x 9; out n_columns x 9. Columns
+ * summed independently (thread-count free). CG_ERR_ARGUMENT otherwise.
+ */
+cg_status cg_axial_segment_sum(const cg_kernel *kernel, cg_index n_columns, const double *bottoms,
+                               const double *column, const cg_index *first, const cg_index *segment,
+                               const double *lo, const double *hi, const cg_index *panels, cg_index n_segments,
+                               const double *starts, const double *vectors, const double *values, double *out,
+                               int n_threads);
+
 /* Replace each row of vecs (n x D) by its minimum image along the periodic
    data axes (periodic[d] != 0, period[d] > 0). */
 void cg_minimum_image(cg_index n, int dim, double *vecs,

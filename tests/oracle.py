@@ -1013,3 +1013,25 @@ def oracle_one_listing_per_pair(i, jraw, force, point, radii, fixed, rtol):
     p, q = k1[two], k2[two]
     keep[np.where(i[p] < i[q], p, q)] = True
     return keep
+
+
+def oracle_axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values):
+    """Twin of cg_axial_segment_sum: per column, the s-points of each of its pieces (20-point Gauss-Legendre in u on
+    its panels, s = lo + (hi - lo) sin²(π u / 2)), at each the kernel's line integral along ``column`` from the
+    column's bottom (OracleKernel.line), times the piece's segment's values; (n_columns, 9)."""
+    k = oracle_kernel_of(kernel, 3)
+    x, w = np.polynomial.legendre.leggauss(20)
+    x, w = 0.5 * (x + 1.0), 0.5 * w
+    out = np.zeros((len(bottoms), 9))
+    for c in range(len(bottoms)):
+        for q in range(first[c], first[c + 1]):
+            a, b, P = starts[segment[q]], vectors[segment[q]], panels[q]
+            total = 0.0
+            for jp in range(P):
+                u = (jp + x) / P
+                s = lo[q] + (hi[q] - lo[q]) * np.sin(0.5 * math.pi * u) ** 2
+                weight = (hi[q] - lo[q]) * 0.5 * math.pi * np.sin(math.pi * u) * w / P
+                psi = k.line(bottoms[c][None, :] - (a[None, :] + s[:, None] * b[None, :]), column, 3, 1.0)
+                total += float(np.sum(weight * psi))
+            out[c] += total * values[segment[q]]
+    return out

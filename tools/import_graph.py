@@ -63,6 +63,7 @@ LAYERS = {
     "cylindrical": 3, "cylindrical_fields": 5,                    # cylindrical grids; their fields from ring quadrature
     "cylindrical_balance": 5,                                     # the momentum balance on ring averages (hoop terms)
     "cylindrical_ring": 4,                                        # exact ring averages of point sources
+    "cylindrical_axial": 4,                                       # exact z-averages of line integrals on θ-resolved grids
 }
 
 #: packages drawn as one node
