@@ -158,3 +158,50 @@ def axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights):
     B = np.stack([np.stack([cos, sin, zero], 1), np.stack([-sin, cos, zero], 1), np.stack([zero, zero, one], 1)], 1)
     own = np.einsum("jia,jab,jkb->jik", B, tensors * weights[:, None, None], B)   # in the point's basis at φ
     return rotate_averaged(own, 2, M).sum(axis=0)
+
+
+def ray_lengths(grid, kernel, starts, vectors):
+    """For rays start + s vector, s >= 0, the s beyond which no point of the ray (nor of its periodic images) is
+    within the kernel's reach of a node of ``grid``: (K,), 0 for a ray that never comes within reach.
+
+    Cuts, each valid where the box's periodic images leave it in place: the exit from the Cartesian box around
+    the rings' supports along a non-periodic box axis (always; as the Cartesian engine cuts rays), from the
+    cylinder ρ <= r_max + c (when the box is periodic only along the axis) and from the slab of z within c of
+    the nodes (when no periodic box axis has a component along the axis). Raises ValueError for a ray that no
+    cut ends (it runs along a periodic axis: its line integral is infinite)."""
+    c = float(kernel.radius)
+    starts, vectors = np.asarray(starts, float), np.asarray(vectors, float)
+    r_top = float(grid.r.max()) + c
+    z_lo, z_hi = grid.z_extent if grid.z_averaged else (float(grid.z.min()), float(grid.z.max()))
+    z_lo, z_hi = z_lo - c, z_hi + c
+    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
+    reach_lo = grid.axis_point + np.minimum(z_lo * grid.e_z, z_hi * grid.e_z) - disc
+    reach_hi = grid.axis_point + np.maximum(z_lo * grid.e_z, z_hi * grid.e_z) + disc
+    periodic = np.asarray(grid.box.periodic, bool)
+    length = np.full(len(starts), np.inf)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for d in np.flatnonzero(~periodic):
+            bound = np.where(vectors[:, d] > 0.0, reach_hi[d], reach_lo[d])
+            exit_d = np.where(vectors[:, d] != 0.0, (bound - starts[:, d]) / vectors[:, d], np.inf)
+            length = np.minimum(length, exit_d)
+        rel = starts - grid.axis_point
+        zeta0, a_z = rel @ grid.e_z, vectors @ grid.e_z
+        if np.all(np.abs(grid.e_z[periodic]) == 1.0):           # images only along the axis: the cylinder stays
+            x0 = rel - zeta0[:, None] * grid.e_z
+            a_perp = vectors - a_z[:, None] * grid.e_z
+            roots = quadratic_roots(np.einsum("ki,ki->k", a_perp, a_perp), 2.0 * np.einsum("ki,ki->k", x0, a_perp),
+                                    np.einsum("ki,ki->k", x0, x0) - r_top * r_top)
+            moving = np.einsum("ki,ki->k", a_perp, a_perp) > 0.0
+            exit_r = np.where(moving, np.nan_to_num(np.nanmax(np.where(np.isnan(roots), -np.inf, roots), axis=1),
+                                                    neginf=0.0), np.inf)
+            exit_r = np.where(moving & np.all(np.isnan(roots), axis=1), 0.0, exit_r)   # misses the cylinder
+            length = np.minimum(length, exit_r)
+        if not np.any(grid.e_z[periodic] != 0.0):               # images only across the axis: the slab stays
+            bound = np.where(a_z > 0.0, z_hi, z_lo)
+            length = np.minimum(length, np.where(a_z != 0.0, (bound - zeta0) / a_z, np.inf))
+    if not np.all(np.isfinite(length)):
+        k = int(np.flatnonzero(~np.isfinite(length))[0])
+        raise ValueError(f"contacts: expected the extended stress's rays to leave the reach of the grid's rings, got "
+                         f"the ray of the boundary contacts' row {k} (direction {vectors[k].tolist()}) running along a "
+                         "periodic axis forever: its line integral is infinite")
+    return np.maximum(length, 0.0)

@@ -30,6 +30,7 @@ import math
 import numpy as np
 
 from .cylindrical import CylindricalGrid
+from .cylindrical_axial_segments import ray_lengths, z_averaged_ring_segments
 from .cylindrical_ring import axial_line_average, ring_average, ring_average_segments
 from .fields import ROTATION_FIELDS, check_fields, derive
 from .grid import Points
@@ -144,18 +145,19 @@ def ring_sums(job, grid, needed):
             sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank) for name, v in columns])
             averaged.update({name: s for (name, _), s in zip(columns, sums)})
         lines = [(name, part) for name, part in zip(("sb", "sw"), job.split or ()) if name in needed]
-        if lines:
-            if grid.z_averaged:      # the line integrals' z rule (the point sums average over z exactly)
-                lo, hi = grid.z_extent
-                x, wz = np.polynomial.legendre.leggauss(z_points(hi - lo, job.kernel))
-                z_nodes = (0.5 * (hi + lo) + 0.5 * (hi - lo) * x)[None, :]
-                z_weights = 0.5 * wz[None, :]
+        if "sx" in needed and job.split:     # the rays: segments long enough to leave every ring's reach
+            lines.append(("sx", job.split[1]))
+        for name, part in lines:
+            starts, vectors, values = segment_sources(job.snapshot, part)
+            values = values.reshape(-1, 3, 3)
+            if name == "sx":         # ∫₀^∞ W(x - q - s v) ds = L ∫₀¹ W(x - q - s' L v) ds' past the reach
+                length = ray_lengths(grid, job.kernel, starts, vectors)
+                vectors, values = vectors * length[:, None], values * length[:, None, None]
+            if grid.z_averaged:      # s outside, each point's exact axial average inside
+                averaged[name] = z_averaged_ring_segments(grid, job.kernel, starts, vectors, values)
             else:
-                z_nodes, z_weights = grid.z[:, None], np.ones((len(grid.z), 1))
-            for name, part in lines:
-                starts, vectors, values = segment_sources(job.snapshot, part)
-                averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors, values.reshape(-1, 3, 3),
-                                                       z_nodes, z_weights)
+                averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors, values, grid.z[:, None],
+                                                       np.ones((len(grid.z), 1)))
         positions, rows = gradient_sources(job.snapshot, needed, zero)
         if rows and len(positions):
             sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank - 1) for name, v in rows],
@@ -204,7 +206,10 @@ def check_ring_arguments(snapshot, grid, kernel, fields, convention="tension", s
         raise ValueError(f"fields: expected fields without a pseudo-vector index on a cg.CylindricalGrid, got "
                          f"{rotational} (use a Grid or Points)")
     # checks every argument (kernel, fields, convention, species) on a one-point target before the work
-    return prepare(snapshot, Points(grid.axis_point[None, :]), kernel, fields, convention, species)
+    job = prepare(snapshot, Points(grid.axis_point[None, :]), kernel, fields, convention, species)
+    if grid.theta_averaged and "sx" in job.needed and job.split:     # rays that never leave: refused now
+        ray_lengths(grid, job.kernel, *segment_sources(job.snapshot, job.split[1])[:2])
+    return job
 
 
 def ring_primaries(snapshot, grid, kernel, fields, convention="tension", species=None):

@@ -319,6 +319,31 @@ def support_crossings(r, h0, x0, a_perp, a_z, c):
     return np.where((real > 0.0) & (real < 1.0), real, np.nan)
 
 
+def ring_approaches(r, h0, x0, a_perp, a_z):
+    """The s in (0, 1) where p(s) = start + s a passes closest to the ring's circle (local minima of
+    (ρ(s) - r)² + (h0 - s a_z)², by Newton from where ρ(s) = r and where h = 0): (K, 3), NaN where none. Lucy's d³
+    has branch points next to them when the segment passes close to the circle (the moments' d₀ → 0)."""
+    q0 = np.einsum("ki,ki->k", x0, x0)
+    q1 = 2.0 * np.einsum("ki,ki->k", x0, a_perp)
+    q2 = np.einsum("ki,ki->k", a_perp, a_perp)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        disc = np.sqrt(q1 * q1 - 4.0 * q2 * (q0 - r * r))
+        starts = [(-q1 - disc) / (2.0 * q2), (-q1 + disc) / (2.0 * q2), h0 / a_z]
+    out = []
+    for s in starts:
+        s = np.clip(np.nan_to_num(s, nan=0.5, posinf=0.5, neginf=0.5), 0.0, 1.0)
+        for _ in range(40):
+            p = x0 + s[:, None] * a_perp
+            rho = np.maximum(np.hypot(p[:, 0], p[:, 1]), 1e-300)
+            drho = np.einsum("ki,ki->k", p, a_perp) / rho
+            g = (rho - r) * drho - (h0 - s * a_z) * a_z
+            gp = drho * drho + (rho - r) * (q2 - drho * drho) / rho + a_z * a_z
+            step = np.clip(np.where(gp > 0.0, g / np.where(gp > 0.0, gp, 1.0), 0.0), -0.1, 0.1)
+            s = np.clip(s - step, 0.0, 1.0)
+        out.append(np.where((s > 0.0) & (s < 1.0), s, np.nan))
+    return np.stack(out, axis=1)
+
+
 def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weights):
     """θ-averages at every node of a θ-averaged CylindricalGrid of sum_k values_k ∫_0^1 W(x - starts_k - s vectors_k) ds
     (values (K, 3, 3) Cartesian), in the local basis: (n_r * n_z, 3, 3).
@@ -367,6 +392,8 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                     continue
                 h0 = zq - zeta0[cand]
                 roots = support_crossings(r, h0, x0[cand], a_perp[cand], a_z[cand], c)
+                if isinstance(kernel, Lucy):     # cut where the segment passes closest to the circle
+                    roots = np.concatenate([roots, ring_approaches(r, h0, x0[cand], a_perp[cand], a_z[cand])], axis=1)
                 edges = np.sort(np.concatenate([np.zeros((cand.size, 1)), np.nan_to_num(roots, nan=1.0),
                                                 np.ones((cand.size, 1))], axis=1), axis=1)
                 lo, hi = edges[:, :-1], edges[:, 1:]                   # (K, 5) pieces
