@@ -63,6 +63,7 @@ LAYERS = {
     "cylindrical": 3, "cylindrical_fields": 5,                    # cylindrical grids; their fields from ring quadrature
     "cylindrical_balance": 5,                                     # the momentum balance on ring averages (hoop terms)
     "cylindrical_ring": 4,                                        # exact ring averages of point sources
+    "cylindrical_axial_segments": 4,                              # z-averaged line integrals on rings; the rays
 }
 
 #: packages drawn as one node
