@@ -292,3 +292,34 @@ def test_a_ray_along_the_periodic_axis_is_refused_before_the_work():
             cg.coarse_grain(snap, grid, cg.Lucy(1.0), fields=("extended_stress",))
         # the same contact's boundary stress is a finite segment: fine
         assert np.all(np.isfinite(cg.coarse_grain(snap, grid, cg.Lucy(1.0), fields=("boundary_stress",)).boundary_stress))
+
+
+HARD = {   # (start, end) of a branch; the ring r = 1 at z = 0.2 (z-resolved) or averaged over [-2, 2]
+    "through-the-circle": ((0.6, -0.8, 0.2 + 1e-7), (1.4, 0.8, 0.2 + 1e-7)),   # 1e-7 from the ring (r, z)
+    "through-the-axis": ((-0.3, -0.2, 0.1), (0.3, 0.2, 0.5)),
+    "exactly-axial": ((1.25, 0.0, -1.5), (1.25, 0.0, 0.6)),
+    "in-the-box-end": ((0.5, 0.2, 2.0), (1.3, -0.4, 2.0)),
+    "tangent-to-the-torus": ((None, -1.0, 0.2), (None, 1.0, 0.3)),             # ρ = r + c at its closest
+}
+
+
+@pytest.mark.parametrize("z_averaged", [True, False], ids=["z-averaged", "z-resolved"])
+@pytest.mark.parametrize("case", list(HARD))
+@pytest.mark.parametrize("kernel", [KERNELS[0], KERNELS[3], KERNELS[4]], ids=["gauss5w", "lucy", "heaviside"])
+def test_hard_branches_equal_adaptive_quadrature(kernel, case, z_averaged):
+    """One contact whose branch passes 1e-7 from the ring's circle, passes through the axis, runs exactly along the axis,
+    lies in the box's end plane, or touches the support's torus: its contact stress at 1e-12."""
+    start, end = (np.array([R0 + kernel.radius if x is None else x, y, z]) for x, y, z in HARD[case])
+    box = cg.Box([-3, -3, -2], [3, 3, 2])
+    force = np.array([[0.4, -0.9, 0.6]])
+    contacts = cg.Contacts([0], [1], force, point=0.5 * (start + end)[None])
+    snap = cg.Snapshot(np.stack([start, end]), np.zeros((2, 3)), np.ones(2), box=box, contacts=contacts)
+    z = None if z_averaged else (0.15, 0.25, 1)
+    grid = cg.CylindricalGrid(box, (0, 0, 0), "z", r=(R0 - 1e-3, R0 + 1e-3, 1), z=z)
+    _, sums = ring_primaries(snap, grid, kernel, ("contact_stress",))
+    a = start - end
+    want = segment_z_average(kernel, float(grid.r[0]), start, -a, -np.outer(force[0], a), -2.0, 2.0,
+                             z=None if z_averaged else float(grid.z[0]))
+    scale = np.abs(want).max()
+    assert scale > 0
+    np.testing.assert_allclose(sums["sb"][0], want, rtol=0, atol=1e-12 * scale)
