@@ -8,17 +8,14 @@ weights, and only then turned into fields by the same :func:`~cgbound.fields.der
 (velocity = averaged momentum / averaged density, never an average of ratios; the kinetic stress is the
 spread about the averaged velocity, -(k - p p / rho) of the averaged primaries, as on a Grid's averaged axes).
 
-On a θ-averaged grid the sums over points (particles, contact points), the gradient primaries and the contact
-and boundary stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring`
-(round-off); the rest (the extended stress's ray term, every primary of a θ-resolved grid) uses the quadrature
-below, except on a θ-resolved z-averaged grid, whose point sums and gradients are the kernel's exact line
-integrals along each node's z-line (:func:`~cgbound.cylindrical_ring.axial_line_average`).
-
-On a z-averaged grid the point sums and gradients are averaged over z exactly too
-(:func:`~cgbound.cylindrical_ring.axial_rule` on θ-averaged grids; on θ-resolved ones
-:func:`~cgbound.cylindrical_ring.axial_line_average`, the kernel's exact line integral along each node's
-z-line); the line integrals (contact and boundary stress) still take the Gauss-Legendre rule in z below
-(docs/guide/cylindrical.md gives its measured error).
+On a θ-averaged grid the sums over points (particles, contact points), the gradient primaries, the contact
+and boundary stress's line integrals and the extended stress's rays (finite branches past every ring's reach)
+are the exact ring integrals of :mod:`cgbound.cylindrical_ring` (round-off), on a z-averaged grid averaged
+over z exactly too (:func:`~cgbound.cylindrical_ring.axial_rule`; the line integrals and rays by
+:mod:`cgbound.cylindrical_axial_segments`). Every primary of a θ-resolved grid uses the quadrature below,
+except on a θ-resolved z-averaged grid, whose point sums and gradients are the kernel's exact line integrals
+along each node's z-line (:func:`~cgbound.cylindrical_ring.axial_line_average`); its line integrals still
+take the Gauss-Legendre rule in z below (docs/guide/cylindrical.md gives its measured error).
 
 Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
 smooth integrand: exact to round-off for a Gaussian whose cutoff jump is below round-off, cutoff >= 9 w;
@@ -132,12 +129,12 @@ def ring_sums(job, grid, needed):
     basis, flat over nodes: {name: (n_nodes,) + (3,) * rank}. ``job``: from :func:`~cgbound.pipeline.prepare`
     (its snapshot, kernel and split contacts; its target is not used).
 
-    On a θ-averaged grid the sums over points (particles, contact points) and the contact and boundary
-    stress's line integrals and the gradient primaries are the exact ring integrals of
-    :mod:`cgbound.cylindrical_ring` (on a z-averaged grid the point sums and gradients exactly averaged over z,
-    the line integrals on Gauss-Legendre points in z); on a θ-resolved z-averaged grid the point sums and
-    gradients are exact line integrals along each node's z-line. The extended stress's rays and the other
-    primaries of a θ-resolved grid come from the Cartesian engine at the quadrature points."""
+    On a θ-averaged grid the sums over points (particles, contact points), the contact and boundary
+    stress's line integrals, the extended stress's rays and the gradient primaries are the exact ring
+    integrals of :mod:`cgbound.cylindrical_ring` (on a z-averaged grid exactly averaged over z, the line
+    integrals and rays by :mod:`cgbound.cylindrical_axial_segments`); on a θ-resolved z-averaged grid the
+    point sums and gradients are exact line integrals along each node's z-line. The other primaries of a
+    θ-resolved grid come from the Cartesian engine at the quadrature points."""
     zero = np.zeros(3)
     averaged = {}
     if grid.theta_averaged:
