@@ -1,6 +1,6 @@
 """Cost of a CylindricalGrid relative to Cartesian Points with the same node count.
 
-    python benchmarks/bench_cylindrical.py [--silo] [--repeat 3]
+    python benchmarks/bench_cylindrical.py [--silo [--z-averaged]] [--repeat 3]
 
 Particles (random, 20,000): a ring-averaged node of the θ quadrature is N(r) Cartesian point evaluations
 (times the z points when z is averaged), so the expected ratio is the mean number of quadrature points per
@@ -10,6 +10,9 @@ node; this prints it and the timed ratio (CPU time of one-thread runs, median of
 contact stress on notebook 06's θ-averaged RZ grid (23 x 90 nodes, exact ring integrals) against Cartesian
 Points at the same (r, 0, z) nodes, for the Gaussian w = 0.5 (cutoff 5w) and Lucy (cutoff 1.5); wall and CPU
 seconds on the default threads.
+
+--silo --z-averaged: the same frame on the θ- and z-averaged radial grid (23 rings over the whole height),
+density, stress and the extended stress (its rays), against Points at the 23 (r, 0, 20) nodes.
 """
 import argparse
 import os
@@ -25,7 +28,7 @@ from cgbound.cylindrical_fields import quadrature  # noqa: E402
 from common import header, timed  # noqa: E402
 
 
-def silo(repeat):
+def silo(repeat, z_averaged=False, n_r=23):
     from cgbound.paper.scenes import SILO_TIMESTEP
     from cgbound.paper.scenes.lammps import PAIR_VALUES
     from cgbound.readers.lammps import LammpsReader
@@ -34,13 +37,18 @@ def silo(repeat):
                           pair_values=PAIR_VALUES, walls=["wall0", "wall1"], body_force=(0.0, 0.0, -1.0),
                           dt=SILO_TIMESTEP, units="mercury")
     snap = frames[len(frames) - 1]
-    grid = cg.CylindricalGrid(snap.box, axis_point=(0.0, 0.0, 0.0), axis="z", r=(0.0, 5.5, 23), theta=None,
-                              z=(-1.0, 41.0, 90))
-    cart = cg.Points(grid.coordinates.reshape(-1, 3))
-    fields = ("density", "stress")
+    grid = cg.CylindricalGrid(snap.box, axis_point=(0.0, 0.0, 0.0), axis="z", r=(0.0, 5.5, n_r), theta=None,
+                              z=None if z_averaged else (-1.0, 41.0, 90))
+    if z_averaged:
+        cart = cg.Points(np.c_[grid.r, np.zeros_like(grid.r), np.full_like(grid.r, 20.0)])
+        fields = ("density", "stress", "extended_stress")
+    else:
+        cart = cg.Points(grid.coordinates.reshape(-1, 3))
+        fields = ("density", "stress")
     print(header())
     print(f"# silo frame: {snap}; {grid.size} nodes; fields {fields}; median of {repeat}")
-    print("| kernel | CylindricalGrid RZ (θ-averaged) s | Points at the same nodes s | ratio |")
+    what = "R (θ- and z-averaged)" if z_averaged else "RZ (θ-averaged)"
+    print(f"| kernel | CylindricalGrid {what} s | Points at the same nodes s | ratio |")
     print("|---|---|---|---|")
     for label, kernel in (("Gaussian w=0.5, cutoff 5w", cg.Gaussian(0.5)), ("Lucy cutoff 1.5", cg.Lucy(1.5))):
         t_cyl, t_cart = [], []
@@ -56,10 +64,12 @@ def silo(repeat):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--silo", action="store_true", help="the shipped silo frame with its contact stress")
+    parser.add_argument("--z-averaged", action="store_true", help="with --silo: the z-averaged radial grid")
+    parser.add_argument("--n-r", type=int, default=23, help="with --silo: rings (23, notebook 06's)")
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     if args.silo:
-        return silo(args.repeat)
+        return silo(args.repeat, args.z_averaged, args.n_r)
     rng = np.random.default_rng(0)
     n = 20000
     box = cg.Box([-10, -10, 0], [10, 10, 20], periodic=[False, False, True])

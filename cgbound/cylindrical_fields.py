@@ -8,18 +8,15 @@ weights, and only then turned into fields by the same :func:`~cgbound.fields.der
 (velocity = averaged momentum / averaged density, never an average of ratios; the kinetic stress is the
 spread about the averaged velocity, -(k - p p / rho) of the averaged primaries, as on a Grid's averaged axes).
 
-On a θ-averaged grid the sums over points (particles, contact points), the gradient primaries and the contact
-and boundary stress's line integrals are the exact ring integrals of :mod:`cgbound.cylindrical_ring`
-(round-off); the rest (the extended stress's ray term, every primary of a θ-resolved grid) uses the quadrature
-below, except on a θ-resolved z-averaged grid, whose point sums and gradients are the kernel's exact line
-integrals along each node's z-line (:func:`~cgbound.cylindrical_ring.axial_line_average`), and whose stresses'
-line integrals and rays are exact z-averages too (:func:`~cgbound.cylindrical_axial.axial_segment_average`).
-
-On a z-averaged grid the point sums and gradients are averaged over z exactly too
-(:func:`~cgbound.cylindrical_ring.axial_rule` on θ-averaged grids; on θ-resolved ones
-:func:`~cgbound.cylindrical_ring.axial_line_average`, the kernel's exact line integral along each node's
-z-line); on θ-averaged grids the line integrals (contact and boundary stress) still take the Gauss-Legendre rule in z below
-(docs/guide/cylindrical.md gives its measured error).
+On a θ-averaged grid the sums over points (particles, contact points), the gradient primaries, the contact
+and boundary stress's line integrals and the extended stress's rays (finite branches past every ring's reach)
+are the exact ring integrals of :mod:`cgbound.cylindrical_ring` (round-off), on a z-averaged grid averaged
+over z exactly too (:func:`~cgbound.cylindrical_ring.axial_rule`; the line integrals and rays by
+:mod:`cgbound.cylindrical_axial_segments`). On a θ-resolved z-averaged grid the point sums and gradients are
+the kernel's exact line integrals along each node's z-line (:func:`~cgbound.cylindrical_ring.axial_line_average`),
+and the stresses' line integrals and rays exact z-averages too
+(:func:`~cgbound.cylindrical_axial.axial_segment_average`). The rest (the rotational primaries, every primary
+of a θ-resolved grid with z resolved) uses the quadrature below.
 
 Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
 smooth integrand: exact to round-off for a Gaussian whose cutoff jump is below round-off, cutoff >= 9 w;
@@ -32,6 +29,7 @@ import numpy as np
 
 from .cylindrical import CylindricalGrid
 from .cylindrical_axial import axial_line_integrals
+from .cylindrical_axial_segments import ray_lengths, z_averaged_ring_segments
 from .cylindrical_ring import axial_line_average, ring_average, ring_average_segments
 from .fields import ROTATION_FIELDS, check_fields, derive
 from .grid import Points
@@ -143,14 +141,13 @@ def ring_sums(job, grid, needed):
     basis, flat over nodes: {name: (n_nodes,) + (3,) * rank}. ``job``: from :func:`~cgbound.pipeline.prepare`
     (its snapshot, kernel and split contacts; its target is not used).
 
-    On a θ-averaged grid the sums over points (particles, contact points) and the contact and boundary
-    stress's line integrals and the gradient primaries are the exact ring integrals of
-    :mod:`cgbound.cylindrical_ring` (on a z-averaged grid the point sums and gradients exactly averaged over z,
-    the line integrals on Gauss-Legendre points in z); on a θ-resolved z-averaged grid the point sums and
-    gradients are exact line integrals along each node's z-line, and the stresses' line integrals and the
-    extended stress's rays exact z-averages (:mod:`cgbound.cylindrical_axial`). The extended stress's rays of a
-    θ-averaged grid and the other primaries of a θ-resolved grid come from the Cartesian engine at the
-    quadrature points."""
+    On a θ-averaged grid the sums over points (particles, contact points), the contact and boundary
+    stress's line integrals, the extended stress's rays and the gradient primaries are the exact ring
+    integrals of :mod:`cgbound.cylindrical_ring` (on a z-averaged grid exactly averaged over z, the line
+    integrals and rays by :mod:`cgbound.cylindrical_axial_segments`); on a θ-resolved z-averaged grid the
+    point sums and gradients are exact line integrals along each node's z-line, and the stresses' line
+    integrals and the extended stress's rays exact z-averages (:mod:`cgbound.cylindrical_axial`). The other
+    primaries come from the Cartesian engine at the quadrature points."""
     zero = np.zeros(3)
     averaged = {}
     if grid.theta_averaged:
@@ -158,12 +155,19 @@ def ring_sums(job, grid, needed):
             sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank) for name, v in columns])
             averaged.update({name: s for (name, _), s in zip(columns, sums)})
         lines = [(name, part) for name, part in zip(("sb", "sw"), job.split or ()) if name in needed]
-        if lines:
-            z_nodes, z_weights = line_z_rule(grid, job.kernel)
-            for name, part in lines:
-                starts, vectors, values = segment_sources(job.snapshot, part)
-                averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors, values.reshape(-1, 3, 3),
-                                                       z_nodes, z_weights)
+        if "sx" in needed and job.split:     # the rays: segments long enough to leave every ring's reach
+            lines.append(("sx", job.split[1]))
+        for name, part in lines:
+            starts, vectors, values = segment_sources(job.snapshot, part)
+            values = values.reshape(-1, 3, 3)
+            if name == "sx":         # ∫₀^∞ W(x - q - s v) ds = L ∫₀¹ W(x - q - s' L v) ds' past the reach
+                length = ray_lengths(grid, job.kernel, starts, vectors)
+                vectors, values = vectors * length[:, None], values * length[:, None, None]
+            if grid.z_averaged:      # s outside, each point's exact axial average inside
+                averaged[name] = z_averaged_ring_segments(grid, job.kernel, starts, vectors, values)
+            else:
+                averaged[name] = ring_average_segments(grid, job.kernel, starts, vectors, values, grid.z[:, None],
+                                                       np.ones((len(grid.z), 1)))
         positions, rows = gradient_sources(job.snapshot, needed, zero)
         if rows and len(positions):
             sums = ring_average(grid, job.kernel, positions, [(v, PRIMARIES[name].rank - 1) for name, v in rows],
@@ -213,7 +217,10 @@ def check_ring_arguments(snapshot, grid, kernel, fields, convention="tension", s
         raise ValueError(f"fields: expected fields without a pseudo-vector index on a cg.CylindricalGrid, got "
                          f"{rotational} (use a Grid or Points)")
     # checks every argument (kernel, fields, convention, species) on a one-point target before the work
-    return prepare(snapshot, Points(grid.axis_point[None, :]), kernel, fields, convention, species)
+    job = prepare(snapshot, Points(grid.axis_point[None, :]), kernel, fields, convention, species)
+    if grid.theta_averaged and "sx" in job.needed and job.split:     # rays that never leave: refused now
+        ray_lengths(grid, job.kernel, *segment_sources(job.snapshot, job.split[1])[:2])
+    return job
 
 
 def ring_primaries(snapshot, grid, kernel, fields, convention="tension", species=None):

@@ -199,17 +199,19 @@ def test_theta_resolved_z_averaged_point_sums_are_exact(kernel, periodic):
 
 
 def test_kernels_too_narrow_for_the_quadrature_are_refused_by_name():
-    """A kernel far narrower than the grid: the exact paths (point sums, gradients) still work; the fields still
-    taken by quadrature (here the contact stress's z rule, the extended stress's θ rule) are refused by the kernel
-    argument's name, not by an overflow deep in NumPy."""
+    """A kernel far narrower than the grid: the exact paths (point sums, gradients, on θ-averaged grids the
+    stresses' line integrals and rays, z-resolved or z-averaged) still work; the fields still taken by quadrature
+    (here a θ-resolved z-averaged grid's contact stress, its z rule) are refused by the kernel argument's name,
+    not by an overflow deep in NumPy."""
     snap = snapshot()
     tiny = cg.Lucy(1e-59)
     grid = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.2, 2.0, 3))
+    resolved = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.2, 2.0, 3), z=(-0.5, 0.5, 2))
     out = cg.coarse_grain(snap, grid, tiny, fields=("density", "density_gradient"))
     assert np.all(np.isfinite(out.density)) and np.all(np.isfinite(out.density_gradient))
-    for fields in (("contact_stress",), ("extended_stress",)):
-        with pytest.raises(ValueError, match="^kernel: a kernel scale of .* needs .* points"):
-            cg.coarse_grain(snap, grid, tiny, fields=fields)
-    resolved = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.2, 2.0, 3), z=(-0.5, 0.5, 2))
-    with pytest.raises(ValueError, match="^kernel: a kernel scale of .* points per ring"):
-        cg.coarse_grain(snap, resolved, tiny, fields=("extended_stress",))
+    for g in (grid, resolved):
+        for name in ("contact_stress", "extended_stress"):
+            assert np.all(np.isfinite(getattr(cg.coarse_grain(snap, g, tiny, fields=(name,)), name)))
+    theta_resolved = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.2, 2.0, 3), theta=4)
+    with pytest.raises(ValueError, match="^kernel: a kernel scale of .* needs .* points in z"):
+        cg.coarse_grain(snap, theta_resolved, tiny, fields=("contact_stress",))

@@ -64,6 +64,7 @@ LAYERS = {
     "cylindrical_balance": 5,                                     # the momentum balance on ring averages (hoop terms)
     "cylindrical_ring": 4,                                        # exact ring averages of point sources
     "cylindrical_axial": 4,                                       # exact z-averages of line integrals on θ-resolved grids
+    "cylindrical_axial_segments": 4,                              # z-averaged line integrals on rings; the rays
 }
 
 #: packages drawn as one node

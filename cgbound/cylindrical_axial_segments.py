@@ -1,0 +1,207 @@
+"""Exact z-averages of the contact and boundary stresses' line integrals on θ-averaged, z-averaged
+CylindricalGrids, and the extended stress's rays on θ-averaged grids as finite segments.
+
+The average over z in [lo, hi] of the ring average of ∫₀¹ W(x - p(s)) ds is taken in the order s outside,
+z inside: at each point p(s) of a segment the z-average of the ring moments is the exact axial average of a
+point source (:func:`~cgbound.cylindrical_ring.axial_rule`, the rule of the particle sums). As a function of s
+that average is analytic except where the structure of the point's support changes, all of them roots of
+low-degree polynomials in s (ρ(s)² = q₀ + q₁ s + q₂ s², ζ(s) = ζ₀ + s a_z):
+
+- ρ(s) = r + c, ``|r - c|`` (the support's torus in the plane: the point's z-window appears; at ``|r - c|``
+  also the whole ring starts to fit in it) and ρ(s) = r (Lucy's d³ at the closest approach);
+- (r ∓ ρ(s))² + (lo - ζ(s))² = c², the same at hi (the z-window's ends and the whole-ring window's ends
+  cross the box's ends: :func:`~cgbound.cylindrical_ring.support_crossings` at h₀ = lo - ζ₀, hi - ζ₀);
+- ζ(s) = lo, hi (the point crosses an end), and the closest approach to the axis (a harmless extra cut that
+  keeps a grazing pair of roots at a piece's end).
+
+Between cuts each piece gets 20-point Gauss-Legendre panels in u, s = a + (b - a) sin²(π u / 2) (square-root
+ends made analytic), no longer than the kernel's scale along the segment.
+"""
+import math
+
+import numpy as np
+
+from .cylindrical_ring import (axial_rule, periodic_sources, ring_moments, rotate_averaged, support_crossings,
+                               MAX_PANELS)
+from .kernels import Gaussian
+
+#: Gauss-Legendre points per panel along a segment (as the C core's ring_segment_sum)
+SEGMENT_POINTS = 20
+_SEG_G, _SEG_GW = np.polynomial.legendre.leggauss(SEGMENT_POINTS)
+#: s-points whose axial averages are taken at once (memory: ~100 ring moments each)
+POINTS_PER_BLOCK = 4096
+
+
+def segments_in_frame(grid, kernel, starts, vectors, values, z_lo, z_hi):
+    """The segments (and their periodic images) that may reach rings of ``grid`` between z_lo and z_hi, in the
+    ring frame: in-plane starts x0 (K, 2) and vectors a_perp (K, 2), axial starts ζ₀ and steps a_z (K,), the
+    values in the frame (e_1, e_2, e_z) (K, 3, 3). Zero-length segments are dropped."""
+    c = float(kernel.radius)
+    keep = np.einsum("ki,ki->k", vectors, vectors) > 0.0
+    starts, vectors, values = starts[keep], vectors[keep], values[keep]
+    if not len(starts):
+        return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros((0, 3, 3))
+    longest = float(np.sqrt(np.einsum("ki,ki->k", vectors, vectors).max()))
+    r_top = float(grid.r.max()) + c + longest
+    lo, hi = z_lo - c - longest, z_hi + c + longest
+    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
+    reach_lo = grid.axis_point + np.minimum(lo * grid.e_z, hi * grid.e_z) - disc
+    reach_hi = grid.axis_point + np.maximum(lo * grid.e_z, hi * grid.e_z) + disc
+    starts, (vectors, values) = periodic_sources(grid.box, starts, [vectors, values], reach_lo, reach_hi)
+    rel = starts - grid.axis_point
+    plane = np.stack([grid.e_1, grid.e_2])
+    frame = np.stack([grid.e_1, grid.e_2, grid.e_z])
+    tensors = np.einsum("ia,kab,jb->kij", frame, values, frame)
+    return rel @ plane.T, vectors @ plane.T, rel @ grid.e_z, vectors @ grid.e_z, tensors
+
+
+def quadratic_roots(a, b, c):
+    """The real roots of a s² + b s + c (rows), (K, 2), NaN where there is none (a = 0: the linear root)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        disc = b * b - 4.0 * a * c
+        sq = np.sqrt(disc)
+        q = -0.5 * (b + np.copysign(sq, b))            # no cancellation
+        r1 = np.where(a != 0.0, q / a, -c / b)
+        r2 = np.where(q != 0.0, c / q, np.nan)
+        r2 = np.where(a != 0.0, r2, np.nan)
+        ok = disc >= 0.0
+    return np.where(ok[:, None], np.stack([r1, r2], axis=1), np.nan)
+
+
+def axial_cuts_along(r, c, lo, hi, x0, a_perp, zeta0, a_z):
+    """The s in (0, 1) where the z-averaged ring moments of the point p(s) stop being analytic (module
+    docstring), with 0 and 1, sorted: (K, n), repeated cuts are pieces of zero length."""
+    q0 = np.einsum("ki,ki->k", x0, x0)
+    q1 = 2.0 * np.einsum("ki,ki->k", x0, a_perp)
+    q2 = np.einsum("ki,ki->k", a_perp, a_perp)
+    cuts = []
+    for radius in (r + c, abs(r - c), r):
+        cuts.append(quadratic_roots(q2, q1, q0 - radius * radius))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cuts.append(np.where(q2 > 0.0, -q1 / (2.0 * np.where(q2 > 0.0, q2, 1.0)), np.nan)[:, None])
+        for end in (lo, hi):
+            cuts.append(support_crossings(r, end - zeta0, x0, a_perp, a_z, c))
+            cuts.append(np.where(a_z != 0.0, (end - zeta0) / np.where(a_z != 0.0, a_z, 1.0), np.nan)[:, None])
+    s = np.concatenate(cuts, axis=1)
+    s = np.where((s > 0.0) & (s < 1.0), s, 1.0)        # outside (0, 1) or none: a repeated end
+    return np.sort(np.concatenate([np.zeros((len(q0), 1)), s, np.ones((len(q0), 1))], axis=1), axis=1)
+
+
+def z_averaged_ring_segments(grid, kernel, starts, vectors, values):
+    """θ- and z-averages at every ring of a θ-averaged, z-averaged CylindricalGrid of
+    sum_k values_k ∫₀¹ W(x - starts_k - s vectors_k) ds (values (K, 3, 3) Cartesian), exact: (n_r, 3, 3) in the
+    local basis."""
+    c = float(kernel.radius)
+    lo, hi = grid.z_extent
+    out = np.zeros((len(grid.r), 3, 3))
+    x0, a_perp, zeta0, a_z, tensors = segments_in_frame(grid, kernel, starts, vectors, values, lo, hi)
+    if not len(x0):
+        return out
+    x1 = x0 + a_perp
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s_close = np.clip(-np.einsum("ki,ki->k", x0, a_perp) / np.einsum("ki,ki->k", a_perp, a_perp), 0.0, 1.0)
+    s_close = np.nan_to_num(s_close)
+    rho_min = np.hypot(*(x0 + s_close[:, None] * a_perp).T)
+    rho_max = np.maximum(np.hypot(*x0.T), np.hypot(*x1.T))
+    zeta_lo, zeta_hi = np.minimum(zeta0, zeta0 + a_z), np.maximum(zeta0, zeta0 + a_z)
+    length = np.sqrt(np.einsum("ki,ki->k", a_perp, a_perp) + a_z * a_z)
+    scale = float(kernel.width) if isinstance(kernel, Gaussian) else c / 3.0
+    for k, r in enumerate(grid.r):
+        cand = np.flatnonzero((rho_min < r + c) & (rho_max > r - c) & (zeta_lo < hi + c) & (zeta_hi > lo - c))
+        if not cand.size:
+            continue
+        edges = axial_cuts_along(float(r), c, lo, hi, x0[cand], a_perp[cand], zeta0[cand], a_z[cand])
+        a, b = edges[:, :-1], edges[:, 1:]
+        mid = 0.5 * (a + b)
+        rho_mid = np.hypot(*(x0[cand, None, :] + mid[..., None] * a_perp[cand, None, :]).transpose(2, 0, 1))
+        zeta_mid = zeta0[cand, None] + mid * a_z[cand, None]
+        window = np.sqrt(np.maximum(c * c - (r - rho_mid) ** 2, 0.0))
+        active = (b > a) & (window > 0.0) & (zeta_mid - window < hi) & (zeta_mid + window > lo)
+        seg, piece = np.nonzero(active)
+        if not seg.size:
+            continue
+        seg_a, seg_b = a[seg, piece], b[seg, piece]
+        owner = cand[seg]
+        panels = np.clip(np.ceil((seg_b - seg_a) * length[owner] / scale), 1, MAX_PANELS).astype(int)
+        # the s-points: per piece P panels of SEGMENT_POINTS, s = a + (b - a) sin²(π u / 2)
+        piece_of = np.repeat(np.arange(seg.size), panels * SEGMENT_POINTS)
+        first = np.repeat(np.cumsum(panels) - panels, panels * SEGMENT_POINTS)
+        index = np.arange(piece_of.size) - first * SEGMENT_POINTS
+        panel, node = index // SEGMENT_POINTS, index % SEGMENT_POINTS
+        P = panels[piece_of]
+        u = (panel + 0.5 * (_SEG_G[node] + 1.0)) / P
+        span = seg_b[piece_of] - seg_a[piece_of]
+        s = seg_a[piece_of] + span * np.sin(0.5 * math.pi * u) ** 2
+        ds = span * 0.5 * _SEG_GW[node] / P * 0.5 * math.pi * np.sin(math.pi * u)
+        who = owner[piece_of]
+        for start in range(0, s.size, POINTS_PER_BLOCK):
+            part = slice(start, start + POINTS_PER_BLOCK)
+            out[k] += axial_point_sum(kernel, float(r), lo, hi, x0[who[part]] + s[part, None] * a_perp[who[part]],
+                                      zeta0[who[part]] + s[part] * a_z[who[part]], tensors[who[part]], ds[part])
+    return out
+
+
+def axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights):
+    """Σ_j weights_j (θ-average of tensors_j W over the ring r, z-averaged over [lo, hi]) for point sources at
+    in-plane xy (J, 2) and axial ζ (J,), tensors (J, 3, 3) in the ring frame: (3, 3) in the local basis."""
+    rho = np.hypot(xy[:, 0], xy[:, 1])
+    pair, h, w = axial_rule(kernel, r, rho, zeta, lo, hi)
+    if not pair.size:
+        return np.zeros((3, 3))
+    M = ring_moments(kernel, r, h, rho[pair, None])                  # (3, pairs, q)
+    M = (M * w).sum(axis=2)
+    M = np.stack([np.bincount(pair, weights=m, minlength=rho.size) for m in M])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.where(rho > 0.0, xy[:, 0] / rho, 1.0)
+        sin = np.where(rho > 0.0, xy[:, 1] / rho, 0.0)
+    zero, one = np.zeros_like(cos), np.ones_like(cos)
+    B = np.stack([np.stack([cos, sin, zero], 1), np.stack([-sin, cos, zero], 1), np.stack([zero, zero, one], 1)], 1)
+    own = np.einsum("jia,jab,jkb->jik", B, tensors * weights[:, None, None], B)   # in the point's basis at φ
+    return rotate_averaged(own, 2, M).sum(axis=0)
+
+
+def ray_lengths(grid, kernel, starts, vectors):
+    """For rays start + s vector, s >= 0, the s beyond which no point of the ray (nor of its periodic images) is
+    within the kernel's reach of a node of ``grid``: (K,), 0 for a ray that never comes within reach.
+
+    Cuts, each valid where the box's periodic images leave it in place: the exit from the Cartesian box around
+    the rings' supports along a non-periodic box axis (always; as the Cartesian engine cuts rays), from the
+    cylinder ρ <= r_max + c (when the box is periodic only along the axis) and from the slab of z within c of
+    the nodes (when no periodic box axis has a component along the axis). Raises ValueError for a ray that no
+    cut ends (it runs along a periodic axis: its line integral is infinite)."""
+    c = float(kernel.radius)
+    starts, vectors = np.asarray(starts, float), np.asarray(vectors, float)
+    r_top = float(grid.r.max()) + c
+    z_lo, z_hi = grid.z_extent if grid.z_averaged else (float(grid.z.min()), float(grid.z.max()))
+    z_lo, z_hi = z_lo - c, z_hi + c
+    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
+    reach_lo = grid.axis_point + np.minimum(z_lo * grid.e_z, z_hi * grid.e_z) - disc
+    reach_hi = grid.axis_point + np.maximum(z_lo * grid.e_z, z_hi * grid.e_z) + disc
+    periodic = np.asarray(grid.box.periodic, bool)
+    length = np.full(len(starts), np.inf)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for d in np.flatnonzero(~periodic):
+            bound = np.where(vectors[:, d] > 0.0, reach_hi[d], reach_lo[d])
+            exit_d = np.where(vectors[:, d] != 0.0, (bound - starts[:, d]) / vectors[:, d], np.inf)
+            length = np.minimum(length, exit_d)
+        rel = starts - grid.axis_point
+        zeta0, a_z = rel @ grid.e_z, vectors @ grid.e_z
+        if np.all(np.abs(grid.e_z[periodic]) == 1.0):           # images only along the axis: the cylinder stays
+            x0 = rel - zeta0[:, None] * grid.e_z
+            a_perp = vectors - a_z[:, None] * grid.e_z
+            roots = quadratic_roots(np.einsum("ki,ki->k", a_perp, a_perp), 2.0 * np.einsum("ki,ki->k", x0, a_perp),
+                                    np.einsum("ki,ki->k", x0, x0) - r_top * r_top)
+            moving = np.einsum("ki,ki->k", a_perp, a_perp) > 0.0
+            exit_r = np.where(moving, np.nan_to_num(np.nanmax(np.where(np.isnan(roots), -np.inf, roots), axis=1),
+                                                    neginf=0.0), np.inf)
+            exit_r = np.where(moving & np.all(np.isnan(roots), axis=1), 0.0, exit_r)   # misses the cylinder
+            length = np.minimum(length, exit_r)
+        if not np.any(grid.e_z[periodic] != 0.0):               # images only across the axis: the slab stays
+            bound = np.where(a_z > 0.0, z_hi, z_lo)
+            length = np.minimum(length, np.where(a_z != 0.0, (bound - zeta0) / a_z, np.inf))
+    if not np.all(np.isfinite(length)):
+        k = int(np.flatnonzero(~np.isfinite(length))[0])
+        raise ValueError(f"contacts: expected the extended stress's rays to leave the reach of the grid's rings, got "
+                         f"the ray of the boundary contacts' row {k} (direction {vectors[k].tolist()}) running along a "
+                         "periodic axis forever: its line integral is infinite")
+    return np.maximum(length, 0.0)
