@@ -15,13 +15,15 @@ over z exactly too (:func:`~cgbound.cylindrical_ring.axial_rule`; the line integ
 :mod:`cgbound.cylindrical_axial_segments`). On a θ-resolved z-averaged grid the point sums and gradients are
 the kernel's exact line integrals along each node's z-line (:func:`~cgbound.cylindrical_ring.axial_line_average`),
 and the stresses' line integrals and rays exact z-averages too
-(:func:`~cgbound.cylindrical_axial.axial_segment_average`). The rest (the rotational primaries, every primary
-of a θ-resolved grid with z resolved) uses the quadrature below.
+(:func:`~cgbound.cylindrical_axial.axial_segment_average`). A θ-resolved, z-resolved grid's nodes are
+Cartesian points: the engine evaluates there (:func:`quadrature`, one point per node).
 
-Quadrature: in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points (spectral for a
-smooth integrand: exact to round-off for a Gaussian whose cutoff jump is below round-off, cutoff >= 9 w;
-with the default 5 w cutoff the jump exp(-12.5) ~ 4e-6 limits it); over z (when averaged) the
-Gauss-Legendre rule with ``z_points`` points over the box's extent along the axis.
+:func:`quadrature` also builds the rules the exact paths replaced, which no field uses any more (the
+benchmarks time against them): in θ the periodic trapezoidal rule with ``theta_points(r, kernel)`` points
+(spectral for a smooth integrand: exact to round-off for a Gaussian whose cutoff jump is below round-off,
+cutoff >= 9 w; with the default 5 w cutoff the jump exp(-12.5) ~ 4e-6 limits it); over z (when averaged) the
+Gauss-Legendre rule with ``z_points`` points over the box's extent along the axis (which the balance residual
+on z-averaged grids still takes, :func:`line_z_rule`).
 """
 import math
 

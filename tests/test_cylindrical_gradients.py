@@ -199,19 +199,17 @@ def test_theta_resolved_z_averaged_point_sums_are_exact(kernel, periodic):
 
 
 def test_kernels_too_narrow_for_the_quadrature_are_refused_by_name():
-    """A kernel far narrower than the grid: the exact paths (point sums, gradients, on θ-averaged grids the
-    stresses' line integrals and rays, z-resolved or z-averaged) still work; the fields still taken by quadrature
-    (here a θ-resolved z-averaged grid's contact stress, its z rule) are refused by the kernel argument's name,
-    not by an overflow deep in NumPy."""
+    """A kernel far narrower than the grid: every field's exact path (point sums, gradients, the stresses' line
+    integrals and rays; θ-averaged or resolved, z-averaged or resolved) still works; the balance residual on a
+    z-averaged grid, which still takes its terms on Gauss-Legendre points in z, is refused by the kernel
+    argument's name, not by an overflow deep in NumPy."""
     snap = snapshot()
     tiny = cg.Lucy(1e-59)
+    kinds = (dict(), dict(z=(-0.5, 0.5, 2)), dict(theta=4), dict(theta=4, z=(-0.5, 0.5, 2)))
+    for kind in kinds:
+        g = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.2, 2.0, 3), **kind)
+        for name in ("density", "density_gradient", "contact_stress", "extended_stress"):
+            assert np.all(np.isfinite(getattr(cg.coarse_grain(snap, g, tiny, fields=(name,)), name))), (kind, name)
     grid = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.2, 2.0, 3))
-    resolved = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.2, 2.0, 3), z=(-0.5, 0.5, 2))
-    out = cg.coarse_grain(snap, grid, tiny, fields=("density", "density_gradient"))
-    assert np.all(np.isfinite(out.density)) and np.all(np.isfinite(out.density_gradient))
-    for g in (grid, resolved):
-        for name in ("contact_stress", "extended_stress"):
-            assert np.all(np.isfinite(getattr(cg.coarse_grain(snap, g, tiny, fields=(name,)), name)))
-    theta_resolved = cg.CylindricalGrid(snap.box, axis_point(snap), "z", r=(0.2, 2.0, 3), theta=4)
     with pytest.raises(ValueError, match="^kernel: a kernel scale of .* needs .* points in z"):
-        cg.coarse_grain(snap, theta_resolved, tiny, fields=("contact_stress",))
+        cg.cylindrical_momentum_balance_residual(snap, grid, tiny)
