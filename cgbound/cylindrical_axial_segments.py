@@ -28,6 +28,8 @@ from .kernels import Gaussian
 #: Gauss-Legendre points per panel along a segment (as the C core's ring_segment_sum)
 SEGMENT_POINTS = 20
 _SEG_G, _SEG_GW = np.polynomial.legendre.leggauss(SEGMENT_POINTS)
+#: a panel along a segment spans at most this many kernel scales
+PANEL_SCALES = 1.0
 #: s-points whose axial averages are taken at once (memory: ~100 ring moments each)
 POINTS_PER_BLOCK = 4096
 
@@ -122,7 +124,7 @@ def z_averaged_ring_segments(grid, kernel, starts, vectors, values):
             continue
         seg_a, seg_b = a[seg, piece], b[seg, piece]
         owner = cand[seg]
-        panels = np.clip(np.ceil((seg_b - seg_a) * length[owner] / scale), 1, MAX_PANELS).astype(int)
+        panels = np.clip(np.ceil((seg_b - seg_a) * length[owner] / (PANEL_SCALES * scale)), 1, MAX_PANELS).astype(int)
         # the s-points: per piece P panels of SEGMENT_POINTS, s = a + (b - a) sin²(π u / 2)
         piece_of = np.repeat(np.arange(seg.size), panels * SEGMENT_POINTS)
         first = np.repeat(np.cumsum(panels) - panels, panels * SEGMENT_POINTS)
