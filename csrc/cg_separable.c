@@ -219,32 +219,33 @@ INLINE double erfcx_one(double x)
 #ifdef HAVE_V4D
 typedef int64_t vwl __attribute__((vector_size(8 * VW)));
 
-/* erfcx_one's short series, VW lanes */
-INLINE vwd erfcx_short(vwd x)
+/* a Chebyshev series sum_j coef[j] T_j(t) by Clenshaw's recurrence, VW lanes (through a pointer: a vector
+   return value changes the ABI without AVX, which -Wpsabi reports) */
+INLINE void chebyshev_series(vwd t, const double *coef, int terms, vwd *sum)
 {
-    const vwd v = (SPLAT(3.0) * x - SPLAT(4.0)) / (x + SPLAT(4.0)), v2 = v + v;
+    const vwd t2 = t + t;
     vwd b1 = {0.0}, b2 = {0.0};
 #pragma GCC unroll 32
-    for (int j = ERFCX_SHORT_TERMS - 1; j >= 1; --j) {
-        const vwd bj = (v2 * b1 - b2) + ERFCX_SHORT_CHEB[j];
+    for (int j = terms - 1; j >= 1; --j) {
+        const vwd bj = (t2 * b1 - b2) + coef[j];
         b2 = b1;
         b1 = bj;
     }
-    return (v * b1 - b2) + ERFCX_SHORT_CHEB[0];
+    *sum = (t * b1 - b2) + coef[0];
+}
+
+/* erfcx_one's short series, VW lanes */
+INLINE void erfcx_short(vwd x, vwd *out)
+{
+    chebyshev_series((SPLAT(3.0) * x - SPLAT(4.0)) / (x + SPLAT(4.0)), ERFCX_SHORT_CHEB, ERFCX_SHORT_TERMS, out);
 }
 
 /* erfcx_one's long series, VW lanes */
-INLINE vwd erfcx_long(vwd x)
+INLINE void erfcx_long(vwd x, vwd *out)
 {
-    const vwd y = (x - SPLAT(4.0)) / (x + SPLAT(4.0)), y2 = y + y;
-    vwd b1 = {0.0}, b2 = {0.0};
-#pragma GCC unroll 32
-    for (int j = ERFCX_TERMS - 1; j >= 1; --j) {
-        const vwd bj = (y2 * b1 - b2) + ERFCX_CHEB[j];
-        b2 = b1;
-        b1 = bj;
-    }
-    return ((y * b1 - b2) + ERFCX_CHEB[0]) / (SPLAT(1.0) + (x + x));
+    vwd sum;
+    chebyshev_series((x - SPLAT(4.0)) / (x + SPLAT(4.0)), ERFCX_CHEB, ERFCX_TERMS, &sum);
+    *out = sum / (SPLAT(1.0) + (x + x));
 }
 #endif
 
@@ -263,11 +264,16 @@ INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n)
         vwd xv, zv;
         memcpy(&xv, x + i, sizeof xv);
         memcpy(&zv, z + i, sizeof zv);
-        vwd rx = erfcx_short(xv), rz = erfcx_short(zv);
+        vwd rx, rz;
+        erfcx_short(xv, &rx);
+        erfcx_short(zv, &rz);
         if (beyond) {
             const vwl fx = xv > limit, fz = zv > limit;
-            rx = (vwd)(((vwl)erfcx_long(xv) & fx) | ((vwl)rx & ~fx));
-            rz = (vwd)(((vwl)erfcx_long(zv) & fz) | ((vwl)rz & ~fz));
+            vwd lx, lz;
+            erfcx_long(xv, &lx);
+            erfcx_long(zv, &lz);
+            rx = (vwd)(((vwl)lx & fx) | ((vwl)rx & ~fx));
+            rz = (vwd)(((vwl)lz & fz) | ((vwl)rz & ~fz));
         }
         memcpy(x + i, &rx, sizeof rx);
         memcpy(z + i, &rz, sizeof rz);
