@@ -28,7 +28,7 @@ import numpy as np
 from . import _engine
 from ._threads import get_num_threads
 from .cylindrical_ring import periodic_sources
-from .kernels import Gaussian, Lucy
+from .kernels import Lucy
 from .primaries import segment_sources
 
 #: at most this many panels per piece (the C core's limit; a piece needs one per kernel scale)
@@ -126,11 +126,6 @@ def column_pieces(kernel, d0, b, e_z, H, S):
     return seg[order], s0[order], s1[order]
 
 
-def kernel_scale(kernel):
-    """The length over which the kernel varies: the Gaussian's width, a third of a compact kernel's radius."""
-    return float(kernel.width) if isinstance(kernel, Gaussian) else float(kernel.radius) / 3.0
-
-
 def clip_rays(box, starts, vectors, reach_lo, reach_hi):
     """Rays start + s vector, s >= 0, as the segments of them inside [reach_lo, reach_hi] along the box's walled
     axes (the periodic ones are imaged later): (starts, vectors, factor = the s-length kept, the segment's
@@ -189,7 +184,7 @@ def axial_segment_average(grid, kernel, starts, vectors, values, ray=False, n_th
     if not len(starts):
         return out
     length = np.sqrt(np.einsum("ki,ki->k", vectors, vectors))
-    scale = kernel_scale(kernel)
+    scale = kernel.scale
     e_z = grid.e_z
     bottoms = np.ascontiguousarray(grid.cartesian(R, T, np.full(R.shape, lo)))
     # a quick candidate test per column: the segment's bounding box against the column's capsule's

@@ -23,7 +23,6 @@ import numpy as np
 
 from .cylindrical_ring import (axial_rule, periodic_sources, ring_moments, rotate_averaged, support_crossings,
                                MAX_PANELS)
-from .kernels import Gaussian
 
 #: Gauss-Legendre points per panel along a segment (as the C core's ring_segment_sum)
 SEGMENT_POINTS = 20
@@ -107,7 +106,7 @@ def z_averaged_ring_segments(grid, kernel, starts, vectors, values):
     rho_max = np.maximum(np.hypot(*x0.T), np.hypot(*x1.T))
     zeta_lo, zeta_hi = np.minimum(zeta0, zeta0 + a_z), np.maximum(zeta0, zeta0 + a_z)
     length = np.sqrt(np.einsum("ki,ki->k", a_perp, a_perp) + a_z * a_z)
-    scale = float(kernel.width) if isinstance(kernel, Gaussian) else c / 3.0
+    scale = kernel.scale
     for k, r in enumerate(grid.r):
         cand = np.flatnonzero((rho_min < r + c) & (rho_max > r - c) & (zeta_lo < hi + c) & (zeta_hi > lo - c))
         if not cand.size:

@@ -43,12 +43,6 @@ from .result import Result
 from .snapshot import Snapshot
 
 
-def kernel_scale(kernel):
-    """The length over which the kernel varies: the Gaussian's width, a third of a compact kernel's radius."""
-    width = getattr(kernel, "width", None)
-    return float(width) if width is not None else float(kernel.radius) / 3.0
-
-
 #: the most trapezoidal points on one ring (the quadrature's memory grows with them)
 MAX_THETA_POINTS = 1e6
 
@@ -56,7 +50,7 @@ MAX_THETA_POINTS = 1e6
 def theta_points(r, kernel):
     """Trapezoidal points on a ring of radius r: the Fourier modes of exp(r ρ cos θ / w²) decay like
     exp(-k² w² / 2 r ρ) for particles out to ρ = r + cutoff, so k ~ sqrt(80 r ρ) / w leaves < 1e-17."""
-    w = kernel_scale(kernel)
+    w = kernel.scale
     rho = r + float(kernel.radius)
     n = max(16.0, math.ceil(math.sqrt(80.0 * r * rho) / w) + 16.0)
     if n > MAX_THETA_POINTS:
@@ -74,9 +68,9 @@ MAX_Z_POINTS = 1e4
 
 def z_points(length, kernel):
     """Gauss-Legendre points over an axial extent ``length`` (about 2 per kernel scale, and 8 more)."""
-    n = math.ceil(2.0 * length / kernel_scale(kernel)) + 8.0
+    n = math.ceil(2.0 * length / kernel.scale) + 8.0
     if n > MAX_Z_POINTS:
-        raise ValueError(f"kernel: a kernel scale of {kernel_scale(kernel):g} over an axial extent of {length:g} "
+        raise ValueError(f"kernel: a kernel scale of {kernel.scale:g} over an axial extent of {length:g} "
                          f"needs {n:.3g} points in z for the fields still computed by quadrature (at most "
                          f"{MAX_Z_POINTS:g}); use a wider kernel, or resolve z (z=(z_min, z_max, n_z))")
     return int(n)

@@ -424,7 +424,7 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
     rho_max = np.maximum(np.hypot(*x0.T), np.hypot(*x1.T))
     zeta_lo, zeta_hi = np.minimum(zeta0, zeta0 + a_z), np.maximum(zeta0, zeta0 + a_z)
     length = np.sqrt(np.einsum("ki,ki->k", vectors, vectors))
-    scale = float(kernel.width) if isinstance(kernel, Gaussian) else c / 3.0
+    scale = kernel.scale
     for k, r in enumerate(grid.r):
         for j in range(n_z):
             for zq, wq in zip(z_nodes[j], z_weights[j]):

@@ -118,6 +118,12 @@ class Kernel:
     averaged_axes = "marginal"
 
     @property
+    def scale(self):
+        """The length over which the kernel varies: the Gaussian's width, a third of a compact kernel's radius
+        (what quadrature panels along a ring, a branch or an axis are measured in)."""
+        return float(self.width) if self.width is not None else float(self.radius) / 3.0
+
+    @property
     def lower_dimensional(self):
         """Whether the kernel over averaged axes is the lower-dimensional one (MercuryCG's convention)."""
         return self.averaged_axes == "lower-dimensional"
