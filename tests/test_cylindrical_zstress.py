@@ -188,6 +188,8 @@ def segment_z_average(kernel, r, start, vector, value, lo, hi, period=None, z=No
         cuts = {0.0, 1.0}
         for g in tests:
             v = g(grid)
+            if np.all(v == v[0]):          # constant along the branch (one in the box's end plane): no cut
+                continue
             for i in np.flatnonzero(np.sign(v[:-1]) * np.sign(v[1:]) < 0):
                 cuts.add(brentq(lambda x: float(g(x)), grid[i], grid[i + 1], xtol=1e-16, rtol=1e-15))
             cuts.update(grid[1:-1][v[1:-1] == 0.0])
