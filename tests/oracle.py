@@ -989,30 +989,6 @@ def oracle_one_listing_per_pair(i, jraw, force, point, radii, fixed, rtol):
     for ks in pairs:
         keep[ks[0] if len(ks) == 1 or i[ks[0]] < i[ks[1]] else ks[1]] = True
     return keep
-    lo, hi = np.minimum(i, jraw)[lines], np.maximum(i, jraw)[lines]
-    key = lo * (int(hi.max()) + 1) + hi
-    order = np.argsort(key, kind="stable")
-    skey, sline = key[order], lines[order]
-    first = np.flatnonzero(np.r_[True, skey[1:] != skey[:-1]])
-    count = np.diff(np.r_[first, skey.size])
-    k1 = sline[first]
-    keep[k1[count == 1]] = True
-    two = count == 2
-    k2 = np.where(two, sline[np.minimum(first + 1, skey.size - 1)], k1)
-    too_many = (count > 2) | (two & (i[k1] == i[k2]))
-    df = np.linalg.norm(force[k1] + force[k2], axis=1)
-    dc = np.linalg.norm(point[k1] - point[k2], axis=1)
-    inconsistent = two & ~too_many & ((df > rtol * max(scale, 1e-300)) | (dc > rtol * lscale))
-    bad = np.flatnonzero(too_many | inconsistent)
-    if bad.size:
-        g = int(bad[np.argmin(k1[bad])])
-        return "too many" if too_many[g] else "inconsistent"
-    lonely = (count == 1) & ~fixed[i[k1]] & ~fixed[jraw[k1]]
-    if np.any(lonely):
-        return "once"
-    p, q = k1[two], k2[two]
-    keep[np.where(i[p] < i[q], p, q)] = True
-    return keep
 
 
 def oracle_axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values):
