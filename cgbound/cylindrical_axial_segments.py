@@ -21,8 +21,8 @@ import math
 
 import numpy as np
 
-from .cylindrical_ring import (axial_rule, periodic_sources, ring_moments, rotate_averaged, support_crossings,
-                               MAX_PANELS)
+from .cylindrical_ring import (axial_rule, ring_moments, rotate_averaged, segment_ranges, segments_in_frame,
+                               support_crossings, MAX_PANELS)
 
 #: Gauss-Legendre points per panel along a segment (as the C core's ring_segment_sum)
 SEGMENT_POINTS = 20
@@ -31,29 +31,6 @@ _SEG_G, _SEG_GW = np.polynomial.legendre.leggauss(SEGMENT_POINTS)
 PANEL_SCALES = 1.0
 #: s-points whose axial averages are taken at once (memory: ~100 ring moments each)
 POINTS_PER_BLOCK = 4096
-
-
-def segments_in_frame(grid, kernel, starts, vectors, values, z_lo, z_hi):
-    """The segments (and their periodic images) that may reach rings of ``grid`` between z_lo and z_hi, in the
-    ring frame: in-plane starts x0 (K, 2) and vectors a_perp (K, 2), axial starts ζ₀ and steps a_z (K,), the
-    values in the frame (e_1, e_2, e_z) (K, 3, 3). Zero-length segments are dropped."""
-    c = float(kernel.radius)
-    keep = np.einsum("ki,ki->k", vectors, vectors) > 0.0
-    starts, vectors, values = starts[keep], vectors[keep], values[keep]
-    if not len(starts):
-        return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros((0, 3, 3))
-    longest = float(np.sqrt(np.einsum("ki,ki->k", vectors, vectors).max()))
-    r_top = float(grid.r.max()) + c + longest
-    lo, hi = z_lo - c - longest, z_hi + c + longest
-    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
-    reach_lo = grid.axis_point + np.minimum(lo * grid.e_z, hi * grid.e_z) - disc
-    reach_hi = grid.axis_point + np.maximum(lo * grid.e_z, hi * grid.e_z) + disc
-    starts, (vectors, values) = periodic_sources(grid.box, starts, [vectors, values], reach_lo, reach_hi)
-    rel = starts - grid.axis_point
-    plane = np.stack([grid.e_1, grid.e_2])
-    frame = np.stack([grid.e_1, grid.e_2, grid.e_z])
-    tensors = np.einsum("ia,kab,jb->kij", frame, values, frame)
-    return rel @ plane.T, vectors @ plane.T, rel @ grid.e_z, vectors @ grid.e_z, tensors
 
 
 def quadratic_roots(a, b, c):
@@ -95,17 +72,11 @@ def z_averaged_ring_segments(grid, kernel, starts, vectors, values):
     c = float(kernel.radius)
     lo, hi = grid.z_extent
     out = np.zeros((len(grid.r), 3, 3))
-    x0, a_perp, zeta0, a_z, tensors = segments_in_frame(grid, kernel, starts, vectors, values, lo, hi)
+    x0, a_perp, zeta0, a_z, tensors, _ = segments_in_frame(grid, kernel, starts, vectors, values, lo, hi)
     if not len(x0):
         return out
-    x1 = x0 + a_perp
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s_close = np.clip(-np.einsum("ki,ki->k", x0, a_perp) / np.einsum("ki,ki->k", a_perp, a_perp), 0.0, 1.0)
-    s_close = np.nan_to_num(s_close)
-    rho_min = np.hypot(*(x0 + s_close[:, None] * a_perp).T)
-    rho_max = np.maximum(np.hypot(*x0.T), np.hypot(*x1.T))
-    zeta_lo, zeta_hi = np.minimum(zeta0, zeta0 + a_z), np.maximum(zeta0, zeta0 + a_z)
-    length = np.sqrt(np.einsum("ki,ki->k", a_perp, a_perp) + a_z * a_z)
+    rho_min, rho_max, zeta_lo, zeta_hi = segment_ranges(x0, a_perp, zeta0, a_z)
+    length = np.sqrt(np.einsum("ki,ki->k", a_perp, a_perp) + a_z * a_z)     # in the ring frame
     scale = kernel.scale
     for k, r in enumerate(grid.r):
         cand = np.flatnonzero((rho_min < r + c) & (rho_max > r - c) & (zeta_lo < hi + c) & (zeta_hi > lo - c))

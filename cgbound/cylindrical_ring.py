@@ -381,6 +381,42 @@ def lucy_cuts(r, h0, x0, a_perp, a_z, c, panel):
     return np.concatenate([crossings, near_support, approach], axis=1)
 
 
+def segments_in_frame(grid, kernel, starts, vectors, values, z_lo, z_hi):
+    """The segments (and their periodic images) that may reach rings of ``grid`` between z_lo and z_hi, in the
+    ring frame: in-plane starts x0 (K, 2) and vectors a_perp (K, 2), axial starts ζ₀ and steps a_z (K,), the
+    values in the frame (e_1, e_2, e_z) (K, 3, 3), and the lengths (K,). Zero-length segments are dropped."""
+    c = float(kernel.radius)
+    keep = np.einsum("ki,ki->k", vectors, vectors) > 0.0
+    starts, vectors, values = starts[keep], vectors[keep], values[keep]
+    if not len(starts):
+        return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros((0, 3, 3)), np.zeros(0)
+    longest = float(np.sqrt(np.einsum("ki,ki->k", vectors, vectors).max()))
+    r_top = float(grid.r.max()) + c + longest
+    lo, hi = z_lo - c - longest, z_hi + c + longest
+    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
+    reach_lo = grid.axis_point + np.minimum(lo * grid.e_z, hi * grid.e_z) - disc
+    reach_hi = grid.axis_point + np.maximum(lo * grid.e_z, hi * grid.e_z) + disc
+    starts, (vectors, values) = periodic_sources(grid.box, starts, [vectors, values], reach_lo, reach_hi)
+    rel = starts - grid.axis_point
+    plane = np.stack([grid.e_1, grid.e_2])
+    frame = np.stack([grid.e_1, grid.e_2, grid.e_z])
+    tensors = np.einsum("ia,kab,jb->kij", frame, values, frame)
+    length = np.sqrt(np.einsum("ki,ki->k", vectors, vectors))
+    return rel @ plane.T, vectors @ plane.T, rel @ grid.e_z, vectors @ grid.e_z, tensors, length
+
+
+def segment_ranges(x0, a_perp, zeta0, a_z):
+    """Each segment's in-plane distance range from the axis (its closest point to the axis, its farther end) and
+    its axial range: rho_min, rho_max, zeta_lo, zeta_hi (K,) each (the rings and z-points it may reach)."""
+    x1 = x0 + a_perp
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s_close = np.clip(-np.einsum("ki,ki->k", x0, a_perp) / np.einsum("ki,ki->k", a_perp, a_perp), 0.0, 1.0)
+    s_close = np.nan_to_num(s_close)
+    rho_min = np.hypot(*(x0 + s_close[:, None] * a_perp).T)
+    rho_max = np.maximum(np.hypot(*x0.T), np.hypot(*x1.T))
+    return rho_min, rho_max, np.minimum(zeta0, zeta0 + a_z), np.maximum(zeta0, zeta0 + a_z)
+
+
 def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weights, gradient=False):
     """θ-averages at every node of a θ-averaged CylindricalGrid of sum_k values_k ∫_0^1 W(x - starts_k - s vectors_k) ds
     (values (K, 3, 3) Cartesian), in the local basis: (n_r * n_z, 3, 3). With ``gradient`` (Gaussian and Lucy) the
@@ -397,33 +433,13 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
     c = float(kernel.radius)
     n_r, n_z = len(grid.r), z_nodes.shape[0]
     out = np.zeros((n_r * n_z, 3, 3) + ((3,) if gradient else ()))
-    keep = np.einsum("ki,ki->k", vectors, vectors) > 0.0
-    starts, vectors, values = starts[keep], vectors[keep], values[keep]
-    if not len(starts):
+    x0, a_perp, zeta0, a_z, tensors, length = segments_in_frame(grid, kernel, starts, vectors, values,
+                                                                float(z_nodes.min()), float(z_nodes.max()))
+    if not len(x0):
         return out
-    longest = float(np.sqrt(np.einsum("ki,ki->k", vectors, vectors).max()))
-    r_top = float(grid.r.max()) + c + longest
-    z_lo, z_hi = float(z_nodes.min()) - c - longest, float(z_nodes.max()) + c + longest
-    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
-    reach_lo = grid.axis_point + np.minimum(z_lo * grid.e_z, z_hi * grid.e_z) - disc
-    reach_hi = grid.axis_point + np.maximum(z_lo * grid.e_z, z_hi * grid.e_z) + disc
-    starts, (vectors, values) = periodic_sources(grid.box, starts, [vectors, values], reach_lo, reach_hi)
-    rel = starts - grid.axis_point
-    plane = np.stack([grid.e_1, grid.e_2])
-    frame = np.stack([grid.e_1, grid.e_2, grid.e_z])
-    tensors = np.ascontiguousarray(np.einsum("ia,kab,jb->kij", frame, values, frame).reshape(-1, 9))
-    x0, a_perp = rel @ plane.T, vectors @ plane.T                   # in-plane (e_1, e_2) components
-    zeta0, a_z = rel @ grid.e_z, vectors @ grid.e_z
+    tensors = np.ascontiguousarray(tensors.reshape(-1, 9))
     geometry = np.ascontiguousarray(np.column_stack([x0, zeta0, a_perp, a_z]))     # the C core's segment rows
-    x1 = x0 + a_perp
-    # the in-plane distance range of each segment (closest point to the axis) and its axial range
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s_close = np.clip(-np.einsum("ki,ki->k", x0, a_perp) / np.einsum("ki,ki->k", a_perp, a_perp), 0.0, 1.0)
-    s_close = np.nan_to_num(s_close)
-    rho_min = np.hypot(*(x0 + s_close[:, None] * a_perp).T)
-    rho_max = np.maximum(np.hypot(*x0.T), np.hypot(*x1.T))
-    zeta_lo, zeta_hi = np.minimum(zeta0, zeta0 + a_z), np.maximum(zeta0, zeta0 + a_z)
-    length = np.sqrt(np.einsum("ki,ki->k", vectors, vectors))
+    rho_min, rho_max, zeta_lo, zeta_hi = segment_ranges(x0, a_perp, zeta0, a_z)
     scale = kernel.scale
     for k, r in enumerate(grid.r):
         for j in range(n_z):
