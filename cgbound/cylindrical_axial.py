@@ -27,7 +27,7 @@ import numpy as np
 
 from . import _engine
 from ._threads import get_num_threads
-from .cylindrical_ring import periodic_sources
+from .cylindrical_ring import periodic_sources, reach_box
 from .kernels import Lucy
 from .primaries import segment_sources
 
@@ -170,9 +170,7 @@ def axial_segment_average(grid, kernel, starts, vectors, values, ray=False, n_th
     if not len(starts):
         return out
     r_top = float(grid.r.max()) + c
-    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
-    reach_lo = grid.axis_point + np.minimum((lo - c) * grid.e_z, (hi + c) * grid.e_z) - disc
-    reach_hi = grid.axis_point + np.maximum((lo - c) * grid.e_z, (hi + c) * grid.e_z) + disc
+    reach_lo, reach_hi = reach_box(grid, r_top, lo - c, hi + c)
     if ray:
         starts, vectors, keep, factor = clip_rays(grid.box, starts, vectors, reach_lo, reach_hi)
         values = values[keep] * factor[:, None]

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from .cylindrical_ring import (axial_rule, ring_moments, rotate_averaged, segment_ranges, segments_in_frame,
+from .cylindrical_ring import (axial_rule, reach_box, ring_moments, rotate_averaged, segment_ranges, segments_in_frame,
                                support_crossings, MAX_PANELS)
 
 #: Gauss-Legendre points per panel along a segment (as the C core's ring_segment_sum)
@@ -146,9 +146,7 @@ def ray_lengths(grid, kernel, starts, vectors):
     r_top = float(grid.r.max()) + c
     z_lo, z_hi = grid.z_extent if grid.z_averaged else (float(grid.z.min()), float(grid.z.max()))
     z_lo, z_hi = z_lo - c, z_hi + c
-    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
-    reach_lo = grid.axis_point + np.minimum(z_lo * grid.e_z, z_hi * grid.e_z) - disc
-    reach_hi = grid.axis_point + np.maximum(z_lo * grid.e_z, z_hi * grid.e_z) + disc
+    reach_lo, reach_hi = reach_box(grid, r_top, z_lo, z_hi)
     periodic = np.asarray(grid.box.periodic, bool)
     length = np.full(len(starts), np.inf)
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -65,6 +65,14 @@ def rotate_averaged(values, rank, M):
     return out
 
 
+def reach_box(grid, r_top, z_lo, z_hi):
+    """The Cartesian box (lower, upper corners) around the cylinder of radius ``r_top`` about the grid's axis
+    between axial coordinates z_lo and z_hi: where sources may reach the rings (for their periodic images)."""
+    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))      # a disc's extent along each box axis
+    return (grid.axis_point + np.minimum(z_lo * grid.e_z, z_hi * grid.e_z) - disc,
+            grid.axis_point + np.maximum(z_lo * grid.e_z, z_hi * grid.e_z) + disc)
+
+
 def periodic_sources(box, positions, values, reach_lo, reach_hi):
     """The sources and their periodic images whose Cartesian position lies within [reach_lo, reach_hi]
     (per axis; the box's periodic axes only are imaged), with their values."""
@@ -241,9 +249,7 @@ def ring_average(grid, kernel, positions, columns, gradient=False):
     else:
         z_lo, z_hi = float(grid.z.min()), float(grid.z.max())
     z_lo, z_hi = z_lo - c, z_hi + c
-    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))      # a disc's extent along each box axis
-    reach_lo = grid.axis_point + np.minimum(z_lo * grid.e_z, z_hi * grid.e_z) - disc
-    reach_hi = grid.axis_point + np.maximum(z_lo * grid.e_z, z_hi * grid.e_z) + disc
+    reach_lo, reach_hi = reach_box(grid, r_top, z_lo, z_hi)
     pos, vals = periodic_sources(grid.box, positions, [v for v, _ in columns], reach_lo, reach_hi)
     rel = pos - grid.axis_point
     zeta = rel @ grid.e_z
@@ -393,9 +399,7 @@ def segments_in_frame(grid, kernel, starts, vectors, values, z_lo, z_hi):
     longest = float(np.sqrt(np.einsum("ki,ki->k", vectors, vectors).max()))
     r_top = float(grid.r.max()) + c + longest
     lo, hi = z_lo - c - longest, z_hi + c + longest
-    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
-    reach_lo = grid.axis_point + np.minimum(lo * grid.e_z, hi * grid.e_z) - disc
-    reach_hi = grid.axis_point + np.maximum(lo * grid.e_z, hi * grid.e_z) + disc
+    reach_lo, reach_hi = reach_box(grid, r_top, lo, hi)
     starts, (vectors, values) = periodic_sources(grid.box, starts, [vectors, values], reach_lo, reach_hi)
     rel = starts - grid.axis_point
     plane = np.stack([grid.e_1, grid.e_2])
@@ -491,9 +495,7 @@ def axial_line_average(grid, kernel, positions, columns, gradient=False, n_threa
     if not len(positions):
         return out
     r_top = float(grid.r.max()) + c
-    disc = r_top * np.sqrt(np.clip(1.0 - grid.e_z ** 2, 0.0, 1.0))
-    reach_lo = grid.axis_point + np.minimum((lo - c) * grid.e_z, (hi + c) * grid.e_z) - disc
-    reach_hi = grid.axis_point + np.maximum((lo - c) * grid.e_z, (hi + c) * grid.e_z) + disc
+    reach_lo, reach_hi = reach_box(grid, r_top, lo - c, hi + c)
     pos, vals = periodic_sources(grid.box, positions, [v for v, _ in columns], reach_lo, reach_hi)
     if not len(pos):
         return out
