@@ -2,6 +2,7 @@
 the C extension reached through one module, no private name across modules, and the picture in the document
 drawn from the code as it is. The rules and the one layer table live in tools/import_graph.py.
 """
+import ast
 import importlib.util
 from pathlib import Path
 
@@ -46,3 +47,13 @@ def test_no_private_name_imported_across_modules(graph):
 def test_the_embedded_graph_is_current(graph):
     text = (ROOT / "docs" / "architecture.md").read_text()
     assert tool.embedded(text) == graph.block(), "run python tools/import_graph.py --write"
+
+
+def test_python_bound_names_name_tests_that_exist():
+    # a renamed test would silently lose its marker and slow the sanitizer stage again
+    from conftest import PYTHON_BOUND
+    for name, tests in PYTHON_BOUND.items():
+        path = Path(__file__).parent / name
+        assert path.is_file(), name
+        defined = {n.name for n in ast.walk(ast.parse(path.read_text())) if isinstance(n, ast.FunctionDef)}
+        assert set(tests or ()) <= defined, (name, set(tests) - defined)
