@@ -523,37 +523,9 @@ __attribute__((target("avx512f"))) static void lucy_add9_wide(int count, const d
 }
 #endif
 
-/* the same for a value with zero components: only the nz non-zero ones
-   (indices comp, values cv). Skipping a term (w[i] scale) * 0 = +-0 leaves
-   the sum's bits as they are: x + (+-0) = x for every x but -0, and an
-   output zeroed first never becomes -0 (a sum of doubles is -0 only if both
-   terms are) */
-static void lucy_add_sparse(int count, const double *restrict w, const cg_index *restrict node, double scale,
-                            int nz, const int *restrict comp, const double *restrict cv, double *restrict out)
-{
-    for (int i = 0; i < count; ++i) {
-        const double wi = w[i] * scale;
-        if (wi == 0.0) continue;
-        double *o = out + node[i] * 9;
-        for (int c = 0; c < nz; ++c) o[comp[c]] += wi * cv[c];
-    }
-}
-
 void cg_lucy_add9(int count, const double *w, const cg_index *node, double scale, const double *val, double *out,
                   int wide)
 {
-    int comp[9], nz = 0;
-    double cv[9];
-    for (int c = 0; c < 9; ++c) {
-        comp[nz] = c;
-        cv[nz] = val[c];
-        nz += val[c] != 0.0;
-    }
-    if (nz < 9) {
-        /* (a contact along an axis, or in a plane: 1 or 4 non-zero components) */
-        lucy_add_sparse(count, w, node, scale, nz, comp, cv, out);
-        return;
-    }
 #ifdef CG_HAVE_WIDE_SEPARABLE
     if (wide) {
         lucy_add9_wide(count, w, node, scale, val, out);
