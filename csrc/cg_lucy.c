@@ -94,9 +94,6 @@ double cg_lucy_segment(const cg_kernel *k, const segment_axis *ax, const double 
     return psi;
 }
 
-typedef double lucy_v8 __attribute__((vector_size(8 * sizeof(double))));
-typedef cg_index cg_index_v8 __attribute__((vector_size(8 * sizeof(cg_index))));
-
 /* a box of at most this many times the capsule's volume (plus 8 nodes) is
    evaluated whole rather than narrowed */
 #define LUCY_BOX_RATIO 2.0
@@ -126,11 +123,10 @@ typedef struct lucy_visit {
     int heaviside;              /* Heaviside's kernel (else Lucy's) */
     double f[2][LUCY_ROWS], klo[LUCY_ROWS], khi[LUCY_ROWS];
     cg_index rbase[LUCY_ROWS];
-    /* (LUCY_LANES more: lucy_add_box writes whole vectors past a row's end) */
-    double qb[3][LUCY_BATCH + LUCY_LANES], w[LUCY_BATCH];
+    double qb[3][LUCY_BATCH], w[LUCY_BATCH];
     double fu[LUCY_BATCH], ft[LUCY_BATCH], fa[LUCY_BATCH]; /* the nodes' frames (cg_lucy_frames) */
     int keep[LUCY_BATCH];
-    cg_index node[LUCY_BATCH + LUCY_LANES];
+    cg_index node[LUCY_BATCH];
 } lucy_visit;
 
 static void lucy_values_add(lucy_visit *v, int m);
@@ -246,38 +242,9 @@ static void lucy_add_box(lucy_visit *v, const cg_target *t, const double *x, con
     cg_index *node = v->node;
     int c = v->count;
     const int fits = n0 * (jb_ - ja + 1) * nk <= LUCY_BATCH - c;
-    /* rows of at most LUCY_LANES nodes (the common case) as whole vectors of
-       LUCY_LANES: the lanes past the row's end are overwritten by the next
-       row or lie past the batch's count */
-    const int short_rows = fits && nk <= LUCY_LANES;
     double zq[LUCY_BATCH];
     if (fits)
         for (cg_index m = 0; m < nk; ++m) zq[m] = zc[k0 + m] - xr;
-    if (short_rows) {
-        lucy_v8 zv;
-        cg_index_v8 kv = {0, 1, 2, 3, 4, 5, 6, 7};
-        for (cg_index m = nk; m < LUCY_LANES; ++m) zq[m] = 0.0;
-        memcpy(&zv, zq, sizeof zv);
-        for (cg_index i = 0; i < n0; ++i) {
-            const cg_index ii = row == 2 ? first[0] + i : 0;
-            const double f0 = row == 2 ? t->coords[0][ii] - x[0] : 0.0;
-            const lucy_v8 f0v = row == 2 ? (lucy_v8){f0, f0, f0, f0, f0, f0, f0, f0} : (lucy_v8){0};
-            cg_index base = (row == 2 ? ii * stride[0] : 0) + ja * sj + k0;
-            for (cg_index j = ja; j <= jb_; ++j, base += sj) {
-                const double fj = yc[j] - xj;
-                const lucy_v8 fjv = {fj, fj, fj, fj, fj, fj, fj, fj};
-                const cg_index_v8 nv = kv + base;
-                /* 3-D: (f0, fj, z); 2-D: (fj, z, 0) */
-                memcpy(row == 2 ? qa + c : q2 + c, &f0v, sizeof f0v);
-                memcpy(qj + c, &fjv, sizeof fjv);
-                memcpy(qz + c, &zv, sizeof zv);
-                memcpy(node + c, &nv, sizeof nv);
-                c += (int)nk;
-            }
-        }
-        v->count = c;
-        return;
-    }
     for (cg_index i = 0; i < n0; ++i) {
         const cg_index ii = row == 2 ? first[0] + i : 0;
         const double f0 = row == 2 ? t->coords[0][ii] - x[0] : 0.0;

@@ -284,8 +284,8 @@ def test_lattice_points_equal_node_by_node(dim, kernel):
 def test_values_with_zero_components_equal_node_by_node(dim, fine):
     """Contact stresses -f (x) a with zero components (W1's contacts along the axes: one non-zero component;
     random patterns of zeros, and signed zeros): the batched path against the node-by-node path bit for bit, no
-    -0 where that has +0; likewise the narrow build. fine = 3: a grid three times finer than the lattice (rows
-    of more than 8 nodes in a whole box: lucy_add_box's general gather; fine = 1 its rows as whole vectors)."""
+    -0 where that has +0; likewise the narrow build. fine = 3: a grid three times finer than the lattice (longer
+    rows, and boxes that overflow a batch)."""
     rng = np.random.default_rng(10 * dim + fine)
     n = 7 if dim == 3 else 12
     starts, vectors = lattice_contacts(n, dim)
