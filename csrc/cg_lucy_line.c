@@ -125,7 +125,19 @@ INLINE void lucy_frame(double q0, double q1, double q2, const double *n, const d
    below 1e-290 (a node within 1e-145 R of a segment as short) the
    reciprocal is taken as 0: r0 - r1 then only enters multiplied by t1 (as
    small) and X only with a factor a^4 that underflows. */
-INLINE double lucy_value_frame(double u, double t_far, double a2, double L, double R, double inv)
+/* lucy_value_frame in three stages, each a loop of its own in the batched
+   path (lucy_values_body): one vector of nodes' chain of dependent
+   operations (square root, then division, then the log's polynomial; some
+   200 cycles, about as many instructions) is too long for the processor's
+   window to overlap with the next vector's; a stage is short enough that
+   several vectors run at once (about 11 % less time for the values on W1).
+   The same operations on the same values in the same order as in one
+   piece: the same bits.
+   Stage 1: the ends clipped to the support and reflected (t0 >= |t1|),
+   their r, the span d, s^2 = a^2/R^2 and whether the node is reached (1 or 0) */
+INLINE void lucy_stage_ends(double u, double t_far, double a2, double L, double R, double inv, double *t0_out,
+                            double *t1_out, double *r0_out, double *r1_out, double *d_out, double *s2_out,
+                            double *ok_out)
 {
     /* (the flags are written as comparisons of doubles where used: int
        flags mixed with them keep GCC 12 from vectorising the loop) */
@@ -144,29 +156,55 @@ INLINE double lucy_value_frame(double u, double t_far, double a2, double L, doub
     const double r_hi = clip_hi ? 1.0 : root_hi * inv, r_lo = clip_lo ? 1.0 : root_lo * inv;
     const double d = clip_hi || clip_lo ? (hi_p - lo_p) * inv : L * inv;
     const int flip = hi <= 0.0;
-    const double t0 = flip ? -lo : hi, t1 = flip ? -hi : lo;
-    const double r0 = flip ? r_lo : r_hi, r1 = flip ? r_hi : r_lo;
-    const double q2_ = t0 * t0, p2_ = t1 * t1, qp = t0 * t1, sum = t0 + t1;
-    const double J2 = d * (q2_ + qp + p2_) * (1.0 / 3.0);
-    const double J4 = d * (q2_ * q2_ + qp * (q2_ + p2_) + qp * qp + p2_ * p2_) * 0.2;
-    const double Jr2 = s2 * d + J2;
-    const double Jr4 = s2 * s2 * d + 2.0 * s2 * J2 + J4;
-    const double rsum = r0 + r1;
-    /* X = (d + dr) / (t1 + r1), t1 + r1 = a^2 / (r1 - t1) when t1 < 0;
-       X = N / (rsum h); r0 - r1 = d (t0 + t1) / rsum from the same division */
+    *t0_out = flip ? -lo : hi;
+    *t1_out = flip ? -hi : lo;
+    *r0_out = flip ? r_lo : r_hi;
+    *r1_out = flip ? r_hi : r_lo;
+    *d_out = d;
+    *s2_out = s2;
+    *ok_out = b2 > 0.0 && hi > lo && d > 0.0 ? 1.0 : 0.0;
+}
+
+/* Stage 2: asinh(t0/a) - asinh(t1/a) = log1p(X) (0 where a^4 underflows)
+   and r0 - r1 (dr), from one division:
+   X = (d + dr) / (t1 + r1), t1 + r1 = a^2 / (r1 - t1) when t1 < 0;
+   X = N / (rsum h); r0 - r1 = d (t0 + t1) / rsum */
+INLINE void lucy_stage_log(double t0, double t1, double r0, double r1, double d, double s2, double *log_out,
+                           double *dr_out)
+{
+    const double sum = t0 + t1, rsum = r0 + r1;
     const int with_log = s2 > 1e-200;
     const int across = t1 < 0.0;
     const double h = across ? (with_log ? s2 : 1.0) : t1 + r1, g = across ? r1 - t1 : 1.0;
     double dr;
-    /* asinh(t0/a) - asinh(t1/a) = log1p(X) */
     const double log_x = lucy_log_ratio(d * (rsum + sum) * g, rsum * h, rsum, d * sum, &dr);
+    *log_out = with_log ? log_x : 0.0;
+    *dr_out = dr;
+}
+
+/* Stage 3: int P dt / R from the pieces (0 where the node is not reached) */
+INLINE double lucy_stage_sum(double t0, double t1, double r0, double r1, double d, double s2, double ok, double D3,
+                             double dr)
+{
+    const double q2_ = t0 * t0, p2_ = t1 * t1, qp = t0 * t1;
+    const double J2 = d * (q2_ + qp + p2_) * (1.0 / 3.0);
+    const double J4 = d * (q2_ * q2_ + qp * (q2_ + p2_) + qp * qp + p2_ * p2_) * 0.2;
+    const double Jr2 = s2 * d + J2;
+    const double Jr4 = s2 * s2 * d + 2.0 * s2 * J2 + J4;
     const double rr = r0 * r0 + r0 * r1 + r1 * r1;
     const double D2 = d * r0 + t1 * dr;
     const double D1 = d * r0 * r0 * r0 + t1 * dr * rr;
-    const double D3 = with_log ? log_x : 0.0;
     const double Jr3 = 0.25 * D1 + 0.375 * s2 * D2 + 0.375 * s2 * s2 * D3;
     const double acc = d - 6.0 * Jr2 + 8.0 * Jr3 - 3.0 * Jr4;
-    return b2 > 0.0 && hi > lo && d > 0.0 ? acc : 0.0;
+    return ok != 0.0 ? acc : 0.0;
+}
+
+INLINE double lucy_value_frame(double u, double t_far, double a2, double L, double R, double inv)
+{
+    double t0, t1, r0, r1, d, s2, ok, D3, dr;
+    lucy_stage_ends(u, t_far, a2, L, R, inv, &t0, &t1, &r0, &r1, &d, &s2, &ok);
+    lucy_stage_log(t0, t1, r0, r1, d, s2, &D3, &dr);
+    return lucy_stage_sum(t0, t1, r0, r1, d, s2, ok, D3, dr);
 }
 
 /* the same from the node's offset q */
@@ -189,13 +227,30 @@ INLINE int lucy_may_reach(double u, double t_far, double a2, double R2)
     return (b2 > 0.0) & ((u >= 0.0) | (u * u < loose)) & ((t_far <= 0.0) | (t_far * t_far < loose));
 }
 
+/* nodes per chunk of lucy_values_body's stages */
+#define LUCY_STAGE_CHUNK 64
+
 INLINE void lucy_values_body(int count, const double *restrict q0, const double *restrict q1,
                              const double *restrict q2, const double *n, const double *e, double L, double R,
                              double factor, double *restrict w)
 {
     const double inv = 1.0 / R;
     const double nn[3] = {n[0], n[1], n[2]}, ee[3] = {e[0], e[1], e[2]};
-    for (int i = 0; i < count; ++i) w[i] = factor * lucy_value_units(q0[i], q1[i], q2[i], nn, ee, L, R, inv);
+    double t0[LUCY_STAGE_CHUNK], t1[LUCY_STAGE_CHUNK], r0[LUCY_STAGE_CHUNK], r1[LUCY_STAGE_CHUNK];
+    double d[LUCY_STAGE_CHUNK], s2[LUCY_STAGE_CHUNK], ok[LUCY_STAGE_CHUNK], lg[LUCY_STAGE_CHUNK], dr[LUCY_STAGE_CHUNK];
+    for (int i0 = 0; i0 < count; i0 += LUCY_STAGE_CHUNK) {
+        const int m = count - i0 < LUCY_STAGE_CHUNK ? count - i0 : LUCY_STAGE_CHUNK;
+        const double *restrict a0 = q0 + i0, *restrict a1 = q1 + i0, *restrict a2 = q2 + i0;
+        double *restrict wo = w + i0;
+        for (int i = 0; i < m; ++i) {
+            double u, t_far, aa;
+            lucy_frame(a0[i], a1[i], a2[i], nn, ee, &u, &t_far, &aa);
+            lucy_stage_ends(u, t_far, aa, L, R, inv, &t0[i], &t1[i], &r0[i], &r1[i], &d[i], &s2[i], &ok[i]);
+        }
+        for (int i = 0; i < m; ++i) lucy_stage_log(t0[i], t1[i], r0[i], r1[i], d[i], s2[i], &lg[i], &dr[i]);
+        for (int i = 0; i < m; ++i)
+            wo[i] = factor * lucy_stage_sum(t0[i], t1[i], r0[i], r1[i], d[i], s2[i], ok[i], lg[i], dr[i]);
+    }
 }
 
 /* the frames of count nodes into u, t_far, a2 and whether each may reach

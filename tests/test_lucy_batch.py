@@ -232,9 +232,12 @@ def test_slab_schedule_thread_counts_bit_for_bit(n0):
     vectors = np.clip(rng.normal(scale=0.6, size=(m, 3)), -1.5, 1.5)  # short: slabs of 6 nodes
     vectors[: m // 2] = np.eye(3)[rng.integers(0, 3, m // 2)] * 0.99     # lattice-like: the whole box
     values = rng.normal(size=(m, 9))
+    sparse = values * (rng.uniform(size=(m, 9)) < 0.4)     # zero components
     cases = [(cg.Lucy(1.5), True), (cg.Gaussian(0.7, cutoff=2.5), True), (cg.Lucy(1.5), False),
-             (cg.Heaviside(1.5), True)]
+             (cg.Heaviside(1.5), True), (cg.Lucy(1.5), "sparse")]
     for kernel, segments in cases:
+        if segments == "sparse":
+            values, segments = sparse, True
         def run(t):
             return scatter(box, shape, kernel, starts, vectors, values, n_threads=t, segments=segments)
         one = run(1)
@@ -273,4 +276,35 @@ def test_lattice_points_equal_node_by_node(dim, kernel):
                     many = scatter(box, shape, make(R), pos, None, values, n_threads=t, segments=False)
                     assert np.array_equal(fast, many), what + f" {t} threads"
             narrow = narrow_build(lambda: scatter(box, shape, make(R), pos, None, values, segments=False))
+            assert np.array_equal(fast, narrow), what + " narrow build"
+
+
+@pytest.mark.parametrize("fine", [1, 3])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_values_with_zero_components_equal_node_by_node(dim, fine):
+    """Contact stresses -f (x) a with zero components (W1's contacts along the axes: one non-zero component;
+    random patterns of zeros, and signed zeros): the batched path against the node-by-node path bit for bit, no
+    -0 where that has +0; likewise the narrow build. fine = 3: a grid three times finer than the lattice (longer
+    rows, and boxes that overflow a batch)."""
+    rng = np.random.default_rng(10 * dim + fine)
+    n = 7 if dim == 3 else 12
+    starts, vectors = lattice_contacts(n, dim)
+    side = (n - 1) * 0.99 + 1.0
+    box = cg.Box(np.zeros(dim), np.full(dim, side))
+    shape = (fine * n,) * dim
+    force = -vectors * rng.uniform(0.9, 1.1, len(vectors))[:, None]
+    full = np.zeros((len(vectors), 3, 3))
+    full[:, :dim, :dim] = -np.einsum("ni,nj->nij", force, vectors)
+    patterns = rng.normal(size=(len(vectors), 9)) * (rng.uniform(size=(len(vectors), 9)) < 0.5)
+    patterns[::5] *= -0.0                                   # signed zeros in every component
+    for name, values in (("axis", full.reshape(-1, 9)), ("pattern", patterns)):
+        values = np.ascontiguousarray(values)
+        for R in (1.5, 0.7):
+            fast = scatter(box, shape, cg.Lucy(R), starts, vectors, values)
+            slow = scatter(box, shape, cg.Lucy(R), starts, vectors, values, per_node=True)
+            what = f"{dim}D fine {fine} {name} R {R}"
+            assert np.count_nonzero(fast) > 0, what
+            assert np.array_equal(fast, slow), what
+            assert not np.signbit(fast[fast == 0.0]).any(), what   # no -0 where the node-by-node path has +0
+            narrow = narrow_build(lambda: scatter(box, shape, cg.Lucy(R), starts, vectors, values))
             assert np.array_equal(fast, narrow), what + " narrow build"
