@@ -845,6 +845,48 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     {
         /* whole vectors only (EXP_PAD): a scalar remainder would cost more than the rest */
         const size_t n_all = (size_t)G * per_table, n_padded = (n_all + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
+        if (hybrid && G > 1 && (es[0] == 0.0 || es[1] == 0.0 || es[2] == 0.0)) {
+            /* a slot along which the segment does not move (es = +-0: a segment in a grid
+               plane or along an axis) has the same exponents at every point (q - g 0 = q,
+               and (-q)^2 = q^2): its exponentials once, packed with the other slots' in the
+               d2 table (the exact form reads none), then copied to every point's place in
+               the layout below: the same values with fewer exponentials. The packing's
+               padding may reach into ex_all, which is written after it. */
+            double *restrict packed = d2_all;
+            size_t m = 0, at[3];
+            for (int s = 0; s < 3; ++s) {
+                at[s] = m;
+                const int points = es[s] == 0.0 ? 1 : G;
+                for (int g = 0; g < points; ++g) {
+                    const double shift = gx[g] * es[s];
+                    for (cg_index k = 0; k < count[s]; ++k) {
+                        const double q = cslot[s][k] - shift;
+                        packed[m++] = -(q * q) * inv2w2;
+                    }
+                }
+            }
+            const size_t m_padded = (m + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
+            for (size_t i = m; i < m_padded; ++i) packed[i] = 0.0;
+            cg_exp_in_place(packed, (cg_index)m_padded);
+            for (int s = 0; s < 2; ++s) {
+                double *restrict dst = ex_all + (s == 0 ? 0 : (size_t)G * n0);
+                const double *restrict src = packed + at[s];
+                const cg_index n = count[s];
+                if (es[s] == 0.0) {
+                    for (cg_index k = 0; k < n; ++k)
+                        for (int g = 0; g < G; ++g) dst[k * G + g] = src[k];
+                } else {
+                    for (cg_index k = 0; k < n; ++k)
+                        for (int g = 0; g < G; ++g) dst[k * G + g] = src[(size_t)g * n + k];
+                }
+            }
+            for (int g = 0; g < G; ++g) {
+                const double *restrict src = packed + at[2] + (es[2] == 0.0 ? 0 : (size_t)g * n2);
+                memcpy(ex_all + (size_t)G * (n0 + n1) + (size_t)g * n2, src, (size_t)n2 * sizeof(double));
+            }
+            for (size_t i = n_all; i < n_all + EXP_PAD; ++i) ex_all[i] = 0.0; /* as below */
+            goto tables_done;
+        }
         if (hybrid) {
             /* the exact form reads no d2 table: the exponents straight from the node
                coordinates (node - x), the same operations as above, laid out for the
@@ -874,6 +916,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         for (size_t m = n_all; m < n_all + EXP_PAD; ++m) ex_all[m] = 0.0; /* read past by rows_of_rule */
         cg_exp_in_place(ex_all, (cg_index)n_padded);
     }
+tables_done:;
     /* hybrid: squared distances of the nodes to the two ends, per slot */
     double *endA[3] = {NULL, NULL, NULL}, *endB[3] = {NULL, NULL, NULL};
     if (hybrid) {
