@@ -207,7 +207,7 @@ static cg_status pair_by_groups(const cg_fstat_frame *f, cg_fstat_result *out, d
     }
     /* the groups: the bad one (repeated or inconsistent) whose first line comes first; else a lonely one */
     int64_t bad_row = -1, lonely_row = -1;
-    double arm[3], fa[3], fb[3];
+    double arm[3], fa[3] = {0, 0, 0}, fb[3] = {0, 0, 0}; /* (2-D: the third entries stay 0) */
     for (int64_t a = 0; a < n; ++a) {
         for (int64_t g = start[a]; g < start[a + 1];) {
             int64_t h = g + 1;
