@@ -113,6 +113,14 @@ def text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_thre
     return _core.text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads)
 
 
+def fstat_contacts(rows, partners, time, time_tolerance, positions, radii, fixed, periodic, period, rtol):
+    """The contacts of a MercuryDPM .fstat frame in one C pass (csrc/cg_fstat.h): (0, (), (i, j, wall, force,
+    point, overlap)), or (problem, (row, other_row, pair_lo, pair_hi, count, df, dc, force_row, force_other), None)
+    with problem a CG_FSTAT_* code."""
+    return _core.fstat_contacts(rows, partners, time, time_tolerance, positions, radii, fixed, periodic, period,
+                                rtol)
+
+
 def text_find_lines(data, start, stop, prefix):
     """Byte offsets of the lines of ``data[start:stop]`` that start with ``prefix``."""
     return _core.text_find_lines(data, start, stop, prefix)

@@ -44,17 +44,67 @@ def real_array(value, name, ndim=None, shape=None, copy=True):
                          f"got an integer too large for a double") from None
     except (TypeError, ValueError) as exc:
         raise TypeError(f"{name}: expected an array of real numbers ({exc})") from None
+    _check_real_array(arr, name, ndim, shape, True)
+    arr.setflags(write=False)
+    return arr
+
+
+def _check_real_array(arr, name, ndim, shape, finite):
+    """real_array's checks of a float64 array: dimensions, shape, and (if finite) finiteness."""
     if ndim is not None and arr.ndim != ndim:
         raise ValueError(f"{name}: expected a {ndim}-dimensional array, got shape {arr.shape}")
     if shape is not None:
         for axis, (want, got) in enumerate(zip(shape, arr.shape)):
             if want is not None and want != got:
                 raise ValueError(f"{name}: expected shape {_shape_text(shape)}, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if finite and not np.all(np.isfinite(arr)):
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise ValueError(f"{name}: expected finite values, got {arr[tuple(bad)]} at index {tuple(int(b) for b in bad)}")
+
+
+def read_only(arr):
+    """A read-only view of arr (the array itself is left writable)."""
+    view = arr.view()
+    view.setflags(write=False)
+    return view
+
+
+def reader_real_array(parsed):
+    """real_array for the arrays a reader has just produced (the internal path, Snapshot.from_reader): a float64
+    ndarray is taken without a copy (a read-only view; a C-contiguous copy of a strided one) with real_array's
+    checks of dimensions and shape, and of finiteness unless its name is in ``parsed`` (arrays the reader parsed
+    with the C text layer, which refuses nan/inf, and did not compute on). Anything else goes through
+    real_array."""
+    def convert(value, name, ndim=None, shape=None):
+        if not (isinstance(value, np.ndarray) and value.dtype == np.float64):
+            return real_array(value, name, ndim, shape)
+        _check_real_array(value, name, ndim, shape, name not in parsed)
+        arr = np.ascontiguousarray(value)
+        return read_only(arr) if arr is value else _frozen(arr)
+    return convert
+
+
+def _frozen(arr):
     arr.setflags(write=False)
     return arr
+
+
+def reader_index_array(value, name, length=None):
+    """index_array for a reader's int64 1-D ndarray: taken as a read-only view (length checked); anything else
+    goes through index_array."""
+    if not (isinstance(value, np.ndarray) and value.dtype == np.int64 and value.ndim == 1):
+        return index_array(value, name, length)
+    if length is not None and value.shape[0] != length:
+        raise ValueError(f"{name}: expected length {length}, got {value.shape[0]}")
+    return read_only(np.ascontiguousarray(value))
+
+
+def reader_bool_array(value, name, length):
+    """bool_array for a reader's bool ndarray of the right shape: a read-only view; anything else goes through
+    bool_array."""
+    if not (isinstance(value, np.ndarray) and value.dtype == np.bool_ and value.shape == (length,)):
+        return bool_array(value, name, length)
+    return read_only(np.ascontiguousarray(value))
 
 
 _INT64_MAX = np.iinfo(np.int64).max

@@ -3,7 +3,8 @@
 import numpy as np
 
 from ._engine import minimum_image as core_minimum_image
-from ._validate import abs_max_per_row, bool_array, finite_number, index_array, real_array
+from ._validate import (abs_max_per_row, bool_array, finite_number, index_array, reader_bool_array,
+                        reader_index_array, reader_real_array, real_array)
 from .box import Box
 from .units import as_units
 
@@ -29,13 +30,27 @@ class Contacts:
     """
 
     def __init__(self, i, j, force, point):
-        self.i = index_array(i, "contacts.i")
+        self._setup(i, j, force, point, index_array, real_array)
+
+    @classmethod
+    def from_reader(cls, i, j, force, point, parsed=()):
+        """The internal path for cgbound's readers (not for user data): arrays the reader has just produced
+        (int64 i, j; float64 force, point) are kept without copies (read-only views) and with the constructor's
+        checks, except the finiteness pass over the arrays named in ``parsed`` ("contacts.point",
+        "contacts.force": values parsed by the C text layer, which refuses nan/inf, and not computed on).
+        Other input goes through the constructor's conversions."""
+        out = object.__new__(cls)
+        out._setup(i, j, force, point, reader_index_array, reader_real_array(parsed))
+        return out
+
+    def _setup(self, i, j, force, point, index, real):
+        self.i = index(i, "contacts.i")
         m = self.i.shape[0]
-        self.j = index_array(j, "contacts.j", length=m)
+        self.j = index(j, "contacts.j", length=m)
         if m == 0 and np.size(force) == 0 and np.size(point) == 0:
             force = point = np.zeros((0, np.shape(force)[-1] if np.ndim(force) == 2 else 0))
-        self.force = real_array(force, "contacts.force", ndim=2)
-        self.point = real_array(point, "contacts.point", ndim=2)
+        self.force = real(force, "contacts.force", ndim=2)
+        self.point = real(point, "contacts.point", ndim=2)
         if self.force.shape[0] != m:
             raise ValueError(f"contacts.force: expected {m} rows like contacts.i, got {self.force.shape[0]}")
         if self.point.shape != self.force.shape:
@@ -52,14 +67,14 @@ class Contacts:
         return f"Contacts({len(self)} contacts)"
 
 
-def pseudo_vector_array(values, name, n, dim):
+def pseudo_vector_array(values, name, n, dim, real=real_array):
     """Angular velocities or torques: (N, 3) in 3D; in 2D the out-of-plane component, given as (N,) or
-    (N, 1), stored as (N,). None stays None."""
+    (N, 1), stored as (N,). None stays None. real: the conversion of arrays (real_array)."""
     if values is None:
         return None
     if dim == 3:
-        return real_array(values, name, ndim=2, shape=(n, 3))
-    array = real_array(values, name)
+        return real(values, name, ndim=2, shape=(n, 3))
+    array = real(values, name)
     if array.shape == (n, 1):
         return array[:, 0]
     if array.shape != (n,):
@@ -118,16 +133,43 @@ class Snapshot:
     def __init__(self, positions, velocities=None, masses=None, box=None, contacts=None, fixed=None,
                  species=None, body_force=None, radii=None, time=0.0, units=None, angular_velocities=None,
                  torques=None, moments_of_inertia=None):
+        self._setup(positions, velocities, masses, box, contacts, fixed, species, body_force, radii, time, units,
+                    angular_velocities, torques, moments_of_inertia)
+
+    @classmethod
+    def from_reader(cls, positions, velocities=None, masses=None, box=None, contacts=None, fixed=None,
+                    species=None, body_force=None, radii=None, time=0.0, units=None, angular_velocities=None,
+                    torques=None, moments_of_inertia=None, parsed=(), contacts_checked=False):
+        """The internal path for cgbound's readers (not for user data): the arguments of the constructor, with
+        the arrays the reader has just produced (float64, int64 species, bool fixed) kept without copies (read-only
+        views; strided ones copied C-contiguous) and every check of the constructor except
+
+        * the finiteness pass over the arrays named in ``parsed`` (constructor argument names, e.g.
+          ``"positions"``): values parsed by the C text layer, which refuses nan/inf, and not computed on;
+        * with ``contacts_checked``, the checks of the contacts' indices and of one listing per pair, which the
+          reader has made (MercuryReader's C pass of the .fstat lines, csrc/cg_fstat.h).
+
+        The value checks (positive masses, radii, the products of masses, velocities, forces and branches) all
+        run. Input that is not an array of the expected dtype goes through the constructor's conversions."""
+        out = object.__new__(cls)
+        out._setup(positions, velocities, masses, box, contacts, fixed, species, body_force, radii, time, units,
+                   angular_velocities, torques, moments_of_inertia, real=reader_real_array(parsed),
+                   index=reader_index_array, boolean=reader_bool_array, check_contacts=not contacts_checked)
+        return out
+
+    def _setup(self, positions, velocities, masses, box, contacts, fixed, species, body_force, radii, time, units,
+               angular_velocities, torques, moments_of_inertia, real=real_array, index=index_array,
+               boolean=bool_array, check_contacts=True):
         self.units = as_units(units)
-        self.positions = real_array(positions, "positions", ndim=2)
+        self.positions = real(positions, "positions", ndim=2)
         n, dim = self.positions.shape
         if dim not in (2, 3):
             raise ValueError(f"positions: expected shape (N, 2) or (N, 3), got {self.positions.shape}")
-        self.velocities = None if velocities is None else real_array(velocities, "velocities", ndim=2, shape=(n, dim))
+        self.velocities = None if velocities is None else real(velocities, "velocities", ndim=2, shape=(n, dim))
         if masses is None:
             raise TypeError("masses: expected an array of N positive masses, got None")
-        self.masses = real_array(masses, "masses", ndim=1, shape=(n,))
-        self.fixed = np.zeros(n, bool) if fixed is None else bool_array(fixed, "fixed", n)
+        self.masses = real(masses, "masses", ndim=1, shape=(n,))
+        self.fixed = np.zeros(n, bool) if fixed is None else boolean(fixed, "fixed", n)
         bad = (~self.fixed) & ~(self.masses > 0)
         if np.any(bad):
             k = int(np.flatnonzero(bad)[0])
@@ -149,11 +191,11 @@ class Snapshot:
         if box.dim != dim:
             raise ValueError(f"box: expected a {dim}D box like positions, got {box.dim}D")
         self.box = box
-        self.species = None if species is None else index_array(species, "species", length=n)
+        self.species = None if species is None else index(species, "species", length=n)
         if body_force is None:
             self.body_force = None
         else:
-            g = real_array(body_force, "body_force")
+            g = real(body_force, "body_force")
             if g.shape == (dim,):
                 g = np.broadcast_to(g, (n, dim))
             elif g.shape != (n, dim):
@@ -161,16 +203,16 @@ class Snapshot:
             self.body_force = g
         self.radii = None
         if radii is not None:
-            self.radii = real_array(radii, "radii", ndim=1, shape=(n,))
+            self.radii = real(radii, "radii", ndim=1, shape=(n,))
             if np.any(self.radii < 0):
                 k = int(np.flatnonzero(self.radii < 0)[0])
                 raise ValueError(f"radii: expected non-negative radii, got {self.radii[k]} at index {k}")
         self.time = finite_number(time, "time")
-        self.angular_velocities = pseudo_vector_array(angular_velocities, "angular_velocities", n, dim)
-        self.torques = pseudo_vector_array(torques, "torques", n, dim)
+        self.angular_velocities = pseudo_vector_array(angular_velocities, "angular_velocities", n, dim, real)
+        self.torques = pseudo_vector_array(torques, "torques", n, dim, real)
         self.moments_of_inertia = None
         if moments_of_inertia is not None:
-            inertia = real_array(moments_of_inertia, "moments_of_inertia", ndim=1, shape=(n,))
+            inertia = real(moments_of_inertia, "moments_of_inertia", ndim=1, shape=(n,))
             bad = (~self.fixed) & ~(inertia > 0)
             if np.any(bad):
                 k = int(np.flatnonzero(bad)[0])
@@ -182,7 +224,8 @@ class Snapshot:
         if not isinstance(contacts, Contacts):
             raise TypeError(f"contacts: expected a cg.Contacts, got {type(contacts).__name__}")
         self.contacts = contacts
-        self._check_contacts()
+        if check_contacts:
+            self._check_contacts()
         self._check_products()
 
     def _check_products(self):

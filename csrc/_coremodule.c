@@ -1057,6 +1057,118 @@ static PyObject *py_text_count_lines(PyObject *self, PyObject *args)
     return ret;
 }
 
+/* ---- MercuryDPM .fstat contacts (cg_fstat.h) ---- */
+#include "cg_fstat.h"
+
+/* a C-contiguous aligned array of obj with dtype type and ndim dimensions (a view when it already is one) */
+static PyArrayObject *fstat_array(PyObject *obj, int type, int ndim, const char *name)
+{
+    PyArrayObject *arr = (PyArrayObject *)PyArray_FROM_OTF(obj, type, NPY_ARRAY_IN_ARRAY);
+    if (!arr) return NULL;
+    if (PyArray_NDIM(arr) != ndim) {
+        PyErr_Format(PyExc_ValueError, "fstat_contacts: %s: expected %d dimensions, got %d", name, ndim,
+                     PyArray_NDIM(arr));
+        Py_DECREF(arr);
+        return NULL;
+    }
+    return arr;
+}
+
+/* shrink a fresh C-contiguous output to its first rows (realloc, no copy of the kept part) */
+static int fstat_shrink(PyArrayObject *arr, npy_intp rows)
+{
+    npy_intp dims[2] = {rows, PyArray_NDIM(arr) == 2 ? PyArray_DIM(arr, 1) : 0};
+    PyArray_Dims shape = {dims, PyArray_NDIM(arr)};
+    PyObject *res = PyArray_Resize(arr, &shape, 0, NPY_CORDER);
+    if (!res) return 0;
+    Py_DECREF(res);
+    return 1;
+}
+
+static PyObject *py_fstat_contacts(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *rows_obj, *partners_obj, *positions_obj, *radii_obj, *fixed_obj, *periodic_obj, *period_obj;
+    double time, time_tolerance, rtol;
+    if (!PyArg_ParseTuple(args, "OOddOOOOOd", &rows_obj, &partners_obj, &time, &time_tolerance, &positions_obj,
+                          &radii_obj, &fixed_obj, &periodic_obj, &period_obj, &rtol))
+        return NULL;
+    PyArrayObject *rows = NULL, *partners = NULL, *positions = NULL, *radii = NULL, *fixed = NULL;
+    PyArrayObject *out_i = NULL, *out_j = NULL, *out_wall = NULL, *out_force = NULL, *out_point = NULL,
+                  *out_overlap = NULL;
+    PyObject *ret = NULL;
+    rows = fstat_array(rows_obj, NPY_DOUBLE, 2, "rows");
+    partners = rows ? fstat_array(partners_obj, NPY_INT64, 2, "partners") : NULL;
+    positions = partners ? fstat_array(positions_obj, NPY_DOUBLE, 2, "positions") : NULL;
+    radii = positions ? fstat_array(radii_obj, NPY_DOUBLE, 1, "radii") : NULL;
+    fixed = radii ? fstat_array(fixed_obj, NPY_BOOL, 1, "fixed") : NULL;
+    if (!fixed) goto done;
+    const npy_intp m = PyArray_DIM(rows, 0), n = PyArray_DIM(positions, 0);
+    const int d = (int)PyArray_DIM(positions, 1);
+    if (PyArray_DIM(rows, 1) < CG_FSTAT_COLUMNS || PyArray_DIM(partners, 0) != m || PyArray_DIM(partners, 1) != 2 ||
+        PyArray_DIM(radii, 0) != n || PyArray_DIM(fixed, 0) != n || (d != 2 && d != 3) || !(rtol >= 0)) {
+        PyErr_SetString(PyExc_ValueError, "fstat_contacts: expected rows (M, >= 16), partners (M, 2), positions "
+                                          "(N, 2 or 3), radii (N,), fixed (N,) and rtol >= 0");
+        goto done;
+    }
+    int periodic[3] = {0, 0, 0};
+    double period[3] = {1.0, 1.0, 1.0};
+    if (!convert_periodicity(periodic_obj, period_obj, d, "fstat_contacts", "axis", periodic, period)) goto done;
+    const npy_intp one[1] = {m}, two[2] = {m, d};
+    out_i = (PyArrayObject *)PyArray_SimpleNew(1, one, NPY_INT64);
+    out_j = (PyArrayObject *)PyArray_SimpleNew(1, one, NPY_INT64);
+    out_wall = (PyArrayObject *)PyArray_SimpleNew(1, one, NPY_INT64);
+    out_force = (PyArrayObject *)PyArray_SimpleNew(2, two, NPY_DOUBLE);
+    out_point = (PyArrayObject *)PyArray_SimpleNew(2, two, NPY_DOUBLE);
+    out_overlap = (PyArrayObject *)PyArray_SimpleNew(1, one, NPY_DOUBLE);
+    if (!out_i || !out_j || !out_wall || !out_force || !out_point || !out_overlap) goto done;
+    const cg_fstat_frame frame = {
+        (const double *)PyArray_DATA(rows), (int64_t)m, (int64_t)PyArray_DIM(rows, 1),
+        (const int64_t *)PyArray_DATA(partners), time, time_tolerance, (const double *)PyArray_DATA(positions),
+        (int64_t)n, d, (const double *)PyArray_DATA(radii), (const unsigned char *)PyArray_DATA(fixed), periodic,
+        period, rtol};
+    cg_fstat_result res = {(int64_t *)PyArray_DATA(out_i), (int64_t *)PyArray_DATA(out_j),
+                           (int64_t *)PyArray_DATA(out_wall), (double *)PyArray_DATA(out_force),
+                           (double *)PyArray_DATA(out_point), (double *)PyArray_DATA(out_overlap)};
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_fstat_contacts(&frame, &res);
+    Py_END_ALLOW_THREADS
+    if (st == CG_ERR_FSTAT_LINES) {
+        ret = Py_BuildValue("i(LLLLLdd(ddd)(ddd))O", (int)res.problem, (long long)res.row, (long long)res.other_row,
+                            (long long)res.pair_lo, (long long)res.pair_hi, (long long)res.count, res.df, res.dc,
+                            res.force_row[0], res.force_row[1], res.force_row[2], res.force_other[0],
+                            res.force_other[1], res.force_other[2], Py_None);
+        goto done;
+    }
+    if (st == CG_ERR_NOMEM) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    if (st != CG_OK) {
+        PyErr_Format(PyExc_ValueError, "fstat_contacts: %s", cg_strerror(st));
+        goto done;
+    }
+    const npy_intp kept = (npy_intp)res.n_kept;
+    if (!fstat_shrink(out_i, kept) || !fstat_shrink(out_j, kept) || !fstat_shrink(out_wall, kept) ||
+        !fstat_shrink(out_force, kept) || !fstat_shrink(out_point, kept) || !fstat_shrink(out_overlap, kept))
+        goto done;
+    ret = Py_BuildValue("i()(OOOOOO)", 0, out_i, out_j, out_wall, out_force, out_point, out_overlap);
+done:
+    Py_XDECREF(rows);
+    Py_XDECREF(partners);
+    Py_XDECREF(positions);
+    Py_XDECREF(radii);
+    Py_XDECREF(fixed);
+    Py_XDECREF(out_i);
+    Py_XDECREF(out_j);
+    Py_XDECREF(out_wall);
+    Py_XDECREF(out_force);
+    Py_XDECREF(out_point);
+    Py_XDECREF(out_overlap);
+    return ret;
+}
+
 #define CG_TEXT_METHODS                                                                                             \
     {"text_parse_table", py_text_parse_table, METH_VARARGS,                                                         \
      "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1) -> (values, ints, nrows, end, "         \
@@ -1114,6 +1226,10 @@ static PyMethodDef methods[] = {
     {"default_threads", default_threads, METH_NOARGS,
      "Threads a call with n_threads=0 may use (omp_get_max_threads(); 1 without OpenMP)."},
     CG_TEXT_METHODS
+    {"fstat_contacts", py_fstat_contacts, METH_VARARGS,
+     "fstat_contacts(rows, partners, time, time_tolerance, positions, radii, fixed, periodic, period, rtol) -> "
+     "(0, (), (i, j, wall, force, point, overlap)) or (problem, (row, other_row, pair_lo, pair_hi, count, df, dc, "
+     "force_row, force_other), None): the contacts of a MercuryDPM .fstat frame (cg_fstat_contacts)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef moduledef = {PyModuleDef_HEAD_INIT, "_core",

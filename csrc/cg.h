@@ -65,7 +65,9 @@ typedef enum cg_status {
     CG_ERR_TEXT_INTEGER = 7,    /* a number in an integer column is not an integer */
     CG_ERR_TEXT_OVERFLOW = 8,   /* an integer outside the int64 range */
     CG_ERR_TEXT_ROW_LENGTH = 9, /* a line with more or fewer values than the table's columns */
-    CG_ERR_TEXT_ROWS = 10       /* more rows than the caller expected */
+    CG_ERR_TEXT_ROWS = 10,      /* more rows than the caller expected */
+    /* MercuryDPM .fstat contacts (cg_fstat.h); the problem is in cg_fstat_result */
+    CG_ERR_FSTAT_LINES = 11     /* a .fstat frame's lines contradict each other or the .data frame */
 } cg_status;
 
 /* A static message for a status code (never NULL). */

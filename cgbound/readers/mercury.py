@@ -84,7 +84,9 @@ particles; a ``Particles N`` section with fewer lines is a truncated file and an
 Reading and structure checks
 ----------------------------
 Frames are found by one scan of each file (the C text layer's line finder) and parsed lazily, one C pass
-per frame (``species``, ``i``, ``j`` read as exact int64); gzipped files are decompressed as a zlib stream
+per frame (``species``, ``i``, ``j`` read as exact int64); the per-line work on a ``.fstat`` frame (the lines'
+times, the partners' indices, the force on i and its orientation, the pairing of the two sides, the walls) is a
+second C pass (``csrc/cg_fstat.h``; its NumPy twin is ``oracle_fstat_contacts`` in the tests); gzipped files are decompressed as a zlib stream
 (the scan holds one decompressed copy of the file at a time; a frame read streams from the start). Refused,
 with the file, the frame's time and the line: a ``.data`` frame with fewer particle lines than its header
 declares, a particle line with a value more or less than the frame's first (the columns would shift), a
@@ -112,14 +114,21 @@ import os
 
 import numpy as np
 
+from .. import _engine
 from .._validate import finite_number, index_array, integer
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
-from ._mercury_files import read_fstat_rows, read_particles, read_restart, scan_data, scan_fstat
+from ._mercury_files import LINE_TIME_RTOL, read_fstat_rows, read_particles, read_restart, scan_data, scan_fstat
 from ._mercury_write import write_mercury
 from ._sequence import FrameReader, file_name
 
 __all__ = ["MercuryReader", "MercuryFrame", "write_mercury"]
+
+# the problems cg_fstat_contacts reports (csrc/cg_fstat.h, cg_fstat_problem)
+_FSTAT_TIME, _FSTAT_PARTICLE, _FSTAT_GHOST, _FSTAT_SELF, _FSTAT_FLAT, _FSTAT_REPEATED, _FSTAT_INCONSISTENT, \
+    _FSTAT_ONCE = range(1, 9)
+# the Snapshot arrays taken as parsed from the .data file (Snapshot.from_reader)
+_PARSED = ("positions", "velocities", "radii", "angular_velocities")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -258,9 +267,11 @@ class MercuryReader(FrameReader):
         # the .data angular velocities (wx wy wz; in 2D omega about MercuryDPM's z, the normal of cgbound's
         # (x, z) plane that makes it right-handed, docs/theory.md, "Rotation and couple stress")
         omega = table[:, 10:13] if self.dim == 3 else table[:, 6]
-        snap = Snapshot(pos, velocities=vel, masses=masses, box=box, contacts=contacts, fixed=fixed,
-                        species=species, body_force=self.body_force, radii=radii, time=time,
-                        angular_velocities=omega)
+        # the internal path: the parsed columns were refused nan/inf by the parser and the contacts were checked
+        # by the C pass (indices, one listing per pair); masses and forces, computed here, are still checked
+        snap = Snapshot.from_reader(pos, velocities=vel, masses=masses, box=box, contacts=contacts, fixed=fixed,
+                                    species=species, body_force=self.body_force, radii=radii, time=time,
+                                    angular_velocities=omega, parsed=_PARSED, contacts_checked=True)
         return MercuryFrame(snap, wall_index, overlap, data_line, None if fstat is None else fstat[4])
 
     def _particle_columns(self, table, species, data_line):
@@ -346,163 +357,51 @@ class MercuryReader(FrameReader):
         return np.where(fixed & ~(m > 0), 1.0, m)
 
     def _contacts(self, fstat, pos, radii, box, fixed):
-        """The contacts of a .fstat frame: (Contacts, wall index, overlap)."""
+        """The contacts of a .fstat frame: (Contacts, wall index, overlap). The per-line work (times, partners,
+        the force on i and its orientation, the pairing, the walls) is one C pass, csrc/cg_fstat.h."""
+        time = fstat[0]
         rows, ints, line_of = read_fstat_rows(self.fstat_path, *fstat[:4])
         if rows is None:
             return Contacts.empty(self.dim), np.zeros(0, np.int64), np.zeros(0)
-        i, jraw = self._partners(ints, line_of, pos.shape[0])
-        d = self.dim    # cgbound's axes are MercuryDPM's first d components
-        point = rows[:, 3:3 + d]       # a strided view; Contacts gets the kept rows' copy
-        overlap = rows[:, 6]
-        arm = pos[i] - point
-        if any(box.periodic):   # (the minimum image changes components along periodic axes only)
-            arm = box.minimum_image(arm)
-        force = self._forces_on_i(rows, line_of, d, arm)
-        wall = jraw < 0
-        keep = self._one_listing_per_pair(i, jraw, force, point, radii, line_of, fixed)
-        if wall.any():
-            sel = np.flatnonzero(wall | keep)
-            j = np.where(wall, -1, jraw)[sel]
-            wall_index = np.where(wall, -1 - jraw, -1)[sel]
-        else:                   # (no wall line: the partners as they are)
-            sel = np.flatnonzero(keep)
-            j, wall_index = jraw[sel], np.full(sel.size, -1, np.int64)
-        return Contacts(i[sel], j, force[sel], point[sel]), wall_index, overlap[sel]
+        problem, detail, found = _engine.fstat_contacts(
+            rows, ints, time, LINE_TIME_RTOL * max(1.0, abs(time)), pos, radii, fixed, box.periodic,
+            [float(x) for x in box.lengths], self.rtol)
+        if problem:
+            raise self._fstat_problem(problem, detail, rows, ints, line_of, time, pos.shape[0])
+        i, j, wall_index, force, point, overlap = found
+        return Contacts.from_reader(i, j, force, point, parsed=("contacts.point",)), wall_index, overlap
 
-    def _partners(self, ints, line_of, n):
-        """The particle index i and the partner index j (a wall when < 0) of each .fstat line, checked."""
-        path = self.fstat_path
-        i, jraw = ints[:, 0].copy(), ints[:, 1].copy()
-        bad = (i < 0) | (i >= n)
-        if np.any(bad):
-            k = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"{path}:{line_of(k)}: particle index {i[k]} not in the .data frame ({n} particles)")
-        bad = jraw >= n
-        if np.any(bad):
-            k = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"{path}:{line_of(k)}: partner index {jraw[k]} >= {n} particles in the .data frame: "
-                             "an interaction with a periodic ghost particle, which this reader does not support")
-        if np.any(jraw == i):
-            k = int(np.flatnonzero(jraw == i)[0])
-            raise ValueError(f"{self.fstat_path}:{line_of(k)}: particle {i[k]} in contact with itself")
-        return i, jraw
-
-    def _forces_on_i(self, rows, line_of, d, arm):
-        """The force on particle i of each line: s (fn n + ft t), s = sign(n . arm), arm = x_i - c
-        (minimum image; see the module docstring)."""
-        fn, ft = rows[:, 8], rows[:, 9]
-        normal, tang = rows[:, 10:10 + d], rows[:, 13:13 + d]       # strided views: no copies
-        proj = np.einsum("ij,ij->i", normal, arm)
-        # flat: |proj| <= 1e-12 max(|arm|, 1e-300) with a nonzero force; |arm| <= 2 sqrt(d) max|arm_k|, so only
-        # the lines under that bound are looked at (the norms of all lines cost more than the rest)
-        bound = 2.0 * math.sqrt(d) * float(np.abs(arm).max(initial=0.0))
-        near = np.flatnonzero(np.abs(proj) <= 1e-12 * max(bound, 1e-300))
-        arm_near = arm[near]
-        flat = near[(np.abs(proj[near]) <= 1e-12 * np.maximum(np.linalg.norm(arm_near, axis=1), 1e-300))
-                    & ((fn[near] != 0) | (ft[near] != 0))]
-        if flat.size:
-            k = int(flat[0])
-            raise ValueError(f"{self.fstat_path}:{line_of(k)}: the normal is perpendicular to (particle centre - "
-                             "contact point); cannot tell its orientation")
-        force = fn[:, None] * normal     # sign (fn n + ft t), the same operations in place (fewer temporaries)
-        force += ft[:, None] * tang
-        np.negative(force, out=force, where=(proj < 0)[:, None])     # times -1 exactly, where s = -1
-        return force
-
-    def _one_listing_per_pair(self, i, jraw, force, point, radii, line_of, fixed):
-        """Which pair lines to keep: a pair with a fixed particle listed once is kept; one listed from
-        both sides (opposite forces, the same contact point within rtol) is kept once, oriented i < j;
-        anything else raises (the pair whose first line comes first is reported): a pair of two flowing
-        particles listed once (MercuryDPM writes those from both sides: a line was lost), more than twice,
-        twice from one side, or inconsistently. Vectorised: lines grouped by a sort on the pair's key."""
-        path = self.fstat_path
-        keep = np.zeros(i.shape, bool)
-        # the largest |force| of a line: the square root of the largest sum of squares, which is the largest
-        # of np.linalg.norm's values (sqrt is correctly rounded, so monotone) without a root per line
-        scale = math.sqrt(float(np.max(squared_norms(force)))) if len(force) else 0.0
-        lscale = 2.0 * float(np.max(radii)) if radii.size else 1.0
-        lines = np.flatnonzero(jraw >= 0)
-        if not lines.size:
-            return keep
-        tol_force, tol_point = self.rtol * max(scale, 1e-300), self.rtol * lscale
-        first = lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point)
-        if first is not None:
-            keep[first] = True
-            return keep
-        lo, hi = np.minimum(i, jraw)[lines], np.maximum(i, jraw)[lines]
-        key = lo * (int(hi.max()) + 1) + hi
-        span = int(key.max()) + 1
-        if span < (1 << 62) // lines.size:   # equal keys keep their line order: a unique key sorts faster than
-            order = np.argsort(key * lines.size + np.arange(lines.size))   # a stable sort of the key
-        else:
-            order = np.argsort(key, kind="stable")
-        skey, sline = key[order], lines[order]
-        first = np.flatnonzero(np.r_[True, skey[1:] != skey[:-1]])
-        count = np.diff(np.r_[first, skey.size])
-        k1 = sline[first]
-        keep[k1[count == 1]] = True
-        two = count == 2
-        k2 = np.where(two, sline[np.minimum(first + 1, skey.size - 1)], k1)
-        too_many = (count > 2) | (two & (i[k1] == i[k2]))
-        df = np.linalg.norm(force[k1] + force[k2], axis=1)
-        dc = np.linalg.norm(point[k1] - point[k2], axis=1)
-        inconsistent = two & ~too_many & ((df > tol_force) | (dc > tol_point))
-        bad = np.flatnonzero(too_many | inconsistent)
-        if bad.size:
-            g = int(bad[np.argmin(k1[bad])])
-            a, b = int(lo[order][first[g]]), int(hi[order][first[g]])
-            if too_many[g]:
-                ks = sline[first[g]:first[g] + count[g]]
-                raise ValueError(f"{path}: the pair ({a}, {b}) is listed {count[g]} times (lines "
-                                 f"{', '.join(str(line_of(k)) for k in ks)}); expected once from each side at most")
-            p, q = int(k1[g]), int(k2[g])
-            raise ValueError(f"{path}: lines {line_of(p)} and {line_of(q)} list the pair ({a}, {b}) inconsistently: "
-                             f"forces {force[p].tolist()} and {force[q].tolist()} are not opposite or the "
-                             f"contact points {point[p].tolist()} and {point[q].tolist()} differ (|f1 + f2| = "
-                             f"{df[g]:.3g}, |c1 - c2| = {dc[g]:.3g}, rtol = {self.rtol:g})")
-        once = count == 1
-        lonely = once & ~fixed[i[k1]] & ~fixed[jraw[k1]]
-        if np.any(lonely):
-            k = int(np.min(k1[lonely]))
-            raise ValueError(f"{path}:{line_of(k)}: the pair ({i[k]}, {jraw[k]}) of two flowing particles is listed "
-                             "once; MercuryDPM writes such a contact from both sides, so a line of the file was lost "
-                             "(a truncated or edited file?) or the fixed particles are wrong (check fixed= or the "
-                             ".restart file)")
-        p, q = k1[two], k2[two]
-        keep[np.where(i[p] < i[q], p, q)] = True
-        return keep
-
-
-def lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point):
-    """The kept line of each pair when the pair lines come in turn, as MercuryDPM writes them: each pair
-    from both sides on consecutive pair lines (wall lines may sit between), no pair twice, opposite
-    forces and the same contact point within the tolerances; None otherwise (then the general pairing
-    by a sort, which reports what is wrong). The kept line is the one with i < j. No sort: one pass of
-    comparisons, and a sort of the pairs' keys only when they are not in increasing order already."""
-    if lines.size % 2:
-        return None
-    a, b = lines[0::2], lines[1::2]
-    if lines.size == i.size:      # no wall line: the two sides are every other row (views, not gathers)
-        a, b = slice(0, None, 2), slice(1, None, 2)
-    ia, ja, ib, jb = i[a], jraw[a], i[b], jraw[b]
-    if not (np.array_equal(ia, jb) and np.array_equal(ja, ib)):
-        return None
-    lo, hi = np.minimum(ia, ja), np.maximum(ia, ja)
-    key = lo * (int(hi.max()) + 1) + hi
-    if not np.all(key[1:] > key[:-1]):
-        key = np.sort(key)
-        if np.any(key[1:] == key[:-1]):
-            return None
-    # some |f_a + f_b| > tol_force, or some |c_a - c_b| > tol_point, as np.linalg.norm(...) > tol would find
-    # it: the largest norm is the root of the largest sum of squares (sqrt is monotone); fmax skips NaN as
-    # the comparisons do
-    df = math.sqrt(float(np.fmax.reduce(squared_norms(force[a] + force[b]))))
-    dc = math.sqrt(float(np.fmax.reduce(squared_norms(point[a] - point[b]))))
-    if df > tol_force or dc > tol_point:
-        return None
-    return np.where(ia < ib, lines[0::2], lines[1::2])
-
-
-def squared_norms(vectors):
-    """x . x of each row, summed as np.linalg.norm sums them (its values are the roots of these)."""
-    return np.add.reduce(vectors * vectors, axis=1)
+    def _fstat_problem(self, problem, detail, rows, ints, line_of, time, n):
+        """The ValueError for a problem cg_fstat_contacts found (its codes: csrc/cg_fstat.h)."""
+        path, d = self.fstat_path, self.dim
+        k, q, a, b, count, df, dc, force_k, force_q = detail
+        i, jraw = ints[:, 0], ints[:, 1]
+        if problem == _FSTAT_TIME:
+            return ValueError(f"{path}:{line_of(k)}: an interaction line of time {rows[k, 0]:g} in the frame of time "
+                              f"{time:g}: the frame holds another frame's lines (a header line lost or inserted?); "
+                              f"a damaged file, write it again")
+        if problem == _FSTAT_PARTICLE:
+            return ValueError(f"{path}:{line_of(k)}: particle index {i[k]} not in the .data frame ({n} particles)")
+        if problem == _FSTAT_GHOST:
+            return ValueError(f"{path}:{line_of(k)}: partner index {jraw[k]} >= {n} particles in the .data frame: "
+                              "an interaction with a periodic ghost particle, which this reader does not support")
+        if problem == _FSTAT_SELF:
+            return ValueError(f"{path}:{line_of(k)}: particle {i[k]} in contact with itself")
+        if problem == _FSTAT_FLAT:
+            return ValueError(f"{path}:{line_of(k)}: the normal is perpendicular to (particle centre - contact "
+                              "point); cannot tell its orientation")
+        if problem == _FSTAT_REPEATED:
+            ks = np.flatnonzero((jraw >= 0) & (np.minimum(i, jraw) == a) & (np.maximum(i, jraw) == b))
+            return ValueError(f"{path}: the pair ({a}, {b}) is listed {count} times (lines "
+                              f"{', '.join(str(line_of(int(m))) for m in ks)}); expected once from each side at most")
+        if problem == _FSTAT_INCONSISTENT:
+            return ValueError(f"{path}: lines {line_of(k)} and {line_of(q)} list the pair ({a}, {b}) inconsistently: "
+                              f"forces {list(force_k[:d])} and {list(force_q[:d])} are not opposite or the contact "
+                              f"points {rows[k, 3:3 + d].tolist()} and {rows[q, 3:3 + d].tolist()} differ (|f1 + f2| "
+                              f"= {df:.3g}, |c1 - c2| = {dc:.3g}, rtol = {self.rtol:g})")
+        if problem == _FSTAT_ONCE:
+            return ValueError(f"{path}:{line_of(k)}: the pair ({i[k]}, {jraw[k]}) of two flowing particles is listed "
+                              "once; MercuryDPM writes such a contact from both sides, so a line of the file was lost "
+                              "(a truncated or edited file?) or the fixed particles are wrong (check fixed= or the "
+                              ".restart file)")
+        raise AssertionError(f"cg_fstat_contacts: unknown problem {problem}")
