@@ -387,6 +387,29 @@ def lucy_cuts(r, h0, x0, a_perp, a_z, c, panel):
     return np.concatenate([crossings, near_support, approach], axis=1)
 
 
+def axis_cuts(x0, a_perp, panel):
+    """Cuts in s (K, 2 (2 APPROACH_LEVELS + 1)), NaN where there is none, grading the rule along each segment towards
+    its closest approach to the axis (:func:`graded_cuts` at the roots s_c ± i ε of ρ(s)² = 0; ε = 0 through the
+    axis). Where the ring holds part of the point's support (an arc: :func:`partial_arc`), the ring moments are not
+    analytic at the axis (cos Δ = (r² + ρ² + h² - c²) / 2 r ρ, ρ = √ρ(s)²); near the axis that happens only
+    within a thin shell, so a piece of arcs may end a hair's breadth from the axis (a Heaviside branch through
+    the axis, 0.007 of its length from it: 7e-11 of the field's scale on one panel). The caller keeps the cuts
+    that fall on arcs: elsewhere the moments are analytic there (the whole ring or none of it)."""
+    q0 = np.einsum("ki,ki->k", x0, x0)
+    q2 = np.einsum("ki,ki->k", a_perp, a_perp)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centre = np.where(q2 > 0.0, -np.einsum("ki,ki->k", x0, a_perp) / q2, np.nan)
+        eps = np.sqrt(np.maximum(q0 / q2 - centre * centre, 0.0))
+    roots = np.stack([centre + 1j * eps, centre - 1j * eps], axis=1)
+    return graded_cuts(roots, panel, True)
+
+
+def partial_arc(r, c, rho, h):
+    """Whether the ring (r, h = z - ζ) holds part of, not all of, the support of a source at radius ρ: (r - ρ)² + h²
+    < c² < (r + ρ)² + h² (False for NaN)."""
+    return ((r - rho) ** 2 + h * h < c * c) & (c * c < (r + rho) ** 2 + h * h)
+
+
 def segments_in_frame(grid, kernel, starts, vectors, values, z_lo, z_hi):
     """The segments (and their periodic images) that may reach rings of ``grid`` between z_lo and z_hi, in the
     ring frame: in-plane starts x0 (K, 2) and vectors a_perp (K, 2), axial starts ζ₀ and steps a_z (K,), the
@@ -456,8 +479,13 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                     cuts = lucy_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
                 else:
                     cuts = support_crossings(r, h0, x0[cand], a_perp[cand], a_z[cand], c)
+                near_axis = axis_cuts(x0[cand], a_perp[cand], scale / length[cand])
+                rho_cut = np.hypot(*(x0[cand, None, :] + near_axis[..., None] * a_perp[cand, None, :]).transpose(2, 0, 1))
+                near_axis = np.where(partial_arc(r, c, rho_cut, h0[:, None] - near_axis * a_z[cand, None]), near_axis,
+                                     np.nan)
                 edges = np.sort(np.concatenate([np.zeros((cand.size, 1)), np.nan_to_num(cuts, nan=1.0),
-                                                np.ones((cand.size, 1))], axis=1), axis=1)
+                                                np.nan_to_num(near_axis, nan=1.0), np.ones((cand.size, 1))], axis=1),
+                                axis=1)
                 lo, hi = edges[:, :-1], edges[:, 1:]                   # (K, pieces)
                 mid = 0.5 * (lo + hi)
                 px = x0[cand, None, :] + mid[..., None] * a_perp[cand, None, :]
