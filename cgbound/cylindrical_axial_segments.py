@@ -15,7 +15,9 @@ low-degree polynomials in s (ρ(s)² = q₀ + q₁ s + q₂ s², ζ(s) = ζ₀ +
   keeps a grazing pair of roots at a piece's end).
 
 Between cuts each piece gets 20-point Gauss-Legendre panels in u, s = a + (b - a) sin²(π u / 2) (square-root
-ends made analytic), no longer than the kernel's scale along the segment.
+ends made analytic), no longer than the kernel's scale along the segment. Two singularities are worse than square
+roots and are graded towards (:func:`graded_cuts_along`): x log x where the whole ring enters the support of a
+kernel with a jump at its edge, and the axis where a box end cuts the arcs of the point's support.
 """
 import math
 

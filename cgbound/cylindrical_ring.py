@@ -379,17 +379,24 @@ def lucy_cuts(r, h0, x0, a_perp, a_z, c, panel):
     ring's support, or just misses holding the whole ring, the support's square roots form a close complex pair
     that :func:`support_crossings` does not cut at (a pair 0.008 from the real axis, on a segment 3.6 long, left
     2e-6 in a gradient). Both are graded towards; plus the support crossings themselves."""
+    approach = graded_cuts(quartic_roots(segment_quartic(r, h0, x0, a_perp, a_z, 0.0)), panel, True)
+    return np.concatenate([support_cuts(r, h0, x0, a_perp, a_z, c, panel), approach], axis=1)
+
+
+def support_cuts(r, h0, x0, a_perp, a_z, c, panel):
+    """The cuts (K, 8 APPROACH_LEVELS + 8) of every kernel's rule along the segments: the support crossings
+    (:func:`support_crossings`) and graded cuts towards the close complex pairs of the same quartic, a segment just
+    missing the edge of the ring's support or just missing holding the whole ring (``panel``: as
+    :func:`graded_cuts`; a Heaviside ray 0.066 from the axis, a pair 0.002 from the real axis: 1.8e-12 of the
+    field's scale without them)."""
     coef = segment_quartic(r, h0, x0, a_perp, a_z, c)
     roots = quartic_roots(coef)
-    crossings = real_roots(coef, roots)
-    near_support = graded_cuts(roots, panel, False)
-    approach = graded_cuts(quartic_roots(segment_quartic(r, h0, x0, a_perp, a_z, 0.0)), panel, True)
-    return np.concatenate([crossings, near_support, approach], axis=1)
+    return np.concatenate([real_roots(coef, roots), graded_cuts(roots, panel, False)], axis=1)
 
 
 def axis_cuts(x0, a_perp, panel):
-    """Cuts in s (K, 2 (2 APPROACH_LEVELS + 1)), NaN where there is none, grading the rule along each segment towards
-    its closest approach to the axis (:func:`graded_cuts` at the roots s_c ± i ε of ρ(s)² = 0; ε = 0 through the
+    """Cuts in s (K, 2 (2 APPROACH_LEVELS + 1)), NaN where there is none, grading the rule along each segment
+    towards its closest approach to the axis (:func:`graded_cuts` at the roots s_c ± i ε of ρ(s)² = 0; ε = 0 through the
     axis). Where the ring holds part of the point's support (an arc: :func:`partial_arc`), the ring moments are not
     analytic at the axis (cos Δ = (r² + ρ² + h² - c²) / 2 r ρ, ρ = √ρ(s)²); near the axis that happens only
     within a thin shell, so a piece of arcs may end a hair's breadth from the axis (a Heaviside branch through
@@ -455,8 +462,9 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
     behaviour at those ends: each piece gets 20-point Gauss-Legendre in u on panels no longer than the kernel's
     scale, s = a + (b - a) sin²(π u / 2), which makes it analytic; each s-point the exact ring moments (the
     pieces are found here, their sums are taken by the C core's ring_segment_sum). Lucy's pieces are also
-    graded towards the branch points next to the segment (:func:`lucy_cuts`: its closest approach to the ring,
-    near misses of the support's edges)."""
+    graded towards the branch points next to the segment (:func:`lucy_cuts`: its closest approach to the ring;
+    every kernel's near misses of the support's edges, :func:`support_cuts`, and pieces of arcs towards the axis,
+    :func:`axis_cuts`)."""
     c = float(kernel.radius)
     n_r, n_z = len(grid.r), z_nodes.shape[0]
     out = np.zeros((n_r * n_z, 3, 3) + ((3,) if gradient else ()))
@@ -478,9 +486,10 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                 if isinstance(kernel, Lucy):
                     cuts = lucy_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
                 else:
-                    cuts = support_crossings(r, h0, x0[cand], a_perp[cand], a_z[cand], c)
+                    cuts = support_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
                 near_axis = axis_cuts(x0[cand], a_perp[cand], scale / length[cand])
-                rho_cut = np.hypot(*(x0[cand, None, :] + near_axis[..., None] * a_perp[cand, None, :]).transpose(2, 0, 1))
+                rho_cut = np.hypot(*(x0[cand, None, :] + near_axis[..., None] * a_perp[cand, None, :])
+                                   .transpose(2, 0, 1))
                 near_axis = np.where(partial_arc(r, c, rho_cut, h0[:, None] - near_axis * a_z[cand, None]), near_axis,
                                      np.nan)
                 edges = np.sort(np.concatenate([np.zeros((cand.size, 1)), np.nan_to_num(cuts, nan=1.0),
