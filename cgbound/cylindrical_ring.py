@@ -388,15 +388,18 @@ def support_cuts(r, h0, x0, a_perp, a_z, c, panel):
     (:func:`support_crossings`) and graded cuts towards the close complex pairs of the same quartic, a segment just
     missing the edge of the ring's support or just missing holding the whole ring (``panel``: as
     :func:`graded_cuts`; a Heaviside ray 0.066 from the axis, a pair 0.002 from the real axis: 1.8e-12 of the
-    field's scale without them)."""
+    field's scale without them), those clear of the crossings (:func:`clear_of`)."""
     coef = segment_quartic(r, h0, x0, a_perp, a_z, c)
     roots = quartic_roots(coef)
-    return np.concatenate([real_roots(coef, roots), graded_cuts(roots, panel, False)], axis=1)
+    crossings = real_roots(coef, roots)
+    near = graded_cuts(roots, panel, False)
+    step = np.abs(near - np.repeat(np.clip(roots.real, 0.0, 1.0), near.shape[1] // roots.shape[1], axis=1))
+    return np.concatenate([crossings, clear_of(near, step, crossings)], axis=1)
 
 
 def axis_cuts(x0, a_perp, panel):
-    """Cuts in s (K, 2 (2 APPROACH_LEVELS + 1)), NaN where there is none, grading the rule along each segment
-    towards its closest approach to the axis (:func:`graded_cuts` at the roots s_c ± i ε of ρ(s)² = 0; ε = 0 through the
+    """Cuts in s (K, 2 (2 APPROACH_LEVELS + 1)), NaN where there is none, and their distances from the point they
+    grade towards (for :func:`clear_of`), grading the rule along each segment towards its closest approach to the axis (:func:`graded_cuts` at the roots s_c ± i ε of ρ(s)² = 0; ε = 0 through the
     axis). Where the ring holds part of the point's support (an arc: :func:`partial_arc`), the ring moments are not
     analytic at the axis (cos Δ = (r² + ρ² + h² - c²) / 2 r ρ, ρ = √ρ(s)²); near the axis that happens only
     within a thin shell, so a piece of arcs may end a hair's breadth from the axis (a Heaviside branch through
@@ -408,7 +411,18 @@ def axis_cuts(x0, a_perp, panel):
         centre = np.where(q2 > 0.0, -np.einsum("ki,ki->k", x0, a_perp) / q2, np.nan)
         eps = np.sqrt(np.maximum(q0 / q2 - centre * centre, 0.0))
     roots = np.stack([centre + 1j * eps, centre - 1j * eps], axis=1)
-    return graded_cuts(roots, panel, True)
+    cuts = graded_cuts(roots, panel, True)
+    return cuts, np.abs(cuts - np.clip(centre, 0.0, 1.0)[:, None])
+
+
+def clear_of(cuts, step, others):
+    """``cuts`` (K, n) NaN where a cut lies closer to one of ``others`` (K, m; the pieces' own ends, NaN for none)
+    than GRADING times its ``step`` (K, n; its distance from the point it grades towards): such a cut would leave
+    the square root at that end just beyond the next piece's end (an axis cut 3.6e-4 from a support crossing,
+    on a Heaviside ray: 1.2e-10 of the field's scale)."""
+    gap = np.abs(cuts[:, :, None] - others[:, None, :])
+    gap = np.where(np.isnan(gap), np.inf, gap).min(axis=2, initial=np.inf)
+    return np.where(gap < GRADING * step, np.nan, cuts)
 
 
 def partial_arc(r, c, rho, h):
@@ -487,7 +501,8 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                     cuts = lucy_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
                 else:
                     cuts = support_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
-                near_axis = axis_cuts(x0[cand], a_perp[cand], scale / length[cand])
+                near_axis, step = axis_cuts(x0[cand], a_perp[cand], scale / length[cand])
+                near_axis = clear_of(near_axis, step, cuts)
                 rho_cut = np.hypot(*(x0[cand, None, :] + near_axis[..., None] * a_perp[cand, None, :])
                                    .transpose(2, 0, 1))
                 near_axis = np.where(partial_arc(r, c, rho_cut, h0[:, None] - near_axis * a_z[cand, None]), near_axis,
