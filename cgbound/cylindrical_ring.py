@@ -399,8 +399,10 @@ def support_cuts(r, h0, x0, a_perp, a_z, c, panel):
 
 def axis_cuts(x0, a_perp, panel):
     """Cuts in s (K, 2 (2 APPROACH_LEVELS + 1)), NaN where there is none, and their distances from the point they
-    grade towards (for :func:`clear_of`), grading the rule along each segment towards its closest approach to the axis (:func:`graded_cuts` at the roots s_c ± i ε of ρ(s)² = 0; ε = 0 through the
-    axis). Where the ring holds part of the point's support (an arc: :func:`partial_arc`), the ring moments are not
+    grade towards (for :func:`clear_of`), grading the rule along each segment towards its closest approach to the
+    axis (:func:`graded_cuts` at the roots s_c ± i ε of ρ(s)² = 0; ε = 0 through the axis).
+
+    Where the ring holds part of the point's support (an arc: :func:`partial_arc`), the ring moments are not
     analytic at the axis (cos Δ = (r² + ρ² + h² - c²) / 2 r ρ, ρ = √ρ(s)²); near the axis that happens only
     within a thin shell, so a piece of arcs may end a hair's breadth from the axis (a Heaviside branch through
     the axis, 0.007 of its length from it: 7e-11 of the field's scale on one panel). The caller keeps the cuts
@@ -502,7 +504,7 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                 else:
                     cuts = support_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
                 near_axis, step = axis_cuts(x0[cand], a_perp[cand], scale / length[cand])
-                near_axis = clear_of(near_axis, step, cuts)
+                near_axis = clear_of(near_axis, step, cuts[:, :4])           # the crossings (support_cuts' first)
                 rho_cut = np.hypot(*(x0[cand, None, :] + near_axis[..., None] * a_perp[cand, None, :])
                                    .transpose(2, 0, 1))
                 near_axis = np.where(partial_arc(r, c, rho_cut, h0[:, None] - near_axis * a_z[cand, None]), near_axis,
