@@ -103,7 +103,8 @@ def graded_cuts_along(kernel, r, lo, hi, x0, a_perp, zeta0, a_z, panel, others):
         eps = np.where(gap >= 0.0, 0.0, half)
         roots = np.where(gap >= 0.0, np.stack([centre - half, centre + half]), centre).T                # (K, 2)
         steps = np.maximum(panel[:, None, None] * GRADING ** np.arange(WHOLE_RING_LEVELS), eps[:, None, None])
-        steps = np.where(eps[:, None, None] < panel[:, None, None], steps, np.nan)
+        steps = np.broadcast_to(np.where(eps[:, None, None] < panel[:, None, None], steps, np.nan),
+                                roots.shape + (WHOLE_RING_LEVELS,))
         cuts.append(np.concatenate([roots[..., None] - steps, roots[..., None] + steps], axis=2).reshape(len(x0), -1))
         distances.append(np.concatenate([steps, steps], axis=2).reshape(len(x0), -1))
     near_axis, step = axis_cuts(x0, a_perp, panel)
