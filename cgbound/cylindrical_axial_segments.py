@@ -23,10 +23,9 @@ import math
 
 import numpy as np
 
-from .cylindrical_ring import (axial_rule, axis_cuts, clear_of, partial_arc, reach_box, ring_moments,
-                               rotate_averaged, segment_ranges, segments_in_frame, support_crossings, GRADING,
-                               MAX_PANELS)
-from .kernels import Lucy
+from .cylindrical_ring import (axial_rule, axis_cuts, clear_of, edge_jump, partial_arc, reach_box,
+                               ring_moments, rotate_averaged, segment_ranges, segments_in_frame, support_crossings,
+                               GRADING, MAX_PANELS)
 
 #: Gauss-Legendre points per panel along a segment (as the C core's ring_segment_sum)
 SEGMENT_POINTS = 20
@@ -79,7 +78,8 @@ def graded_cuts_along(kernel, r, lo, hi, x0, a_perp, zeta0, a_z, panel, others):
 
     - where the whole ring enters the point's support, ρ(s) = c - r (r < c; or where the segment passes closest to
       that cylinder, graded down to its distance ε from the pair of complex roots), for kernels with a jump at their edge
-      (Heaviside, the cut-off Gaussian; Lucy vanishes there with two derivatives): the z-window's two whole-ring
+      above round-off (:func:`~cgbound.cylindrical_ring.edge_jump`: Heaviside, a Gaussian cut within 8.5 widths;
+      Lucy vanishes there with two derivatives): the z-window's two whole-ring
       ends h = ±√(c² - (r + ρ)²) (square roots of the moments in h) pinch at h = 0, which leaves x log x in s.
       Cuts at s* ± max(``panel`` 4⁻ᵏ, ε), k = 0 .. WHOLE_RING_LEVELS - 1 (``panel`` the length in s of one kernel
       scale; none when ε > ``panel``),
@@ -92,7 +92,7 @@ def graded_cuts_along(kernel, r, lo, hi, x0, a_perp, zeta0, a_z, panel, others):
     (:func:`~cgbound.cylindrical_ring.clear_of`)."""
     c = float(kernel.radius)
     cuts, distances = [], []
-    if c > r and not isinstance(kernel, Lucy):
+    if c > r and edge_jump(kernel) > np.finfo(float).eps:
         # the roots s_c ± √(((c - r)² - ρ_c²) / q₂) of ρ(s)² = (c - r)², ρ_c the closest approach to the axis at s_c:
         # real, or a pair ε from the real axis when the segment just misses the cylinder ρ = c - r
         q2 = np.einsum("ki,ki->k", a_perp, a_perp)

@@ -427,6 +427,16 @@ def clear_of(cuts, step, others):
     return np.where(gap < GRADING * step, np.nan, cuts)
 
 
+def edge_jump(kernel):
+    """W(c) / W(0): the kernel's jump at its support's edge relative to its peak (Heaviside 1, Lucy 0, a Gaussian
+    exp(-c² / 2 w²)). The edges' singular points are graded towards only where it exceeds round-off (a Gaussian cut
+    within 8.5 widths): beyond, the cuts would only move the last bits (a silo's balance residual at 9 widths,
+    7.2e-15 of its largest term, moved to 1.1e-14)."""
+    if isinstance(kernel, Gaussian):
+        return math.exp(-0.5 * (float(kernel.radius) / float(kernel.width)) ** 2)
+    return 0.0 if isinstance(kernel, Lucy) else 1.0
+
+
 def partial_arc(r, c, rho, h):
     """Whether the ring (r, h = z - ζ) holds part of, not all of, the support of a source at radius ρ: (r - ρ)² + h²
     < c² < (r + ρ)² + h² (False for NaN)."""
@@ -501,8 +511,10 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                 h0 = zq - zeta0[cand]
                 if isinstance(kernel, Lucy):
                     cuts = lucy_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
-                else:
+                elif edge_jump(kernel) > np.finfo(float).eps:
                     cuts = support_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
+                else:
+                    cuts = support_crossings(r, h0, x0[cand], a_perp[cand], a_z[cand], c)
                 near_axis, step = axis_cuts(x0[cand], a_perp[cand], scale / length[cand])
                 near_axis = clear_of(near_axis, step, cuts[:, :4])           # the crossings (support_cuts' first)
                 rho_cut = np.hypot(*(x0[cand, None, :] + near_axis[..., None] * a_perp[cand, None, :])
