@@ -379,12 +379,68 @@ def lucy_cuts(r, h0, x0, a_perp, a_z, c, panel):
     ring's support, or just misses holding the whole ring, the support's square roots form a close complex pair
     that :func:`support_crossings` does not cut at (a pair 0.008 from the real axis, on a segment 3.6 long, left
     2e-6 in a gradient). Both are graded towards; plus the support crossings themselves."""
+    approach = graded_cuts(quartic_roots(segment_quartic(r, h0, x0, a_perp, a_z, 0.0)), panel, True)
+    return np.concatenate([support_cuts(r, h0, x0, a_perp, a_z, c, panel), approach], axis=1)
+
+
+def support_cuts(r, h0, x0, a_perp, a_z, c, panel):
+    """The cuts (K, 8 APPROACH_LEVELS + 8) of every kernel's rule along the segments: the support crossings
+    (:func:`support_crossings`) and graded cuts towards the close complex pairs of the same quartic, a segment just
+    missing the edge of the ring's support or just missing holding the whole ring (``panel``: as
+    :func:`graded_cuts`; a Heaviside ray 0.066 from the axis, a pair 0.002 from the real axis: 1.8e-12 of the
+    field's scale without them), those clear of the crossings (:func:`clear_of`)."""
     coef = segment_quartic(r, h0, x0, a_perp, a_z, c)
     roots = quartic_roots(coef)
     crossings = real_roots(coef, roots)
-    near_support = graded_cuts(roots, panel, False)
-    approach = graded_cuts(quartic_roots(segment_quartic(r, h0, x0, a_perp, a_z, 0.0)), panel, True)
-    return np.concatenate([crossings, near_support, approach], axis=1)
+    near = graded_cuts(roots, panel, False)
+    step = np.abs(near - np.repeat(np.clip(roots.real, 0.0, 1.0), near.shape[1] // roots.shape[1], axis=1))
+    return np.concatenate([crossings, clear_of(near, step, crossings)], axis=1)
+
+
+def axis_cuts(x0, a_perp, panel):
+    """Cuts in s (K, 2 (2 APPROACH_LEVELS + 1)), NaN where there is none, and their distances from the point they
+    grade towards (for :func:`clear_of`), grading the rule along each segment towards its closest approach to the
+    axis (:func:`graded_cuts` at the roots s_c ± i ε of ρ(s)² = 0; ε = 0 through the axis).
+
+    Where the ring holds part of the point's support (an arc: :func:`partial_arc`), the ring moments are not
+    analytic at the axis (cos Δ = (r² + ρ² + h² - c²) / 2 r ρ, ρ = √ρ(s)²); near the axis that happens only
+    within a thin shell, so a piece of arcs may end a hair's breadth from the axis (a Heaviside branch through
+    the axis, 0.007 of its length from it: 7e-11 of the field's scale on one panel). The caller keeps the cuts
+    that fall on arcs: elsewhere the moments are analytic there (the whole ring or none of it)."""
+    q0 = np.einsum("ki,ki->k", x0, x0)
+    q2 = np.einsum("ki,ki->k", a_perp, a_perp)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centre = np.where(q2 > 0.0, -np.einsum("ki,ki->k", x0, a_perp) / q2, np.nan)
+        eps = np.sqrt(np.maximum(q0 / q2 - centre * centre, 0.0))
+    roots = np.stack([centre + 1j * eps, centre - 1j * eps], axis=1)
+    cuts = graded_cuts(roots, panel, True)
+    return cuts, np.abs(cuts - np.clip(centre, 0.0, 1.0)[:, None])
+
+
+def clear_of(cuts, step, others):
+    """``cuts`` (K, n) NaN where a cut lies closer to one of ``others`` (K, m; the pieces' own ends, NaN for none)
+    than GRADING times its ``step`` (K, n; its distance from the point it grades towards): such a cut would leave
+    the square root at that end just beyond the next piece's end (an axis cut 3.6e-4 from a support crossing,
+    on a Heaviside ray: 1.2e-10 of the field's scale)."""
+    gap = np.abs(cuts[:, :, None] - others[:, None, :])
+    gap = np.where(np.isnan(gap), np.inf, gap).min(axis=2, initial=np.inf)
+    return np.where(gap < GRADING * step, np.nan, cuts)
+
+
+def edge_jump(kernel):
+    """W(c) / W(0): the kernel's jump at its support's edge relative to its peak (Heaviside 1, Lucy 0, a Gaussian
+    exp(-c² / 2 w²)). The edges' singular points are graded towards only where it exceeds round-off (a Gaussian cut
+    within 8.5 widths): beyond, the cuts would only move the last bits (a silo's balance residual at 9 widths,
+    7.2e-15 of its largest term, moved to 1.1e-14)."""
+    if isinstance(kernel, Gaussian):
+        return math.exp(-0.5 * (float(kernel.radius) / float(kernel.width)) ** 2)
+    return 0.0 if isinstance(kernel, Lucy) else 1.0
+
+
+def partial_arc(r, c, rho, h):
+    """Whether the ring (r, h = z - ζ) holds part of, not all of, the support of a source at radius ρ: (r - ρ)² + h²
+    < c² < (r + ρ)² + h² (False for NaN)."""
+    return ((r - rho) ** 2 + h * h < c * c) & (c * c < (r + rho) ** 2 + h * h)
 
 
 def segments_in_frame(grid, kernel, starts, vectors, values, z_lo, z_hi):
@@ -432,8 +488,9 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
     behaviour at those ends: each piece gets 20-point Gauss-Legendre in u on panels no longer than the kernel's
     scale, s = a + (b - a) sin²(π u / 2), which makes it analytic; each s-point the exact ring moments (the
     pieces are found here, their sums are taken by the C core's ring_segment_sum). Lucy's pieces are also
-    graded towards the branch points next to the segment (:func:`lucy_cuts`: its closest approach to the ring,
-    near misses of the support's edges)."""
+    graded towards the branch points next to the segment (:func:`lucy_cuts`: its closest approach to the ring;
+    every kernel's near misses of the support's edges, :func:`support_cuts`, and pieces of arcs towards the axis,
+    :func:`axis_cuts`)."""
     c = float(kernel.radius)
     n_r, n_z = len(grid.r), z_nodes.shape[0]
     out = np.zeros((n_r * n_z, 3, 3) + ((3,) if gradient else ()))
@@ -454,10 +511,19 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
                 h0 = zq - zeta0[cand]
                 if isinstance(kernel, Lucy):
                     cuts = lucy_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
+                elif edge_jump(kernel) > np.finfo(float).eps:
+                    cuts = support_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
                 else:
                     cuts = support_crossings(r, h0, x0[cand], a_perp[cand], a_z[cand], c)
+                near_axis, step = axis_cuts(x0[cand], a_perp[cand], scale / length[cand])
+                near_axis = clear_of(near_axis, step, cuts[:, :4])           # the crossings (support_cuts' first)
+                rho_cut = np.hypot(*(x0[cand, None, :] + near_axis[..., None] * a_perp[cand, None, :])
+                                   .transpose(2, 0, 1))
+                near_axis = np.where(partial_arc(r, c, rho_cut, h0[:, None] - near_axis * a_z[cand, None]), near_axis,
+                                     np.nan)
                 edges = np.sort(np.concatenate([np.zeros((cand.size, 1)), np.nan_to_num(cuts, nan=1.0),
-                                                np.ones((cand.size, 1))], axis=1), axis=1)
+                                                np.nan_to_num(near_axis, nan=1.0), np.ones((cand.size, 1))], axis=1),
+                                axis=1)
                 lo, hi = edges[:, :-1], edges[:, 1:]                   # (K, pieces)
                 mid = 0.5 * (lo + hi)
                 px = x0[cand, None, :] + mid[..., None] * a_perp[cand, None, :]
