@@ -115,6 +115,8 @@ static cg_status visit_nodes(const job *jb, double *out, scratch *sc, cg_index o
         if (done < 0) return CG_ERR_NOMEM;
         if (done > 0) return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     }
+    if (jb->profile_rows && cg_visit_profile(jb, out, obj, x, e, scale))
+        return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     if (jb->ball_rows && cg_visit_ball_points(jb, out, obj, x))
         return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     if (jb->gradient_rows && cg_visit_gradient_points(jb, out, obj, x))
@@ -312,13 +314,17 @@ static cg_status prepare(job *jb)
     if (jb->ball_rows) jb->wide = cg_separable_wide_available();
     jb->gradient_rows = !k->per_node && t->is_grid && t->n_resolved > 0 && !jb->is_segment &&
                         jb->mode == MODE_GRADIENT;
+    /* a profile: one resolved axis, the polynomial marginal over the two others (cg_profile.c) */
+    jb->profile_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
+                       t->n_resolved == 1 && cg_kernel_marginal_axes(k) == 2 && jb->mode == MODE_VALUE;
+    if (jb->profile_rows) jb->wide = cg_separable_wide_available();
     if (jb->moment) {
         /* the first moment (cg_moment.c): node by node */
         if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) != 0 && jb->mode == MODE_GRADIENT)
             return CG_ERR_UNSUPPORTED;   /* Lucy's and Heaviside's marginals: values only */
         if (k->mercurycg_line || (k->type == CG_KERNEL_HEAVISIDE && jb->mode == MODE_GRADIENT))
             return CG_ERR_UNSUPPORTED;
-        jb->separable = jb->wide = jb->lucy_rows = jb->ball_rows = jb->gradient_rows = 0;
+        jb->separable = jb->wide = jb->lucy_rows = jb->ball_rows = jb->gradient_rows = jb->profile_rows = 0;
     }
     return CG_OK;
 }
