@@ -269,6 +269,8 @@ typedef struct job {
     double inv_cell;           /* grids: 1 / the product of the spacings (0 if one is 0) */
     cg_index grid_stride[3];   /* grids: row-major strides of the resolved axes */
     int line_points;           /* the kernel's rule for finite segments (0: round-off) */
+    const cg_index *point_order; /* point targets: the points by their first resolved coordinate (or NULL) */
+    const double *point_first;   /* ... and that coordinate, in that order */
     int moment;                /* segments weighted by the kernel's first moment (cg_moment.c) */
 } job;
 
