@@ -78,26 +78,34 @@ def shrunk(kernel_tuple):
 
 
 def pairs_in_support(name, args):
-    """(object, node) pairs with the node inside the object's support (ball or capsule), in chunks."""
+    """(object, node) pairs with the node inside the object's support (ball or capsule)."""
     target, kernel, pos = args[0], args[1], args[2]
     R = kernel.radius
     vec = args[3] if name.startswith("scatter_segments") else np.zeros_like(pos)
-    if target.coordinates is None:
-        nodes = np.asarray(target.points)
-    else:
-        mesh = np.meshgrid(*target.coordinates, indexing="ij")
-        nodes = np.stack([m.ravel() for m in mesh], axis=1)
-    axes = list(target.axes)
+    axes = list(target.axes) if target.coordinates is not None else list(range(pos.shape[1]))
     a, e = pos[:, axes], vec[:, axes]
+    L2 = (e * e).sum(-1)
+
+    def inside(q):                                                    # q: (n, D_res) node minus start
+        s = np.clip(np.where(L2 > 0, (q * e).sum(-1) / np.where(L2 > 0, L2, 1.0), 0.0), 0.0, 1.0)
+        return ((q - s[:, None] * e) ** 2).sum(-1) < R * R
+
+    if target.coordinates is None:                                    # points: every point, objects in chunks
+        return int(sum(inside(np.asarray(p)[None, :] - a).sum() for p in np.asarray(target.points)))
+    # grids: the offsets of each object's stencil box, vectorised over the objects
+    coords = [np.asarray(c) for c in target.coordinates]
+    h = [c[1] - c[0] if len(c) > 1 else 1.0 for c in coords]
+    low = np.minimum(a, a + e) - R
+    first = [np.floor((low[:, d] - coords[d][0]) / h[d]).astype(np.int64) for d in range(len(axes))]
+    extent = [int(np.ceil((2 * R + np.abs(e[:, d]).max()) / h[d])) + 2 for d in range(len(axes))]
     total = 0
-    chunk = max(1, 2_000_000 // len(nodes))
-    for i in range(0, len(a), chunk):
-        q = nodes[None, :, :] - a[i:i + chunk, None, :]                      # (c, P, D_res)
-        ee = e[i:i + chunk, None, :]
-        L2 = (ee * ee).sum(-1)
-        s = np.clip(np.where(L2 > 0, (q * ee).sum(-1) / np.where(L2 > 0, L2, 1.0), 0.0), 0.0, 1.0)
-        d2 = ((q - s[..., None] * ee) ** 2).sum(-1)
-        total += int((d2 < R * R).sum())
+    for offset in np.ndindex(*extent):
+        idx = [first[d] + offset[d] for d in range(len(axes))]
+        ok = np.ones(len(a), bool)
+        for d in range(len(axes)):
+            ok &= (idx[d] >= 0) & (idx[d] < len(coords[d]))
+        node = np.stack([coords[d][np.clip(idx[d], 0, len(coords[d]) - 1)] for d in range(len(axes))], axis=1)
+        total += int((ok & inside(node - a)).sum())
     return total
 
 

@@ -261,7 +261,8 @@ typedef struct job {
     int lucy_rows;             /* use cg_visit_lucy (Lucy's and Heaviside's segments on a grid) */
     int ball_rows;             /* use cg_visit_ball_points (Lucy's, Heaviside's points on a grid) */
     int gradient_rows;         /* use cg_visit_gradient_points (gradients of points on a grid) */
-    int profile_rows;          /* use cg_visit_profile (Lucy's, Heaviside's values on one resolved axis, two averaged) */
+    int profile_rows;          /* use cg_visit_profile (Lucy's, Heaviside's values, Lucy's point gradients on one
+                                  resolved axis, two averaged) */
     int wide;                  /* ... its AVX-512 build (and cg_visit_lucy's) */
     int lucy_box;              /* cg_visit_lucy may evaluate whole boxes: a grid of >= 2 resolved axes, all spaced */
     double inv_spacing[3];     /* grids: 1 / spacing (0 where the spacing is 0) */
@@ -412,7 +413,7 @@ int cg_visit_gradient_points(const job *jb, double *out, cg_index obj, const dou
 
 /* cg_profile.c: values of Lucy's and Heaviside's marginals over two averaged
    axes on a grid of one resolved axis, points and segments (zero-length ones
-   too), each object's nodes in vectorised batches; the node-by-node numbers
+   too), and the gradients of Lucy's for points, each object's nodes in vectorised batches; the node-by-node numbers
    bit for bit. Returns 1 (it visited the object). */
 int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale);
 

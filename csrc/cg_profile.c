@@ -15,7 +15,8 @@
  * AVX2 or baseline, chosen like cg_lucy_line.c's; ISO C: no FMA contraction; IEEE
  * square roots and divisions are exact in any width): the node-by-node
  * numbers bit for bit. Points likewise (cg_kernel_value's arithmetic), their
- * values added by cg_ball_add.
+ * values added by cg_ball_add, and the gradients of Lucy's (those of
+ * cg_lucy_marginal_gradient).
  */
 #include "cg_internal.h"
 
@@ -174,6 +175,48 @@ static void point_values(int wide, int count, const double *q, double R, double 
     point_values_narrow(count, q, R, C, lucy, w);
 }
 
+/* Lucy's two-axis marginal and its gradient at the node offsets q[i]: v[i]
+   as point_values, g[i] the gradient along the resolved axis as
+   cg_lucy_marginal_gradient forms it (factor * q) */
+INLINE void gradient_values_body(int count, const double *restrict q, double R, double C, double *restrict v,
+                                 double *restrict g)
+{
+    const double RR = R * R;
+    for (int i = 0; i < count; ++i) {
+        const double rho2 = 0.0 + q[i] * q[i];
+        v[i] = marginal2(1, C, R, RR, rho2);
+        const double s = sqrt(rho2) / R, om = 1.0 - s;
+        const double factor = -C * (1.0 + 3.0 * s) * om * om * om / RR;
+        g[i] = (rho2 < RR ? factor : 0.0) * q[i];
+    }
+}
+
+PROFILE_CLONES static void gradient_values_narrow(int count, const double *restrict q, double R, double C,
+                                                  double *restrict v, double *restrict g)
+{
+    gradient_values_body(count, q, R, C, v, g);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void gradient_values_wide(int count, const double *restrict q, double R,
+                                                                    double C, double *restrict v, double *restrict g)
+{
+    gradient_values_body(count, q, R, C, v, g);
+}
+#endif
+
+static void gradient_values(int wide, int count, const double *q, double R, double C, double *v, double *g)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        gradient_values_wide(count, q, R, C, v, g);
+        return;
+    }
+#endif
+    (void)wide;
+    gradient_values_narrow(count, q, R, C, v, g);
+}
+
 int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale)
 {
     const cg_target *t = jb->target;
@@ -200,7 +243,7 @@ int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, 
     const double *z = t->coords[0];
     const int nv = jb->n_values, width = jb->out_width;
     const double *val = jb->values + obj * nv;
-    double q[PROFILE_BATCH], w[PROFILE_BATCH];
+    double q[PROFILE_BATCH], w[PROFILE_BATCH], v[PROFILE_BATCH];
     cg_index node[PROFILE_BATCH];
     for (cg_index k0 = first[0]; k0 <= last[0]; k0 += PROFILE_BATCH) {
         const int count = (int)(last[0] - k0 + 1 < PROFILE_BATCH ? last[0] - k0 + 1 : PROFILE_BATCH);
@@ -211,6 +254,17 @@ int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, 
             const cg_index kk = i < count ? k0 + i : k0 + count - 1;
             q[i] = z[kk] - x[0];
             node[i] = kk;
+        }
+        if (jb->mode == MODE_GRADIENT) {
+            /* cg_visit_gradient_points' sums: a node takes the object where the value or the gradient is
+               non-zero (out holds n_values * 1 gradients per node) */
+            gradient_values(jb->wide, padded, q, R, C, v, w);
+            for (int i = 0; i < count; ++i) {
+                if (!(v[i] != 0.0 || w[i] != 0.0)) continue;
+                double *o = out + node[i] * width;
+                for (int c = 0; c < nv; ++c) o[c] += w[i] * val[c];
+            }
+            continue;
         }
         if (L > 0.0) {
             segment_values(jb->wide, padded, q, ez, L, unit, R, C, lucy, scale, w);

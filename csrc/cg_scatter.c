@@ -332,7 +332,9 @@ static cg_status prepare(job *jb)
                         jb->mode == MODE_GRADIENT;
     /* a profile: one resolved axis, the polynomial marginal over the two others (cg_profile.c) */
     jb->profile_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
-                       t->n_resolved == 1 && cg_kernel_marginal_axes(k) == 2 && jb->mode == MODE_VALUE;
+                       t->n_resolved == 1 && cg_kernel_marginal_axes(k) == 2 &&
+                       (jb->mode == MODE_VALUE ||
+                        (jb->mode == MODE_GRADIENT && k->type == CG_KERNEL_LUCY && !jb->is_segment));
     if (jb->profile_rows) jb->wide = cg_separable_wide_available();
     if (jb->moment) {
         /* the first moment (cg_moment.c): node by node */

@@ -3,7 +3,7 @@
 Checked against the node-by-node path bit for bit (the bytes, signed zeros included): lattice contacts (two
 thirds of them of zero length along the resolved axis), random segments and points, segments through nodes and
 ending on them, near-zero lengths, coordinates near 1e6, stencils longer than a batch, periodic axes, rays, the
-contact stress's outer-product form (9 values), 1 and 13 values; both vector builds and thread counts bit for
+contact stress's outer-product form (9 values), 1 and 13 values, Lucy's point gradients; both vector builds and thread counts bit for
 bit. (The slow twin at 1e-12: tests/test_core_sweep.py, whose grids average every combination of axes.)"""
 import numpy as np
 import pytest
@@ -25,12 +25,13 @@ def profile(box, n, axis, make, R, per_node=False):
     return grid, _engine.core_target(grid, box), _engine.core_kernel(kernel, grid.avg_extent)
 
 
-def sums(box, n, axis, make, R, starts, vectors, values, per_node=False, n_threads=1, ray=False, outer=False):
+def sums(box, n, axis, make, R, starts, vectors, values, per_node=False, n_threads=1, ray=False, outer=False,
+         gradient=False):
     _, target, kernel = profile(box, n, axis, make, R, per_node)
     starts = np.ascontiguousarray(starts, dtype=float)
     values = np.ascontiguousarray(values, dtype=float)
     if vectors is None:
-        return _core.scatter_points(target, kernel, starts, values, n_threads=n_threads)
+        return _core.scatter_points(target, kernel, starts, values, gradient=gradient, n_threads=n_threads)
     vectors = np.ascontiguousarray(vectors, dtype=float)
     if outer:
         return _core.scatter_segments_outer(target, kernel, starts, vectors, values, ray=ray, n_threads=n_threads)
@@ -140,3 +141,23 @@ def test_vector_builds_and_threads_bit_for_bit(kernel):
         assert np.count_nonzero(one) > 0
         assert one.tobytes() == two.tobytes()
         assert one.tobytes() == narrow.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_lucy_point_gradients(seed):
+    """The gradients of Lucy's marginal (density_gradient on a profile): the node-by-node bits, on nodes, near
+    1e6, periodic; both vector builds and thread counts."""
+    rng = np.random.default_rng(seed)
+    box = cg.Box([0, 0, 0], [10, 8, 12], periodic=[False, False, seed == 1])
+    starts = box.lower + rng.uniform(size=(500, 3)) * box.lengths
+    grid, _, _ = profile(box, 150, "z", cg.Lucy, 1.3)
+    starts[:20, 2] = grid.axis_coordinates[2][5:25]      # on nodes: the gradient 0, the value not
+    for nv in (4, 1):
+        values = rng.normal(size=(len(starts), nv))
+        fast = assert_same_bits(box, 150, "z", cg.Lucy, 1.3, starts, None, values, f"gradient {nv}", gradient=True)
+        two = sums(box, 150, "z", cg.Lucy, 1.3, starts, None, values, gradient=True, n_threads=2)
+        narrow = narrow_build(lambda: sums(box, 150, "z", cg.Lucy, 1.3, starts, None, values, gradient=True))
+        assert fast.tobytes() == two.tobytes() == narrow.tobytes()
+    far = cg.Box([1e6] * 3, [1e6 + 6] * 3)
+    starts = far.lower + rng.uniform(size=(200, 3)) * far.lengths
+    assert_same_bits(far, 40, "z", cg.Lucy, 0.9, starts, None, rng.normal(size=(200, 3)), "near 1e6", gradient=True)
