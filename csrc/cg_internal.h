@@ -23,6 +23,31 @@ static inline double cg_lucy_profile(double x)
     return (1.0 + 3.0 * x) * om * om * om;
 }
 
+/* the 8-point Gauss-Legendre rule on [-1, 1], its non-negative half (cg_kernels.c, cg_profile.c) */
+static const double CG_GL8_X[4] = {0.18343464249564978, 0.525532409916329,
+                                   0.7966664774136267, 0.9602898564975362};
+static const double CG_GL8_W[4] = {0.36268378337836166, 0.3137066458778869,
+                                   0.22238103445337443, 0.10122853629037706};
+
+/* g2(z) = int_z^1 lucy_profile(r) r dr = (1-z)^4 (0.1 + 0.4 z + 0.5 z^2): Lucy's marginal over two axes */
+static inline double cg_lucy_marginal2(double z)
+{
+    if (z >= 1.0) return 0.0;
+    const double om = 1.0 - z, om2 = om * om;
+    return om2 * om2 * (0.1 + z * (0.4 + 0.5 * z));
+}
+
+/* cg_kernel_value of Lucy's (lucy != 0) or Heaviside's kernel averaged over
+   two axes, of prefactor C and radius R: its one place, inlined where the
+   kernel's type and constants are taken once for many values (cg_kernels.c,
+   cg_profile.c) */
+static inline double cg_marginal2_value(int lucy, double C, double R, double rho2)
+{
+    if (!(rho2 < R * R)) return 0.0;
+    if (lucy) return C * cg_lucy_marginal2(sqrt(rho2) / R);
+    return C * 3.14159265358979323846 * (R * R - rho2);
+}
+
 static inline int cg_kernel_marginal_axes(const cg_kernel *k)
 {
     return k->lower_dimensional ? 0 : k->dim - k->n_resolved;
@@ -236,6 +261,8 @@ typedef struct job {
     int lucy_rows;             /* use cg_visit_lucy (Lucy's and Heaviside's segments on a grid) */
     int ball_rows;             /* use cg_visit_ball_points (Lucy's, Heaviside's points on a grid) */
     int gradient_rows;         /* use cg_visit_gradient_points (gradients of points on a grid) */
+    int profile_rows;          /* use cg_visit_profile (Lucy's, Heaviside's values, Lucy's point gradients on one
+                                  resolved axis, two averaged) */
     int wide;                  /* ... its AVX-512 build (and cg_visit_lucy's) */
     int lucy_box;              /* cg_visit_lucy may evaluate whole boxes: a grid of >= 2 resolved axes, all spaced */
     double inv_spacing[3];     /* grids: 1 / spacing (0 where the spacing is 0) */
@@ -243,6 +270,8 @@ typedef struct job {
     double inv_cell;           /* grids: 1 / the product of the spacings (0 if one is 0) */
     cg_index grid_stride[3];   /* grids: row-major strides of the resolved axes */
     int line_points;           /* the kernel's rule for finite segments (0: round-off) */
+    const cg_index *point_order; /* point targets: the points by their first resolved coordinate (or NULL) */
+    const double *point_first;   /* ... and that coordinate, in that order */
     int moment;                /* segments weighted by the kernel's first moment (cg_moment.c) */
 } job;
 
@@ -381,6 +410,12 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
 int cg_visit_ball_points(const job *jb, double *out, cg_index obj, const double *x);
 /* cg_gradient_rows.c: kernel gradients of points on a grid, the support ball's rows only */
 int cg_visit_gradient_points(const job *jb, double *out, cg_index obj, const double *x);
+
+/* cg_profile.c: values of Lucy's and Heaviside's marginals over two averaged
+   axes on a grid of one resolved axis, points and segments (zero-length ones
+   too), and the gradients of Lucy's for points, each object's nodes in vectorised batches; the node-by-node numbers
+   bit for bit. Returns 1 (it visited the object). */
+int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale);
 
 /* An AVX-512 build of the separable path (cg_separable_wide.c) exists on
    x86-64 with GCC; cg_separable_wide_available() says whether this CPU runs it

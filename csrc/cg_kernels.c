@@ -23,10 +23,6 @@
 #endif
 
 /* Gauss-Legendre rules on [-1, 1]; only the non-negative half (symmetric). */
-static const double GL8_X[4] = {0.18343464249564978, 0.525532409916329,
-                                0.7966664774136267, 0.9602898564975362};
-static const double GL8_W[4] = {0.36268378337836166, 0.3137066458778869,
-                                0.22238103445337443, 0.10122853629037706};
 static const double GL12_X[6] = {0.1252334085114689, 0.3678314989981802,
                                  0.5873179542866175, 0.7699026741943047,
                                  0.9041172563704748, 0.9815606342467192};
@@ -152,24 +148,6 @@ static double lucy_marginal1(double x)
     return 2.0 * sum;
 }
 
-/* g2(z) = int_z^1 lucy_profile(r) r dr = (1-z)^4 (0.1 + 0.4 z + 0.5 z^2). */
-static double lucy_marginal2(double z)
-{
-    if (z >= 1.0) return 0.0;
-    const double om = 1.0 - z, om2 = om * om;
-    return om2 * om2 * (0.1 + z * (0.4 + 0.5 * z));
-}
-
-/* cg_kernel_value of Lucy's (lucy != 0) or Heaviside's kernel averaged over
-   two axes, of prefactor C and radius R: its one place, inlined where the
-   kernel's type and constants are taken once for many values */
-static inline double marginal2_value(int lucy, double C, double R, double rho2)
-{
-    if (!(rho2 < R * R)) return 0.0;
-    if (lucy) return C * lucy_marginal2(sqrt(rho2) / R);
-    return C * M_PI * (R * R - rho2);
-}
-
 /* ------------------------------------------------------------------ */
 /* point values and gradients                                           */
 
@@ -186,12 +164,12 @@ double cg_kernel_value(const cg_kernel *k, double rho2)
         const double x = sqrt(rho2) / R;
         if (n_avg == 0) return k->prefactor * lucy_profile(x);
         if (n_avg == 1) return k->prefactor * lucy_marginal1(x);
-        return marginal2_value(1, k->prefactor, R, rho2);
+        return cg_marginal2_value(1, k->prefactor, R, rho2);
     }
     default: { /* Heaviside */
         if (n_avg == 0) return k->prefactor;
         if (n_avg == 1) return k->prefactor * 2.0 * sqrt(R * R - rho2);
-        return marginal2_value(0, k->prefactor, R, rho2);
+        return cg_marginal2_value(0, k->prefactor, R, rho2);
     }
     }
 }
@@ -433,11 +411,11 @@ static void gl8_panel(const integrand_ctx *c, double lo, double hi, double *acc)
     double v[3];
     for (int k = 0; k < 4; ++k) {
         for (int sign = -1; sign <= 1; sign += 2) {
-            integrand(c, mid + sign * half * GL8_X[k], v);
-            acc[0] += GL8_W[k] * half * v[0];
+            integrand(c, mid + sign * half * CG_GL8_X[k], v);
+            acc[0] += CG_GL8_W[k] * half * v[0];
             if (c->want_grad) {
-                acc[1] += GL8_W[k] * half * v[1];
-                acc[2] += GL8_W[k] * half * v[2];
+                acc[1] += CG_GL8_W[k] * half * v[1];
+                acc[2] += CG_GL8_W[k] * half * v[2];
             }
         }
     }
@@ -549,8 +527,8 @@ static double polynomial_line_1d(const cg_kernel *k, const segment_frame *f, dou
     for (int i = 0; i < pieces; ++i) {
         const double half = 0.5 * len[i], mid = lo[i] + half;
         for (int j = 0; j < 4; ++j) {
-            const double ta = mid + half * GL8_X[j], tb = mid - half * GL8_X[j];
-            sum += GL8_W[j] * half * (marginal2_value(lucy, C, R, ta * ta) + marginal2_value(lucy, C, R, tb * tb));
+            const double ta = mid + half * CG_GL8_X[j], tb = mid - half * CG_GL8_X[j];
+            sum += CG_GL8_W[j] * half * (cg_marginal2_value(lucy, C, R, ta * ta) + cg_marginal2_value(lucy, C, R, tb * tb));
         }
     }
     return sum / f->L;

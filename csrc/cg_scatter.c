@@ -115,6 +115,8 @@ static cg_status visit_nodes(const job *jb, double *out, scratch *sc, cg_index o
         if (done < 0) return CG_ERR_NOMEM;
         if (done > 0) return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     }
+    if (jb->profile_rows && cg_visit_profile(jb, out, obj, x, e, scale))
+        return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     if (jb->ball_rows && cg_visit_ball_points(jb, out, obj, x))
         return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     if (jb->gradient_rows && cg_visit_gradient_points(jb, out, obj, x))
@@ -133,7 +135,23 @@ static cg_status visit_nodes(const job *jb, double *out, scratch *sc, cg_index o
         if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return CG_OK;
     }
     if (!t->is_grid) {
-        for (cg_index p = 0; p < t->n_points; ++p) {
+        /* with the points sorted by their first coordinate, only those with it
+           inside [bmin, bmax] (found by bisection); each point still receives
+           its terms in object order, so the sums are the same */
+        cg_index k = 0, k_end = t->n_points;
+        if (jb->point_order) {
+            const double *c = jb->point_first;
+            cg_index lo = 0, hi = t->n_points;
+            while (lo < hi) {
+                const cg_index mid = lo + (hi - lo) / 2;
+                if (c[mid] < bmin[0]) lo = mid + 1;
+                else hi = mid;
+            }
+            k = lo;
+        }
+        for (; k < k_end; ++k) {
+            if (jb->point_order && jb->point_first[k] > bmax[0]) break;
+            const cg_index p = jb->point_order ? jb->point_order[k] : k;
             if (++*count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
             const double *pt = t->points + p * nr;
             int inside = 1;
@@ -312,13 +330,19 @@ static cg_status prepare(job *jb)
     if (jb->ball_rows) jb->wide = cg_separable_wide_available();
     jb->gradient_rows = !k->per_node && t->is_grid && t->n_resolved > 0 && !jb->is_segment &&
                         jb->mode == MODE_GRADIENT;
+    /* a profile: one resolved axis, the polynomial marginal over the two others (cg_profile.c) */
+    jb->profile_rows = (k->type == CG_KERNEL_LUCY || k->type == CG_KERNEL_HEAVISIDE) && !k->per_node && t->is_grid &&
+                       t->n_resolved == 1 && cg_kernel_marginal_axes(k) == 2 &&
+                       (jb->mode == MODE_VALUE ||
+                        (jb->mode == MODE_GRADIENT && k->type == CG_KERNEL_LUCY && !jb->is_segment));
+    if (jb->profile_rows) jb->wide = cg_separable_wide_available();
     if (jb->moment) {
         /* the first moment (cg_moment.c): node by node */
         if (k->type != CG_KERNEL_GAUSSIAN && cg_kernel_marginal_axes(k) != 0 && jb->mode == MODE_GRADIENT)
             return CG_ERR_UNSUPPORTED;   /* Lucy's and Heaviside's marginals: values only */
         if (k->mercurycg_line || (k->type == CG_KERNEL_HEAVISIDE && jb->mode == MODE_GRADIENT))
             return CG_ERR_UNSUPPORTED;
-        jb->separable = jb->wide = jb->lucy_rows = jb->ball_rows = jb->gradient_rows = 0;
+        jb->separable = jb->wide = jb->lucy_rows = jb->ball_rows = jb->gradient_rows = jb->profile_rows = 0;
     }
     return CG_OK;
 }
@@ -587,6 +611,60 @@ static void slab_wait(void)
 #endif
 }
 
+/* point targets with at least this many points are sorted by their first
+   resolved coordinate (visit_nodes then bisects instead of scanning all) */
+#define MIN_POINTS_TO_SORT 16
+
+typedef struct keyed_point {
+    double key;
+    cg_index index;
+} keyed_point;
+
+static int by_key(const void *a, const void *b)
+{
+    const keyed_point *x = a, *y = b;
+    if (x->key < y->key) return -1;
+    if (x->key > y->key) return 1;
+    return x->index < y->index ? -1 : x->index > y->index;
+}
+
+/* the points' order by first coordinate (NULL: not sorted); 0 when memory is short */
+static int sort_points(const job *jb, cg_index **order, double **first)
+{
+    const cg_target *t = jb->target;
+    *order = NULL;
+    *first = NULL;
+    if (t->is_grid || t->n_resolved == 0 || t->n_points < MIN_POINTS_TO_SORT) return 1;
+    const cg_index P = t->n_points;
+    const int nr = t->n_resolved;
+    for (cg_index p = 0; p < P; ++p)
+        if (isnan(t->points[p * nr])) return 1; /* no order: scanned as before */
+    keyed_point *keyed = malloc((size_t)P * sizeof *keyed);
+    *order = malloc((size_t)P * sizeof **order);
+    *first = malloc((size_t)P * sizeof **first);
+    if (!keyed || !*order || !*first) {
+        free(keyed);
+        free(*order);
+        free(*first);
+        *order = NULL;
+        *first = NULL;
+        return 0;
+    }
+    for (cg_index p = 0; p < P; ++p) {
+        keyed[p].key = t->points[p * nr];
+        keyed[p].index = p;
+    }
+    qsort(keyed, (size_t)P, sizeof *keyed, by_key);
+    for (cg_index p = 0; p < P; ++p) {
+        (*order)[p] = keyed[p].index;
+        (*first)[p] = keyed[p].key;
+    }
+    free(keyed);
+    return 1;
+}
+
+static cg_status run_objects(job *jb, double *out, cg_index P, size_t width, int n_threads);
+
 static cg_status run(job *jb, double *out)
 {
     cg_status st = prepare(jb);
@@ -608,6 +686,19 @@ static cg_status run(job *jb, double *out)
     const double work = (double)jb->n * stencil_estimate(jb);
     if (work < MIN_WORK_PER_THREAD || work < 2.0 * (double)P * (double)width) n_threads = 1;
 #endif
+    cg_index *point_order = NULL;
+    double *point_first = NULL;
+    if (!sort_points(jb, &point_order, &point_first)) return CG_ERR_NOMEM;
+    jb->point_order = point_order;
+    jb->point_first = point_first;
+    const cg_status done = run_objects(jb, out, P, width, n_threads);
+    free(point_order);
+    free(point_first);
+    return done;
+}
+
+static cg_status run_objects(job *jb, double *out, cg_index P, size_t width, int n_threads)
+{
     cg_index *ends;
     cg_index *order = spatial_order(jb, &ends);
     int failed = CG_OK;

@@ -1,0 +1,163 @@
+"""Profiles: Lucy's and Heaviside's kernels on a grid of one resolved axis with the two others averaged
+(csrc/cg_profile.c: each object's nodes in a vectorised batch, the segment's constants once per object).
+Checked against the node-by-node path bit for bit (the bytes, signed zeros included): lattice contacts (two
+thirds of them of zero length along the resolved axis), random segments and points, segments through nodes and
+ending on them, near-zero lengths, coordinates near 1e6, stencils longer than a batch, periodic axes, rays, the
+contact stress's outer-product form (9 values), 1 and 13 values, Lucy's point gradients; both vector builds and thread counts bit for
+bit. (The slow twin at 1e-12: tests/test_core_sweep.py, whose grids average every combination of axes.)"""
+import numpy as np
+import pytest
+
+import cgbound as cg
+from cgbound import _core, _engine
+from helpers import narrow_build
+from test_lucy_batch import lattice_contacts
+
+KERNELS = {"Lucy": cg.Lucy, "Heaviside": cg.Heaviside}
+AXES = {"z": ("x", "y"), "x": ("y", "z"), "y": ("x", "z")}
+
+
+def profile(box, n, axis, make, R, per_node=False):
+    shape = tuple(n if a == axis else 1 for a in "xyz")
+    grid = cg.Grid(box, shape, average=AXES[axis])
+    kernel = make(R)
+    kernel._per_node = per_node
+    return grid, _engine.core_target(grid, box), _engine.core_kernel(kernel, grid.avg_extent)
+
+
+def sums(box, n, axis, make, R, starts, vectors, values, per_node=False, n_threads=1, ray=False, outer=False,
+         gradient=False):
+    _, target, kernel = profile(box, n, axis, make, R, per_node)
+    starts = np.ascontiguousarray(starts, dtype=float)
+    values = np.ascontiguousarray(values, dtype=float)
+    if vectors is None:
+        return _core.scatter_points(target, kernel, starts, values, gradient=gradient, n_threads=n_threads)
+    vectors = np.ascontiguousarray(vectors, dtype=float)
+    if outer:
+        return _core.scatter_segments_outer(target, kernel, starts, vectors, values, ray=ray, n_threads=n_threads)
+    return _core.scatter_segments(target, kernel, starts, vectors, values, ray=ray, n_threads=n_threads)
+
+
+def assert_same_bits(box, n, axis, make, R, starts, vectors, values, what, **kw):
+    fast = sums(box, n, axis, make, R, starts, vectors, values, **kw)
+    slow = sums(box, n, axis, make, R, starts, vectors, values, per_node=True, **kw)
+    assert np.count_nonzero(fast) > 0, what
+    assert fast.tobytes() == slow.tobytes(), f"{what}: largest difference {np.abs(fast - slow).max()}"
+    return fast
+
+
+def lattice(n=7, spacing=0.99):
+    starts, vectors = lattice_contacts(n, 3, spacing)
+    side = (n - 1) * spacing + 1.0
+    return cg.Box(np.zeros(3), np.full(3, side)), starts, vectors
+
+
+def random_segments(rng, box, count, scale=1.5):
+    starts = box.lower + rng.uniform(size=(count, 3)) * box.lengths
+    return starts, rng.normal(scale=scale, size=(count, 3))
+
+
+@pytest.mark.parametrize("kernel", sorted(KERNELS))
+@pytest.mark.parametrize("axis", sorted(AXES))
+@pytest.mark.parametrize("R", [1.5, 0.7, 2.3])
+def test_lattice_contacts(kernel, axis, R):
+    """W2's geometry in small: axis-aligned contacts, most of zero length along the profile's axis; 9 values
+    (the stress's vector sum), 1 value, and the outer-product form."""
+    box, starts, vectors = lattice()
+    rng = np.random.default_rng(1)
+    for nv in (9, 1):
+        values = rng.normal(size=(len(starts), nv))
+        values[2::5] = 0.0
+        assert_same_bits(box, 23, axis, KERNELS[kernel], R, starts, vectors, values, f"{axis} R {R} {nv} values")
+    factors = rng.normal(size=(len(starts), 3))
+    assert_same_bits(box, 23, axis, KERNELS[kernel], R, starts, vectors, factors, "outer", outer=True)
+
+
+@pytest.mark.parametrize("kernel", sorted(KERNELS))
+@pytest.mark.parametrize("seed", range(4))
+def test_random_segments_and_points(kernel, seed):
+    rng = np.random.default_rng(seed)
+    box = cg.Box([0, 0, 0], [10, 8, 12])
+    starts, vectors = random_segments(rng, box, 400)
+    vectors[::9] *= 1e-12                                # near-zero lengths
+    vectors[1::9, 2] = 0.0                               # zero along the resolved axis
+    vectors[2::9] *= 8.0                                 # long: stencils of more than a batch
+    for nv in (9, 13, 1):
+        values = rng.normal(size=(len(starts), nv))
+        assert_same_bits(box, 150, "z", KERNELS[kernel], 1.3, starts, vectors, values, f"segments {nv}")
+        assert_same_bits(box, 150, "z", KERNELS[kernel], 1.3, starts, None, values, f"points {nv}")
+
+
+@pytest.mark.parametrize("kernel", sorted(KERNELS))
+def test_nodes_on_ends_and_support_edges(kernel):
+    """Segments that start, end and pass exactly on nodes, and whose supports end exactly on nodes."""
+    box = cg.Box([0, 0, 0], [4, 4, 10])
+    grid, _, _ = profile(box, 11, "z", KERNELS[kernel], 1.0)
+    z = grid.axis_coordinates[2]
+    starts = np.array([[1.0, 2.0, z[3]], [1.0, 1.0, z[2]], [2.0, 2.0, z[5] + 0.25], [1.0, 1.0, z[4]]])
+    vectors = np.array([[0.3, 0.1, z[5] - z[3]], [0.0, 0.0, -1.0], [0.0, 1.0, 0.5], [0.0, 0.0, 2.0]])
+    values = np.arange(1.0, 1.0 + 9 * len(starts)).reshape(-1, 9)
+    assert_same_bits(box, 11, "z", KERNELS[kernel], 1.0, starts, vectors, values, "on nodes")
+    assert_same_bits(box, 11, "z", KERNELS[kernel], 1.0, starts, None, values, "points on nodes")
+
+
+@pytest.mark.parametrize("kernel", sorted(KERNELS))
+def test_far_from_origin(kernel):
+    rng = np.random.default_rng(7)
+    box = cg.Box([1e6, 1e6, 1e6], [1e6 + 6, 1e6 + 6, 1e6 + 6])
+    starts, vectors = random_segments(rng, box, 200, scale=0.8)
+    values = rng.normal(size=(len(starts), 9))
+    assert_same_bits(box, 40, "z", KERNELS[kernel], 0.9, starts, vectors, values, "near 1e6")
+    assert_same_bits(box, 40, "z", KERNELS[kernel], 0.9, starts, None, values, "points near 1e6")
+
+
+@pytest.mark.parametrize("kernel", sorted(KERNELS))
+def test_periodic_and_rays(kernel):
+    rng = np.random.default_rng(3)
+    periodic = cg.Box([0, 0, 0], [5, 5, 6], periodic=[True, True, True])
+    starts, vectors = random_segments(rng, periodic, 300)
+    values = rng.normal(size=(len(starts), 9))
+    assert_same_bits(periodic, 30, "z", KERNELS[kernel], 1.4, starts, vectors, values, "periodic")
+    assert_same_bits(periodic, 30, "z", KERNELS[kernel], 1.4, starts, None, values, "periodic points")
+    box = cg.Box([0, 0, 0], [5, 5, 6])
+    starts, vectors = random_segments(rng, box, 100)
+    vectors[:, 2] = np.where(np.abs(vectors[:, 2]) < 0.1, 0.5, vectors[:, 2])   # rays leave along z
+    assert_same_bits(box, 30, "z", KERNELS[kernel], 1.4, starts, vectors, values[:100], "rays", ray=True)
+
+
+@pytest.mark.parametrize("kernel", sorted(KERNELS))
+def test_vector_builds_and_threads_bit_for_bit(kernel):
+    """Short objects on a long profile: the slabs (csrc/cg_scatter.c) apply, so any thread count gives the
+    same bits."""
+    rng = np.random.default_rng(5)
+    box, starts, vectors = lattice(16)
+    starts = np.concatenate([starts, random_segments(rng, box, 3000)[0]])
+    vectors = np.concatenate([vectors, rng.normal(scale=0.1, size=(3000, 3))])
+    values = rng.normal(size=(len(starts), 9))
+    for vec in (vectors, None):
+        one = sums(box, 400, "z", KERNELS[kernel], 1.5, starts, vec, values, n_threads=1)
+        two = sums(box, 400, "z", KERNELS[kernel], 1.5, starts, vec, values, n_threads=2)
+        narrow = narrow_build(lambda: sums(box, 400, "z", KERNELS[kernel], 1.5, starts, vec, values, n_threads=1))
+        assert np.count_nonzero(one) > 0
+        assert one.tobytes() == two.tobytes()
+        assert one.tobytes() == narrow.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_lucy_point_gradients(seed):
+    """The gradients of Lucy's marginal (density_gradient on a profile): the node-by-node bits, on nodes, near
+    1e6, periodic; both vector builds and thread counts."""
+    rng = np.random.default_rng(seed)
+    box = cg.Box([0, 0, 0], [10, 8, 12], periodic=[False, False, seed == 1])
+    starts = box.lower + rng.uniform(size=(500, 3)) * box.lengths
+    grid, _, _ = profile(box, 150, "z", cg.Lucy, 1.3)
+    starts[:20, 2] = grid.axis_coordinates[2][5:25]      # on nodes: the gradient 0, the value not
+    for nv in (4, 1):
+        values = rng.normal(size=(len(starts), nv))
+        fast = assert_same_bits(box, 150, "z", cg.Lucy, 1.3, starts, None, values, f"gradient {nv}", gradient=True)
+        two = sums(box, 150, "z", cg.Lucy, 1.3, starts, None, values, gradient=True, n_threads=2)
+        narrow = narrow_build(lambda: sums(box, 150, "z", cg.Lucy, 1.3, starts, None, values, gradient=True))
+        assert fast.tobytes() == two.tobytes() == narrow.tobytes()
+    far = cg.Box([1e6] * 3, [1e6 + 6] * 3)
+    starts = far.lower + rng.uniform(size=(200, 3)) * far.lengths
+    assert_same_bits(far, 40, "z", cg.Lucy, 0.9, starts, None, rng.normal(size=(200, 3)), "near 1e6", gradient=True)
