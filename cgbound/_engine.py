@@ -172,6 +172,14 @@ def ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, w
                                   gradient=gradient, n_threads=n_threads)
 
 
+def ring_segment_columns(kernel, rings, first, segment, lo, hi, panels, geometry, tensors, gradient=False, n_threads=0):
+    """:func:`ring_segment_sum` for many rings at once: ``rings`` (C, 3) rows (r, z, weight), column c over its
+    pieces first[c]:first[c + 1] (csrc/cg_ring.c, the same bits as one ring_segment_sum per column): (C, 9), with
+    ``gradient`` (C, 27)."""
+    return _core.ring_segment_columns(ring_kernel(kernel), rings, first, segment, lo, hi, panels, geometry, tensors,
+                                      gradient=gradient, n_threads=n_threads)
+
+
 def axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values, n_threads=0):
     """Per column c (``bottoms`` (C, 3), pieces first[c]:first[c + 1]), the tensors ``values`` (K, 9) of segments
     starts + s vectors times int_lo^hi of the kernel's exact line integral along ``column`` from the column's

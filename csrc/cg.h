@@ -286,6 +286,22 @@ cg_status cg_ring_segment_gradient_sum(const cg_kernel *kernel, double r, double
                                        const double *tensors, double weight, double *out, int n_threads);
 
 /*
+ * cg_ring_segment_columns: cg_ring_segment_sum (gradient == 0, width 9) or
+ * cg_ring_segment_gradient_sum (gradient != 0, width 27) for n_columns rings at
+ * once: column c is the ring (r, z) = (rings[3 c], rings[3 c + 1]) with the
+ * weight rings[3 c + 2] and the pieces first[c] .. first[c + 1] - 1 (first[0]
+ * = 0, nondecreasing; n_columns + 1 entries); out[width c + k] += its sum,
+ * which has the bits of cg_ring_segment_sum's over the same pieces (the same
+ * blocks, added in order). Columns are independent (thread-count free).
+ * CG_ERR_ARGUMENT for a bad ring, first or piece (as cg_ring_segment_sum),
+ * CG_ERR_UNSUPPORTED for the Heaviside kernel's gradient.
+ */
+cg_status cg_ring_segment_columns(const cg_kernel *kernel, cg_index n_columns, const double *rings,
+                                  const cg_index *first, const cg_index *segment, const double *lo, const double *hi,
+                                  const cg_index *panels, cg_index n_segments, const double *geometry,
+                                  const double *tensors, int gradient, double *out, int n_threads);
+
+/*
  * Columns of theta-resolved, z-averaged cylindrical grids (cg_axial.c): for
  * each column c, out[9 c + k] += sum over its pieces q = first[c] ..
  * first[c + 1] - 1 of values[9 segment[q] + k] int_lo^hi I_c(starts + s

@@ -281,6 +281,51 @@ static void ring_gradient_add(const double *T, double p1, double p2, double h, d
     }
 }
 
+/* acc[width] += the pieces begin .. end - 1 of cg_ring_segment_sum (gradient == 0) or
+   cg_ring_segment_gradient_sum, at the ring (r, z), in order */
+static void ring_piece_block(const cg_kernel *kernel, const ring_rule *rule, double r, double z, cg_index begin,
+                             cg_index end, const cg_index *segment, const double *lo, const double *hi,
+                             const cg_index *panels, const double *geometry, const double *tensors, double weight,
+                             int gradient, double *acc)
+{
+    /* Gauss-Legendre in u on each panel, s = lo + (hi - lo) sin^2(pi u / 2), ds/du = (hi - lo) (pi/2) sin(pi u) */
+    for (cg_index q = begin; q < end; ++q) {
+        const double *g = geometry + 6 * segment[q];
+        const double *T = tensors + 9 * segment[q];
+        const double a = lo[q], span = hi[q] - lo[q];
+        const cg_index P = panels[q];
+        const double h0 = z - g[2];
+        for (cg_index jp = 0; jp < P; ++jp)
+            for (int i = 0; i < RING_POINTS; ++i) {
+                const double u = ((double)jp + rule->x[i]) / (double)P;
+                const double sh = sin(0.5 * M_PI * u);
+                const double s = a + span * sh * sh;
+                const double wt = span * rule->w[i] * 0.5 * M_PI * sin(M_PI * u) / (double)P * weight;
+                const double p1 = g[0] + s * g[3], p2 = g[1] + s * g[4];
+                const double rho = hypot(p1, p2);
+                double M[4];
+                ring_moments_one(kernel, rule, r, h0 - s * g[5], rho, gradient, M);
+                if (gradient) {
+                    ring_gradient_add(T, p1, p2, h0 - s * g[5], r, M, wt, acc);
+                } else {
+                    const double cphi = rho > 0.0 ? p1 / rho : 1.0, sphi = rho > 0.0 ? p2 / rho : 0.0;
+                    ring_rotate_add(T, cphi, sphi, M[0], M[1], M[2], wt, acc);
+                }
+            }
+    }
+}
+
+/* the pieces' checks of the segment sums: rows of geometry, 0 <= lo <= hi <= 1, 1 <= panels <= 2^20 */
+static int ring_pieces_ok(cg_index n_pieces, const cg_index *segment, const double *lo, const double *hi,
+                          const cg_index *panels, cg_index n_segments)
+{
+    for (cg_index i = 0; i < n_pieces; ++i)
+        if (segment[i] < 0 || segment[i] >= n_segments || panels[i] < 1 || panels[i] > 1 << 20 ||
+            !(lo[i] >= 0.0 && lo[i] <= hi[i] && hi[i] <= 1.0))
+            return 0;
+    return 1;
+}
+
 /* the pieces of cg_ring_segment_sum (width 9) and cg_ring_segment_gradient_sum (width 27, gradient != 0): the same
    s-points, blocks of pieces summed in order */
 static cg_status ring_segment_pieces(const cg_kernel *kernel, double r, double z, cg_index n_pieces,
@@ -292,14 +337,10 @@ static cg_status ring_segment_pieces(const cg_kernel *kernel, double r, double z
         n_pieces < 0 || n_segments < 0)
         return CG_ERR_ARGUMENT;
     if (gradient && kernel->type == CG_KERNEL_HEAVISIDE) return CG_ERR_UNSUPPORTED;
-    for (cg_index i = 0; i < n_pieces; ++i)
-        if (segment[i] < 0 || segment[i] >= n_segments || panels[i] < 1 || panels[i] > 1 << 20 ||
-            !(lo[i] >= 0.0 && lo[i] <= hi[i] && hi[i] <= 1.0))
-            return CG_ERR_ARGUMENT;
+    if (!ring_pieces_ok(n_pieces, segment, lo, hi, panels, n_segments)) return CG_ERR_ARGUMENT;
     const int width = gradient ? 27 : 9;
     ring_rule rule;
     cg_gauss_legendre01(RING_POINTS, rule.x, rule.w);
-    /* Gauss-Legendre in u on each panel, s = lo + (hi - lo) sin^2(pi u / 2), ds/du = (hi - lo) (pi/2) sin(pi u) */
     const cg_index n_blocks = (n_pieces + RING_PIECE_BLOCK - 1) / RING_PIECE_BLOCK;
     double local[64 * 27];
     double *blocks = local;
@@ -315,30 +356,8 @@ static cg_status ring_segment_pieces(const cg_kernel *kernel, double r, double z
     for (cg_index blk = 0; blk < n_blocks; ++blk) {
         double acc[27] = {0.0};
         const cg_index end = (blk + 1) * RING_PIECE_BLOCK < n_pieces ? (blk + 1) * RING_PIECE_BLOCK : n_pieces;
-        for (cg_index q = blk * RING_PIECE_BLOCK; q < end; ++q) {
-            const double *g = geometry + 6 * segment[q];
-            const double *T = tensors + 9 * segment[q];
-            const double a = lo[q], span = hi[q] - lo[q];
-            const cg_index P = panels[q];
-            const double h0 = z - g[2];
-            for (cg_index jp = 0; jp < P; ++jp)
-                for (int i = 0; i < RING_POINTS; ++i) {
-                    const double u = ((double)jp + rule.x[i]) / (double)P;
-                    const double sh = sin(0.5 * M_PI * u);
-                    const double s = a + span * sh * sh;
-                    const double wt = span * rule.w[i] * 0.5 * M_PI * sin(M_PI * u) / (double)P * weight;
-                    const double p1 = g[0] + s * g[3], p2 = g[1] + s * g[4];
-                    const double rho = hypot(p1, p2);
-                    double M[4];
-                    ring_moments_one(kernel, &rule, r, h0 - s * g[5], rho, gradient, M);
-                    if (gradient) {
-                        ring_gradient_add(T, p1, p2, h0 - s * g[5], r, M, wt, acc);
-                    } else {
-                        const double cphi = rho > 0.0 ? p1 / rho : 1.0, sphi = rho > 0.0 ? p2 / rho : 0.0;
-                        ring_rotate_add(T, cphi, sphi, M[0], M[1], M[2], wt, acc);
-                    }
-                }
-        }
+        ring_piece_block(kernel, &rule, r, z, blk * RING_PIECE_BLOCK, end, segment, lo, hi, panels, geometry, tensors,
+                         weight, gradient, acc);
         for (int c = 0; c < width; ++c) blocks[width * blk + c] = acc[c];
     }
     for (cg_index blk = 0; blk < n_blocks; ++blk)
@@ -363,4 +382,41 @@ cg_status cg_ring_segment_gradient_sum(const cg_kernel *kernel, double r, double
 {
     return ring_segment_pieces(kernel, r, z, n_pieces, segment, lo, hi, panels, n_segments, geometry, tensors, weight,
                                1, out, n_threads);
+}
+
+cg_status cg_ring_segment_columns(const cg_kernel *kernel, cg_index n_columns, const double *rings,
+                                  const cg_index *first, const cg_index *segment, const double *lo, const double *hi,
+                                  const cg_index *panels, cg_index n_segments, const double *geometry,
+                                  const double *tensors, int gradient, double *out, int n_threads)
+{
+    if (!ring_kernel_ok(kernel) || n_columns < 0 || n_segments < 0 || !first || first[0] != 0)
+        return CG_ERR_ARGUMENT;
+    if (gradient && kernel->type == CG_KERNEL_HEAVISIDE) return CG_ERR_UNSUPPORTED;
+    for (cg_index c = 0; c < n_columns; ++c) {
+        const double *ring = rings + 3 * c;
+        if (first[c + 1] < first[c] || !(ring[0] >= 0.0) || !isfinite(ring[0]) || !isfinite(ring[1]) ||
+            !isfinite(ring[2]))
+            return CG_ERR_ARGUMENT;
+    }
+    if (!ring_pieces_ok(first[n_columns], segment, lo, hi, panels, n_segments)) return CG_ERR_ARGUMENT;
+    const int width = gradient ? 27 : 9;
+    ring_rule rule;
+    cg_gauss_legendre01(RING_POINTS, rule.x, rule.w);
+    const int threads = ring_threads(n_threads, first[n_columns] * RING_POINTS);
+    (void)threads;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+#endif
+    for (cg_index c = 0; c < n_columns; ++c) {
+        /* the blocks of cg_ring_segment_sum from the column's first piece, added in order: the same bits */
+        double *dst = out + (size_t)width * c;
+        for (cg_index begin = first[c]; begin < first[c + 1]; begin += RING_PIECE_BLOCK) {
+            double acc[27] = {0.0};
+            const cg_index end = begin + RING_PIECE_BLOCK < first[c + 1] ? begin + RING_PIECE_BLOCK : first[c + 1];
+            ring_piece_block(kernel, &rule, rings[3 * c], rings[3 * c + 1], begin, end, segment, lo, hi, panels,
+                             geometry, tensors, rings[3 * c + 2], gradient, acc);
+            for (int k = 0; k < width; ++k) dst[k] += acc[k];
+        }
+    }
+    return CG_OK;
 }

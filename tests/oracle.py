@@ -1011,3 +1011,16 @@ def oracle_axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, pa
                 total += float(np.sum(weight * psi))
             out[c] += total * values[segment[q]]
     return out
+
+
+def oracle_ring_segment_columns(kernel, rings, first, segment, lo, hi, panels, geometry, tensors, gradient=False):
+    """Twin of cg_ring_segment_columns: per ring (r, z, weight) of ``rings``, oracle_ring_segment_sum over its pieces
+    first[c]:first[c + 1]; (C, 9), with ``gradient`` (C, 27)."""
+    rings, first = np.asarray(rings, float), np.asarray(first)
+    out = np.zeros((len(rings), 27 if gradient else 9))
+    for c, (r, z, weight) in enumerate(rings):
+        part = slice(int(first[c]), int(first[c + 1]))
+        if first[c + 1] > first[c]:
+            out[c] = oracle_ring_segment_sum(kernel, r, z, segment[part], lo[part], hi[part], panels[part], geometry,
+                                             tensors, weight, gradient=gradient).ravel()
+    return out
