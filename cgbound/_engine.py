@@ -180,6 +180,13 @@ def ring_segment_columns(kernel, rings, first, segment, lo, hi, panels, geometry
                                       gradient=gradient, n_threads=n_threads)
 
 
+def ring_axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights, n_threads=0):
+    """Σ_j weights_j (θ-average of tensors_j W over the ring of radius ``r``, averaged exactly over z in [lo, hi])
+    for point sources at in-plane ``xy`` (J, 2) and axial ``zeta`` (J,), ``tensors`` (J, 9), all in the ring frame
+    (csrc/cg_ring.c): (3, 3) in the local basis."""
+    return _core.ring_axial_point_sum(ring_kernel(kernel), r, lo, hi, xy, zeta, tensors, weights, n_threads=n_threads)
+
+
 def axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values, n_threads=0):
     """Per column c (``bottoms`` (C, 3), pieces first[c]:first[c + 1]), the tensors ``values`` (K, 9) of segments
     starts + s vectors times int_lo^hi of the kernel's exact line integral along ``column`` from the column's

@@ -797,6 +797,51 @@ done:
     return (PyObject *)out;
 }
 
+static PyObject *py_ring_axial_point_sum(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    static char *kw[] = {"kernel", "r", "lo", "hi", "xy", "zeta", "tensors", "weights", "n_threads", NULL};
+    static const npy_intp two = 2, nine = 9;
+    kernel_arg ka = {.target = &ring_space};
+    double r, lo, hi;
+    input_array xy = {.name = "xy", .ndim = 2, .length = {NULL, &two}};
+    input_array zeta = {.name = "zeta", .ndim = 1, .length = {&xy.rows, NULL}};
+    input_array tens = {.name = "tensors", .ndim = 2, .length = {&xy.rows, &nine}};
+    input_array weights = {.name = "weights", .ndim = 1, .length = {&xy.rows, NULL}};
+    int n_threads = 0;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&dddO&O&O&O&|O&", kw, kernel_converter, &ka, &r, &lo, &hi,
+                                     array_converter, &xy, array_converter, &zeta, array_converter, &tens,
+                                     array_converter, &weights, threads_converter, &n_threads))
+        goto done;
+    if (!(r >= 0.0) || !isfinite(r)) {
+        PyErr_Format(PyExc_ValueError, "r: expected a finite radius >= 0, got %R", PyTuple_GetItem(args, 1));
+        goto done;
+    }
+    if (!isfinite(lo) || !isfinite(hi) || !(lo < hi)) {
+        PyErr_Format(PyExc_ValueError, "lo, hi: expected finite numbers with lo < hi, got %g and %g", lo, hi);
+        goto done;
+    }
+    const npy_intp shape[2] = {3, 3};
+    out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_DOUBLE, 0);
+    if (!out) goto done;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_ring_axial_point_sum(&ka.kernel, r, lo, hi, xy.rows, array_data(&xy), array_data(&zeta),
+                                 array_data(&tens), array_data(&weights), PyArray_DATA(out), n_threads);
+    Py_END_ALLOW_THREADS
+    if (st != CG_OK) {
+        raise_status(st);
+        Py_CLEAR(out);
+    }
+done:
+    release_array(&xy);
+    release_array(&zeta);
+    release_array(&tens);
+    release_array(&weights);
+    return (PyObject *)out;
+}
+
 static PyObject *py_axial_segment_sum(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
@@ -1173,6 +1218,10 @@ static PyMethodDef methods[] = {
      "ring_segment_columns(kernel, rings, first, segment, lo, hi, panels, geometry, tensors, gradient=False, "
      "n_threads=0) -> (C, 9) or (C, 27): ring_segment_sum for each ring (r, z, weight) of rings (C, 3) over its "
      "pieces first[c]:first[c + 1], the same bits; columns independent."},
+    {"ring_axial_point_sum", (PyCFunction)(void (*)(void))py_ring_axial_point_sum, METH_VARARGS | METH_KEYWORDS,
+     "ring_axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights, n_threads=0) -> (3, 3): the weighted "
+     "theta-averages of tensors (J, 9) at point sources (xy (J, 2), zeta (J,), ring frame) over the ring r, "
+     "averaged exactly over z in [lo, hi]."},
     {"axial_segment_sum", (PyCFunction)(void (*)(void))py_axial_segment_sum, METH_VARARGS | METH_KEYWORDS,
      "axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values, "
      "n_threads=0): (n_columns, 9)."},

@@ -302,6 +302,22 @@ cg_status cg_ring_segment_columns(const cg_kernel *kernel, cg_index n_columns, c
                                   const double *tensors, int gradient, double *out, int n_threads);
 
 /*
+ * cg_ring_axial_point_sum: out[9] += sum over the n point sources j (in-plane
+ * xy[2 j], xy[2 j + 1] and axial zeta[j] in the ring frame e_1, e_2, e_z
+ * relative to the axis point) of weights[j] times the theta-average over the
+ * ring of radius r, averaged over z in [lo, hi] (lo < hi), of tensors[9 j ..]
+ * (ring frame) W, in the local basis (e_r, e_theta, e_z): the exact axial
+ * average of the ring moments (cut where they stop being analytic in z, graded
+ * towards branch points just off the cuts, 24-point Gauss-Legendre through the
+ * end-clustered map per piece; cgbound/cylindrical_ring.py's axial_rule).
+ * Sources in blocks summed in order (thread-count free). CG_ERR_ARGUMENT for
+ * a bad kernel, r < 0 or a non-finite or empty [lo, hi].
+ */
+cg_status cg_ring_axial_point_sum(const cg_kernel *kernel, double r, double lo, double hi, cg_index n,
+                                  const double *xy, const double *zeta, const double *tensors, const double *weights,
+                                  double *out, int n_threads);
+
+/*
  * Columns of theta-resolved, z-averaged cylindrical grids (cg_axial.c): for
  * each column c, out[9 c + k] += sum over its pieces q = first[c] ..
  * first[c + 1] - 1 of values[9 segment[q] + k] int_lo^hi I_c(starts + s

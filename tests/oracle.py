@@ -1024,3 +1024,63 @@ def oracle_ring_segment_columns(kernel, rings, first, segment, lo, hi, panels, g
             out[c] = oracle_ring_segment_sum(kernel, r, z, segment[part], lo[part], hi[part], panels[part], geometry,
                                              tensors, weight, gradient=gradient).ravel()
     return out
+
+
+def oracle_ring_axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights):
+    """Twin of cg_ring_axial_point_sum, source by source: z cut at ζ ± (0, H, w) (the support's edge
+    H = √(c² - (r - ρ)²), the whole ring's w = √(c² - (r + ρ)²)) and graded by 1/4 (26 levels) towards branch points
+    just off the cuts (±i √((r + ρ)² - c²) when the ring just misses holding the support, Lucy's ±i ``|r - ρ|``, the
+    mirror -w); per piece 24-point Gauss-Legendre in u through x = (3u - u³)/2, the Gaussian's in panels of at
+    most 5 widths, a box end inside a piece clipped in u (the root of the cubic by numpy.roots); the moments by
+    oracle_ring_moments; the θ-average of B T Bᵀ from M₀, M₁, M₂ written out per component. (3, 3)."""
+    c = float(kernel.radius)
+    G, GW = np.polynomial.legendre.leggauss(24)
+    panels = 1
+    if kernel.kind == 0:
+        panels = max(1, math.ceil(c / (5.0 * float(kernel.width)) - 1e-9))
+    grades = 0.25 ** np.arange(1, 27)
+    out = np.zeros((3, 3))
+    tensors = np.asarray(tensors, float).reshape(-1, 3, 3)
+
+    def inverse(x):                                 # the u in [-1, 1] with (3u - u³)/2 = x
+        roots = np.roots([-0.5, 0.0, 1.5, -x])
+        roots = roots[np.abs(roots.imag) < 1e-9].real
+        return float(roots[np.argmin(np.abs(np.clip(roots, -1, 1) - roots))])
+
+    for j in range(len(zeta)):
+        rho = math.hypot(xy[j][0], xy[j][1])
+        H = math.sqrt(max(c * c - (r - rho) ** 2, 0.0))
+        whole = math.sqrt(max(c * c - (r + rho) ** 2, 0.0))
+        near = math.inf if whole > 0 else math.sqrt(max((r + rho) ** 2 - c * c, 0.0))
+        if kernel.kind == 1:
+            near = min(near, abs(r - rho))
+        cuts = [0.0, H, whole]
+        inner = whole if whole > 0 else H
+        if near < 0.25 * inner:
+            cuts += [max(inner * g, near) for g in grades]
+        if whole > 0 and 2 * whole < 0.25 * (H - whole):
+            cuts += [whole + max((H - whole) * g, 2 * whole) for g in grades]
+        edges = sorted(set([zeta[j] - x for x in cuts] + [zeta[j] + x for x in cuts]))
+        hs, ws = [], []
+        for a, b in zip(edges[:-1], edges[1:]):
+            if not (b > lo and a < hi):
+                continue
+            u_lo = -1.0 if a >= lo else inverse(2 * (lo - a) / (b - a) - 1)
+            u_hi = 1.0 if b <= hi else inverse(2 * (hi - a) / (b - a) - 1)
+            for p in range(panels):
+                u = u_lo + (u_hi - u_lo) * (p + 0.5 * (G + 1)) / panels
+                x, dx = 0.5 * (3 * u - u ** 3), 1.5 * (1 - u * u)
+                hs.append(a + (b - a) * 0.5 * (x + 1) - zeta[j])
+                ws.append(0.25 * (b - a) * (u_hi - u_lo) * dx * GW / panels / (hi - lo))
+        if not hs:
+            continue
+        h, w = np.concatenate(hs), np.concatenate(ws)
+        M0, M1, M2 = (oracle_ring_moments(kernel, r, h, np.full(h.size, rho)) * w).sum(axis=1)
+        cphi, sphi = (xy[j][0] / rho, xy[j][1] / rho) if rho > 0 else (1.0, 0.0)
+        B = np.array([[cphi, sphi, 0.0], [-sphi, cphi, 0.0], [0.0, 0.0, 1.0]])
+        T = B @ tensors[j] @ B.T * weights[j]            # in the source's own basis at θ = φ
+        cc, ss = 0.5 * (M0 + M2), 0.5 * (M0 - M2)         # E[cos² t], E[sin² t]; E[cos t] = M₁
+        out += np.array([[cc * T[0, 0] + ss * T[1, 1], cc * T[0, 1] - ss * T[1, 0], M1 * T[0, 2]],
+                         [cc * T[1, 0] - ss * T[0, 1], ss * T[0, 0] + cc * T[1, 1], M1 * T[1, 2]],
+                         [M1 * T[2, 0], M1 * T[2, 1], M0 * T[2, 2]]])
+    return out
