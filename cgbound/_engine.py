@@ -187,6 +187,12 @@ def ring_axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights, n_thread
     return _core.ring_axial_point_sum(ring_kernel(kernel), r, lo, hi, xy, zeta, tensors, weights, n_threads=n_threads)
 
 
+def quartic_roots(coef, n_threads=0):
+    """The complex roots (n, 4), in no particular order, of the quartics ``coef`` (n, 5), highest power first, a
+    nonzero leading coefficient (csrc/cg_quartic.c: Aberth-Ehrlich iteration)."""
+    return _core.quartic_roots(coef, n_threads=n_threads)
+
+
 def axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values, n_threads=0):
     """Per column c (``bottoms`` (C, 3), pieces first[c]:first[c + 1]), the tensors ``values`` (K, 9) of segments
     starts + s vectors times int_lo^hi of the kernel's exact line integral along ``column`` from the column's

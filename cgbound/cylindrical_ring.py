@@ -312,12 +312,9 @@ def segment_quartic(r, h0, x0, a_perp, a_z, c):
 
 
 def quartic_roots(coef):
-    """The complex roots (K, 4) of quartics ``coef`` (K, 5) (a nonzero leading coefficient): the eigenvalues of
-    their companion matrices."""
-    comp = np.zeros((len(coef), 4, 4))
-    comp[:, 0, :] = -coef[:, 1:] / coef[:, :1]
-    comp[:, 1, 0] = comp[:, 2, 1] = comp[:, 3, 2] = 1.0
-    return np.linalg.eigvals(comp)
+    """The complex roots (K, 4), in no particular order, of quartics ``coef`` (K, 5) (a nonzero leading
+    coefficient): the C core's Aberth-Ehrlich iteration (csrc/cg_quartic.c; the callers sort their cuts)."""
+    return _engine.quartic_roots(np.ascontiguousarray(coef))
 
 
 def support_crossings(r, h0, x0, a_perp, a_z, c):

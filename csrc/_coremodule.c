@@ -842,6 +842,39 @@ done:
     return (PyObject *)out;
 }
 
+static PyObject *py_quartic_roots(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    static char *kw[] = {"coef", "n_threads", NULL};
+    static const npy_intp five = 5;
+    input_array coef = {.name = "coef", .ndim = 2, .length = {NULL, &five}};
+    int n_threads = 0;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&|O&", kw, array_converter, &coef, threads_converter, &n_threads))
+        goto done;
+    const double *c = array_data(&coef);
+    for (npy_intp i = 0; i < coef.rows; ++i)
+        if (c[5 * i] == 0.0) {
+            PyErr_Format(PyExc_ValueError, "coef: expected a nonzero leading coefficient in every row, got 0 in row %zd",
+                         (Py_ssize_t)i);
+            goto done;
+        }
+    const npy_intp shape[2] = {coef.rows, 4};
+    out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_CDOUBLE, 0);
+    if (!out) goto done;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_quartic_roots(coef.rows, c, (double *)PyArray_DATA(out), n_threads);
+    Py_END_ALLOW_THREADS
+    if (st != CG_OK) {
+        raise_status(st);
+        Py_CLEAR(out);
+    }
+done:
+    release_array(&coef);
+    return (PyObject *)out;
+}
+
 static PyObject *py_axial_segment_sum(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
@@ -1222,6 +1255,9 @@ static PyMethodDef methods[] = {
      "ring_axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights, n_threads=0) -> (3, 3): the weighted "
      "theta-averages of tensors (J, 9) at point sources (xy (J, 2), zeta (J,), ring frame) over the ring r, "
      "averaged exactly over z in [lo, hi]."},
+    {"quartic_roots", (PyCFunction)(void (*)(void))py_quartic_roots, METH_VARARGS | METH_KEYWORDS,
+     "quartic_roots(coef, n_threads=0) -> (n, 4) complex: the roots of the quartics coef (n, 5), highest power "
+     "first (Aberth-Ehrlich iteration)."},
     {"axial_segment_sum", (PyCFunction)(void (*)(void))py_axial_segment_sum, METH_VARARGS | METH_KEYWORDS,
      "axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values, "
      "n_threads=0): (n_columns, 9)."},

@@ -318,6 +318,18 @@ cg_status cg_ring_axial_point_sum(const cg_kernel *kernel, double r, double lo, 
                                   double *out, int n_threads);
 
 /*
+ * cg_quartic_roots (cg_quartic.c): the four complex roots of each of n quartics
+ * coef[5 i] x^4 + coef[5 i + 1] x^3 + ... + coef[5 i + 4] (highest power
+ * first, a nonzero leading coefficient, finite), written as roots[8 i + 2 k]
+ * (real part) and roots[8 i + 2 k + 1] (imaginary part), k = 0..3, in no
+ * particular order: Aberth-Ehrlich iteration on the monic quartic, to the
+ * last bit at simple roots (a double root comes as a close pair). Rows are
+ * independent (thread-count free). CG_ERR_ARGUMENT for a zero leading or a
+ * non-finite coefficient.
+ */
+cg_status cg_quartic_roots(cg_index n, const double *coef, double *roots, int n_threads);
+
+/*
  * Columns of theta-resolved, z-averaged cylindrical grids (cg_axial.c): for
  * each column c, out[9 c + k] += sum over its pieces q = first[c] ..
  * first[c + 1] - 1 of values[9 segment[q] + k] int_lo^hi I_c(starts + s

@@ -1084,3 +1084,54 @@ def oracle_ring_axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights):
                          [cc * T[1, 0] - ss * T[0, 1], ss * T[0, 0] + cc * T[1, 1], M1 * T[1, 2]],
                          [M1 * T[2, 0], M1 * T[2, 1], M0 * T[2, 2]]])
     return out
+
+
+_QUARTIC_COS = (0.92106099400288510, -0.38941834230865050, -0.92106099400288510, 0.38941834230865050)
+_QUARTIC_SIN = (0.38941834230865050, 0.92106099400288510, -0.38941834230865050, -0.92106099400288510)
+
+
+def oracle_quartic_roots(coef):
+    """Twin of cg_quartic_roots, row by row in Python floats (the same operations in the same order, so the same
+    bits): Aberth-Ehrlich sweeps on the monic quartic from four points on the Fujiwara circle at angles
+    π k / 2 + 0.4, each root updated in turn, until every step is at most 2⁻⁵² of its root (at most 200 sweeps).
+    (n, 4) complex."""
+    coef = np.asarray(coef, float)
+    out = np.zeros((len(coef), 4), complex)
+    tol = 2.220446049250313e-16
+    for i, a in enumerate(coef):
+        b = [float(a[1]) / float(a[0]), float(a[2]) / float(a[0]), float(a[3]) / float(a[0]), float(a[4]) / float(a[0])]
+        R = max(abs(b[0]), math.sqrt(abs(b[1])), math.cbrt(abs(b[2])), math.sqrt(math.sqrt(abs(b[3]) * 0.5)))
+        R = 2.0 * R if R > 0.0 else 1.0
+        re = [R * cc for cc in _QUARTIC_COS]
+        im = [R * ss for ss in _QUARTIC_SIN]
+        for _ in range(200):
+            done = True
+            for k in range(4):
+                x, y = re[k], im[k]
+                pr, pi, dr, di = 1.0, 0.0, 0.0, 0.0
+                for j in range(4):
+                    dr, di = dr * x - di * y + pr, dr * y + di * x + pi
+                    pr, pi = pr * x - pi * y + b[j], pr * y + pi * x
+                if pr == 0.0 and pi == 0.0:
+                    continue
+                dd = dr * dr + di * di
+                nr, ni = ((pr * dr + pi * di) / dd, (pi * dr - pr * di) / dd) if dd > 0.0 else (pr, pi)
+                sr = si = 0.0
+                for j in range(4):
+                    if j == k:
+                        continue
+                    ur, ui = x - re[j], y - im[j]
+                    uu = ur * ur + ui * ui
+                    if uu > 0.0:
+                        sr += ur / uu
+                        si -= ui / uu
+                qr, qi = 1.0 - (nr * sr - ni * si), -(nr * si + ni * sr)
+                qq = qr * qr + qi * qi
+                wr, wi = ((nr * qr + ni * qi) / qq, (ni * qr - nr * qi) / qq) if qq > 0.0 else (nr, ni)
+                re[k], im[k] = x - wr, y - wi
+                if wr * wr + wi * wi > tol * tol * (re[k] * re[k] + im[k] * im[k]):
+                    done = False
+            if done:
+                break
+        out[i] = np.array(re) + 1j * np.array(im)
+    return out
