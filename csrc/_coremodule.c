@@ -855,8 +855,8 @@ static PyObject *py_quartic_roots(PyObject *self, PyObject *args, PyObject *kwds
     const double *c = array_data(&coef);
     for (npy_intp i = 0; i < coef.rows; ++i)
         if (c[5 * i] == 0.0) {
-            PyErr_Format(PyExc_ValueError, "coef: expected a nonzero leading coefficient in every row, got 0 in row %zd",
-                         (Py_ssize_t)i);
+            PyErr_Format(PyExc_ValueError,
+                         "coef: expected a nonzero leading coefficient in every row, got 0 in row %zd", (Py_ssize_t)i);
             goto done;
         }
     const npy_intp shape[2] = {coef.rows, 4};
