@@ -180,6 +180,27 @@ def ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, w
                                   gradient=gradient, n_threads=n_threads)
 
 
+def ring_segment_columns(kernel, rings, first, segment, lo, hi, panels, geometry, tensors, gradient=False, n_threads=0):
+    """:func:`ring_segment_sum` for many rings at once: ``rings`` (C, 3) rows (r, z, weight), column c over its
+    pieces first[c]:first[c + 1] (csrc/cg_ring.c, the same bits as one ring_segment_sum per column): (C, 9), with
+    ``gradient`` (C, 27)."""
+    return _core.ring_segment_columns(ring_kernel(kernel), rings, first, segment, lo, hi, panels, geometry, tensors,
+                                      gradient=gradient, n_threads=n_threads)
+
+
+def ring_axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights, n_threads=0):
+    """Σ_j weights_j (θ-average of tensors_j W over the ring of radius ``r``, averaged exactly over z in [lo, hi])
+    for point sources at in-plane ``xy`` (J, 2) and axial ``zeta`` (J,), ``tensors`` (J, 9), all in the ring frame
+    (csrc/cg_ring.c): (3, 3) in the local basis."""
+    return _core.ring_axial_point_sum(ring_kernel(kernel), r, lo, hi, xy, zeta, tensors, weights, n_threads=n_threads)
+
+
+def quartic_roots(coef, n_threads=0):
+    """The complex roots (n, 4), in no particular order, of the quartics ``coef`` (n, 5), highest power first, a
+    nonzero leading coefficient (csrc/cg_quartic.c: Aberth-Ehrlich iteration)."""
+    return _core.quartic_roots(coef, n_threads=n_threads)
+
+
 def axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values, n_threads=0):
     """Per column c (``bottoms`` (C, 3), pieces first[c]:first[c + 1]), the tensors ``values`` (K, 9) of segments
     starts + s vectors times int_lo^hi of the kernel's exact line integral along ``column`` from the column's

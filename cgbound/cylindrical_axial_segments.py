@@ -3,7 +3,8 @@ CylindricalGrids, and the extended stress's rays on θ-averaged grids as finite 
 
 The average over z in [lo, hi] of the ring average of ∫₀¹ W(x - p(s)) ds is taken in the order s outside,
 z inside: at each point p(s) of a segment the z-average of the ring moments is the exact axial average of a
-point source (:func:`~cgbound.cylindrical_ring.axial_rule`, the rule of the particle sums). As a function of s
+point source (:func:`~cgbound.cylindrical_ring.axial_rule`, the rule of the particle sums, written in C for these
+s-points: ``cg_ring_axial_point_sum`` in csrc/cg_ring.c). As a function of s
 that average is analytic except where the structure of the point's support changes, all of them roots of
 low-degree polynomials in s (ρ(s)² = q₀ + q₁ s + q₂ s², ζ(s) = ζ₀ + s a_z):
 
@@ -23,17 +24,17 @@ import math
 
 import numpy as np
 
-from .cylindrical_ring import (axial_rule, axis_cuts, clear_of, edge_jump, partial_arc, reach_box,
-                               ring_moments, rotate_averaged, segment_ranges, segments_in_frame, support_crossings,
-                               GRADING, MAX_PANELS)
+from . import _engine
+from .cylindrical_ring import (axis_cuts, clear_of, edge_jump, partial_arc, reach_box, segment_ranges,
+                               segments_in_frame, support_crossings, GRADING, MAX_PANELS)
 
 #: Gauss-Legendre points per panel along a segment (as the C core's ring_segment_sum)
 SEGMENT_POINTS = 20
 _SEG_G, _SEG_GW = np.polynomial.legendre.leggauss(SEGMENT_POINTS)
 #: a panel along a segment spans at most this many kernel scales
 PANEL_SCALES = 1.0
-#: s-points whose axial averages are taken at once (memory: ~100 ring moments each)
-POINTS_PER_BLOCK = 4096
+#: s-points whose axial averages are taken at once (memory: their points and tensors)
+POINTS_PER_BLOCK = 1 << 16
 
 
 def quadratic_roots(a, b, c):
@@ -128,6 +129,7 @@ def z_averaged_ring_segments(grid, kernel, starts, vectors, values):
         return out
     rho_min, rho_max, zeta_lo, zeta_hi = segment_ranges(x0, a_perp, zeta0, a_z)
     length = np.sqrt(np.einsum("ki,ki->k", a_perp, a_perp) + a_z * a_z)     # in the ring frame
+    flat_tensors = tensors.reshape(-1, 9)
     scale = kernel.scale
     for k, r in enumerate(grid.r):
         cand = np.flatnonzero((rho_min < r + c) & (rho_max > r - c) & (zeta_lo < hi + c) & (zeta_hi > lo - c))
@@ -162,28 +164,12 @@ def z_averaged_ring_segments(grid, kernel, starts, vectors, values):
         who = owner[piece_of]
         for start in range(0, s.size, POINTS_PER_BLOCK):
             part = slice(start, start + POINTS_PER_BLOCK)
-            out[k] += axial_point_sum(kernel, float(r), lo, hi, x0[who[part]] + s[part, None] * a_perp[who[part]],
-                                      zeta0[who[part]] + s[part] * a_z[who[part]], tensors[who[part]], ds[part])
+            # each s-point's exact axial average of a point source, summed by the C core
+            out[k] += _engine.ring_axial_point_sum(kernel, float(r), lo, hi,
+                                                   x0[who[part]] + s[part, None] * a_perp[who[part]],
+                                                   zeta0[who[part]] + s[part] * a_z[who[part]],
+                                                   flat_tensors[who[part]], ds[part])
     return out
-
-
-def axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights):
-    """Σ_j weights_j (θ-average of tensors_j W over the ring r, z-averaged over [lo, hi]) for point sources at
-    in-plane xy (J, 2) and axial ζ (J,), tensors (J, 3, 3) in the ring frame: (3, 3) in the local basis."""
-    rho = np.hypot(xy[:, 0], xy[:, 1])
-    pair, h, w = axial_rule(kernel, r, rho, zeta, lo, hi)
-    if not pair.size:
-        return np.zeros((3, 3))
-    M = ring_moments(kernel, r, h, rho[pair, None])                  # (3, pairs, q)
-    M = (M * w).sum(axis=2)
-    M = np.stack([np.bincount(pair, weights=m, minlength=rho.size) for m in M])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.where(rho > 0.0, xy[:, 0] / rho, 1.0)
-        sin = np.where(rho > 0.0, xy[:, 1] / rho, 0.0)
-    zero, one = np.zeros_like(cos), np.ones_like(cos)
-    B = np.stack([np.stack([cos, sin, zero], 1), np.stack([-sin, cos, zero], 1), np.stack([zero, zero, one], 1)], 1)
-    own = np.einsum("jia,jab,jkb->jik", B, tensors * weights[:, None, None], B)   # in the point's basis at φ
-    return rotate_averaged(own, 2, M).sum(axis=0)
 
 
 def ray_lengths(grid, kernel, starts, vectors):

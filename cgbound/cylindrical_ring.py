@@ -312,12 +312,9 @@ def segment_quartic(r, h0, x0, a_perp, a_z, c):
 
 
 def quartic_roots(coef):
-    """The complex roots (K, 4) of quartics ``coef`` (K, 5) (a nonzero leading coefficient): the eigenvalues of
-    their companion matrices."""
-    comp = np.zeros((len(coef), 4, 4))
-    comp[:, 0, :] = -coef[:, 1:] / coef[:, :1]
-    comp[:, 1, 0] = comp[:, 2, 1] = comp[:, 3, 2] = 1.0
-    return np.linalg.eigvals(comp)
+    """The complex roots (K, 4), in no particular order, of quartics ``coef`` (K, 5) (a nonzero leading
+    coefficient): the C core's Aberth-Ehrlich iteration (csrc/cg_quartic.c; the callers sort their cuts)."""
+    return _engine.quartic_roots(np.ascontiguousarray(coef))
 
 
 def support_crossings(r, h0, x0, a_perp, a_z, c):
@@ -502,43 +499,76 @@ def ring_average_segments(grid, kernel, starts, vectors, values, z_nodes, z_weig
     geometry = np.ascontiguousarray(np.column_stack([x0, zeta0, a_perp, a_z]))     # the C core's segment rows
     rho_min, rho_max, zeta_lo, zeta_hi = segment_ranges(x0, a_perp, zeta0, a_z)
     scale = kernel.scale
+    # the columns of one ring: its (node, z-point) pairs in the order the node's sum adds them
+    n_q = z_nodes.shape[1]
+    column_z, column_w = z_nodes.ravel(), np.broadcast_to(z_weights, z_nodes.shape).ravel()
+    column_node = np.repeat(np.arange(n_z), n_q)
     for k, r in enumerate(grid.r):
-        for j in range(n_z):
-            for zq, wq in zip(z_nodes[j], z_weights[j]):
-                cand = np.flatnonzero((rho_min < r + c) & (rho_max > r - c) & (zeta_lo < zq + c) & (zeta_hi > zq - c))
-                if not cand.size:
-                    continue
-                h0 = zq - zeta0[cand]
-                if isinstance(kernel, Lucy):
-                    cuts = lucy_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
-                elif edge_jump(kernel) > np.finfo(float).eps:
-                    cuts = support_cuts(r, h0, x0[cand], a_perp[cand], a_z[cand], c, scale / length[cand])
-                else:
-                    cuts = support_crossings(r, h0, x0[cand], a_perp[cand], a_z[cand], c)
-                near_axis, step = axis_cuts(x0[cand], a_perp[cand], scale / length[cand])
-                near_axis = clear_of(near_axis, step, cuts[:, :4])           # the crossings (support_cuts' first)
-                rho_cut = np.hypot(*(x0[cand, None, :] + near_axis[..., None] * a_perp[cand, None, :])
-                                   .transpose(2, 0, 1))
-                near_axis = np.where(partial_arc(r, c, rho_cut, h0[:, None] - near_axis * a_z[cand, None]), near_axis,
-                                     np.nan)
-                edges = np.sort(np.concatenate([np.zeros((cand.size, 1)), np.nan_to_num(cuts, nan=1.0),
-                                                np.nan_to_num(near_axis, nan=1.0), np.ones((cand.size, 1))], axis=1),
-                                axis=1)
-                lo, hi = edges[:, :-1], edges[:, 1:]                   # (K, pieces)
-                mid = 0.5 * (lo + hi)
-                px = x0[cand, None, :] + mid[..., None] * a_perp[cand, None, :]
-                rho_mid = np.hypot(px[..., 0], px[..., 1])
-                h_mid = h0[:, None] - mid * a_z[cand, None]
-                inside = (hi > lo) & ((r - rho_mid) ** 2 + h_mid ** 2 < c * c)
-                seg, piece = np.nonzero(inside)
-                if not seg.size:
-                    continue
-                a, b = lo[seg, piece], hi[seg, piece]
-                # panels in u no longer than the kernel's scale along the segment: the integrand varies on it
-                panels = np.clip(np.ceil((b - a) * length[cand[seg]] / scale), 1, MAX_PANELS).astype(int)
-                out[k * n_z + j] += _engine.ring_segment_sum(kernel, float(r), float(zq), cand[seg], a, b, panels,
-                                                             geometry, tensors, float(wq), gradient=gradient)
+        near = np.flatnonzero((rho_min < r + c) & (rho_max > r - c))
+        if not near.size:
+            continue
+        for cols, seg in ring_column_pairs(column_z, c, near, zeta_lo, zeta_hi):
+            h0 = column_z[cols] - zeta0[seg]
+            if isinstance(kernel, Lucy):
+                cuts = lucy_cuts(r, h0, x0[seg], a_perp[seg], a_z[seg], c, scale / length[seg])
+            elif edge_jump(kernel) > np.finfo(float).eps:
+                cuts = support_cuts(r, h0, x0[seg], a_perp[seg], a_z[seg], c, scale / length[seg])
+            else:
+                cuts = support_crossings(r, h0, x0[seg], a_perp[seg], a_z[seg], c)
+            near_axis, step = axis_cuts(x0[seg], a_perp[seg], scale / length[seg])
+            near_axis = clear_of(near_axis, step, cuts[:, :4])           # the crossings (support_cuts' first)
+            rho_cut = np.hypot(*(x0[seg, None, :] + near_axis[..., None] * a_perp[seg, None, :]).transpose(2, 0, 1))
+            near_axis = np.where(partial_arc(r, c, rho_cut, h0[:, None] - near_axis * a_z[seg, None]), near_axis,
+                                 np.nan)
+            edges = np.sort(np.concatenate([np.zeros((seg.size, 1)), np.nan_to_num(cuts, nan=1.0),
+                                            np.nan_to_num(near_axis, nan=1.0), np.ones((seg.size, 1))], axis=1),
+                            axis=1)
+            lo, hi = edges[:, :-1], edges[:, 1:]                   # (pairs, pieces)
+            mid = 0.5 * (lo + hi)
+            px = x0[seg, None, :] + mid[..., None] * a_perp[seg, None, :]
+            rho_mid = np.hypot(px[..., 0], px[..., 1])
+            h_mid = h0[:, None] - mid * a_z[seg, None]
+            inside = (hi > lo) & ((r - rho_mid) ** 2 + h_mid ** 2 < c * c)
+            pair, piece = np.nonzero(inside)
+            if not pair.size:
+                continue
+            a, b = lo[pair, piece], hi[pair, piece]
+            # panels in u no longer than the kernel's scale along the segment: the integrand varies on it
+            panels = np.clip(np.ceil((b - a) * length[seg[pair]] / scale), 1, MAX_PANELS).astype(int)
+            used, counts = np.unique(cols[pair], return_counts=True)
+            first = np.concatenate([[0], np.cumsum(counts)])
+            rings = np.column_stack([np.full(used.size, r), column_z[used], column_w[used]])
+            sums = _engine.ring_segment_columns(kernel, rings, first, seg[pair], a, b, panels, geometry, tensors,
+                                                gradient=gradient)
+            # in column order: a node's z-points add in turn (ufunc.at is unbuffered and in order)
+            np.add.at(out, k * n_z + column_node[used], sums.reshape((used.size,) + out.shape[1:]))
     return out
+
+
+#: (column, segment) pairs whose pieces are found at once (memory: ~200 cuts each for Lucy)
+PAIRS_PER_BLOCK = 16384
+#: (column, segment) candidates tested at once
+CANDIDATES_PER_MASK = 1 << 22
+
+
+def ring_column_pairs(column_z, c, near, zeta_lo, zeta_hi):
+    """The (column, segment) pairs of one ring, in blocks of whole columns of about PAIRS_PER_BLOCK pairs: arrays
+    (column index, segment index) in column order, segments in increasing order within a column, of the segments
+    ``near`` (the ring's candidates by radius) whose axial range reaches within c of the column's z."""
+    step = max(1, CANDIDATES_PER_MASK // near.size)
+    for c0 in range(0, column_z.size, step):
+        zq = column_z[c0:c0 + step, None]
+        col, which = np.nonzero((zeta_lo[near] < zq + c) & (zeta_hi[near] > zq - c))
+        if not col.size:
+            continue
+        col = col + c0
+        ends = np.searchsorted(col, np.unique(col), side="right")       # each column's end in the pairs
+        start = 0
+        while start < col.size:
+            stop = ends[np.searchsorted(ends, start + PAIRS_PER_BLOCK, side="right") - 1]
+            stop = stop if stop > start else ends[np.searchsorted(ends, start, side="right")]
+            yield col[start:stop], near[which[start:stop]]
+            start = stop
 
 
 def axial_line_average(grid, kernel, positions, columns, gradient=False, n_threads=0):

@@ -730,6 +730,151 @@ done:
     return (PyObject *)out;
 }
 
+static PyObject *py_ring_segment_columns(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    static char *kw[] = {"kernel", "rings", "first", "segment", "lo", "hi", "panels", "geometry", "tensors",
+                         "gradient", "n_threads", NULL};
+    static const npy_intp three = 3, six = 6, nine = 9;
+    kernel_arg ka = {.target = &ring_space};
+    input_array rings = {.name = "rings", .ndim = 2, .length = {NULL, &three}};
+    index_array first = {.name = "first", .length = NULL};
+    index_array segment = {.name = "segment", .length = NULL};
+    input_array lo = {.name = "lo", .ndim = 1, .length = {NULL, NULL}};
+    input_array hi = {.name = "hi", .ndim = 1, .length = {&lo.rows, NULL}};
+    index_array panels = {.name = "panels", .length = &lo.rows};
+    input_array geom = {.name = "geometry", .ndim = 2, .length = {NULL, &six}};
+    input_array tens = {.name = "tensors", .ndim = 2, .length = {&geom.rows, &nine}};
+    int gradient = 0, n_threads = 0;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&O&O&O&O&|pO&", kw, kernel_converter, &ka,
+                                     array_converter, &rings, index_converter, &first, index_converter, &segment,
+                                     array_converter, &lo, array_converter, &hi, index_converter, &panels,
+                                     array_converter, &geom, array_converter, &tens, &gradient, threads_converter,
+                                     &n_threads))
+        goto done;
+    if (PyArray_DIM(first.array, 0) != rings.rows + 1) {
+        PyErr_SetString(PyExc_ValueError, "first: expected one entry per ring and one more (the pieces' end)");
+        goto done;
+    }
+    if (PyArray_DIM(segment.array, 0) != lo.rows) {
+        PyErr_SetString(PyExc_ValueError, "segment: expected one entry per piece (the length of lo)");
+        goto done;
+    }
+    if (((const cg_index *)PyArray_DATA(first.array))[rings.rows] != lo.rows) {
+        PyErr_SetString(PyExc_ValueError, "first: expected its last entry to be the number of pieces");
+        goto done;
+    }
+    const npy_intp shape[2] = {rings.rows, gradient ? 27 : 9};
+    out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_DOUBLE, 0);
+    if (!out) goto done;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_ring_segment_columns(&ka.kernel, rings.rows, array_data(&rings),
+                                 (const cg_index *)PyArray_DATA(first.array),
+                                 (const cg_index *)PyArray_DATA(segment.array), array_data(&lo), array_data(&hi),
+                                 (const cg_index *)PyArray_DATA(panels.array), geom.rows, array_data(&geom),
+                                 array_data(&tens), gradient, PyArray_DATA(out), n_threads);
+    Py_END_ALLOW_THREADS
+    if (st == CG_ERR_ARGUMENT) {
+        PyErr_SetString(PyExc_ValueError, "rings, first, segment, lo, hi, panels: expected finite rows (r, z, weight) "
+                                          "with r >= 0, nondecreasing first from 0, rows of geometry, "
+                                          "0 <= lo <= hi <= 1 and panels >= 1");
+        Py_CLEAR(out);
+    } else if (st != CG_OK) {
+        raise_status(st);
+        Py_CLEAR(out);
+    }
+done:
+    release_array(&rings);
+    Py_CLEAR(first.array);
+    Py_CLEAR(segment.array);
+    release_array(&lo);
+    release_array(&hi);
+    Py_CLEAR(panels.array);
+    release_array(&geom);
+    release_array(&tens);
+    return (PyObject *)out;
+}
+
+static PyObject *py_ring_axial_point_sum(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    static char *kw[] = {"kernel", "r", "lo", "hi", "xy", "zeta", "tensors", "weights", "n_threads", NULL};
+    static const npy_intp two = 2, nine = 9;
+    kernel_arg ka = {.target = &ring_space};
+    double r, lo, hi;
+    input_array xy = {.name = "xy", .ndim = 2, .length = {NULL, &two}};
+    input_array zeta = {.name = "zeta", .ndim = 1, .length = {&xy.rows, NULL}};
+    input_array tens = {.name = "tensors", .ndim = 2, .length = {&xy.rows, &nine}};
+    input_array weights = {.name = "weights", .ndim = 1, .length = {&xy.rows, NULL}};
+    int n_threads = 0;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&dddO&O&O&O&|O&", kw, kernel_converter, &ka, &r, &lo, &hi,
+                                     array_converter, &xy, array_converter, &zeta, array_converter, &tens,
+                                     array_converter, &weights, threads_converter, &n_threads))
+        goto done;
+    if (!(r >= 0.0) || !isfinite(r)) {
+        PyErr_Format(PyExc_ValueError, "r: expected a finite radius >= 0, got %R", PyTuple_GetItem(args, 1));
+        goto done;
+    }
+    if (!isfinite(lo) || !isfinite(hi) || !(lo < hi)) {
+        PyErr_Format(PyExc_ValueError, "lo, hi: expected finite numbers with lo < hi, got %g and %g", lo, hi);
+        goto done;
+    }
+    const npy_intp shape[2] = {3, 3};
+    out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_DOUBLE, 0);
+    if (!out) goto done;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_ring_axial_point_sum(&ka.kernel, r, lo, hi, xy.rows, array_data(&xy), array_data(&zeta),
+                                 array_data(&tens), array_data(&weights), PyArray_DATA(out), n_threads);
+    Py_END_ALLOW_THREADS
+    if (st != CG_OK) {
+        raise_status(st);
+        Py_CLEAR(out);
+    }
+done:
+    release_array(&xy);
+    release_array(&zeta);
+    release_array(&tens);
+    release_array(&weights);
+    return (PyObject *)out;
+}
+
+static PyObject *py_quartic_roots(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    static char *kw[] = {"coef", "n_threads", NULL};
+    static const npy_intp five = 5;
+    input_array coef = {.name = "coef", .ndim = 2, .length = {NULL, &five}};
+    int n_threads = 0;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&|O&", kw, array_converter, &coef, threads_converter, &n_threads))
+        goto done;
+    const double *c = array_data(&coef);
+    for (npy_intp i = 0; i < coef.rows; ++i)
+        if (c[5 * i] == 0.0) {
+            PyErr_Format(PyExc_ValueError,
+                         "coef: expected a nonzero leading coefficient in every row, got 0 in row %zd", (Py_ssize_t)i);
+            goto done;
+        }
+    const npy_intp shape[2] = {coef.rows, 4};
+    out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_CDOUBLE, 0);
+    if (!out) goto done;
+    cg_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = cg_quartic_roots(coef.rows, c, (double *)PyArray_DATA(out), n_threads);
+    Py_END_ALLOW_THREADS
+    if (st != CG_OK) {
+        raise_status(st);
+        Py_CLEAR(out);
+    }
+done:
+    release_array(&coef);
+    return (PyObject *)out;
+}
+
 static PyObject *py_axial_segment_sum(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
@@ -1214,6 +1359,17 @@ static PyMethodDef methods[] = {
     {"ring_segment_sum", (PyCFunction)(void (*)(void))py_ring_segment_sum, METH_VARARGS | METH_KEYWORDS,
      "ring_segment_sum(kernel, r, z, segment, lo, hi, panels, geometry, tensors, weight, gradient=False, "
      "n_threads=0): (3, 3), with gradient (3, 3, 3)."},
+    {"ring_segment_columns", (PyCFunction)(void (*)(void))py_ring_segment_columns, METH_VARARGS | METH_KEYWORDS,
+     "ring_segment_columns(kernel, rings, first, segment, lo, hi, panels, geometry, tensors, gradient=False, "
+     "n_threads=0) -> (C, 9) or (C, 27): ring_segment_sum for each ring (r, z, weight) of rings (C, 3) over its "
+     "pieces first[c]:first[c + 1], the same bits; columns independent."},
+    {"ring_axial_point_sum", (PyCFunction)(void (*)(void))py_ring_axial_point_sum, METH_VARARGS | METH_KEYWORDS,
+     "ring_axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights, n_threads=0) -> (3, 3): the weighted "
+     "theta-averages of tensors (J, 9) at point sources (xy (J, 2), zeta (J,), ring frame) over the ring r, "
+     "averaged exactly over z in [lo, hi]."},
+    {"quartic_roots", (PyCFunction)(void (*)(void))py_quartic_roots, METH_VARARGS | METH_KEYWORDS,
+     "quartic_roots(coef, n_threads=0) -> (n, 4) complex: the roots of the quartics coef (n, 5), highest power "
+     "first (Aberth-Ehrlich iteration)."},
     {"axial_segment_sum", (PyCFunction)(void (*)(void))py_axial_segment_sum, METH_VARARGS | METH_KEYWORDS,
      "axial_segment_sum(kernel, bottoms, column, first, segment, lo, hi, panels, starts, vectors, values, "
      "n_threads=0): (n_columns, 9)."},

@@ -288,6 +288,50 @@ cg_status cg_ring_segment_gradient_sum(const cg_kernel *kernel, double r, double
                                        const double *tensors, double weight, double *out, int n_threads);
 
 /*
+ * cg_ring_segment_columns: cg_ring_segment_sum (gradient == 0, width 9) or
+ * cg_ring_segment_gradient_sum (gradient != 0, width 27) for n_columns rings at
+ * once: column c is the ring (r, z) = (rings[3 c], rings[3 c + 1]) with the
+ * weight rings[3 c + 2] and the pieces first[c] .. first[c + 1] - 1 (first[0]
+ * = 0, nondecreasing; n_columns + 1 entries); out[width c + k] += its sum,
+ * which has the bits of cg_ring_segment_sum's over the same pieces (the same
+ * blocks, added in order). Columns are independent (thread-count free).
+ * CG_ERR_ARGUMENT for a bad ring, first or piece (as cg_ring_segment_sum),
+ * CG_ERR_UNSUPPORTED for the Heaviside kernel's gradient.
+ */
+cg_status cg_ring_segment_columns(const cg_kernel *kernel, cg_index n_columns, const double *rings,
+                                  const cg_index *first, const cg_index *segment, const double *lo, const double *hi,
+                                  const cg_index *panels, cg_index n_segments, const double *geometry,
+                                  const double *tensors, int gradient, double *out, int n_threads);
+
+/*
+ * cg_ring_axial_point_sum: out[9] += sum over the n point sources j (in-plane
+ * xy[2 j], xy[2 j + 1] and axial zeta[j] in the ring frame e_1, e_2, e_z
+ * relative to the axis point) of weights[j] times the theta-average over the
+ * ring of radius r, averaged over z in [lo, hi] (lo < hi), of tensors[9 j ..]
+ * (ring frame) W, in the local basis (e_r, e_theta, e_z): the exact axial
+ * average of the ring moments (cut where they stop being analytic in z, graded
+ * towards branch points just off the cuts, 24-point Gauss-Legendre through the
+ * end-clustered map per piece; cgbound/cylindrical_ring.py's axial_rule).
+ * Sources in blocks summed in order (thread-count free). CG_ERR_ARGUMENT for
+ * a bad kernel, r < 0 or a non-finite or empty [lo, hi].
+ */
+cg_status cg_ring_axial_point_sum(const cg_kernel *kernel, double r, double lo, double hi, cg_index n,
+                                  const double *xy, const double *zeta, const double *tensors, const double *weights,
+                                  double *out, int n_threads);
+
+/*
+ * cg_quartic_roots (cg_quartic.c): the four complex roots of each of n quartics
+ * coef[5 i] x^4 + coef[5 i + 1] x^3 + ... + coef[5 i + 4] (highest power
+ * first, a nonzero leading coefficient, finite), written as roots[8 i + 2 k]
+ * (real part) and roots[8 i + 2 k + 1] (imaginary part), k = 0..3, in no
+ * particular order: Aberth-Ehrlich iteration on the monic quartic, to the
+ * last bit at simple roots (a double root comes as a close pair). Rows are
+ * independent (thread-count free). CG_ERR_ARGUMENT for a zero leading or a
+ * non-finite coefficient.
+ */
+cg_status cg_quartic_roots(cg_index n, const double *coef, double *roots, int n_threads);
+
+/*
  * Columns of theta-resolved, z-averaged cylindrical grids (cg_axial.c): for
  * each column c, out[9 c + k] += sum over its pieces q = first[c] ..
  * first[c + 1] - 1 of values[9 segment[q] + k] int_lo^hi I_c(starts + s

@@ -281,6 +281,51 @@ static void ring_gradient_add(const double *T, double p1, double p2, double h, d
     }
 }
 
+/* acc[width] += the pieces begin .. end - 1 of cg_ring_segment_sum (gradient == 0) or
+   cg_ring_segment_gradient_sum, at the ring (r, z), in order */
+static void ring_piece_block(const cg_kernel *kernel, const ring_rule *rule, double r, double z, cg_index begin,
+                             cg_index end, const cg_index *segment, const double *lo, const double *hi,
+                             const cg_index *panels, const double *geometry, const double *tensors, double weight,
+                             int gradient, double *acc)
+{
+    /* Gauss-Legendre in u on each panel, s = lo + (hi - lo) sin^2(pi u / 2), ds/du = (hi - lo) (pi/2) sin(pi u) */
+    for (cg_index q = begin; q < end; ++q) {
+        const double *g = geometry + 6 * segment[q];
+        const double *T = tensors + 9 * segment[q];
+        const double a = lo[q], span = hi[q] - lo[q];
+        const cg_index P = panels[q];
+        const double h0 = z - g[2];
+        for (cg_index jp = 0; jp < P; ++jp)
+            for (int i = 0; i < RING_POINTS; ++i) {
+                const double u = ((double)jp + rule->x[i]) / (double)P;
+                const double sh = sin(0.5 * M_PI * u);
+                const double s = a + span * sh * sh;
+                const double wt = span * rule->w[i] * 0.5 * M_PI * sin(M_PI * u) / (double)P * weight;
+                const double p1 = g[0] + s * g[3], p2 = g[1] + s * g[4];
+                const double rho = hypot(p1, p2);
+                double M[4];
+                ring_moments_one(kernel, rule, r, h0 - s * g[5], rho, gradient, M);
+                if (gradient) {
+                    ring_gradient_add(T, p1, p2, h0 - s * g[5], r, M, wt, acc);
+                } else {
+                    const double cphi = rho > 0.0 ? p1 / rho : 1.0, sphi = rho > 0.0 ? p2 / rho : 0.0;
+                    ring_rotate_add(T, cphi, sphi, M[0], M[1], M[2], wt, acc);
+                }
+            }
+    }
+}
+
+/* the pieces' checks of the segment sums: rows of geometry, 0 <= lo <= hi <= 1, 1 <= panels <= 2^20 */
+static int ring_pieces_ok(cg_index n_pieces, const cg_index *segment, const double *lo, const double *hi,
+                          const cg_index *panels, cg_index n_segments)
+{
+    for (cg_index i = 0; i < n_pieces; ++i)
+        if (segment[i] < 0 || segment[i] >= n_segments || panels[i] < 1 || panels[i] > 1 << 20 ||
+            !(lo[i] >= 0.0 && lo[i] <= hi[i] && hi[i] <= 1.0))
+            return 0;
+    return 1;
+}
+
 /* the pieces of cg_ring_segment_sum (width 9) and cg_ring_segment_gradient_sum (width 27, gradient != 0): the same
    s-points, blocks of pieces summed in order */
 static cg_status ring_segment_pieces(const cg_kernel *kernel, double r, double z, cg_index n_pieces,
@@ -292,14 +337,10 @@ static cg_status ring_segment_pieces(const cg_kernel *kernel, double r, double z
         n_pieces < 0 || n_segments < 0)
         return CG_ERR_ARGUMENT;
     if (gradient && kernel->type == CG_KERNEL_HEAVISIDE) return CG_ERR_UNSUPPORTED;
-    for (cg_index i = 0; i < n_pieces; ++i)
-        if (segment[i] < 0 || segment[i] >= n_segments || panels[i] < 1 || panels[i] > 1 << 20 ||
-            !(lo[i] >= 0.0 && lo[i] <= hi[i] && hi[i] <= 1.0))
-            return CG_ERR_ARGUMENT;
+    if (!ring_pieces_ok(n_pieces, segment, lo, hi, panels, n_segments)) return CG_ERR_ARGUMENT;
     const int width = gradient ? 27 : 9;
     ring_rule rule;
     cg_gauss_legendre01(RING_POINTS, rule.x, rule.w);
-    /* Gauss-Legendre in u on each panel, s = lo + (hi - lo) sin^2(pi u / 2), ds/du = (hi - lo) (pi/2) sin(pi u) */
     const cg_index n_blocks = (n_pieces + RING_PIECE_BLOCK - 1) / RING_PIECE_BLOCK;
     double local[64 * 27];
     double *blocks = local;
@@ -315,30 +356,8 @@ static cg_status ring_segment_pieces(const cg_kernel *kernel, double r, double z
     for (cg_index blk = 0; blk < n_blocks; ++blk) {
         double acc[27] = {0.0};
         const cg_index end = (blk + 1) * RING_PIECE_BLOCK < n_pieces ? (blk + 1) * RING_PIECE_BLOCK : n_pieces;
-        for (cg_index q = blk * RING_PIECE_BLOCK; q < end; ++q) {
-            const double *g = geometry + 6 * segment[q];
-            const double *T = tensors + 9 * segment[q];
-            const double a = lo[q], span = hi[q] - lo[q];
-            const cg_index P = panels[q];
-            const double h0 = z - g[2];
-            for (cg_index jp = 0; jp < P; ++jp)
-                for (int i = 0; i < RING_POINTS; ++i) {
-                    const double u = ((double)jp + rule.x[i]) / (double)P;
-                    const double sh = sin(0.5 * M_PI * u);
-                    const double s = a + span * sh * sh;
-                    const double wt = span * rule.w[i] * 0.5 * M_PI * sin(M_PI * u) / (double)P * weight;
-                    const double p1 = g[0] + s * g[3], p2 = g[1] + s * g[4];
-                    const double rho = hypot(p1, p2);
-                    double M[4];
-                    ring_moments_one(kernel, &rule, r, h0 - s * g[5], rho, gradient, M);
-                    if (gradient) {
-                        ring_gradient_add(T, p1, p2, h0 - s * g[5], r, M, wt, acc);
-                    } else {
-                        const double cphi = rho > 0.0 ? p1 / rho : 1.0, sphi = rho > 0.0 ? p2 / rho : 0.0;
-                        ring_rotate_add(T, cphi, sphi, M[0], M[1], M[2], wt, acc);
-                    }
-                }
-        }
+        ring_piece_block(kernel, &rule, r, z, blk * RING_PIECE_BLOCK, end, segment, lo, hi, panels, geometry, tensors,
+                         weight, gradient, acc);
         for (int c = 0; c < width; ++c) blocks[width * blk + c] = acc[c];
     }
     for (cg_index blk = 0; blk < n_blocks; ++blk)
@@ -363,4 +382,165 @@ cg_status cg_ring_segment_gradient_sum(const cg_kernel *kernel, double r, double
 {
     return ring_segment_pieces(kernel, r, z, n_pieces, segment, lo, hi, panels, n_segments, geometry, tensors, weight,
                                1, out, n_threads);
+}
+
+cg_status cg_ring_segment_columns(const cg_kernel *kernel, cg_index n_columns, const double *rings,
+                                  const cg_index *first, const cg_index *segment, const double *lo, const double *hi,
+                                  const cg_index *panels, cg_index n_segments, const double *geometry,
+                                  const double *tensors, int gradient, double *out, int n_threads)
+{
+    if (!ring_kernel_ok(kernel) || n_columns < 0 || n_segments < 0 || !first || first[0] != 0)
+        return CG_ERR_ARGUMENT;
+    if (gradient && kernel->type == CG_KERNEL_HEAVISIDE) return CG_ERR_UNSUPPORTED;
+    for (cg_index c = 0; c < n_columns; ++c) {
+        const double *ring = rings + 3 * c;
+        if (first[c + 1] < first[c] || !(ring[0] >= 0.0) || !isfinite(ring[0]) || !isfinite(ring[1]) ||
+            !isfinite(ring[2]))
+            return CG_ERR_ARGUMENT;
+    }
+    if (!ring_pieces_ok(first[n_columns], segment, lo, hi, panels, n_segments)) return CG_ERR_ARGUMENT;
+    const int width = gradient ? 27 : 9;
+    ring_rule rule;
+    cg_gauss_legendre01(RING_POINTS, rule.x, rule.w);
+    const int threads = ring_threads(n_threads, first[n_columns] * RING_POINTS);
+    (void)threads;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+#endif
+    for (cg_index c = 0; c < n_columns; ++c) {
+        /* the blocks of cg_ring_segment_sum from the column's first piece, added in order: the same bits */
+        double *dst = out + (size_t)width * c;
+        for (cg_index begin = first[c]; begin < first[c + 1]; begin += RING_PIECE_BLOCK) {
+            double acc[27] = {0.0};
+            const cg_index end = begin + RING_PIECE_BLOCK < first[c + 1] ? begin + RING_PIECE_BLOCK : first[c + 1];
+            ring_piece_block(kernel, &rule, rings[3 * c], rings[3 * c + 1], begin, end, segment, lo, hi, panels,
+                             geometry, tensors, rings[3 * c + 2], gradient, acc);
+            for (int k = 0; k < width; ++k) dst[k] += acc[k];
+        }
+    }
+    return CG_OK;
+}
+
+/* ---- z-averaged rings: the exact axial average of point sources (cylindrical_ring.axial_rule) ----
+ * Per source (rho, zeta) seen from rings of radius r the ring moments are analytic in h = z - zeta between
+ * the cuts h = +-{0, H, w} (H = sqrt(R^2 - (r - rho)^2) the support's edge, w = sqrt(R^2 - (r + rho)^2) where
+ * the whole ring enters it) and cuts graded by 1/4 towards branch points just off them; each piece [a, b] gets
+ * AXIAL_RULE_POINTS-point Gauss-Legendre in u through x = (3u - u^3)/2 (square-root ends made analytic), the
+ * Gaussian's in panels of at most AXIAL_WIDTHS_PER_PANEL widths, and a box end inside a piece clips it in u. */
+#define AXIAL_RULE_POINTS 24
+#define AXIAL_GRADING 0.25
+#define AXIAL_GRADING_LEVELS 26
+#define AXIAL_WIDTHS_PER_PANEL 5.0
+#define AXIAL_CUTS (3 + 2 * AXIAL_GRADING_LEVELS)
+/* sources per block of cg_ring_axial_point_sum: blocks are summed in order (thread-count free) */
+#define AXIAL_SOURCE_BLOCK 64
+
+/* the u in [-1, 1] with (3u - u^3)/2 = x */
+static double end_clustered_inverse(double x)
+{
+    x = x < -1.0 ? -1.0 : (x > 1.0 ? 1.0 : x);
+    return 2.0 * cos((acos(-x) + 4.0 * M_PI) / 3.0);
+}
+
+static int double_less(const void *a, const void *b)
+{
+    const double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : (x > y ? 1 : 0);
+}
+
+/* M[3] = the average over z in [lo, hi] of the ring moments M_0..M_2 of a source at (rho, zeta) seen from
+   rings of radius r (axial_rule's pieces and points) */
+static void ring_axial_moments(const cg_kernel *k, const ring_rule *ring, const double *gx, const double *gw,
+                               int panels, double r, double rho, double zeta, double lo, double hi, double *M)
+{
+    const double c = k->radius;
+    const double H = sqrt(fmax(c * c - (r - rho) * (r - rho), 0.0));
+    const double whole = sqrt(fmax(c * c - (r + rho) * (r + rho), 0.0));
+    const double missed = sqrt(fmax((r + rho) * (r + rho) - c * c, 0.0));
+    double near_zero = whole > 0.0 ? INFINITY : missed; /* the branch points next to h = 0 */
+    if (k->type == CG_KERNEL_LUCY) near_zero = fmin(near_zero, fabs(r - rho));
+    const double inner = whole > 0.0 ? whole : H;      /* the piece that ends at h = 0 */
+    const double span = H - whole;
+    const int to_zero = near_zero < AXIAL_GRADING * inner;
+    const int to_whole = whole > 0.0 && 2.0 * whole < AXIAL_GRADING * span;
+    double cuts[AXIAL_CUTS], edges[2 * AXIAL_CUTS];
+    int n = 0;
+    cuts[n++] = 0.0;
+    cuts[n++] = H;
+    cuts[n++] = whole;
+    double grade = 1.0;
+    for (int l = 0; l < AXIAL_GRADING_LEVELS; ++l) {
+        grade *= AXIAL_GRADING;
+        cuts[n++] = to_zero ? fmax(inner * grade, near_zero) : 0.0;
+        cuts[n++] = to_whole ? whole + fmax(span * grade, 2.0 * whole) : H;
+    }
+    for (int i = 0; i < n; ++i) {
+        edges[2 * i] = zeta - cuts[i];
+        edges[2 * i + 1] = zeta + cuts[i];
+    }
+    qsort(edges, (size_t)(2 * n), sizeof(double), double_less);
+    M[0] = M[1] = M[2] = 0.0;
+    for (int e = 0; e + 1 < 2 * n; ++e) {
+        const double a = edges[e], b = edges[e + 1];
+        if (!(b > a && b > lo && a < hi)) continue; /* repeated cuts, pieces outside [lo, hi] */
+        const double u_lo = a >= lo ? -1.0 : end_clustered_inverse(2.0 * (lo - a) / (b - a) - 1.0);
+        const double u_hi = b <= hi ? 1.0 : end_clustered_inverse(2.0 * (hi - a) / (b - a) - 1.0);
+        const double scale = 0.25 * (b - a) * (u_hi - u_lo) / (hi - lo);
+        for (int p = 0; p < panels; ++p)
+            for (int i = 0; i < AXIAL_RULE_POINTS; ++i) {
+                const double g = ((double)p + gx[i]) / panels;
+                const double u = u_lo + (u_hi - u_lo) * g;
+                const double x = 0.5 * (3.0 * u - u * u * u), dx = 1.5 * (1.0 - u * u);
+                const double z = a + (b - a) * 0.5 * (x + 1.0);
+                const double wt = scale * dx * (2.0 * gw[i] / panels);
+                double m[4];
+                ring_moments_one(k, ring, r, z - zeta, rho, 0, m);
+                M[0] += wt * m[0];
+                M[1] += wt * m[1];
+                M[2] += wt * m[2];
+            }
+    }
+}
+
+cg_status cg_ring_axial_point_sum(const cg_kernel *kernel, double r, double lo, double hi, cg_index n,
+                                  const double *xy, const double *zeta, const double *tensors, const double *weights,
+                                  double *out, int n_threads)
+{
+    if (!ring_kernel_ok(kernel) || !(r >= 0.0) || !isfinite(r) || !isfinite(lo) || !isfinite(hi) || !(lo < hi) ||
+        n < 0)
+        return CG_ERR_ARGUMENT;
+    ring_rule rule;
+    cg_gauss_legendre01(RING_POINTS, rule.x, rule.w);
+    double gx[AXIAL_RULE_POINTS], gw[AXIAL_RULE_POINTS];
+    cg_gauss_legendre01(AXIAL_RULE_POINTS, gx, gw);
+    int panels = 1;
+    if (kernel->type == CG_KERNEL_GAUSSIAN) {
+        const double need = ceil(kernel->radius / (AXIAL_WIDTHS_PER_PANEL * kernel->width) - 1e-9);
+        panels = need > 1.0 ? (need < 1 << 16 ? (int)need : 1 << 16) : 1;
+    }
+    const cg_index n_blocks = (n + AXIAL_SOURCE_BLOCK - 1) / AXIAL_SOURCE_BLOCK;
+    double *blocks = (double *)malloc((size_t)(n_blocks > 0 ? n_blocks : 1) * 9 * sizeof(double));
+    if (!blocks) return CG_ERR_NOMEM;
+    const int threads = ring_threads(n_threads, n * 8);
+    (void)threads;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+#endif
+    for (cg_index blk = 0; blk < n_blocks; ++blk) {
+        double acc[9] = {0.0};
+        const cg_index end = (blk + 1) * AXIAL_SOURCE_BLOCK < n ? (blk + 1) * AXIAL_SOURCE_BLOCK : n;
+        for (cg_index j = blk * AXIAL_SOURCE_BLOCK; j < end; ++j) {
+            const double p1 = xy[2 * j], p2 = xy[2 * j + 1];
+            const double rho = hypot(p1, p2);
+            double M[3];
+            ring_axial_moments(kernel, &rule, gx, gw, panels, r, rho, zeta[j], lo, hi, M);
+            const double cphi = rho > 0.0 ? p1 / rho : 1.0, sphi = rho > 0.0 ? p2 / rho : 0.0;
+            ring_rotate_add(tensors + 9 * j, cphi, sphi, M[0], M[1], M[2], weights[j], acc);
+        }
+        for (int c = 0; c < 9; ++c) blocks[9 * blk + c] = acc[c];
+    }
+    for (cg_index blk = 0; blk < n_blocks; ++blk)
+        for (int c = 0; c < 9; ++c) out[c] += blocks[9 * blk + c];
+    free(blocks);
+    return CG_OK;
 }

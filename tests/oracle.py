@@ -1128,3 +1128,127 @@ def oracle_lines_in_turn(i, jraw, force, point, lines, tol_force, tol_point):
 def _squared_norms(vectors):
     """x . x of each row, summed as np.linalg.norm sums them."""
     return np.add.reduce(vectors * vectors, axis=1)
+
+
+def oracle_ring_segment_columns(kernel, rings, first, segment, lo, hi, panels, geometry, tensors, gradient=False):
+    """Twin of cg_ring_segment_columns: per ring (r, z, weight) of ``rings``, oracle_ring_segment_sum over its pieces
+    first[c]:first[c + 1]; (C, 9), with ``gradient`` (C, 27)."""
+    rings, first = np.asarray(rings, float), np.asarray(first)
+    out = np.zeros((len(rings), 27 if gradient else 9))
+    for c, (r, z, weight) in enumerate(rings):
+        part = slice(int(first[c]), int(first[c + 1]))
+        if first[c + 1] > first[c]:
+            out[c] = oracle_ring_segment_sum(kernel, r, z, segment[part], lo[part], hi[part], panels[part], geometry,
+                                             tensors, weight, gradient=gradient).ravel()
+    return out
+
+
+def oracle_ring_axial_point_sum(kernel, r, lo, hi, xy, zeta, tensors, weights):
+    """Twin of cg_ring_axial_point_sum, source by source: z cut at ζ ± (0, H, w) (the support's edge
+    H = √(c² - (r - ρ)²), the whole ring's w = √(c² - (r + ρ)²)) and graded by 1/4 (26 levels) towards branch points
+    just off the cuts (±i √((r + ρ)² - c²) when the ring just misses holding the support, Lucy's ±i ``|r - ρ|``, the
+    mirror -w); per piece 24-point Gauss-Legendre in u through x = (3u - u³)/2, the Gaussian's in panels of at
+    most 5 widths, a box end inside a piece clipped in u (the root of the cubic by numpy.roots); the moments by
+    oracle_ring_moments; the θ-average of B T Bᵀ from M₀, M₁, M₂ written out per component. (3, 3)."""
+    c = float(kernel.radius)
+    G, GW = np.polynomial.legendre.leggauss(24)
+    panels = 1
+    if kernel.kind == 0:
+        panels = max(1, math.ceil(c / (5.0 * float(kernel.width)) - 1e-9))
+    grades = 0.25 ** np.arange(1, 27)
+    out = np.zeros((3, 3))
+    tensors = np.asarray(tensors, float).reshape(-1, 3, 3)
+
+    def inverse(x):                                 # the u in [-1, 1] with (3u - u³)/2 = x
+        roots = np.roots([-0.5, 0.0, 1.5, -x])
+        roots = roots[np.abs(roots.imag) < 1e-9].real
+        return float(roots[np.argmin(np.abs(np.clip(roots, -1, 1) - roots))])
+
+    for j in range(len(zeta)):
+        rho = math.hypot(xy[j][0], xy[j][1])
+        H = math.sqrt(max(c * c - (r - rho) ** 2, 0.0))
+        whole = math.sqrt(max(c * c - (r + rho) ** 2, 0.0))
+        near = math.inf if whole > 0 else math.sqrt(max((r + rho) ** 2 - c * c, 0.0))
+        if kernel.kind == 1:
+            near = min(near, abs(r - rho))
+        cuts = [0.0, H, whole]
+        inner = whole if whole > 0 else H
+        if near < 0.25 * inner:
+            cuts += [max(inner * g, near) for g in grades]
+        if whole > 0 and 2 * whole < 0.25 * (H - whole):
+            cuts += [whole + max((H - whole) * g, 2 * whole) for g in grades]
+        edges = sorted(set([zeta[j] - x for x in cuts] + [zeta[j] + x for x in cuts]))
+        hs, ws = [], []
+        for a, b in zip(edges[:-1], edges[1:]):
+            if not (b > lo and a < hi):
+                continue
+            u_lo = -1.0 if a >= lo else inverse(2 * (lo - a) / (b - a) - 1)
+            u_hi = 1.0 if b <= hi else inverse(2 * (hi - a) / (b - a) - 1)
+            for p in range(panels):
+                u = u_lo + (u_hi - u_lo) * (p + 0.5 * (G + 1)) / panels
+                x, dx = 0.5 * (3 * u - u ** 3), 1.5 * (1 - u * u)
+                hs.append(a + (b - a) * 0.5 * (x + 1) - zeta[j])
+                ws.append(0.25 * (b - a) * (u_hi - u_lo) * dx * GW / panels / (hi - lo))
+        if not hs:
+            continue
+        h, w = np.concatenate(hs), np.concatenate(ws)
+        M0, M1, M2 = (oracle_ring_moments(kernel, r, h, np.full(h.size, rho)) * w).sum(axis=1)
+        cphi, sphi = (xy[j][0] / rho, xy[j][1] / rho) if rho > 0 else (1.0, 0.0)
+        B = np.array([[cphi, sphi, 0.0], [-sphi, cphi, 0.0], [0.0, 0.0, 1.0]])
+        T = B @ tensors[j] @ B.T * weights[j]            # in the source's own basis at θ = φ
+        cc, ss = 0.5 * (M0 + M2), 0.5 * (M0 - M2)         # E[cos² t], E[sin² t]; E[cos t] = M₁
+        out += np.array([[cc * T[0, 0] + ss * T[1, 1], cc * T[0, 1] - ss * T[1, 0], M1 * T[0, 2]],
+                         [cc * T[1, 0] - ss * T[0, 1], ss * T[0, 0] + cc * T[1, 1], M1 * T[1, 2]],
+                         [M1 * T[2, 0], M1 * T[2, 1], M0 * T[2, 2]]])
+    return out
+
+
+_QUARTIC_COS = (0.92106099400288510, -0.38941834230865050, -0.92106099400288510, 0.38941834230865050)
+_QUARTIC_SIN = (0.38941834230865050, 0.92106099400288510, -0.38941834230865050, -0.92106099400288510)
+
+
+def oracle_quartic_roots(coef):
+    """Twin of cg_quartic_roots, row by row in Python floats (the same operations in the same order, so the same
+    bits): Aberth-Ehrlich sweeps on the monic quartic from four points on the Fujiwara circle at angles
+    π k / 2 + 0.4, each root updated in turn, until every step is at most 2⁻⁵² of its root (at most 200 sweeps).
+    (n, 4) complex."""
+    coef = np.asarray(coef, float)
+    out = np.zeros((len(coef), 4), complex)
+    tol = 2.220446049250313e-16
+    for i, a in enumerate(coef):
+        b = [float(a[1]) / float(a[0]), float(a[2]) / float(a[0]), float(a[3]) / float(a[0]), float(a[4]) / float(a[0])]
+        R = max(abs(b[0]), math.sqrt(abs(b[1])), math.cbrt(abs(b[2])), math.sqrt(math.sqrt(abs(b[3]) * 0.5)))
+        R = 2.0 * R if R > 0.0 else 1.0
+        re = [R * cc for cc in _QUARTIC_COS]
+        im = [R * ss for ss in _QUARTIC_SIN]
+        for _ in range(200):
+            done = True
+            for k in range(4):
+                x, y = re[k], im[k]
+                pr, pi, dr, di = 1.0, 0.0, 0.0, 0.0
+                for j in range(4):
+                    dr, di = dr * x - di * y + pr, dr * y + di * x + pi
+                    pr, pi = pr * x - pi * y + b[j], pr * y + pi * x
+                if pr == 0.0 and pi == 0.0:
+                    continue
+                dd = dr * dr + di * di
+                nr, ni = ((pr * dr + pi * di) / dd, (pi * dr - pr * di) / dd) if dd > 0.0 else (pr, pi)
+                sr = si = 0.0
+                for j in range(4):
+                    if j == k:
+                        continue
+                    ur, ui = x - re[j], y - im[j]
+                    uu = ur * ur + ui * ui
+                    if uu > 0.0:
+                        sr += ur / uu
+                        si -= ui / uu
+                qr, qi = 1.0 - (nr * sr - ni * si), -(nr * si + ni * sr)
+                qq = qr * qr + qi * qi
+                wr, wi = ((nr * qr + ni * qi) / qq, (ni * qr - nr * qi) / qq) if qq > 0.0 else (nr, ni)
+                re[k], im[k] = x - wr, y - wi
+                if wr * wr + wi * wi > tol * tol * (re[k] * re[k] + im[k] * im[k]):
+                    done = False
+            if done:
+                break
+        out[i] = np.array(re) + 1j * np.array(im)
+    return out
