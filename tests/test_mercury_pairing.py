@@ -1,6 +1,8 @@
-"""The in-turn fast path of MercuryReader's .fstat pairing (readers.mercury.lines_in_turn) against the
-general pairing by a sort as it was before (oracle_one_listing_per_pair): the same kept lines whenever the
-fast path answers, and no answer (so the general path reports the error) whenever the oracle finds one."""
+"""The slow twin of the .fstat pairing agrees with itself: its in-turn fast path (oracle_lines_in_turn)
+against its general pairing by a sort (oracle_one_listing_per_pair), the same kept lines whenever the fast
+path answers and no answer whenever the general path finds an error. The twin is the reference of the C pass
+(cg_fstat_contacts, tests/test_mercury_fstat_core.py, which runs both of its own paths against it: lines
+in turn, shuffled and reversed), so a twin whose two paths disagreed would make that comparison worthless."""
 import numpy as np
 import pytest
 

@@ -99,6 +99,8 @@ def lines_in_turn_by_norms(i, jraw, force, point, lines, tol_force, tol_point):
 
 @pytest.mark.parametrize("seed", range(40))
 def test_lines_in_turn_tolerances_match_the_norms(seed):
+    """The twin's in-turn tolerance test (one square root per pair) against the norms it replaced; the C pass
+    is held to the twin in tests/test_mercury_fstat_core.py."""
     from oracle import oracle_lines_in_turn as lines_in_turn
     rng = np.random.default_rng(seed)
     m = int(rng.integers(1, 60))
