@@ -1,5 +1,8 @@
 import os
+import signal
 import sys
+
+import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 
@@ -29,13 +32,24 @@ PYTHON_BOUND = {
 }
 
 
+@pytest.fixture
+def python_sigint_handler():
+    """Python's own SIGINT handler for the test. A process started with SIGINT ignored (a background job of a
+    non-interactive shell, as some CI runners start their steps) inherits SIG_IGN, and Python then leaves it
+    alone: Ctrl-C tests would see no KeyboardInterrupt for a reason that is not ours."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def pytest_configure(config):
     config.addinivalue_line("markers", "python_bound: the time is Python-side work (oracles, engines, "
                                        "plots); tools/sanitize.sh deselects these")
 
 
 def pytest_collection_modifyitems(config, items):
-    import pytest
     for item in items:
         names = PYTHON_BOUND.get(item.path.name, ())
         if names is None or item.originalname in names:

@@ -16,8 +16,9 @@ import pytest
 
 import cgbound as cg
 
-pytestmark = pytest.mark.skipif(sys.platform == "win32" or threading.current_thread() is not threading.main_thread(),
-                                reason="needs POSIX signals delivered to the main thread")
+pytestmark = [pytest.mark.skipif(sys.platform == "win32" or threading.current_thread() is not threading.main_thread(),
+                                 reason="needs POSIX signals delivered to the main thread"),
+              pytest.mark.usefixtures("python_sigint_handler")]
 
 
 def long_job():

@@ -129,6 +129,7 @@ class CtrlCReader(LammpsReader):
 
 @pytest.mark.skipif(sys.platform == "win32" or threading.current_thread() is not threading.main_thread(),
                     reason="needs POSIX signals delivered to the main thread")
+@pytest.mark.usefixtures("python_sigint_handler")
 def test_ctrl_c_during_a_run_over_a_reader_is_honoured_and_stops_the_thread():
     frames = CtrlCReader(os.path.join(DATA, "run_atoms.dump"))
     with pytest.raises(KeyboardInterrupt):
