@@ -7,6 +7,7 @@ ParticleSpecies::write (.restart keys); see cgbound/readers/mercury.py.
 """
 import math
 import pickle
+import warnings
 
 import numpy as np
 import pytest
@@ -175,15 +176,17 @@ def test_2d(tmp_path):
 
 
 def test_density_options(files3):
-    r = MercuryReader(files3["a.data"], files3["a.fstat"], density={0: 3.0}, fixed=np.array([False, False, True]))
+    # without the .restart beside them (restart_path=False): densities from density= alone
+    r = MercuryReader(files3["a.data"], files3["a.fstat"], restart_path=False, density={0: 3.0},
+                      fixed=np.array([False, False, True]))
     np.testing.assert_allclose(r[1].masses[:2], 3.0 * 4 / 3 * math.pi * 0.125)
-    r = MercuryReader(files3["a.data"], files3["a.fstat"], density={0: 3.0, 1: 5.0},
+    r = MercuryReader(files3["a.data"], files3["a.fstat"], restart_path=False, density={0: 3.0, 1: 5.0},
                       fixed=lambda radius, species: species == 1)
     np.testing.assert_array_equal(r[1].fixed, [False, False, True])
     with pytest.raises(ValueError, match="density"):
-        MercuryReader(files3["a.data"], files3["a.fstat"])[1]
+        MercuryReader(files3["a.data"], files3["a.fstat"], restart_path=False)[1]
     with pytest.raises(ValueError, match="no density for species"):
-        MercuryReader(files3["a.data"], files3["a.fstat"], density={1: 2.0})[1]
+        MercuryReader(files3["a.data"], files3["a.fstat"], restart_path=False, density={1: 2.0})[1]
 
 
 def test_len_slicing_pickle(reader3):
@@ -291,3 +294,36 @@ def test_coarse_grain_runs(reader3):
     rho = np.asarray(out["density"])
     assert np.all(np.isfinite(rho)) and rho.max() > 0
     assert np.all(np.isfinite(np.asarray(out["stress"])))
+
+
+def test_companion_files_not_given_are_named_in_a_warning(files3):
+    """Reading name.data alone while name.fstat and name.restart lie beside it drops every contact and every
+    fixed particle: allowed (fstat_path=False, restart_path=False), but never silently."""
+    with pytest.warns(cg.readers.CompanionFileWarning) as record:
+        alone = MercuryReader(files3["a.data"], density=1.0)
+    messages = [str(w.message) for w in record]
+    assert len(messages) == 2
+    assert any(files3["a.fstat"] in m and "fstat_path=False" in m and "no contacts" in m for m in messages)
+    assert any(files3["a.restart"] in m and "restart_path=False" in m and "no particle is fixed" in m
+               and "no axis is periodic" in m for m in messages)
+    assert alone[1].contacts is None or len(alone[1].contacts) == 0
+    assert not alone[1].fixed.any()
+    # what the warning says is lost is there when the files are given
+    full = MercuryReader(files3["a.data"], files3["a.fstat"], restart_path=files3["a.restart"])
+    assert len(full[1].contacts) > 0 and full[1].fixed.any()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        MercuryReader(files3["a.data"], False, restart_path=False, density=1.0)[1]
+        MercuryReader(files3["a.data"], files3["a.fstat"], restart_path=files3["a.restart"])[1]
+        # fixed= and periodic= given: the restart would add only densities, which density= gives
+        MercuryReader(files3["a.data"], files3["a.fstat"], density=1.0, fixed=[2], periodic=False)[1]
+    with pytest.warns(cg.readers.CompanionFileWarning, match="no axis is periodic") as record:
+        MercuryReader(files3["a.data"], files3["a.fstat"], density=1.0, fixed=[2])
+    assert "no particle is fixed" not in str(record[0].message)
+
+
+def test_no_warning_without_companion_files(tmp_path):
+    f = write(tmp_path, **{"b.data": DATA3})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(MercuryReader(f["b.data"], density=1.0)) == 2

@@ -262,21 +262,12 @@ def check_flags_apply(args, fmt):
             raise UsageError(flag, f"applies to {', '.join(formats)} input, not to {fmt} input")
 
 
-def companion(path, old, new):
-    """``name.fstat`` for ``name.data`` (``name.fstat.3`` for ``name.data.3``), if it exists."""
-    base = os.path.basename(path)
-    head, sep, tail = base.rpartition(old)
-    if not sep:
-        return None
-    candidate = os.path.join(os.path.dirname(path), head + new + tail)
-    return candidate if os.path.isfile(candidate) else None
-
-
 def contact_files(args, paths, fmt):
     """The contact files: --pairs (a file or a pattern), or for MercuryDPM the .fstat next to each .data."""
     if args.pairs is not None:
         return args.pairs
     if fmt == "mercury":
+        from ..readers.files import companion
         found = [companion(p, ".data", ".fstat") for p in paths]
         if all(found):
             print(f"cgbound: contacts from {', '.join(os.path.basename(f) for f in found[:3])}"
@@ -350,6 +341,7 @@ def open_data(args):
     if contacts is not None:
         options["fstat_path" if fmt == "mercury" else "pairs"] = contacts
     if fmt == "mercury":
+        from ..readers.files import companion
         restart = args.restart or companion(paths[0], ".data", ".restart")
         if restart and args.restart is None:
             print(f"cgbound: fixed particles, densities and periodic axes from {os.path.basename(restart)}",

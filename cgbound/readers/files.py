@@ -50,6 +50,20 @@ def natural_key(path):
     return [int(part) if part.isdigit() else part for part in _NUMBER.split(os.path.basename(str(path)))]
 
 
+class CompanionFileWarning(UserWarning):
+    """A file the reader would use lies beside its input but was not given (and was not declined)."""
+
+
+def companion(path, old, new):
+    """``name.fstat`` for ``name.data`` (``name.fstat.3`` for ``name.data.3``), if that file exists."""
+    base = os.path.basename(path)
+    head, sep, tail = base.rpartition(old)
+    if not sep:
+        return None
+    candidate = os.path.join(os.path.dirname(path), head + new + tail)
+    return candidate if os.path.isfile(candidate) else None
+
+
 def has_pattern(path):
     return any(c in str(path) for c in "*?[")
 

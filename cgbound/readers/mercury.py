@@ -111,6 +111,7 @@ from dataclasses import dataclass
 import math
 import numbers
 import os
+import warnings
 
 import numpy as np
 
@@ -120,6 +121,7 @@ from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._mercury_files import LINE_TIME_RTOL, read_fstat_rows, read_particles, read_restart, scan_data, scan_fstat
 from ._mercury_write import write_mercury
+from .files import CompanionFileWarning, companion
 from ._sequence import FrameReader, file_name
 
 __all__ = ["MercuryReader", "MercuryFrame", "write_mercury"]
@@ -153,10 +155,14 @@ class MercuryReader(FrameReader):
     ----------
     data_path : path
         The ``.data`` file (XBalls format 14 in 3D, 8 in 2D).
-    fstat_path : path, optional
-        The ``.fstat`` file; without it frames have no contacts.
-    restart_path : path, optional
-        The ``.restart`` file: species densities, fixed particles, periodic axes.
+    fstat_path : path or False, optional
+        The ``.fstat`` file; without it frames have no contacts. When it is not given and
+        ``name.fstat`` lies beside ``name.data``, a :class:`CompanionFileWarning` says so
+        (``False``: read the particles alone, without the warning).
+    restart_path : path or False, optional
+        The ``.restart`` file: species densities, fixed particles, periodic axes. When it is not
+        given, ``name.restart`` lies beside ``name.data`` and ``fixed=`` or ``periodic=`` is not
+        given either, a :class:`CompanionFileWarning` says so (``False``: without the warning).
     fixed : indices, (N,) bools, or callable(radius, species) -> (N,) bools, optional
     body_force : (D,) body force per unit mass on flowing particles, cgbound axes
         (in 2D also the 3 MercuryDPM components, third 0).
@@ -179,8 +185,17 @@ class MercuryReader(FrameReader):
         if dim is not None and dim not in (2, 3):
             raise ValueError(f"dim: expected 2 or 3, got {dim!r}")
         self.data_path = os.path.abspath(os.fspath(data_path))
-        self.fstat_path = None if fstat_path is None else os.path.abspath(os.fspath(fstat_path))
-        self.restart_path = None if restart_path is None else os.path.abspath(os.fspath(restart_path))
+        if fstat_path is None:
+            self._warn_companion(".fstat", "fstat_path", "the frames have no contacts (no contact stress, no "
+                                 "interaction force density)")
+        if restart_path is None and (fixed is None or periodic is None):
+            lost = (["no particle is fixed (a base's particles count as flowing)"] if fixed is None else []) + (
+                ["no axis is periodic"] if periodic is None else [])
+            self._warn_companion(".restart", "restart_path", " and ".join(lost))
+        self.fstat_path = None if fstat_path is None or fstat_path is False else os.path.abspath(
+            os.fspath(fstat_path))
+        self.restart_path = None if restart_path is None or restart_path is False else os.path.abspath(
+            os.fspath(restart_path))
         data_frames = scan_data(self.data_path, dim)
         dims = {f[4] for f in data_frames}
         if len(dims) > 1:
@@ -204,6 +219,15 @@ class MercuryReader(FrameReader):
         self._cache = None
 
     # ------------------------------------------------------------------------------------------
+    def _warn_companion(self, suffix, keyword, consequence):
+        """Say so when ``name<suffix>`` lies beside ``name.data`` but ``keyword=`` was not given: reading
+        without it is allowed, but not silently."""
+        found = companion(self.data_path, ".data", suffix)
+        if found is not None:
+            warnings.warn(f"{found} lies beside {self.data_path} but {keyword}= was not given, so {consequence}; "
+                          f"pass {keyword}={found!r} to use it, or {keyword}=False to read without it",
+                          CompanionFileWarning, stacklevel=3)
+
     def _densities(self, density, restart):
         if density is None:
             dens = dict(restart["density"]) if restart else {}
