@@ -344,29 +344,19 @@ static inline const unsigned char *decide_double(uint64_t man, int64_t exp10, in
 }
 
 /*
- * The one-pass parse of a decimal from p, without first finding the token's
- * end: returns the end of the token (a separator, '\n' or the end of the
+ * The one-pass parse of a decimal, without first finding the token's end:
+ * each returns the end of the token (a separator, '\n' or the end of the
  * range follows) with *value set, or NULL to let parse_double decide (see
- * decide_double; also nan/inf and malformed tokens). Byte by byte; the SWAR
- * form below is used where 8-byte loads fit.
+ * decide_double; also nan/inf and malformed tokens). They are the stages
+ * of one token: exponent_on from the byte after the mantissa's digits,
+ * fraction_on from the byte after the '.', scalar_double from the token's
+ * start. man holds the digits so far, ndigits their number (leading zeros
+ * included) and digits points at the first of them.
  */
-static inline const unsigned char *scalar_double(const unsigned char *p, const unsigned char *end, double *value)
+static inline const unsigned char *exponent_on(const unsigned char *p, const unsigned char *end, uint64_t man,
+                                               int64_t exp10, int64_t ndigits, int neg, const unsigned char *digits,
+                                               double *value)
 {
-    int neg = 0;
-    if (p < end && (*p == '-' || *p == '+')) {
-        neg = *p == '-';
-        ++p;
-    }
-    const unsigned char *digits = p;
-    uint64_t man = 0;
-    p = scan_digits(p, end, &man);
-    int64_t ndigits = p - digits, exp10 = 0;
-    if (p < end && *p == '.') {
-        const unsigned char *fraction = ++p;
-        p = scan_digits(p, end, &man);
-        exp10 = -(int64_t)(p - fraction);
-        ndigits += p - fraction;
-    }
     if (ndigits == 0) return NULL;
     if (p < end && (*p == 'e' || *p == 'E')) {
         ++p;
@@ -383,6 +373,28 @@ static inline const unsigned char *scalar_double(const unsigned char *p, const u
     }
     if (p < end && byte_class[*p] == TOKEN) return NULL;
     return decide_double(man, exp10, ndigits, neg, digits, p, value);
+}
+
+static inline const unsigned char *fraction_on(const unsigned char *p, const unsigned char *end, uint64_t man,
+                                               int64_t ndigits, int neg, const unsigned char *digits, double *value)
+{
+    const unsigned char *fraction = p;
+    p = scan_digits(p, end, &man);
+    return exponent_on(p, end, man, -(int64_t)(p - fraction), ndigits + (p - fraction), neg, digits, value);
+}
+
+static inline const unsigned char *scalar_double(const unsigned char *p, const unsigned char *end, double *value)
+{
+    int neg = 0;
+    if (p < end && (*p == '-' || *p == '+')) {
+        neg = *p == '-';
+        ++p;
+    }
+    const unsigned char *digits = p;
+    uint64_t man = 0;
+    p = scan_digits(p, end, &man);
+    if (p < end && *p == '.') return fraction_on(p + 1, end, man, p - digits, neg, digits, value);
+    return exponent_on(p, end, man, 0, p - digits, neg, digits, value);
 }
 
 /* [+-]?digits with at most 18 digits (no overflow possible), ended like a token; else NULL */
@@ -428,12 +440,16 @@ static inline const unsigned char *swar_int(const unsigned char *p, int64_t *val
 /* the fast paths of a float and an integer token starting at p (p <= end); NULL: take the reference path */
 static inline const unsigned char *fast_double(const unsigned char *p, const unsigned char *end, double *value)
 {
-    if (end - p >= 3) {
-        const unsigned char *q = p + (*p == '-' || *p == '+');
-        if (is_digit(q[0]) && byte_class[q[1]] != TOKEN) { /* one digit: the 0s and 1s of unused columns */
-            const double v = (double)(q[0] - '0');
-            *value = *p == '-' ? -v : v;
-            return q + 1;
+    if (end - p >= 3) { /* one integer digit, the most common start */
+        const int neg = *p == '-';
+        const unsigned char *q = p + (neg | (*p == '+'));
+        if (is_digit(q[0])) {
+            if (byte_class[q[1]] != TOKEN) { /* the digit alone: the 0s and 1s of unused columns */
+                const double v = (double)(q[0] - '0');
+                *value = neg ? -v : v;
+                return q + 1;
+            }
+            if (q[1] == '.') return fraction_on(q + 2, end, (uint64_t)(q[0] - '0'), 1, neg, q, value);
         }
     }
     return scalar_double(p, end, value);
@@ -488,6 +504,13 @@ static void set_where(cg_text_where *w, int64_t line, int64_t column, const unsi
     w->length = (int64_t)length;
 }
 
+/* the first byte from p on that is not a separator (or end) */
+static inline const unsigned char *skip_space(const unsigned char *p, const unsigned char *end)
+{
+    while (p < end && byte_class[*p] == SPACE) ++p;
+    return p;
+}
+
 /* end of the line that contains p (the '\n' or the end of the range) */
 static const unsigned char *line_end(const unsigned char *p, const unsigned char *end)
 {
@@ -536,9 +559,7 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
         }
         double *vrow = values + row * ncols;
         int64_t *irow = n_int ? ints + row * n_int : NULL;
-        for (int64_t c = 0; c < ncols; ++c) {
-            if (c > 0)
-                while (p < end && byte_class[*p] == SPACE) ++p;
+        for (int64_t c = 0; c < ncols; p = skip_space(p, end), ++c) { /* p: a token's start or a line end */
             const unsigned char *tok = p; /* the fast paths fail at the line's end too: checked after them */
             if (int_columns && int_columns[c]) {
                 int64_t iv;
@@ -587,7 +608,6 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
                 return st;
             }
         }
-        while (p < end && byte_class[*p] == SPACE) ++p;
         if (p < end && *p != '\n') { /* too many tokens */
             set_where(&result->error, line, ncols, line_start, line_length(line_start, end), base);
             result->nrows = row;
