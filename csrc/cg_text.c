@@ -17,6 +17,9 @@
 #ifdef _OPENMP
 #include <omp.h>
 #endif
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 /* byte classes: token byte, separator, line end */
 enum { TOKEN = 0, SPACE = 1, NEWLINE = 2 };
@@ -722,9 +725,23 @@ static int newlines_in_word(uint64_t w)
 int64_t cg_text_count_lines(const char *text, size_t length)
 {
     if (!text || !length) return 0;
-    /* counted 8 bytes at a time (a memchr per line costs a call per ~60-byte row) */
+    /* counted 8 bytes at a time (a memchr per line costs a call per ~60-byte row); with SSE2 (every x86-64)
+       16 at a time: each '\n' adds 1 to its byte lane (subtracting the compare's -1), the lanes summed by psadbw
+       before any can wrap (255 blocks), about 0.2 instructions per byte instead of 1.5 */
     int64_t n = 0;
     size_t k = 0;
+#ifdef __SSE2__
+    const __m128i nl = _mm_set1_epi8('\n'), zero = _mm_setzero_si128();
+    while (k + 16 <= length) {
+        size_t blocks = (length - k) / 16;
+        if (blocks > 255) blocks = 255;
+        __m128i lanes = zero;
+        for (size_t b = 0; b < blocks; ++b, k += 16)
+            lanes = _mm_sub_epi8(lanes, _mm_cmpeq_epi8(_mm_loadu_si128((const __m128i *)(const void *)(text + k)), nl));
+        const __m128i sums = _mm_sad_epu8(lanes, zero);
+        n += _mm_cvtsi128_si32(sums) + _mm_cvtsi128_si32(_mm_unpackhi_epi64(sums, sums));
+    }
+#endif
     for (; k + 8 <= length; k += 8) {
         uint64_t w;
         memcpy(&w, text + k, 8);
