@@ -429,6 +429,49 @@ def test_fuzz_doubles_equal_python_float(tokens):
     np.testing.assert_array_equal(bits(got), expected)
 
 
+def test_eight_byte_words_at_every_distance_from_the_range_end():
+    """Digits are read 8 bytes at a time where the range has room (a partial last word too) and byte by byte
+    near its end: tokens of 1 to 26 digits around the '.', leading zeros, 15-20 significant digits and
+    exponents, each followed by 0 to 40 bytes to the range's end (so it is parsed by the word path, by the
+    byte path, or ends exactly at the end), equal float() and int() bit for bit; malformed ones are refused."""
+    rng = random.Random(8)
+    floats, ints = [], []
+    for a in range(0, 12):
+        for b in [None, 0, 1, 2, 6, 7, 8, 9, 15, 16, 17, 18, 19, 20, 24]:
+            if a == 0 and not b:
+                continue
+            lead = rng.choice([0, 0, 1, 3, 8, 9])
+            head = "0" * min(lead, a) + "".join(rng.choice("0123456789") for _ in range(a - min(lead, a)))
+            tail = "" if b is None else "." + "0" * min(lead, b) + "".join(
+                rng.choice("0123456789") for _ in range(b - min(lead, b)))
+            exp = rng.choice(["", "", "e+05", "E-5", "e12", "e-308", "e0", "e00000007", "e123456789"])
+            floats.append(rng.choice(["", "-", "+"]) + head + tail + exp)
+    floats += ["0", "-0", "-0.0", "1e+05", ".5", "5.", "-.0e-0", "9007199254740993", "1.7976931348623157e308",
+               "4.9406564584124654e-324", "2.2250738585072011e-308", "123456789012345678901234567890",
+               "0.000000000000000000000000000000123456789012345678", "00000000000000000000000001.5"]
+    for n in range(1, 20):
+        ints.append(rng.choice(["", "-", "+"]) + "".join(rng.choice("0123456789") for _ in range(n)))
+        ints.append("0" * n + "7")
+    ints += [str(2 ** 63 - 1), str(-2 ** 63)]
+    for pad in range(0, 41):
+        for ending in (b" ", b"\n", b"\t \r\n"):
+            trailer = (ending * pad)[:pad]
+            tokens = floats + ints
+            column = np.array([float_bits(float(t)) for t in tokens])
+            for k, t in enumerate(tokens):   # the token last: its distance to the end is len(t) + pad
+                text = f"{k} {t}".encode() + trailer
+                got = _text.parse_table(text, ncols=2, int_columns=(0,), skip_blank=True,
+                                         allow_nonfinite=True).values[0, 1]
+                assert float_bits(got) == column[k], (t, pad, ending)
+            for t in ints:
+                assert _text.parse_table(f"1 {t}".encode() + trailer, ncols=2, int_columns=(1,),
+                                         skip_blank=True).ints[0, 0] == int(t), (t, pad)
+    for bad in ["1.2.3", "1e", "1e+", "--1", "1-", "0x10", "1_0", "12345678.9x", "1234567890123456789012e5x"]:
+        for pad in (0, 3, 9, 33):
+            with pytest.raises(ValueError, match="not a number"):
+                _text.parse_table(f"1 {bad}".encode() + b" " * pad, ncols=2)
+
+
 JUNK = "0123456789+-.eEnaiftyINFAY#_ x\x00\xe9"
 
 

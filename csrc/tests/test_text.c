@@ -26,7 +26,11 @@ int main(void)
     if (mprotect(map + page, (size_t)page, PROT_NONE) != 0) return 2;
     const char *texts[] = {"1 2\n3 4",   "1 2\r\n3 4\r", "1 2\n3",     "1 2\n3 4 5", "1 2\n3 nan",  "1 2\n3 -1.#INF00",
                            "1 2\n3 1e",  "1 2\n3 1e+", "1 2\n3 inf", "1 2\n\t ",  "1 2\n3 1.",  "1 2\n3 " ,
-                           "1 2\n3 +",   "1 2\n3 x",   "1 2\n3 12345678901234567890123", "1 2\n3 1.#"};
+                           "1 2\n3 +",   "1 2\n3 x",   "1 2\n3 12345678901234567890123", "1 2\n3 1.#",
+                           /* longer than the 8-byte word paths need: every prefix ends a word short of the page */
+                           "7 0.5\n8 1.0273923374642910\n9 -0.0029136591653913836\n10 4.46e-05\n11 -0\n12 1e+05",
+                           "123456789012 0.1234567890123456789012\n-1234567890123456 12345678901234567890.5e+05",
+                           "1234567 12345678\n123456789 1234567.12345678e-12345678\n9 +.5"};
     double values[16];
     int64_t ints[16], offsets[8], count;
     const unsigned char int_cols[2] = {1, 0};
