@@ -416,6 +416,13 @@ int cg_visit_gradient_points(const job *jb, double *out, cg_index obj, const dou
    too), and the gradients of Lucy's for points, each object's nodes in vectorised batches; the node-by-node numbers
    bit for bit. Returns 1 (it visited the object). */
 int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale);
+/* Whether cg_visit_profile_objects takes this job's objects (a profile, not
+   periodic along its axis, no rays), and the objects order[begin..end) (or
+   begin..end) of such a job, at most CG_PROFILE_OBJECTS of them, in blocks of (object, node)
+   pairs: the same bits as cg_visit_profile object by object. */
+#define CG_PROFILE_OBJECTS 32
+int cg_profile_blocks(const job *jb);
+void cg_visit_profile_objects(const job *jb, double *out, const cg_index *order, cg_index begin, cg_index end);
 
 /* An AVX-512 build of the separable path (cg_separable_wide.c) exists on
    x86-64 with GCC; cg_separable_wide_available() says whether this CPU runs it

@@ -482,6 +482,15 @@ static void visit_range(const job *shared, double *out, scratch *sc, const cg_in
         own.values = values;
         jb = &own;
     }
+    if (cg_profile_blocks(shared)) {
+        /* profiles: blocks of objects (cg_profile.c), their values formed there */
+        for (cg_index o = begin; o < end; o += CG_PROFILE_OBJECTS) {
+            if (load_status(failed) != CG_OK) return;
+            if (interrupted(shared)) { store_status(failed, CG_ERR_INTERRUPTED); return; }
+            cg_visit_profile_objects(shared, out, order, o, end - o > CG_PROFILE_OBJECTS ? o + CG_PROFILE_OBJECTS : end);
+        }
+        return;
+    }
     for (cg_index o = begin; o < end; ++o) {
         if (load_status(failed) != CG_OK) return;
         if (interrupted(jb)) { store_status(failed, CG_ERR_INTERRUPTED); return; }
