@@ -15,6 +15,20 @@
 
 /* How many axes the kernel integrates out (its marginal over them): D - D_res,
    or 0 when the kernel is the D_res-dimensional one (lower_dimensional). */
+/* values[r * D + c] = 0.0 + f[r] * v[c], r < nf, c < D (einsum's "ni,nj->nij":
+   a zero is +0): an object's values from its factors and vector (the contact
+   stress's form); three by three written out, the common case */
+static inline void cg_outer_values(int nf, int D, const double *f, const double *v, double *values)
+{
+    if (nf == 3 && D == 3) {
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) values[r * 3 + c] = 0.0 + f[r] * v[c];
+        return;
+    }
+    for (int r = 0; r < nf; ++r)
+        for (int c = 0; c < D; ++c) values[r * D + c] = 0.0 + f[r] * v[c];
+}
+
 /* Lucy's profile (1 + 3x)(1 - x)^3, x = r/R (cg_kernel_value and the batched
    point values of cg_lucy_line.c: one formula, the same bits) */
 static inline double cg_lucy_profile(double x)
@@ -273,6 +287,7 @@ typedef struct job {
     const cg_index *point_order; /* point targets: the points by their first resolved coordinate (or NULL) */
     const double *point_first;   /* ... and that coordinate, in that order */
     int moment;                /* segments weighted by the kernel's first moment (cg_moment.c) */
+    int any_periodic;          /* a resolved axis is periodic (else no images to look for) */
 } job;
 
 /* per-thread scratch memory of the separable path, grown on demand */

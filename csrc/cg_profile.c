@@ -482,7 +482,9 @@ int cg_profile_blocks(const job *jb)
     return jb->profile_rows && !(jb->is_segment && jb->ray) && !jb->target->periodic[0];
 }
 
-void cg_visit_profile_objects(const job *jb, double *out, const cg_index *order, cg_index begin, cg_index end)
+/* (cloned: floor and ceil are single instructions from SSE 4.1 on) */
+PROFILE_CLONES void cg_visit_profile_objects(const job *jb, double *out, const cg_index *order, cg_index begin,
+                                             cg_index end)
 {
     const cg_target *t = jb->target;
     const int D = t->dim, a0 = t->axes[0], nv = jb->n_values;
@@ -531,9 +533,7 @@ void cg_visit_profile_objects(const job *jb, double *out, const cg_index *order,
         const double *val;
         if (jb->factors) {
             double *r = rows + b * nv;
-            const double *f = jb->factors + obj * jb->n_factors, *v = jb->vecs + obj * D;
-            for (int i = 0; i < jb->n_factors; ++i)
-                for (int c = 0; c < D; ++c) r[i * D + c] = 0.0 + f[i] * v[c];
+            cg_outer_values(jb->n_factors, D, jb->factors + obj * jb->n_factors, jb->vecs + obj * D, r);
             val = r;
         } else {
             val = jb->values + obj * nv;

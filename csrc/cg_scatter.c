@@ -103,6 +103,67 @@ static double object_weight(const job *jb, const double *q, const double *e, dou
     return cg_kernel_value(jb->kernel, rho2);
 }
 
+#if defined(__GNUC__)
+#define ALWAYS_INLINE static inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE static inline
+#endif
+
+/* The box [bmin, bmax] of the object's support along the resolved axes; 0
+   when it misses the target's nodes. fmin and fmax as comparisons (not
+   calls): they differ only where one side is NaN, and end is NaN where x is. */
+ALWAYS_INLINE int object_box(const job *jb, const double *x, const double *e, int nr, double *bmin, double *bmax)
+{
+    const double R = jb->kernel->radius;
+    for (int a = 0; a < nr; ++a) {
+        const double end = x[a] + e[a];
+        bmin[a] = (end < x[a] ? end : x[a]) - R;
+        bmax[a] = (end > x[a] ? end : x[a]) + R;
+        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return 0;
+    }
+    return 1;
+}
+
+/* visit_nodes for a point target (nr resolved axes, a constant where inlined
+   with one): with the points sorted by their first coordinate, only those
+   with it inside [bmin, bmax] (the first found by bisection); each point
+   still receives its terms in object order, so the sums are the same */
+ALWAYS_INLINE cg_status visit_points(const job *jb, double *out, cg_index obj, const double *x, const double *e,
+                                     double scale, cg_index *count, int nr)
+{
+    const cg_target *t = jb->target;
+    double q[3], grad[3] = {0.0, 0.0, 0.0};
+    double bmin[3], bmax[3];
+    if (!object_box(jb, x, e, nr, bmin, bmax)) return CG_OK;
+    cg_index k = 0, k_end = t->n_points;
+    if (jb->point_order) {
+        /* the first point with !(c < bmin[0]), without branches */
+        const double *c = jb->point_first;
+        cg_index base = 0, left = t->n_points;
+        while (left > 1) {
+            const cg_index half = left / 2;
+            base = c[base + half] < bmin[0] ? base + half : base;
+            left -= half;
+        }
+        k = base + (c[base] < bmin[0]);
+    }
+    for (; k < k_end; ++k) {
+        if (jb->point_order && jb->point_first[k] > bmax[0]) break;
+        const cg_index p = jb->point_order ? jb->point_order[k] : k;
+        if (++*count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
+        const double *pt = t->points + p * nr;
+        int inside = 1;
+        for (int a = 0; a < nr; ++a) {
+            if (pt[a] < bmin[a] || pt[a] > bmax[a]) { inside = 0; break; }
+            q[a] = pt[a] - x[a];
+        }
+        if (!inside) continue;
+        const double w = object_weight(jb, q, e, scale, grad);
+        if (w != 0.0 || jb->mode == MODE_GRADIENT) cg_accumulate(jb, out, obj, p, w, grad);
+    }
+    return CG_OK;
+}
+
 /* Visit every node within the support of the object [x, x + e] (resolved
    coordinates, one image). *count counts visited nodes for polling the
    interrupt flag; returns CG_ERR_INTERRUPTED (out then partial) or CG_OK. */
@@ -125,46 +186,12 @@ static cg_status visit_nodes(const job *jb, double *out, scratch *sc, cg_index o
         return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     const cg_target *t = jb->target;
     const int nr = t->n_resolved;
-    const double R = jb->kernel->radius;
+    /* point targets: written out for three resolved axes, the common case */
+    if (!t->is_grid) return nr == 3 ? visit_points(jb, out, obj, x, e, scale, count, 3)
+                                    : visit_points(jb, out, obj, x, e, scale, count, nr);
     double q[3], grad[3] = {0.0, 0.0, 0.0};
     double bmin[3], bmax[3];
-    for (int a = 0; a < nr; ++a) {
-        const double end = x[a] + e[a];
-        bmin[a] = fmin(x[a], end) - R;
-        bmax[a] = fmax(x[a], end) + R;
-        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return CG_OK;
-    }
-    if (!t->is_grid) {
-        /* with the points sorted by their first coordinate, only those with it
-           inside [bmin, bmax] (found by bisection); each point still receives
-           its terms in object order, so the sums are the same */
-        cg_index k = 0, k_end = t->n_points;
-        if (jb->point_order) {
-            const double *c = jb->point_first;
-            cg_index lo = 0, hi = t->n_points;
-            while (lo < hi) {
-                const cg_index mid = lo + (hi - lo) / 2;
-                if (c[mid] < bmin[0]) lo = mid + 1;
-                else hi = mid;
-            }
-            k = lo;
-        }
-        for (; k < k_end; ++k) {
-            if (jb->point_order && jb->point_first[k] > bmax[0]) break;
-            const cg_index p = jb->point_order ? jb->point_order[k] : k;
-            if (++*count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
-            const double *pt = t->points + p * nr;
-            int inside = 1;
-            for (int a = 0; a < nr; ++a) {
-                if (pt[a] < bmin[a] || pt[a] > bmax[a]) { inside = 0; break; }
-                q[a] = pt[a] - x[a];
-            }
-            if (!inside) continue;
-            const double w = object_weight(jb, q, e, scale, grad);
-            if (w != 0.0 || jb->mode == MODE_GRADIENT) cg_accumulate(jb, out, obj, p, w, grad);
-        }
-        return CG_OK;
-    }
+    if (!object_box(jb, x, e, nr, bmin, bmax)) return CG_OK;
     /* grid: index range of the stencil along each resolved axis */
     cg_index first[3], last[3], stride[3];
     if (!stencil_range(jb, bmin, bmax, first, last, stride)) return CG_OK;
@@ -253,8 +280,9 @@ static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_inde
         kmax[a] = (cg_index)last;
         if (kmin[a] > kmax[a]) return CG_OK;
     }
-    cg_index k[3] = {kmin[0], kmin[1], kmin[2]};
     cg_index count = 0;
+    if (!jb->any_periodic) return visit_nodes(jb, out, sc, row, x, e, scale, &count);
+    cg_index k[3] = {kmin[0], kmin[1], kmin[2]};
     for (;;) {
         double xs[3];
         for (int a = 0; a < nr; ++a) xs[a] = t->periodic[a] ? x[a] + (double)k[a] * t->period[a] : x[a];
@@ -297,6 +325,7 @@ static cg_status prepare(job *jb)
             jb->hi[a] = hi;
         }
     }
+    for (int a = 0; a < t->n_resolved; ++a) jb->any_periodic |= t->periodic[a] != 0;
     const cg_kernel *k = jb->kernel;
     if (jb->mode == MODE_GRADIENT) {
         /* averaged axes: the Gaussian's marginals, and Lucy's for points (cg_gradient.c) */
@@ -462,9 +491,7 @@ static cg_index *spatial_order(const job *jb, cg_index **ends)
 static void outer_values(const job *jb, cg_index obj, double *values)
 {
     const int D = jb->target->dim, nf = jb->n_factors;
-    const double *f = jb->factors + obj * nf, *v = jb->vecs + obj * D;
-    for (int r = 0; r < nf; ++r)
-        for (int c = 0; c < D; ++c) values[r * D + c] = 0.0 + f[r] * v[c];
+    cg_outer_values(nf, D, jb->factors + obj * nf, jb->vecs + obj * D, values);
 }
 
 /* Objects order[begin..end) (or begin..end) into out, one thread; stops at the

@@ -87,6 +87,8 @@ def main():
         with open(script, "w") as f:
             f.write(WORKER.format(root=ROOT, path=path))
         base = os.path.join(tmp, "cg.out")
+        for old in glob.glob(base + "*"):
+            os.remove(old)                        # a kept directory's earlier dumps
         subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={base}",
                         "--toggle-collect=cg_scatter_*",
                         "--compress-strings=no"]
