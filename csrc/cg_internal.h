@@ -286,6 +286,9 @@ typedef struct job {
     int line_points;           /* the kernel's rule for finite segments (0: round-off) */
     const cg_index *point_order; /* point targets: the points by their first resolved coordinate (or NULL) */
     const double *point_first;   /* ... and that coordinate, in that order */
+    const cg_index *point_cell;  /* ... and where to start looking for a coordinate c: point_cell[j], j =
+                                    floor((c - point_cell_lo) * point_cell_inv) in 0..n_points (or NULL) */
+    double point_cell_lo, point_cell_inv;
     int moment;                /* segments weighted by the kernel's first moment (cg_moment.c) */
     int any_periodic;          /* a resolved axis is periodic (else no images to look for) */
 } job;

@@ -136,7 +136,16 @@ ALWAYS_INLINE cg_status visit_points(const job *jb, double *out, cg_index obj, c
     double bmin[3], bmax[3];
     if (!object_box(jb, x, e, nr, bmin, bmax)) return CG_OK;
     cg_index k = 0, k_end = t->n_points;
-    if (jb->point_order) {
+    if (jb->point_cell) {
+        /* the first point with !(c < bmin[0]): from its cell's first point,
+           a step or two up. Never down: c >= bmin gives (c - lo) * inv >=
+           (bmin - lo) * inv (rounding is monotonic), so a point at or above
+           bmin is at or above its cell's start; a NaN bmin starts at cell 0,
+           point 0, as bisection ends */
+        const double *c = jb->point_first, j = (bmin[0] - jb->point_cell_lo) * jb->point_cell_inv;
+        k = jb->point_cell[j > 0.0 ? (j < (double)k_end ? (cg_index)j : k_end) : 0];
+        while (k < k_end && c[k] < bmin[0]) ++k;
+    } else if (jb->point_order) {
         /* the first point with !(c < bmin[0]), without branches */
         const double *c = jb->point_first;
         cg_index base = 0, left = t->n_points;
@@ -266,6 +275,12 @@ static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_inde
         for (int a = 0; a < nr; ++a) e[a] *= s_max;
         scale = s_max;
     }
+    if (!jb->any_periodic) { /* one image: the object itself */
+        cg_index count = 0;
+        if (!t->is_grid) return nr == 3 ? visit_points(jb, out, row, x, e, scale, &count, 3)
+                                        : visit_points(jb, out, row, x, e, scale, &count, nr);
+        return visit_nodes(jb, out, sc, row, x, e, scale, &count);
+    }
     /* periodic images: first bring the start next to the target, so that
        image indices stay small whatever the input coordinates */
     cg_index kmin[3] = {0, 0, 0}, kmax[3] = {0, 0, 0};
@@ -281,7 +296,6 @@ static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_inde
         if (kmin[a] > kmax[a]) return CG_OK;
     }
     cg_index count = 0;
-    if (!jb->any_periodic) return visit_nodes(jb, out, sc, row, x, e, scale, &count);
     cg_index k[3] = {kmin[0], kmin[1], kmin[2]};
     for (;;) {
         double xs[3];
@@ -665,11 +679,13 @@ static int by_key(const void *a, const void *b)
 }
 
 /* the points' order by first coordinate (NULL: not sorted); 0 when memory is short */
-static int sort_points(const job *jb, cg_index **order, double **first)
+static int sort_points(const job *jb, cg_index **order, double **first, cg_index **cell, double *cell_lo,
+                       double *cell_inv)
 {
     const cg_target *t = jb->target;
     *order = NULL;
     *first = NULL;
+    *cell = NULL;
     if (t->is_grid || t->n_resolved == 0 || t->n_points < MIN_POINTS_TO_SORT) return 1;
     const cg_index P = t->n_points;
     const int nr = t->n_resolved;
@@ -696,6 +712,23 @@ static int sort_points(const job *jb, cg_index **order, double **first)
         (*first)[p] = keyed[p].key;
     }
     free(keyed);
+    /* cells of equal width between the first and last coordinates, P of
+       them: cell[j] is the first point at or above the cell's lower edge
+       (approximately: visit_points steps from there to the exact first) */
+    const double lo = (*first)[0], span = (*first)[P - 1] - lo;
+    if (span > 0.0 && isfinite(span)) {
+        *cell = malloc(((size_t)P + 1) * sizeof **cell);
+        if (*cell) {
+            const double inv = (double)P / span;
+            cg_index k = 0;
+            for (cg_index j = 0; j <= P; ++j) {
+                while (k < P && ((*first)[k] - lo) * inv < (double)j) ++k;
+                (*cell)[j] = k;
+            }
+            *cell_lo = lo;
+            *cell_inv = inv;
+        }
+    }
     return 1;
 }
 
@@ -722,14 +755,17 @@ static cg_status run(job *jb, double *out)
     const double work = (double)jb->n * stencil_estimate(jb);
     if (work < MIN_WORK_PER_THREAD || work < 2.0 * (double)P * (double)width) n_threads = 1;
 #endif
-    cg_index *point_order = NULL;
+    cg_index *point_order = NULL, *point_cell = NULL;
     double *point_first = NULL;
-    if (!sort_points(jb, &point_order, &point_first)) return CG_ERR_NOMEM;
+    if (!sort_points(jb, &point_order, &point_first, &point_cell, &jb->point_cell_lo, &jb->point_cell_inv))
+        return CG_ERR_NOMEM;
     jb->point_order = point_order;
     jb->point_first = point_first;
+    jb->point_cell = point_cell;
     const cg_status done = run_objects(jb, out, P, width, n_threads);
     free(point_order);
     free(point_first);
+    free(point_cell);
     return done;
 }
 
