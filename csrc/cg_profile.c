@@ -16,7 +16,10 @@
  * square roots and divisions are exact in any width): the node-by-node
  * numbers bit for bit. Points likewise (cg_kernel_value's arithmetic), their
  * values added by cg_ball_add, and the gradients of Lucy's (those of
- * cg_lucy_marginal_gradient).
+ * cg_lucy_marginal_gradient). Non-periodic profiles without rays take their
+ * objects in blocks (cg_visit_profile_objects, below): one list of (object,
+ * node) pairs per block, one vectorised pass over it, the sums in the same
+ * order; cg_visit_profile then serves the others, object by object.
  */
 #include "cg_internal.h"
 
