@@ -17,7 +17,8 @@ node. "python" is coarse_grain's time outside the scatters per object (array pre
 derived fields). Medians of --repeat runs, taken round-robin so that a change in the machine's load hits
 every row alike. --compare PATH times a second build of the core (another checkout's
 cgbound/_core*.so) in the same rounds, call by call, and says whether its results are the same bits.
-Prints the CPU, threads and load average; on a shared machine compare rows of one run only.
+Prints the CPU, threads and load average; on a shared machine compare rows of one run only. The same
+per-object costs in instructions (callgrind, immune to the machine's load): tools/profile_per_object.py.
 """
 import argparse
 import importlib.machinery

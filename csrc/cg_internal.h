@@ -15,6 +15,20 @@
 
 /* How many axes the kernel integrates out (its marginal over them): D - D_res,
    or 0 when the kernel is the D_res-dimensional one (lower_dimensional). */
+/* values[r * D + c] = 0.0 + f[r] * v[c], r < nf, c < D (einsum's "ni,nj->nij":
+   a zero is +0): an object's values from its factors and vector (the contact
+   stress's form); three by three written out, the common case */
+static inline void cg_outer_values(int nf, int D, const double *f, const double *v, double *values)
+{
+    if (nf == 3 && D == 3) {
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) values[r * 3 + c] = 0.0 + f[r] * v[c];
+        return;
+    }
+    for (int r = 0; r < nf; ++r)
+        for (int c = 0; c < D; ++c) values[r * D + c] = 0.0 + f[r] * v[c];
+}
+
 /* Lucy's profile (1 + 3x)(1 - x)^3, x = r/R (cg_kernel_value and the batched
    point values of cg_lucy_line.c: one formula, the same bits) */
 static inline double cg_lucy_profile(double x)
@@ -272,7 +286,11 @@ typedef struct job {
     int line_points;           /* the kernel's rule for finite segments (0: round-off) */
     const cg_index *point_order; /* point targets: the points by their first resolved coordinate (or NULL) */
     const double *point_first;   /* ... and that coordinate, in that order */
+    const cg_index *point_cell;  /* ... and where to start looking for a coordinate c: point_cell[j], j =
+                                    floor((c - point_cell_lo) * point_cell_inv) in 0..n_points (or NULL) */
+    double point_cell_lo, point_cell_inv;
     int moment;                /* segments weighted by the kernel's first moment (cg_moment.c) */
+    int any_periodic;          /* a resolved axis is periodic (else no images to look for) */
 } job;
 
 /* per-thread scratch memory of the separable path, grown on demand */
@@ -416,6 +434,13 @@ int cg_visit_gradient_points(const job *jb, double *out, cg_index obj, const dou
    too), and the gradients of Lucy's for points, each object's nodes in vectorised batches; the node-by-node numbers
    bit for bit. Returns 1 (it visited the object). */
 int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale);
+/* Whether cg_visit_profile_objects takes this job's objects (a profile, not
+   periodic along its axis, no rays), and the objects order[begin..end) (or
+   begin..end) of such a job, at most CG_PROFILE_OBJECTS of them, in blocks of (object, node)
+   pairs: the same bits as cg_visit_profile object by object. */
+#define CG_PROFILE_OBJECTS 32
+int cg_profile_blocks(const job *jb);
+void cg_visit_profile_objects(const job *jb, double *out, const cg_index *order, cg_index begin, cg_index end);
 
 /* An AVX-512 build of the separable path (cg_separable_wide.c) exists on
    x86-64 with GCC; cg_separable_wide_available() says whether this CPU runs it

@@ -16,7 +16,10 @@
  * square roots and divisions are exact in any width): the node-by-node
  * numbers bit for bit. Points likewise (cg_kernel_value's arithmetic), their
  * values added by cg_ball_add, and the gradients of Lucy's (those of
- * cg_lucy_marginal_gradient).
+ * cg_lucy_marginal_gradient). Non-periodic profiles without rays take their
+ * objects in blocks (cg_visit_profile_objects, below): one list of (object,
+ * node) pairs per block, one vectorised pass over it, the sums in the same
+ * order; cg_visit_profile then serves the others, object by object.
  */
 #include "cg_internal.h"
 
@@ -124,6 +127,67 @@ __attribute__((target("avx512f"))) static void segment_values_wide(int count, co
     else segment_values_body(count, q, e, L, unit, R, C, 0, scale, w);
 }
 #endif
+
+/* segment_values_body with the segment's e, L and unit per node (lane i of a
+   block's nodes, from several objects): the same operations lane by lane, scale 1 */
+INLINE void segment_lanes_body(int count, const double *restrict q, const double *restrict e,
+                               const double *restrict L, const double *restrict unit, double R, double C, int lucy,
+                               double *restrict w)
+{
+    const double RR = R * R;
+    for (int i = 0; i < count; ++i) {
+        const double u = 0.0 + q[i] * unit[i];
+        const double t_far = 0.0 + (q[i] - e[i]) * unit[i];
+        const double qperp = q[i] - u * unit[i];
+        const double a2 = 0.0 + qperp * qperp;
+        const double b2 = RR - a2;
+        const double b = sqrt(b2 > 0.0 ? b2 : 0.0);
+        const double s0 = u > b ? (u - b) / L[i] : 0.0;
+        const double s1 = t_far < -b ? (u + b) / L[i] : 1.0;
+        const int inside = b2 > 0.0 && !(s0 > 1.0 || s1 < 0.0 || !(s0 < s1));
+        const double t0 = s0 == 0.0 ? u : (s0 == 1.0 ? t_far : u - s0 * L[i]);
+        const double t1 = s1 == 0.0 ? u : (s1 == 1.0 ? t_far : u - s1 * L[i]);
+        const double span = (s1 - s0) * L[i];
+        const int one_side_t1 = t1 >= 0.0, one_side_t0 = !one_side_t1 && t0 <= 0.0;
+        const int one_side = one_side_t1 || one_side_t0;
+        const double lo0 = one_side_t1 ? t1 : (one_side_t0 ? -t0 : 0.0);
+        double sum = piece_terms(lucy, C, R, RR, lo0, one_side ? span : t0, 0.0);
+        sum = piece_terms(lucy, C, R, RR, 0.0, one_side ? 0.0 : -t1, sum);
+        w[i] = inside ? sum / L[i] * 1.0 : 0.0;
+    }
+}
+
+PROFILE_CLONES static void segment_lanes_narrow(int count, const double *restrict q, const double *restrict e,
+                                                const double *restrict L, const double *restrict unit, double R,
+                                                double C, int lucy, double *restrict w)
+{
+    if (lucy) segment_lanes_body(count, q, e, L, unit, R, C, 1, w);
+    else segment_lanes_body(count, q, e, L, unit, R, C, 0, w);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void segment_lanes_wide(int count, const double *restrict q,
+                                                                  const double *restrict e, const double *restrict L,
+                                                                  const double *restrict unit, double R, double C,
+                                                                  int lucy, double *restrict w)
+{
+    if (lucy) segment_lanes_body(count, q, e, L, unit, R, C, 1, w);
+    else segment_lanes_body(count, q, e, L, unit, R, C, 0, w);
+}
+#endif
+
+static void segment_lanes(int wide, int count, const double *q, const double *e, const double *L, const double *unit,
+                          double R, double C, int lucy, double *w)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        segment_lanes_wide(count, q, e, L, unit, R, C, lucy, w);
+        return;
+    }
+#endif
+    (void)wide;
+    segment_lanes_narrow(count, q, e, L, unit, R, C, lucy, w);
+}
 
 /* the AVX-512 build where the job asks for it (jb->wide), else the AVX2/baseline one */
 static void segment_values(int wide, int count, const double *q, double e, double L, double unit, double R, double C,
@@ -279,4 +343,229 @@ int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, 
             cg_ball_add(count, w, node, width, val, nv, out, jb->wide);
     }
     return 1;
+}
+
+/* ------------------------------------------------------------------ */
+/* Blocks of objects (cg_visit_profile_objects): the nodes of up to
+   CG_PROFILE_OBJECTS objects gathered into one list of (object, node) pairs, the
+   kernel evaluated over the whole list in vectors (segments with their own
+   length and direction per lane, zero-length segments and points as point
+   values), then the pairs added in list order, which is object order and,
+   within an object, node order: every node receives the same terms in the
+   same order as object by object, so the same bits. The per-object work left
+   is the stencil's bounds and the list's entries. */
+
+/* pairs of one block at most (plus the padding of the last vector) */
+#define PROFILE_PAIRS 512
+
+/* out[node[i] * width + c] += w[i] * val[i][c], c < nv, for every non-zero
+   w[i] (cg_ball_add's and cg_lucy_add9's sums: their vector forms are these
+   element-wise products and sums) */
+INLINE void pairs_add_body(int count, const double *restrict w, const cg_index *restrict node,
+                           const double *const *restrict val, int width, int nv, double *restrict out)
+{
+    for (int i = 0; i < count; ++i) {
+        const double wi = w[i];
+        if (wi == 0.0) continue;
+        double *restrict o = out + node[i] * width;
+        const double *restrict v = val[i];
+        for (int c = 0; c < nv; ++c) o[c] += wi * v[c];
+    }
+}
+
+/* the gradients g of cg_profile's gradient batches: a node takes the object where v or g is non-zero */
+INLINE void pairs_add_gradient_body(int count, const double *restrict v, const double *restrict g,
+                                    const cg_index *restrict node, const double *const *restrict val, int width,
+                                    int nv, double *restrict out)
+{
+    for (int i = 0; i < count; ++i) {
+        if (!(v[i] != 0.0 || g[i] != 0.0)) continue;
+        double *restrict o = out + node[i] * width;
+        const double *restrict r = val[i];
+        const double gi = g[i];
+        for (int c = 0; c < nv; ++c) o[c] += gi * r[c];
+    }
+}
+
+INLINE void pairs_add_any(int count, const double *v, const double *w, const cg_index *node,
+                          const double *const *val, int width, int nv, double *out)
+{
+    if (v) pairs_add_gradient_body(count, v, w, node, val, width, nv, out);
+    else if (nv == 9 && width == 9) pairs_add_body(count, w, node, val, 9, 9, out); /* a stress */
+    else if (nv == 13 && width == 13) pairs_add_body(count, w, node, val, 13, 13, out); /* density to flux */
+    else pairs_add_body(count, w, node, val, width, nv, out);
+}
+
+PROFILE_CLONES static void pairs_add_narrow(int count, const double *v, const double *w, const cg_index *node,
+                                            const double *const *val, int width, int nv, double *out)
+{
+    pairs_add_any(count, v, w, node, val, width, nv, out);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void pairs_add_wide(int count, const double *v, const double *w,
+                                                              const cg_index *node, const double *const *val,
+                                                              int width, int nv, double *out)
+{
+    pairs_add_any(count, v, w, node, val, width, nv, out);
+}
+#endif
+
+/* v: the values of a gradient batch (NULL for values) */
+static void pairs_add(int wide, int count, const double *v, const double *w, const cg_index *node,
+                      const double *const *val, int width, int nv, double *out)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        pairs_add_wide(count, v, w, node, val, width, nv, out);
+        return;
+    }
+#endif
+    (void)wide;
+    pairs_add_narrow(count, v, w, node, val, width, nv, out);
+}
+
+/* one block's pairs: segment lanes (sq, se, sL, su; their pair sp) and point
+   lanes (pq; their pair pp) */
+typedef struct profile_block {
+    int n, ns, np;
+    double q_seg[PROFILE_PAIRS + PROFILE_PAD], e[PROFILE_PAIRS + PROFILE_PAD], L[PROFILE_PAIRS + PROFILE_PAD],
+        unit[PROFILE_PAIRS + PROFILE_PAD], q_pt[PROFILE_PAIRS + PROFILE_PAD];
+    int seg_pair[PROFILE_PAIRS], pt_pair[PROFILE_PAIRS];
+    double w_seg[PROFILE_PAIRS + PROFILE_PAD], w_pt[PROFILE_PAIRS + PROFILE_PAD], v_pt[PROFILE_PAIRS + PROFILE_PAD];
+    double w[PROFILE_PAIRS], v[PROFILE_PAIRS];
+    cg_index node[PROFILE_PAIRS];
+    const double *val[PROFILE_PAIRS];
+} profile_block;
+
+/* the lanes up to a whole number of vectors, repeating the last (computed, not added) */
+static int pad_lanes(int n, double *a, double *b, double *c, double *d)
+{
+    const int padded = (n + PROFILE_PAD - 1) / PROFILE_PAD * PROFILE_PAD;
+    for (int i = n; i < padded; ++i) {
+        a[i] = a[n - 1];
+        if (b) {
+            b[i] = b[n - 1];
+            c[i] = c[n - 1];
+            d[i] = d[n - 1];
+        }
+    }
+    return padded;
+}
+
+/* the kernel over the block's lanes, then its pairs added in order */
+static void flush_block(const job *jb, profile_block *B, double *out)
+{
+    if (B->n == 0) return;
+    const cg_kernel *k = jb->kernel;
+    const double R = k->radius, C = k->prefactor;
+    const int lucy = k->type == CG_KERNEL_LUCY, gradient = jb->mode == MODE_GRADIENT;
+    if (B->ns > 0) {
+        const int padded = pad_lanes(B->ns, B->q_seg, B->e, B->L, B->unit);
+        segment_lanes(jb->wide, padded, B->q_seg, B->e, B->L, B->unit, R, C, lucy, B->w_seg);
+        for (int i = 0; i < B->ns; ++i) B->w[B->seg_pair[i]] = B->w_seg[i];
+    }
+    if (B->np > 0) {
+        const int padded = pad_lanes(B->np, B->q_pt, NULL, NULL, NULL);
+        if (gradient) {
+            gradient_values(jb->wide, padded, B->q_pt, R, C, B->v_pt, B->w_pt);
+            for (int i = 0; i < B->np; ++i) B->v[B->pt_pair[i]] = B->v_pt[i];
+        } else {
+            /* a zero-length segment's psi * scale: scale is 1 here, and w * 1.0 is w */
+            point_values(jb->wide, padded, B->q_pt, R, C, lucy, B->w_pt);
+        }
+        for (int i = 0; i < B->np; ++i) B->w[B->pt_pair[i]] = B->w_pt[i];
+    }
+    pairs_add(jb->wide, B->n, gradient ? B->v : NULL, B->w, B->node, B->val, jb->out_width, jb->n_values, out);
+    B->n = B->ns = B->np = 0;
+}
+
+int cg_profile_blocks(const job *jb)
+{
+    return jb->profile_rows && !(jb->is_segment && jb->ray) && !jb->target->periodic[0];
+}
+
+/* (cloned: floor and ceil are single instructions from SSE 4.1 on) */
+PROFILE_CLONES void cg_visit_profile_objects(const job *jb, double *out, const cg_index *order, cg_index begin,
+                                             cg_index end)
+{
+    const cg_target *t = jb->target;
+    const int D = t->dim, a0 = t->axes[0], nv = jb->n_values;
+    const double R = jb->kernel->radius, lo = jb->lo[0], hi = jb->hi[0];
+    const double *z = t->coords[0];
+    const cg_index n0 = t->shape[0];
+    const double c0 = z[0], h = jb->spacing[0];
+    const int whole = n0 == 1 || h == 0.0; /* stencil_range takes every node */
+    /* with factors, the objects' values formed here, a row per object of the block */
+    double rows[CG_PROFILE_OBJECTS * CG_MAX_OUTER_VALUES];
+    job own;
+    const job *jv = jb;
+    if (jb->factors) {
+        own = *jb;
+        own.values = rows;
+        jv = &own;
+    }
+    profile_block B;
+    B.n = B.ns = B.np = 0;
+    for (cg_index o = begin; o < end; ++o) {
+        const cg_index obj = order ? order[o] : o;
+        const int b = (int)(o - begin);
+        const double x = jb->positions[obj * D + a0];
+        double ez = 0.0, L = 0.0, unit = 0.0;
+        if (jb->is_segment) {
+            ez = jb->vecs[obj * D + a0];
+            const double L2 = 0.0 + ez * ez;
+            if (L2 != 0.0) {
+                L = sqrt(L2);
+                unit = ez / L;
+            }
+        }
+        /* cg_visit_profile's stencil (fmin and fmax as comparisons: end is x + ez, NaN where x is) */
+        const double end_ = x + ez;
+        const double bmin = (end_ < x ? end_ : x) - R, bmax = (end_ > x ? end_ : x) + R;
+        if (bmax < lo || bmin > hi) continue;
+        cg_index first = 0, last = n0 - 1;
+        if (!whole) {
+            double f = floor((bmin - c0) / h), l = ceil((bmax - c0) / h);
+            if (f < 0.0) f = 0.0;
+            if (l > (double)(n0 - 1)) l = (double)(n0 - 1);
+            if (f > l) continue;
+            first = (cg_index)f;
+            last = (cg_index)l;
+        }
+        const double *val;
+        if (jb->factors) {
+            double *r = rows + b * nv;
+            cg_outer_values(jb->n_factors, D, jb->factors + obj * jb->n_factors, jb->vecs + obj * D, r);
+            val = r;
+        } else {
+            val = jb->values + obj * nv;
+        }
+        const cg_index count = last - first + 1;
+        if (B.n + count > PROFILE_PAIRS) {
+            flush_block(jb, &B, out);
+            if (count > PROFILE_PAIRS) { /* a long stencil alone, in batches */
+                double xs[3] = {x, 0.0, 0.0}, es[3] = {ez, 0.0, 0.0};
+                cg_visit_profile(jv, out, jb->factors ? b : obj, xs, es, 1.0);
+                continue;
+            }
+        }
+        const int segment = L > 0.0 && jb->mode != MODE_GRADIENT;
+        for (cg_index kk = first; kk <= last; ++kk) {
+            const double q = z[kk] - x;
+            if (segment) {
+                B.q_seg[B.ns] = q;
+                B.e[B.ns] = ez;
+                B.L[B.ns] = L;
+                B.unit[B.ns] = unit;
+                B.seg_pair[B.ns++] = B.n;
+            } else {
+                B.q_pt[B.np] = q;
+                B.pt_pair[B.np++] = B.n;
+            }
+            B.node[B.n] = kk;
+            B.val[B.n++] = val;
+        }
+    }
+    flush_block(jb, &B, out);
 }

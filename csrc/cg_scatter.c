@@ -103,6 +103,76 @@ static double object_weight(const job *jb, const double *q, const double *e, dou
     return cg_kernel_value(jb->kernel, rho2);
 }
 
+#if defined(__GNUC__)
+#define ALWAYS_INLINE static inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE static inline
+#endif
+
+/* The box [bmin, bmax] of the object's support along the resolved axes; 0
+   when it misses the target's nodes. fmin and fmax as comparisons (not
+   calls): they differ only where one side is NaN, and end is NaN where x is. */
+ALWAYS_INLINE int object_box(const job *jb, const double *x, const double *e, int nr, double *bmin, double *bmax)
+{
+    const double R = jb->kernel->radius;
+    for (int a = 0; a < nr; ++a) {
+        const double end = x[a] + e[a];
+        bmin[a] = (end < x[a] ? end : x[a]) - R;
+        bmax[a] = (end > x[a] ? end : x[a]) + R;
+        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return 0;
+    }
+    return 1;
+}
+
+/* visit_nodes for a point target (nr resolved axes, a constant where inlined
+   with one): with the points sorted by their first coordinate, only those
+   with it inside [bmin, bmax] (the first found by bisection); each point
+   still receives its terms in object order, so the sums are the same */
+ALWAYS_INLINE cg_status visit_points(const job *jb, double *out, cg_index obj, const double *x, const double *e,
+                                     double scale, cg_index *count, int nr)
+{
+    const cg_target *t = jb->target;
+    double q[3], grad[3] = {0.0, 0.0, 0.0};
+    double bmin[3], bmax[3];
+    if (!object_box(jb, x, e, nr, bmin, bmax)) return CG_OK;
+    cg_index k = 0, k_end = t->n_points;
+    if (jb->point_cell) {
+        /* the first point with !(c < bmin[0]): from its cell's first point,
+           a step or two up. Never down: c >= bmin gives (c - lo) * inv >=
+           (bmin - lo) * inv (rounding is monotonic), so a point at or above
+           bmin is at or above its cell's start; a NaN bmin starts at cell 0,
+           point 0, as bisection ends */
+        const double *c = jb->point_first, j = (bmin[0] - jb->point_cell_lo) * jb->point_cell_inv;
+        k = jb->point_cell[j > 0.0 ? (j < (double)k_end ? (cg_index)j : k_end) : 0];
+        while (k < k_end && c[k] < bmin[0]) ++k;
+    } else if (jb->point_order) {
+        /* the first point with !(c < bmin[0]), without branches */
+        const double *c = jb->point_first;
+        cg_index base = 0, left = t->n_points;
+        while (left > 1) {
+            const cg_index half = left / 2;
+            base = c[base + half] < bmin[0] ? base + half : base;
+            left -= half;
+        }
+        k = base + (c[base] < bmin[0]);
+    }
+    for (; k < k_end; ++k) {
+        if (jb->point_order && jb->point_first[k] > bmax[0]) break;
+        const cg_index p = jb->point_order ? jb->point_order[k] : k;
+        if (++*count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
+        const double *pt = t->points + p * nr;
+        int inside = 1;
+        for (int a = 0; a < nr; ++a) {
+            if (pt[a] < bmin[a] || pt[a] > bmax[a]) { inside = 0; break; }
+            q[a] = pt[a] - x[a];
+        }
+        if (!inside) continue;
+        const double w = object_weight(jb, q, e, scale, grad);
+        if (w != 0.0 || jb->mode == MODE_GRADIENT) cg_accumulate(jb, out, obj, p, w, grad);
+    }
+    return CG_OK;
+}
+
 /* Visit every node within the support of the object [x, x + e] (resolved
    coordinates, one image). *count counts visited nodes for polling the
    interrupt flag; returns CG_ERR_INTERRUPTED (out then partial) or CG_OK. */
@@ -125,46 +195,12 @@ static cg_status visit_nodes(const job *jb, double *out, scratch *sc, cg_index o
         return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     const cg_target *t = jb->target;
     const int nr = t->n_resolved;
-    const double R = jb->kernel->radius;
+    /* point targets: written out for three resolved axes, the common case */
+    if (!t->is_grid) return nr == 3 ? visit_points(jb, out, obj, x, e, scale, count, 3)
+                                    : visit_points(jb, out, obj, x, e, scale, count, nr);
     double q[3], grad[3] = {0.0, 0.0, 0.0};
     double bmin[3], bmax[3];
-    for (int a = 0; a < nr; ++a) {
-        const double end = x[a] + e[a];
-        bmin[a] = fmin(x[a], end) - R;
-        bmax[a] = fmax(x[a], end) + R;
-        if (bmax[a] < jb->lo[a] || bmin[a] > jb->hi[a]) return CG_OK;
-    }
-    if (!t->is_grid) {
-        /* with the points sorted by their first coordinate, only those with it
-           inside [bmin, bmax] (found by bisection); each point still receives
-           its terms in object order, so the sums are the same */
-        cg_index k = 0, k_end = t->n_points;
-        if (jb->point_order) {
-            const double *c = jb->point_first;
-            cg_index lo = 0, hi = t->n_points;
-            while (lo < hi) {
-                const cg_index mid = lo + (hi - lo) / 2;
-                if (c[mid] < bmin[0]) lo = mid + 1;
-                else hi = mid;
-            }
-            k = lo;
-        }
-        for (; k < k_end; ++k) {
-            if (jb->point_order && jb->point_first[k] > bmax[0]) break;
-            const cg_index p = jb->point_order ? jb->point_order[k] : k;
-            if (++*count % POLL_EVERY == 0 && interrupted(jb)) return CG_ERR_INTERRUPTED;
-            const double *pt = t->points + p * nr;
-            int inside = 1;
-            for (int a = 0; a < nr; ++a) {
-                if (pt[a] < bmin[a] || pt[a] > bmax[a]) { inside = 0; break; }
-                q[a] = pt[a] - x[a];
-            }
-            if (!inside) continue;
-            const double w = object_weight(jb, q, e, scale, grad);
-            if (w != 0.0 || jb->mode == MODE_GRADIENT) cg_accumulate(jb, out, obj, p, w, grad);
-        }
-        return CG_OK;
-    }
+    if (!object_box(jb, x, e, nr, bmin, bmax)) return CG_OK;
     /* grid: index range of the stencil along each resolved axis */
     cg_index first[3], last[3], stride[3];
     if (!stencil_range(jb, bmin, bmax, first, last, stride)) return CG_OK;
@@ -239,6 +275,12 @@ static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_inde
         for (int a = 0; a < nr; ++a) e[a] *= s_max;
         scale = s_max;
     }
+    if (!jb->any_periodic) { /* one image: the object itself */
+        cg_index count = 0;
+        if (!t->is_grid) return nr == 3 ? visit_points(jb, out, row, x, e, scale, &count, 3)
+                                        : visit_points(jb, out, row, x, e, scale, &count, nr);
+        return visit_nodes(jb, out, sc, row, x, e, scale, &count);
+    }
     /* periodic images: first bring the start next to the target, so that
        image indices stay small whatever the input coordinates */
     cg_index kmin[3] = {0, 0, 0}, kmax[3] = {0, 0, 0};
@@ -253,8 +295,8 @@ static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_inde
         kmax[a] = (cg_index)last;
         if (kmin[a] > kmax[a]) return CG_OK;
     }
-    cg_index k[3] = {kmin[0], kmin[1], kmin[2]};
     cg_index count = 0;
+    cg_index k[3] = {kmin[0], kmin[1], kmin[2]};
     for (;;) {
         double xs[3];
         for (int a = 0; a < nr; ++a) xs[a] = t->periodic[a] ? x[a] + (double)k[a] * t->period[a] : x[a];
@@ -297,6 +339,7 @@ static cg_status prepare(job *jb)
             jb->hi[a] = hi;
         }
     }
+    for (int a = 0; a < t->n_resolved; ++a) jb->any_periodic |= t->periodic[a] != 0;
     const cg_kernel *k = jb->kernel;
     if (jb->mode == MODE_GRADIENT) {
         /* averaged axes: the Gaussian's marginals, and Lucy's for points (cg_gradient.c) */
@@ -462,9 +505,7 @@ static cg_index *spatial_order(const job *jb, cg_index **ends)
 static void outer_values(const job *jb, cg_index obj, double *values)
 {
     const int D = jb->target->dim, nf = jb->n_factors;
-    const double *f = jb->factors + obj * nf, *v = jb->vecs + obj * D;
-    for (int r = 0; r < nf; ++r)
-        for (int c = 0; c < D; ++c) values[r * D + c] = 0.0 + f[r] * v[c];
+    cg_outer_values(nf, D, jb->factors + obj * nf, jb->vecs + obj * D, values);
 }
 
 /* Objects order[begin..end) (or begin..end) into out, one thread; stops at the
@@ -481,6 +522,15 @@ static void visit_range(const job *shared, double *out, scratch *sc, const cg_in
         own = *shared;
         own.values = values;
         jb = &own;
+    }
+    if (cg_profile_blocks(shared)) {
+        /* profiles: blocks of objects (cg_profile.c), their values formed there */
+        for (cg_index o = begin; o < end; o += CG_PROFILE_OBJECTS) {
+            if (load_status(failed) != CG_OK) return;
+            if (interrupted(shared)) { store_status(failed, CG_ERR_INTERRUPTED); return; }
+            cg_visit_profile_objects(shared, out, order, o, end - o > CG_PROFILE_OBJECTS ? o + CG_PROFILE_OBJECTS : end);
+        }
+        return;
     }
     for (cg_index o = begin; o < end; ++o) {
         if (load_status(failed) != CG_OK) return;
@@ -629,11 +679,13 @@ static int by_key(const void *a, const void *b)
 }
 
 /* the points' order by first coordinate (NULL: not sorted); 0 when memory is short */
-static int sort_points(const job *jb, cg_index **order, double **first)
+static int sort_points(const job *jb, cg_index **order, double **first, cg_index **cell, double *cell_lo,
+                       double *cell_inv)
 {
     const cg_target *t = jb->target;
     *order = NULL;
     *first = NULL;
+    *cell = NULL;
     if (t->is_grid || t->n_resolved == 0 || t->n_points < MIN_POINTS_TO_SORT) return 1;
     const cg_index P = t->n_points;
     const int nr = t->n_resolved;
@@ -660,6 +712,23 @@ static int sort_points(const job *jb, cg_index **order, double **first)
         (*first)[p] = keyed[p].key;
     }
     free(keyed);
+    /* cells of equal width between the first and last coordinates, P of
+       them: cell[j] is the first point at or above the cell's lower edge
+       (approximately: visit_points steps from there to the exact first) */
+    const double lo = (*first)[0], span = (*first)[P - 1] - lo;
+    if (span > 0.0 && isfinite(span)) {
+        *cell = malloc(((size_t)P + 1) * sizeof **cell);
+        if (*cell) {
+            const double inv = (double)P / span;
+            cg_index k = 0;
+            for (cg_index j = 0; j <= P; ++j) {
+                while (k < P && ((*first)[k] - lo) * inv < (double)j) ++k;
+                (*cell)[j] = k;
+            }
+            *cell_lo = lo;
+            *cell_inv = inv;
+        }
+    }
     return 1;
 }
 
@@ -686,14 +755,17 @@ static cg_status run(job *jb, double *out)
     const double work = (double)jb->n * stencil_estimate(jb);
     if (work < MIN_WORK_PER_THREAD || work < 2.0 * (double)P * (double)width) n_threads = 1;
 #endif
-    cg_index *point_order = NULL;
+    cg_index *point_order = NULL, *point_cell = NULL;
     double *point_first = NULL;
-    if (!sort_points(jb, &point_order, &point_first)) return CG_ERR_NOMEM;
+    if (!sort_points(jb, &point_order, &point_first, &point_cell, &jb->point_cell_lo, &jb->point_cell_inv))
+        return CG_ERR_NOMEM;
     jb->point_order = point_order;
     jb->point_first = point_first;
+    jb->point_cell = point_cell;
     const cg_status done = run_objects(jb, out, P, width, n_threads);
     free(point_order);
     free(point_first);
+    free(point_cell);
     return done;
 }
 

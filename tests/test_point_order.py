@@ -48,3 +48,21 @@ def test_sorted_points_give_the_scan_bits(kernel, periodic, segments, gradient):
         pieces[rows] = core_sums(box, points[rows], KERNELS[kernel](), starts, vectors, values, gradient)
     assert np.count_nonzero(whole) > 0
     assert whole.tobytes() == pieces.tobytes()
+
+
+def test_cells_of_clustered_points():
+    """The sorted points' cells (where an object starts looking): points crowded into a few cells, with one far
+    off; objects below, above and inside them; the scan's bits."""
+    rng = np.random.default_rng(4)
+    box = cg.Box([0, 0, 0], [6, 5, 7])
+    points = np.concatenate([rng.uniform(2.0, 2.0 + 1e-9, size=(40, 3)), rng.uniform(0, 6, size=(20, 3)),
+                             [[1e5, 1.0, 1.0]]])
+    starts = np.concatenate([rng.uniform(-3, 9, size=(300, 3)), points[:30] + 1e-10])
+    values = rng.normal(size=(len(starts), 2))
+    kernel = cg.Lucy(1.3)
+    whole = core_sums(box, points, kernel, starts, None, values, False)
+    scanned = np.concatenate([core_sums(box, np.concatenate([points[:-1][i:i + 8], points[-1:]]), kernel, starts, None,
+                                        values, False)[:-1] for i in range(0, len(points) - 1, 8)]
+                             + [core_sums(box, points[-1:], kernel, starts, None, values, False)])
+    assert np.count_nonzero(whole) > 0
+    assert whole.tobytes() == scanned.tobytes()

@@ -89,6 +89,21 @@ def test_random_segments_and_points(kernel, seed):
 
 
 @pytest.mark.parametrize("kernel", sorted(KERNELS))
+def test_blocks_of_objects(kernel):
+    """Objects are taken in blocks of (object, node) pairs (cg_visit_profile_objects): blocks that fill up
+    mid-way, stencils longer than a block (taken alone), a profile of one node (every object takes it)."""
+    rng = np.random.default_rng(11)
+    box = cg.Box([0, 0, 0], [6, 6, 30])
+    starts, vectors = random_segments(rng, box, 300)
+    vectors[::3, 2] *= 12.0                              # 600 nodes and more
+    values = rng.normal(size=(len(starts), 9))
+    assert_same_bits(box, 1500, "z", KERNELS[kernel], 1.1, starts, vectors, values, "long stencils")
+    assert_same_bits(box, 1500, "z", KERNELS[kernel], 1.1, starts, vectors, values[:, :3], "outer", outer=True)
+    assert_same_bits(box, 1, "z", KERNELS[kernel], 1.1, starts, vectors, values, "one node")
+    assert_same_bits(box, 1, "z", KERNELS[kernel], 1.1, starts, None, values, "one node, points")
+
+
+@pytest.mark.parametrize("kernel", sorted(KERNELS))
 def test_nodes_on_ends_and_support_edges(kernel):
     """Segments that start, end and pass exactly on nodes, and whose supports end exactly on nodes."""
     box = cg.Box([0, 0, 0], [4, 4, 10])
