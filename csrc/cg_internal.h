@@ -214,16 +214,19 @@ void cg_lucy_add9(int count, const double *w, const cg_index *node, double scale
 
 /* Lucy's values for the nodes of several segments at once (cg_lucy_line.c):
    segment s (< nseg) has nodes start[s]..start[s + 1] - 1 (offsets q0[i],
-   q1[i], q2[i] from its start), direction geom[7s..7s+2], end offset
-   geom[7s+3..7s+5] and L/R (as L * (1/R)) geom[7s + 6]; w[i] = the value
-   cg_lucy_value gives (bit for bit, unscaled). u, t_far, a2, Ld: scratch.
-   Every array is read or written up to a whole number of 8-lane vectors
-   past each segment's last node (at least 8 doubles of slack, initialised,
-   past start[nseg]). cg_lucy_batch_add9: cg_lucy_add9 per segment with
-   weights factor[s] * w[i], scale[s] and values val[9s..9s+8], in order. */
+   q1[i], q2[i] from its start, grid indices node[i]), direction
+   geom[7s..7s+2], end offset geom[7s+3..7s+5] and L/R (as L * (1/R))
+   geom[7s + 6]. Out: the nodes of segment s at cstart[s]..cstart[s + 1] - 1,
+   their indices in node_c and w = the value cg_lucy_value gives (bit for
+   bit, unscaled); nodes whose value is surely 0 may be left out (the
+   AVX-512 build does). u, t_far, a2, Ld: scratch. Every array is read or
+   written up to a whole number of 8-lane vectors past each segment's last
+   node (at least 8 elements of slack, initialised, past start[nseg]).
+   cg_lucy_batch_add9: cg_lucy_add9 per segment (start: cstart, node: node_c)
+   with weights factor[s] * w[i], scale[s] and values val[9s..9s+8], in order. */
 void cg_lucy_batch_values(int nseg, const int *start, const double *geom, const double *q0, const double *q1,
-                          const double *q2, double R, double *u, double *t_far, double *a2, double *Ld, double *w,
-                          int wide);
+                          const double *q2, const cg_index *node, double R, double *u, double *t_far, double *a2,
+                          double *Ld, double *w, cg_index *node_c, int *cstart, int wide);
 void cg_lucy_batch_add9(int nseg, const int *start, const double *factor, const double *scale, const double *val,
                         const double *w, const cg_index *node, double *out, int wide);
 

@@ -328,10 +328,10 @@ struct lucy_batch {
     double *out;
     double R;
     int wide, count, nseg;
-    int start[LUCY_BATCH_SEGS + 1];
+    int start[LUCY_BATCH_SEGS + 1], cstart[LUCY_BATCH_SEGS + 1];
     double geom[7 * LUCY_BATCH_SEGS], factor[LUCY_BATCH_SEGS], scale[LUCY_BATCH_SEGS], val[9 * LUCY_BATCH_SEGS];
     double qb[3][LUCY_BATCH_NODES + LUCY_SLACK];
-    cg_index node[LUCY_BATCH_NODES + LUCY_SLACK];
+    cg_index node[LUCY_BATCH_NODES + LUCY_SLACK], node_c[LUCY_BATCH_NODES + LUCY_SLACK];
     double u[LUCY_BATCH_NODES + LUCY_SLACK], t_far[LUCY_BATCH_NODES + LUCY_SLACK];
     double a2[LUCY_BATCH_NODES + LUCY_SLACK], Ld[LUCY_BATCH_NODES + LUCY_SLACK], w[LUCY_BATCH_NODES + LUCY_SLACK];
 };
@@ -340,9 +340,9 @@ struct lucy_batch {
 static void lucy_batch_run(struct lucy_batch *b)
 {
     if (b->nseg == 0) return;
-    cg_lucy_batch_values(b->nseg, b->start, b->geom, b->qb[0], b->qb[1], b->qb[2], b->R, b->u, b->t_far, b->a2,
-                         b->Ld, b->w, b->wide);
-    cg_lucy_batch_add9(b->nseg, b->start, b->factor, b->scale, b->val, b->w, b->node, b->out, b->wide);
+    cg_lucy_batch_values(b->nseg, b->start, b->geom, b->qb[0], b->qb[1], b->qb[2], b->node, b->R, b->u, b->t_far,
+                         b->a2, b->Ld, b->w, b->node_c, b->cstart, b->wide);
+    cg_lucy_batch_add9(b->nseg, b->cstart, b->factor, b->scale, b->val, b->w, b->node_c, b->out, b->wide);
     b->nseg = b->count = 0;
 }
 

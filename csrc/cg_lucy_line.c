@@ -37,6 +37,13 @@
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#ifdef CG_HAVE_WIDE_SEPARABLE
+#include <immintrin.h> /* the AVX-512 build's compaction (lucy_batch_frames_wide) */
+#endif
+
+/* eight doubles as one value (GCC's vector arithmetic: element by element,
+   rounded as scalar code) */
+typedef double lucy_v8 __attribute__((vector_size(64)));
 
 #if defined(__GNUC__)
 #define INLINE static inline __attribute__((always_inline))
@@ -259,27 +266,35 @@ INLINE void lucy_values_body(int count, const double *restrict q0, const double 
 
 /* Several segments' nodes at once (cg_lucy_batch_values): segment s has nodes
    start[s]..start[s + 1] - 1, direction geom[7s..7s+2], end geom[7s+3..7s+5]
-   and L/R geom[7s + 6]. First each segment's frames (a loop with its
-   direction broadcast, over a whole number of vectors: the lanes past its
-   last node are the next segment's, rewritten by its own loop, or slack),
-   then the stage loops of lucy_values_body over all the nodes, so that they
-   run full whatever a segment's count (W1: 35 nodes in a box, which took 5
-   vectors of stage loops per call, the chains of too few vectors to keep the
-   processor busy, and the call's set-up per segment). The same operations
-   on the same values per node: the bits of lucy_values_body (without its
-   factor: the caller's lucy_batch_add9 applies it, as factor * value). */
-INLINE void lucy_batch_values_body(int nseg, const int *restrict start, const double *restrict geom,
+   and L/R geom[7s + 6]. First each segment's frames, in loops with its
+   direction broadcast, then the stage loops of lucy_values_body over all the
+   nodes, so that they run full whatever a segment's count (W1: 35 nodes in a
+   box, which took 5 vectors of stage loops per call, the chains of too few
+   vectors to keep the processor busy, and the call's set-up per segment).
+   The same operations on the same values per node: the bits of
+   lucy_values_body (without its factor: lucy_batch_add9 applies it, as
+   factor * value). The frames go to cstart[s]..cstart[s + 1] - 1 with their
+   node indices (node_c): in the AVX-512 build only the nodes that may reach
+   the segment (lucy_may_reach, compacted; the others' values are 0 and add
+   nothing), elsewhere all of them in place. */
+
+/* the nodes' frames, all of them in place (a loop per segment over a whole
+   number of vectors: the lanes past its last node are the next segment's,
+   rewritten by its own loop, or slack) */
+INLINE void lucy_batch_frames_body(int nseg, const int *restrict start, const double *restrict geom,
                                    const double *restrict q0, const double *restrict q1, const double *restrict q2,
-                                   double R, double *restrict u, double *restrict t_far, double *restrict a2,
-                                   double *restrict Ld, double *restrict w)
+                                   const cg_index *restrict node, double *restrict u, double *restrict t_far,
+                                   double *restrict a2, double *restrict Ld, cg_index *restrict node_c,
+                                   int *restrict cstart)
 {
-    const double inv = 1.0 / R;
     for (int s = 0; s < nseg; ++s) {
         const double *g = geom + 7 * s;
         const double nn[3] = {g[0], g[1], g[2]}, ee[3] = {g[3], g[4], g[5]}, ld = g[6];
         const int b = start[s], m = (start[s + 1] - b + LUCY_LANES - 1) & -LUCY_LANES;
         const double *restrict a0 = q0 + b, *restrict a1 = q1 + b, *restrict a2_ = q2 + b;
         double *restrict uo = u + b, *restrict to = t_far + b, *restrict ao = a2 + b, *restrict lo = Ld + b;
+        const cg_index *restrict ni = node + b;
+        cg_index *restrict no = node_c + b;
         for (int i = 0; i < m; ++i) {
             double ui, ti, ai;
             lucy_frame(a0[i], a1[i], a2_[i], nn, ee, &ui, &ti, &ai);
@@ -287,9 +302,20 @@ INLINE void lucy_batch_values_body(int nseg, const int *restrict start, const do
             to[i] = ti;
             ao[i] = ai;
             lo[i] = ld;
+            no[i] = ni[i];
         }
+        cstart[s] = b;
     }
-    const int count = (start[nseg] + LUCY_LANES - 1) & -LUCY_LANES;
+    cstart[nseg] = start[nseg];
+}
+
+/* the stages over count nodes' frames (lucy_values_body's), unscaled values into w */
+INLINE void lucy_batch_stages_body(int count, const double *restrict u, const double *restrict t_far,
+                                   const double *restrict a2, const double *restrict Ld, double R,
+                                   double *restrict w)
+{
+    const double inv = 1.0 / R;
+    count = (count + LUCY_LANES - 1) & -LUCY_LANES;
     double t0[LUCY_STAGE_CHUNK], t1[LUCY_STAGE_CHUNK], r0[LUCY_STAGE_CHUNK], r1[LUCY_STAGE_CHUNK];
     double d[LUCY_STAGE_CHUNK], s2[LUCY_STAGE_CHUNK], ok[LUCY_STAGE_CHUNK], lg[LUCY_STAGE_CHUNK], dr[LUCY_STAGE_CHUNK];
     for (int i0 = 0; i0 < count; i0 += LUCY_STAGE_CHUNK) {
@@ -428,33 +454,90 @@ LUCY_NO_THREADING __attribute__((target("avx512f"))) static void lucy_values_wid
 
 LUCY_NO_THREADING LUCY_CLONES static void lucy_batch_values_narrow(int nseg, const int *start, const double *geom,
                                                                  const double *q0, const double *q1,
-                                                                 const double *q2, double R, double *u,
-                                                                 double *t_far, double *a2, double *Ld, double *w)
+                                                                 const double *q2, const cg_index *node, double R,
+                                                                 double *u, double *t_far, double *a2, double *Ld,
+                                                                 double *w, cg_index *node_c, int *cstart)
 {
-    lucy_batch_values_body(nseg, start, geom, q0, q1, q2, R, u, t_far, a2, Ld, w);
+    lucy_batch_frames_body(nseg, start, geom, q0, q1, q2, node, u, t_far, a2, Ld, node_c, cstart);
+    lucy_batch_stages_body(cstart[nseg], u, t_far, a2, Ld, R, w);
 }
 
 #ifdef CG_HAVE_WIDE_SEPARABLE
+/* lucy_batch_frames_body with the nodes that cannot reach the segment
+   (lucy_may_reach) left out: each vector's kept lanes compressed to the
+   front and stored whole (the lanes past them rewritten next or slack);
+   W1 keeps 27 of a box's 35 nodes. The frame's operations as lucy_frame's,
+   element by element (GCC's vector arithmetic). */
+__attribute__((target("avx512f"))) static inline __attribute__((always_inline)) void
+lucy_batch_frames_wide(int nseg, const int *restrict start, const double *restrict geom, const double *restrict q0,
+                       const double *restrict q1, const double *restrict q2, const cg_index *restrict node, double R,
+                       double *restrict u, double *restrict t_far, double *restrict a2, double *restrict Ld,
+                       cg_index *restrict node_c, int *restrict cstart)
+{
+    const double R2 = R * R;
+    int p = 0;
+    for (int s = 0; s < nseg; ++s) {
+        const double *g = geom + 7 * s;
+        const lucy_v8 n0 = {g[0], g[0], g[0], g[0], g[0], g[0], g[0], g[0]};
+        const lucy_v8 n1 = {g[1], g[1], g[1], g[1], g[1], g[1], g[1], g[1]};
+        const lucy_v8 n2 = {g[2], g[2], g[2], g[2], g[2], g[2], g[2], g[2]};
+        const lucy_v8 e0 = {g[3], g[3], g[3], g[3], g[3], g[3], g[3], g[3]};
+        const lucy_v8 e1 = {g[4], g[4], g[4], g[4], g[4], g[4], g[4], g[4]};
+        const lucy_v8 e2 = {g[5], g[5], g[5], g[5], g[5], g[5], g[5], g[5]};
+        const __m512d ld = _mm512_set1_pd(g[6]);
+        const int end = start[s + 1];
+        cstart[s] = p;
+        for (int i = start[s]; i < end; i += LUCY_LANES) {
+            lucy_v8 a0, a1, a2v;
+            memcpy(&a0, q0 + i, sizeof a0);
+            memcpy(&a1, q1 + i, sizeof a1);
+            memcpy(&a2v, q2 + i, sizeof a2v);
+            const lucy_v8 uv = a0 * n0 + a1 * n1 + a2v * n2;
+            const lucy_v8 tv = (a0 - e0) * n0 + (a1 - e1) * n1 + (a2v - e2) * n2;
+            const lucy_v8 p0 = a0 - uv * n0, p1 = a1 - uv * n1, p2 = a2v - uv * n2;
+            const lucy_v8 av = p0 * p0 + p1 * p1 + p2 * p2;
+            /* lucy_may_reach, lane by lane */
+            const __m512d U = (__m512d)uv, T = (__m512d)tv, b2 = _mm512_sub_pd(_mm512_set1_pd(R2), (__m512d)av);
+            const __m512d loose = _mm512_mul_pd(b2, _mm512_set1_pd(1.0 + 1e-9)), zero = _mm512_setzero_pd();
+            const __mmask8 lanes = end - i >= LUCY_LANES ? (__mmask8)0xff : (__mmask8)((1u << (end - i)) - 1u);
+            const __mmask8 keep = lanes & _mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ) &
+                                  (_mm512_cmp_pd_mask(U, zero, _CMP_GE_OQ) |
+                                   _mm512_cmp_pd_mask(_mm512_mul_pd(U, U), loose, _CMP_LT_OQ)) &
+                                  (_mm512_cmp_pd_mask(T, zero, _CMP_LE_OQ) |
+                                   _mm512_cmp_pd_mask(_mm512_mul_pd(T, T), loose, _CMP_LT_OQ));
+            _mm512_storeu_pd(u + p, _mm512_maskz_compress_pd(keep, U));
+            _mm512_storeu_pd(t_far + p, _mm512_maskz_compress_pd(keep, T));
+            _mm512_storeu_pd(a2 + p, _mm512_maskz_compress_pd(keep, (__m512d)av));
+            _mm512_storeu_pd(Ld + p, ld);
+            _mm512_storeu_si512(node_c + p, _mm512_maskz_compress_epi64(keep, _mm512_loadu_si512(node + i)));
+            p += __builtin_popcount(keep);
+        }
+    }
+    cstart[nseg] = p;
+}
+
 LUCY_NO_THREADING __attribute__((target("avx512f"))) static void
 lucy_batch_values_wide(int nseg, const int *start, const double *geom, const double *q0, const double *q1,
-                       const double *q2, double R, double *u, double *t_far, double *a2, double *Ld, double *w)
+                       const double *q2, const cg_index *node, double R, double *u, double *t_far, double *a2,
+                       double *Ld, double *w, cg_index *node_c, int *cstart)
 {
-    lucy_batch_values_body(nseg, start, geom, q0, q1, q2, R, u, t_far, a2, Ld, w);
+    lucy_batch_frames_wide(nseg, start, geom, q0, q1, q2, node, R, u, t_far, a2, Ld, node_c, cstart);
+    lucy_batch_stages_body(cstart[nseg], u, t_far, a2, Ld, R, w);
 }
 #endif
 
 void cg_lucy_batch_values(int nseg, const int *start, const double *geom, const double *q0, const double *q1,
-                          const double *q2, double R, double *u, double *t_far, double *a2, double *Ld, double *w,
-                          int wide)
+                          const double *q2, const cg_index *node, double R, double *u, double *t_far, double *a2,
+                          double *Ld, double *w, cg_index *node_c, int *cstart, int wide)
 {
 #ifdef CG_HAVE_WIDE_SEPARABLE
     if (wide) {
-        lucy_batch_values_wide(nseg, start, geom, q0, q1, q2, R, u, t_far, a2, Ld, w);
+        lucy_batch_values_wide(nseg, start, geom, q0, q1, q2, node, R, u, t_far, a2, Ld, w, node_c, cstart);
         return;
     }
 #endif
     (void)wide;
-    lucy_batch_values_narrow(nseg, start, geom, q0, q1, q2, R, u, t_far, a2, Ld, w);
+    lucy_batch_values_narrow(nseg, start, geom, q0, q1, q2, node, R, u, t_far, a2, Ld, w, node_c, cstart);
 }
 
 LUCY_CLONES static void lucy_frames_narrow(int count, const double *q0, const double *q1, const double *q2,
@@ -571,8 +654,6 @@ void cg_ball_add(int count, const double *w, const cg_index *node, int width, co
    w[i] * scale (cg_accumulate's MODE_VALUE sums of a 9-component value): the
    first 8 components as one vector of the same element-wise products and
    sums, so the same bits on every instruction set */
-typedef double lucy_v8 __attribute__((vector_size(64)));
-
 INLINE void lucy_add9_body(int count, const double *restrict w, const cg_index *restrict node, double scale,
                            const double *restrict val, double *restrict out)
 {
