@@ -226,6 +226,24 @@ void cg_ball_add(int count, const double *w, const cg_index *node, int width, co
 void cg_lucy_add9(int count, const double *w, const cg_index *node, double scale, const double *val, double *out,
                   int wide);
 
+/* Lucy's values for the nodes of several segments at once (cg_lucy_line.c):
+   segment s (< nseg) has nodes start[s]..start[s + 1] - 1 (offsets q0[i],
+   q1[i], q2[i] from its start, grid indices node[i]), direction
+   geom[7s..7s+2], end offset geom[7s+3..7s+5] and L/R (as L * (1/R))
+   geom[7s + 6]. Out: the nodes of segment s at cstart[s]..cstart[s + 1] - 1,
+   their indices in node_c and w = the value cg_lucy_value gives (bit for
+   bit, unscaled); nodes whose value is surely 0 may be left out (the
+   AVX-512 build does). u, t_far, a2, Ld: scratch. Every array is read or
+   written up to a whole number of 8-lane vectors past each segment's last
+   node (at least 8 elements of slack, initialised, past start[nseg]).
+   cg_lucy_batch_add9: cg_lucy_add9 per segment (start: cstart, node: node_c)
+   with weights factor[s] * w[i], scale[s] and values val[9s..9s+8], in order. */
+void cg_lucy_batch_values(int nseg, const int *start, const double *geom, const double *q0, const double *q1,
+                          const double *q2, const cg_index *node, double R, double *u, double *t_far, double *a2,
+                          double *Ld, double *w, cg_index *node_c, int *cstart, int wide);
+void cg_lucy_batch_add9(int nseg, const int *start, const double *factor, const double *scale, const double *val,
+                        const double *w, const cg_index *node, double *out, int wide);
+
 /* A segment seen from the rows of a grid (cg_lucy_line.c, cg_lucy_rows):
    n, e along the (up to two) axes before the row axis (0 where absent), nz,
    ez along the row axis; the squared radius with margins bound, the margin
@@ -293,10 +311,13 @@ typedef struct job {
     int any_periodic;          /* a resolved axis is periodic (else no images to look for) */
 } job;
 
+struct lucy_batch;
+
 /* per-thread scratch memory of the separable path, grown on demand */
 typedef struct scratch {
     double *buf;
     size_t cap;
+    struct lucy_batch *lucy; /* cg_visit_lucy's segments waiting for their values (cg_lucy_batch_flush) */
 } scratch;
 
 /* out[node] += the contribution of object obj with the given weight (or
@@ -419,8 +440,15 @@ int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, co
 /* Lucy's segments on grids (full-dimensional kernel, values): the nodes of
    each row of the stencil with the segment's axis computed once; the same
    numbers as the node-by-node path, bit for bit. Returns 1 when it visited the
-   object, 0 when the caller should use the node-by-node path (zero length). */
-int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale);
+   object, 0 when the caller should use the node-by-node path (zero length).
+   Lucy's segments whose box is evaluated whole may wait in sc->lucy (their
+   terms not yet in out) until cg_lucy_batch_flush, called before anything
+   else writes to out and at the end of a thread's objects: the terms reach
+   every node in object order all the same. cg_lucy_batch_flush also frees
+   sc->lucy. */
+int cg_visit_lucy(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
+                  double scale);
+void cg_lucy_batch_flush(scratch *sc);
 
 /* Points of Lucy and Heaviside on grids (values and fluctuations): each row
    of the stencil narrowed to the support ball, the node-by-node numbers bit

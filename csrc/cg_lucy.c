@@ -21,6 +21,7 @@
 #include "cg_internal.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* one piece [p, q] (units of R, 0 <= p <= q, d = q - p given accurately),
@@ -312,6 +313,171 @@ static void lucy_visit_init(lucy_visit *v, const job *jb, double *out, cg_index 
     }
 }
 
+/* nodes and segments per batch of lucy_batch (several segments' boxes
+   evaluated at once), and its arrays' slack past the last node (for
+   whole vectors: cg_lucy_batch_values, lucy_box_rows) */
+#define LUCY_BATCH_NODES 256
+#define LUCY_BATCH_SEGS 32
+#define LUCY_SLACK 16
+
+/* Lucy's boxes waiting for their values: the nodes of segments
+   0..nseg - 1 (start[s]..start[s + 1] - 1) with each segment's geometry
+   (cg_lucy_batch_values' geom), weight factor, scale and 9 values (copied:
+   with factors the job's values are rewritten for each object) */
+struct lucy_batch {
+    double *out;
+    double R;
+    int wide, count, nseg;
+    int start[LUCY_BATCH_SEGS + 1], cstart[LUCY_BATCH_SEGS + 1];
+    double geom[7 * LUCY_BATCH_SEGS], factor[LUCY_BATCH_SEGS], scale[LUCY_BATCH_SEGS], val[9 * LUCY_BATCH_SEGS];
+    double qb[3][LUCY_BATCH_NODES + LUCY_SLACK];
+    cg_index node[LUCY_BATCH_NODES + LUCY_SLACK], node_c[LUCY_BATCH_NODES + LUCY_SLACK];
+    double u[LUCY_BATCH_NODES + LUCY_SLACK], t_far[LUCY_BATCH_NODES + LUCY_SLACK];
+    double a2[LUCY_BATCH_NODES + LUCY_SLACK], Ld[LUCY_BATCH_NODES + LUCY_SLACK], w[LUCY_BATCH_NODES + LUCY_SLACK];
+};
+
+/* the waiting segments' values, then their terms into out, segment after segment */
+static void lucy_batch_run(struct lucy_batch *b)
+{
+    if (b->nseg == 0) return;
+    cg_lucy_batch_values(b->nseg, b->start, b->geom, b->qb[0], b->qb[1], b->qb[2], b->node, b->R, b->u, b->t_far,
+                         b->a2, b->Ld, b->w, b->node_c, b->cstart, b->wide);
+    cg_lucy_batch_add9(b->nseg, b->cstart, b->factor, b->scale, b->val, b->w, b->node_c, b->out, b->wide);
+    b->nseg = b->count = 0;
+}
+
+void cg_lucy_batch_flush(scratch *sc)
+{
+    if (!sc->lucy) return;
+    lucy_batch_run(sc->lucy);
+    free(sc->lucy);
+    sc->lucy = NULL;
+}
+
+typedef double lucy_v4d __attribute__((vector_size(32)));
+typedef cg_index lucy_v4i __attribute__((vector_size(32)));
+
+/* every node of the box first..last (2-D or 3-D) into the batch after its
+   nodes (they fit), as lucy_add_box gathers them; a row of at most 8 nodes
+   (a box a little longer than a short segment) stored as whole vectors, the
+   lanes past its end rewritten by the next row or left in the slack */
+static inline __attribute__((always_inline)) void lucy_box_rows(struct lucy_batch *b, int row, const cg_target *t,
+                                                                const double *x, const cg_index *first,
+                                                                const cg_index *last, const cg_index *stride)
+{
+    const cg_index n0 = row == 2 ? last[0] - first[0] + 1 : 1;
+    const cg_index k0 = first[row], nk = last[row] - k0 + 1;
+    const cg_index ja = first[row - 1], jb_ = last[row - 1], sj = stride[row - 1];
+    const double *zc = t->coords[row], xr = x[row], *yc = t->coords[row - 1], xj = x[row - 1];
+    /* 3-D: (f0, fj, z) into (q0, q1, q2); 2-D: (fj, z, 0) */
+    double *qa = row == 2 ? b->qb[0] : b->qb[2], *qj = b->qb[row - 1], *qz = b->qb[row];
+    cg_index *node = b->node;
+    int c = b->count;
+    if (nk <= 8) {
+        /* 4 lanes, or 8 as two vectors of 4 (AVX2's width; a 64-byte vector
+           type would go through memory there) */
+        const lucy_v4i iota = {0, 1, 2, 3}, four = {4, 4, 4, 4};
+        double zq[8];
+        for (int m = 0; m < 8; ++m) zq[m] = m < nk ? zc[k0 + m] - xr : 0.0;
+        lucy_v4d z0, z1;
+        memcpy(&z0, zq, sizeof z0);
+        memcpy(&z1, zq + 4, sizeof z1);
+        const int two = nk > 4;
+        for (cg_index i = 0; i < n0; ++i) {
+            const cg_index ii = row == 2 ? first[0] + i : 0;
+            const double f0 = row == 2 ? t->coords[0][ii] - x[0] : 0.0;
+            const lucy_v4d f0v = {f0, f0, f0, f0};
+            cg_index base = (row == 2 ? ii * stride[0] : 0) + ja * sj + k0;
+            for (cg_index j = ja; j <= jb_; ++j, base += sj) {
+                const double fj = yc[j] - xj;
+                const lucy_v4d fjv = {fj, fj, fj, fj};
+                const lucy_v4i n0v = iota + base;
+                memcpy(qa + c, &f0v, sizeof f0v);
+                memcpy(qj + c, &fjv, sizeof fjv);
+                memcpy(qz + c, &z0, sizeof z0);
+                memcpy(node + c, &n0v, sizeof n0v);
+                if (two) {
+                    const lucy_v4i n1v = n0v + four;
+                    memcpy(qa + c + 4, &f0v, sizeof f0v);
+                    memcpy(qj + c + 4, &fjv, sizeof fjv);
+                    memcpy(qz + c + 4, &z1, sizeof z1);
+                    memcpy(node + c + 4, &n1v, sizeof n1v);
+                }
+                c += (int)nk;
+            }
+        }
+        b->count = c;
+        return;
+    }
+    for (cg_index i = 0; i < n0; ++i) {
+        const cg_index ii = row == 2 ? first[0] + i : 0;
+        const double f0 = row == 2 ? t->coords[0][ii] - x[0] : 0.0;
+        cg_index base = (row == 2 ? ii * stride[0] : 0) + ja * sj + k0;
+        for (cg_index j = ja; j <= jb_; ++j, base += sj) {
+            const double fj = yc[j] - xj;
+            for (cg_index m = 0; m < nk; ++m) {
+                qa[c + m] = f0;
+                qj[c + m] = fj;
+                qz[c + m] = zc[k0 + m] - xr;
+                node[c + m] = base + m;
+            }
+            c += (int)nk;
+        }
+    }
+    b->count = c;
+}
+
+/* Lucy's box first..last of a segment (axis ax, end e) into sc->lucy, its
+   waiting segments evaluated first if it would not fit; 0 if not batched
+   (not a 9-value sum, a box bigger than a batch, or no memory) */
+static inline __attribute__((always_inline)) int lucy_batch_box(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
+                          const segment_axis *ax, double scale, const cg_index *first, const cg_index *last,
+                          double box)
+{
+    if (jb->kernel->type != CG_KERNEL_LUCY || jb->n_values != 9 || jb->out_width != 9 || box > LUCY_BATCH_NODES)
+        return 0;
+    struct lucy_batch *b = sc->lucy;
+    if (!b) {
+        /* zeroed: the slack lanes hold finite numbers */
+        b = sc->lucy = calloc(1, sizeof *b);
+        if (!b) return 0;
+    }
+    if (b->count + (int)box > LUCY_BATCH_NODES || b->nseg == LUCY_BATCH_SEGS) lucy_batch_run(b);
+    const int nr = jb->target->n_resolved, s = b->nseg;
+    const double R = jb->kernel->radius;
+    b->out = out;
+    b->R = R;
+    b->wide = jb->wide;
+    double *g = b->geom + 7 * s;
+    for (int a = 0; a < 3; ++a) g[a] = g[3 + a] = 0.0;
+    for (int a = 0; a < nr; ++a) {
+        g[a] = ax->unit[a];
+        g[3 + a] = e[a];
+    }
+    g[6] = ax->L * (1.0 / R);
+    b->factor[s] = jb->kernel->prefactor * (R / ax->L);
+    b->scale[s] = scale;
+    for (int k = 0; k < 9; ++k) b->val[9 * s + k] = jb->values[obj * 9 + k];
+    b->start[s] = b->count;
+    lucy_box_rows(b, nr - 1, jb->target, x, first, last, jb->grid_stride);
+    b->start[s + 1] = b->count;
+    b->nseg = s + 1;
+    return 1;
+}
+
+/* cg_visit_lucy for AVX2 too (as cg_lucy_line.c's loops): its box's bounds
+   round with one instruction (SSE2 has none) and the gathering stores whole
+   vectors; scalar arithmetic without FMA contraction (ISO C), so the same
+   bits on both */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__has_attribute)
+#if __has_attribute(target_clones) && defined(__x86_64__) && !defined(CGBOUND_NO_CLONES)
+#define VISIT_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+#endif
+#ifndef VISIT_CLONES
+#define VISIT_CLONES
+#endif
+
 /* The node-by-node path (cg_scatter.c, visit_nodes) over the same stencil box,
    with the segment's axis computed once per object instead of once per node:
    in 3-D the planes of the first axis narrowed to the rows the capsule's
@@ -321,14 +487,18 @@ static void lucy_visit_init(lucy_visit *v, const job *jb, double *out, cg_index 
    cg_lucy_line.c) as the node-by-node path computes each one. Every node gets
    one term per object, so the order of the nodes within an object does not
    change the sums. */
-int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, const double *e, double scale)
+VISIT_CLONES int cg_visit_lucy(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
+                               double scale)
 {
     const cg_target *t = jb->target;
     const int nr = t->n_resolved;
     const double R = jb->kernel->radius;
     double L2 = 0.0;
     for (int a = 0; a < nr; ++a) L2 += e[a] * e[a];
-    if (L2 == 0.0) return 0;
+    if (L2 == 0.0) {
+        if (sc->lucy) lucy_batch_run(sc->lucy); /* the node-by-node path writes to out next */
+        return 0;
+    }
     segment_axis ax;
     segment_axis_of(nr, e, &ax);
     double bmin[3], bmax[3];
@@ -371,6 +541,8 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
         const double pi = 3.14159265358979323846;
         const double capsule = nr == 3 ? pi * R * R * (ax.L + 4.0 / 3.0 * R) : R * (2.0 * ax.L + pi * R);
         if (box <= LUCY_BOX_RATIO * capsule * jb->inv_cell + 8.0) {
+            if (lucy_batch_box(jb, out, sc, obj, x, e, &ax, scale, tf, tl, box)) return 1;
+            if (sc->lucy) lucy_batch_run(sc->lucy);
             lucy_visit_init(v, jb, out, obj, x, e, &ax, scale);
             lucy_add_box(v, t, x, tf, tl, jb->grid_stride);
             lucy_values_flush(v);
@@ -379,6 +551,7 @@ int cg_visit_lucy(const job *jb, double *out, cg_index obj, const double *x, con
     }
     cg_index first[3], last[3], stride[3];
     if (!stencil_range(jb, bmin, bmax, first, last, stride)) return 1;
+    if (sc->lucy) lucy_batch_run(sc->lucy);
     lucy_visit_init(v, jb, out, obj, x, e, &ax, scale);
     const int row = nr - 1;
     v->k_first = first[row];

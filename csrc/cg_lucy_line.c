@@ -37,6 +37,13 @@
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#ifdef CG_HAVE_WIDE_SEPARABLE
+#include <immintrin.h> /* the AVX-512 build's compaction (lucy_batch_frames_wide) */
+#endif
+
+/* eight doubles as one value (GCC's vector arithmetic: element by element,
+   rounded as scalar code) */
+typedef double lucy_v8 __attribute__((vector_size(64)));
 
 #if defined(__GNUC__)
 #define INLINE static inline __attribute__((always_inline))
@@ -134,8 +141,9 @@ INLINE void lucy_frame(double q0, double q1, double q2, const double *n, const d
    The same operations on the same values in the same order as in one
    piece: the same bits.
    Stage 1: the ends clipped to the support and reflected (t0 >= |t1|),
-   their r, the span d, s^2 = a^2/R^2 and whether the node is reached (1 or 0) */
-INLINE void lucy_stage_ends(double u, double t_far, double a2, double L, double R, double inv, double *t0_out,
+   their r, the span d, s^2 = a^2/R^2 and whether the node is reached (1 or 0);
+   Ld = L/R as L * inv */
+INLINE void lucy_stage_ends(double u, double t_far, double a2, double Ld, double R, double inv, double *t0_out,
                             double *t1_out, double *r0_out, double *r1_out, double *d_out, double *s2_out,
                             double *ok_out)
 {
@@ -154,7 +162,7 @@ INLINE void lucy_stage_ends(double u, double t_far, double a2, double L, double 
     const double hi_p = clip_hi ? root_hi : u, lo_p = clip_lo ? -root_lo : t_far;
     const double hi = hi_p * inv, lo = lo_p * inv;
     const double r_hi = clip_hi ? 1.0 : root_hi * inv, r_lo = clip_lo ? 1.0 : root_lo * inv;
-    const double d = clip_hi || clip_lo ? (hi_p - lo_p) * inv : L * inv;
+    const double d = clip_hi || clip_lo ? (hi_p - lo_p) * inv : Ld;
     const int flip = hi <= 0.0;
     *t0_out = flip ? -lo : hi;
     *t1_out = flip ? -hi : lo;
@@ -202,7 +210,7 @@ INLINE double lucy_stage_sum(double t0, double t1, double r0, double r1, double 
 INLINE double lucy_value_frame(double u, double t_far, double a2, double L, double R, double inv)
 {
     double t0, t1, r0, r1, d, s2, ok, D3, dr;
-    lucy_stage_ends(u, t_far, a2, L, R, inv, &t0, &t1, &r0, &r1, &d, &s2, &ok);
+    lucy_stage_ends(u, t_far, a2, L * inv, R, inv, &t0, &t1, &r0, &r1, &d, &s2, &ok);
     lucy_stage_log(t0, t1, r0, r1, d, s2, &D3, &dr);
     return lucy_stage_sum(t0, t1, r0, r1, d, s2, ok, D3, dr);
 }
@@ -230,11 +238,14 @@ INLINE int lucy_may_reach(double u, double t_far, double a2, double R2)
 /* nodes per chunk of lucy_values_body's stages */
 #define LUCY_STAGE_CHUNK 64
 
+/* nodes per vector of the batched frames (AVX-512's 8 doubles; a multiple of AVX2's 4) */
+#define LUCY_LANES 8
+
 INLINE void lucy_values_body(int count, const double *restrict q0, const double *restrict q1,
                              const double *restrict q2, const double *n, const double *e, double L, double R,
                              double factor, double *restrict w)
 {
-    const double inv = 1.0 / R;
+    const double inv = 1.0 / R, Ld = L * inv;
     const double nn[3] = {n[0], n[1], n[2]}, ee[3] = {e[0], e[1], e[2]};
     double t0[LUCY_STAGE_CHUNK], t1[LUCY_STAGE_CHUNK], r0[LUCY_STAGE_CHUNK], r1[LUCY_STAGE_CHUNK];
     double d[LUCY_STAGE_CHUNK], s2[LUCY_STAGE_CHUNK], ok[LUCY_STAGE_CHUNK], lg[LUCY_STAGE_CHUNK], dr[LUCY_STAGE_CHUNK];
@@ -245,11 +256,76 @@ INLINE void lucy_values_body(int count, const double *restrict q0, const double 
         for (int i = 0; i < m; ++i) {
             double u, t_far, aa;
             lucy_frame(a0[i], a1[i], a2[i], nn, ee, &u, &t_far, &aa);
-            lucy_stage_ends(u, t_far, aa, L, R, inv, &t0[i], &t1[i], &r0[i], &r1[i], &d[i], &s2[i], &ok[i]);
+            lucy_stage_ends(u, t_far, aa, Ld, R, inv, &t0[i], &t1[i], &r0[i], &r1[i], &d[i], &s2[i], &ok[i]);
         }
         for (int i = 0; i < m; ++i) lucy_stage_log(t0[i], t1[i], r0[i], r1[i], d[i], s2[i], &lg[i], &dr[i]);
         for (int i = 0; i < m; ++i)
             wo[i] = factor * lucy_stage_sum(t0[i], t1[i], r0[i], r1[i], d[i], s2[i], ok[i], lg[i], dr[i]);
+    }
+}
+
+/* Several segments' nodes at once (cg_lucy_batch_values): segment s has nodes
+   start[s]..start[s + 1] - 1, direction geom[7s..7s+2], end geom[7s+3..7s+5]
+   and L/R geom[7s + 6]. First each segment's frames, in loops with its
+   direction broadcast, then the stage loops of lucy_values_body over all the
+   nodes, so that they run full whatever a segment's count (W1: 35 nodes in a
+   box, which took 5 vectors of stage loops per call, the chains of too few
+   vectors to keep the processor busy, and the call's set-up per segment).
+   The same operations on the same values per node: the bits of
+   lucy_values_body (without its factor: lucy_batch_add9 applies it, as
+   factor * value). The frames go to cstart[s]..cstart[s + 1] - 1 with their
+   node indices (node_c): in the AVX-512 build only the nodes that may reach
+   the segment (lucy_may_reach, compacted; the others' values are 0 and add
+   nothing), elsewhere all of them in place. */
+
+/* the nodes' frames, all of them in place (a loop per segment over a whole
+   number of vectors: the lanes past its last node are the next segment's,
+   rewritten by its own loop, or slack) */
+INLINE void lucy_batch_frames_body(int nseg, const int *restrict start, const double *restrict geom,
+                                   const double *restrict q0, const double *restrict q1, const double *restrict q2,
+                                   const cg_index *restrict node, double *restrict u, double *restrict t_far,
+                                   double *restrict a2, double *restrict Ld, cg_index *restrict node_c,
+                                   int *restrict cstart)
+{
+    for (int s = 0; s < nseg; ++s) {
+        const double *g = geom + 7 * s;
+        const double nn[3] = {g[0], g[1], g[2]}, ee[3] = {g[3], g[4], g[5]}, ld = g[6];
+        const int b = start[s], m = (start[s + 1] - b + LUCY_LANES - 1) & -LUCY_LANES;
+        const double *restrict a0 = q0 + b, *restrict a1 = q1 + b, *restrict a2_ = q2 + b;
+        double *restrict uo = u + b, *restrict to = t_far + b, *restrict ao = a2 + b, *restrict lo = Ld + b;
+        const cg_index *restrict ni = node + b;
+        cg_index *restrict no = node_c + b;
+        for (int i = 0; i < m; ++i) {
+            double ui, ti, ai;
+            lucy_frame(a0[i], a1[i], a2_[i], nn, ee, &ui, &ti, &ai);
+            uo[i] = ui;
+            to[i] = ti;
+            ao[i] = ai;
+            lo[i] = ld;
+            no[i] = ni[i];
+        }
+        cstart[s] = b;
+    }
+    cstart[nseg] = start[nseg];
+}
+
+/* the stages over count nodes' frames (lucy_values_body's), unscaled values into w */
+INLINE void lucy_batch_stages_body(int count, const double *restrict u, const double *restrict t_far,
+                                   const double *restrict a2, const double *restrict Ld, double R,
+                                   double *restrict w)
+{
+    const double inv = 1.0 / R;
+    count = (count + LUCY_LANES - 1) & -LUCY_LANES;
+    double t0[LUCY_STAGE_CHUNK], t1[LUCY_STAGE_CHUNK], r0[LUCY_STAGE_CHUNK], r1[LUCY_STAGE_CHUNK];
+    double d[LUCY_STAGE_CHUNK], s2[LUCY_STAGE_CHUNK], ok[LUCY_STAGE_CHUNK], lg[LUCY_STAGE_CHUNK], dr[LUCY_STAGE_CHUNK];
+    for (int i0 = 0; i0 < count; i0 += LUCY_STAGE_CHUNK) {
+        const int m = count - i0 < LUCY_STAGE_CHUNK ? count - i0 : LUCY_STAGE_CHUNK;
+        const double *restrict uu = u + i0, *restrict tt = t_far + i0, *restrict aa = a2 + i0, *restrict ll = Ld + i0;
+        double *restrict wo = w + i0;
+        for (int i = 0; i < m; ++i)
+            lucy_stage_ends(uu[i], tt[i], aa[i], ll[i], R, inv, &t0[i], &t1[i], &r0[i], &r1[i], &d[i], &s2[i], &ok[i]);
+        for (int i = 0; i < m; ++i) lucy_stage_log(t0[i], t1[i], r0[i], r1[i], d[i], s2[i], &lg[i], &dr[i]);
+        for (int i = 0; i < m; ++i) wo[i] = lucy_stage_sum(t0[i], t1[i], r0[i], r1[i], d[i], s2[i], ok[i], lg[i], dr[i]);
     }
 }
 
@@ -376,6 +452,94 @@ LUCY_NO_THREADING __attribute__((target("avx512f"))) static void lucy_values_wid
 }
 #endif
 
+LUCY_NO_THREADING LUCY_CLONES static void lucy_batch_values_narrow(int nseg, const int *start, const double *geom,
+                                                                 const double *q0, const double *q1,
+                                                                 const double *q2, const cg_index *node, double R,
+                                                                 double *u, double *t_far, double *a2, double *Ld,
+                                                                 double *w, cg_index *node_c, int *cstart)
+{
+    lucy_batch_frames_body(nseg, start, geom, q0, q1, q2, node, u, t_far, a2, Ld, node_c, cstart);
+    lucy_batch_stages_body(cstart[nseg], u, t_far, a2, Ld, R, w);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+/* lucy_batch_frames_body with the nodes that cannot reach the segment
+   (lucy_may_reach) left out: each vector's kept lanes compressed to the
+   front and stored whole (the lanes past them rewritten next or slack);
+   W1 keeps 27 of a box's 35 nodes. The frame's operations as lucy_frame's,
+   element by element (GCC's vector arithmetic). */
+__attribute__((target("avx512f"))) static inline __attribute__((always_inline)) void
+lucy_batch_frames_wide(int nseg, const int *restrict start, const double *restrict geom, const double *restrict q0,
+                       const double *restrict q1, const double *restrict q2, const cg_index *restrict node, double R,
+                       double *restrict u, double *restrict t_far, double *restrict a2, double *restrict Ld,
+                       cg_index *restrict node_c, int *restrict cstart)
+{
+    const double R2 = R * R;
+    int p = 0;
+    for (int s = 0; s < nseg; ++s) {
+        const double *g = geom + 7 * s;
+        const lucy_v8 n0 = {g[0], g[0], g[0], g[0], g[0], g[0], g[0], g[0]};
+        const lucy_v8 n1 = {g[1], g[1], g[1], g[1], g[1], g[1], g[1], g[1]};
+        const lucy_v8 n2 = {g[2], g[2], g[2], g[2], g[2], g[2], g[2], g[2]};
+        const lucy_v8 e0 = {g[3], g[3], g[3], g[3], g[3], g[3], g[3], g[3]};
+        const lucy_v8 e1 = {g[4], g[4], g[4], g[4], g[4], g[4], g[4], g[4]};
+        const lucy_v8 e2 = {g[5], g[5], g[5], g[5], g[5], g[5], g[5], g[5]};
+        const __m512d ld = _mm512_set1_pd(g[6]);
+        const int end = start[s + 1];
+        cstart[s] = p;
+        for (int i = start[s]; i < end; i += LUCY_LANES) {
+            lucy_v8 a0, a1, a2v;
+            memcpy(&a0, q0 + i, sizeof a0);
+            memcpy(&a1, q1 + i, sizeof a1);
+            memcpy(&a2v, q2 + i, sizeof a2v);
+            const lucy_v8 uv = a0 * n0 + a1 * n1 + a2v * n2;
+            const lucy_v8 tv = (a0 - e0) * n0 + (a1 - e1) * n1 + (a2v - e2) * n2;
+            const lucy_v8 p0 = a0 - uv * n0, p1 = a1 - uv * n1, p2 = a2v - uv * n2;
+            const lucy_v8 av = p0 * p0 + p1 * p1 + p2 * p2;
+            /* lucy_may_reach, lane by lane */
+            const __m512d U = (__m512d)uv, T = (__m512d)tv, b2 = _mm512_sub_pd(_mm512_set1_pd(R2), (__m512d)av);
+            const __m512d loose = _mm512_mul_pd(b2, _mm512_set1_pd(1.0 + 1e-9)), zero = _mm512_setzero_pd();
+            const __mmask8 lanes = end - i >= LUCY_LANES ? (__mmask8)0xff : (__mmask8)((1u << (end - i)) - 1u);
+            const __mmask8 keep = lanes & _mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ) &
+                                  (_mm512_cmp_pd_mask(U, zero, _CMP_GE_OQ) |
+                                   _mm512_cmp_pd_mask(_mm512_mul_pd(U, U), loose, _CMP_LT_OQ)) &
+                                  (_mm512_cmp_pd_mask(T, zero, _CMP_LE_OQ) |
+                                   _mm512_cmp_pd_mask(_mm512_mul_pd(T, T), loose, _CMP_LT_OQ));
+            _mm512_storeu_pd(u + p, _mm512_maskz_compress_pd(keep, U));
+            _mm512_storeu_pd(t_far + p, _mm512_maskz_compress_pd(keep, T));
+            _mm512_storeu_pd(a2 + p, _mm512_maskz_compress_pd(keep, (__m512d)av));
+            _mm512_storeu_pd(Ld + p, ld);
+            _mm512_storeu_si512(node_c + p, _mm512_maskz_compress_epi64(keep, _mm512_loadu_si512(node + i)));
+            p += __builtin_popcount(keep);
+        }
+    }
+    cstart[nseg] = p;
+}
+
+LUCY_NO_THREADING __attribute__((target("avx512f"))) static void
+lucy_batch_values_wide(int nseg, const int *start, const double *geom, const double *q0, const double *q1,
+                       const double *q2, const cg_index *node, double R, double *u, double *t_far, double *a2,
+                       double *Ld, double *w, cg_index *node_c, int *cstart)
+{
+    lucy_batch_frames_wide(nseg, start, geom, q0, q1, q2, node, R, u, t_far, a2, Ld, node_c, cstart);
+    lucy_batch_stages_body(cstart[nseg], u, t_far, a2, Ld, R, w);
+}
+#endif
+
+void cg_lucy_batch_values(int nseg, const int *start, const double *geom, const double *q0, const double *q1,
+                          const double *q2, const cg_index *node, double R, double *u, double *t_far, double *a2,
+                          double *Ld, double *w, cg_index *node_c, int *cstart, int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        lucy_batch_values_wide(nseg, start, geom, q0, q1, q2, node, R, u, t_far, a2, Ld, w, node_c, cstart);
+        return;
+    }
+#endif
+    (void)wide;
+    lucy_batch_values_narrow(nseg, start, geom, q0, q1, q2, node, R, u, t_far, a2, Ld, w, node_c, cstart);
+}
+
 LUCY_CLONES static void lucy_frames_narrow(int count, const double *q0, const double *q1, const double *q2,
                                            const double *n, const double *e, double R, double *u, double *t_far,
                                            double *a2, int *keep, int cylinder)
@@ -490,8 +654,6 @@ void cg_ball_add(int count, const double *w, const cg_index *node, int width, co
    w[i] * scale (cg_accumulate's MODE_VALUE sums of a 9-component value): the
    first 8 components as one vector of the same element-wise products and
    sums, so the same bits on every instruction set */
-typedef double lucy_v8 __attribute__((vector_size(64)));
-
 INLINE void lucy_add9_body(int count, const double *restrict w, const cg_index *restrict node, double scale,
                            const double *restrict val, double *restrict out)
 {
@@ -535,6 +697,60 @@ void cg_lucy_add9(int count, const double *w, const cg_index *node, double scale
 #endif
     (void)wide;
     lucy_add9_narrow(count, w, node, scale, val, out);
+}
+
+/* cg_lucy_add9 for the segments of a batch (cg_lucy_batch_values' start):
+   segment s's nodes with the weights (factor[s] * w[i]) * scale[s] and the
+   values val[9s..9s+8], segment after segment: the bits of cg_lucy_add9
+   called per segment on w[i] = factor[s] * value */
+INLINE void lucy_batch_add9_body(int nseg, const int *restrict start, const double *restrict factor,
+                                 const double *restrict scale, const double *restrict val, const double *restrict w,
+                                 const cg_index *restrict node, double *restrict out)
+{
+    for (int s = 0; s < nseg; ++s) {
+        lucy_v8 v;
+        memcpy(&v, val + 9 * s, sizeof v);
+        const double v8 = val[9 * s + 8], f = factor[s], sc = scale[s];
+        for (int i = start[s]; i < start[s + 1]; ++i) {
+            const double wi = (f * w[i]) * sc;
+            if (wi == 0.0) continue;
+            double *o = out + node[i] * 9;
+            lucy_v8 ov;
+            memcpy(&ov, o, sizeof ov);
+            ov += wi * v;
+            memcpy(o, &ov, sizeof ov);
+            o[8] += wi * v8;
+        }
+    }
+}
+
+LUCY_CLONES static void lucy_batch_add9_narrow(int nseg, const int *start, const double *factor, const double *scale,
+                                               const double *val, const double *w, const cg_index *node, double *out)
+{
+    lucy_batch_add9_body(nseg, start, factor, scale, val, w, node, out);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void lucy_batch_add9_wide(int nseg, const int *start, const double *factor,
+                                                                      const double *scale, const double *val,
+                                                                      const double *w, const cg_index *node,
+                                                                      double *out)
+{
+    lucy_batch_add9_body(nseg, start, factor, scale, val, w, node, out);
+}
+#endif
+
+void cg_lucy_batch_add9(int nseg, const int *start, const double *factor, const double *scale, const double *val,
+                        const double *w, const cg_index *node, double *out, int wide)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        lucy_batch_add9_wide(nseg, start, factor, scale, val, w, node, out);
+        return;
+    }
+#endif
+    (void)wide;
+    lucy_batch_add9_narrow(nseg, start, factor, scale, val, w, node, out);
 }
 
 void cg_lucy_frames(int count, const double *q0, const double *q1, const double *q2, const double *n,

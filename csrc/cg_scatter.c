@@ -191,7 +191,7 @@ static cg_status visit_nodes(const job *jb, double *out, scratch *sc, cg_index o
         return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     if (jb->gradient_rows && cg_visit_gradient_points(jb, out, obj, x))
         return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
-    if (jb->lucy_rows && cg_visit_lucy(jb, out, obj, x, e, scale))
+    if (jb->lucy_rows && cg_visit_lucy(jb, out, sc, obj, x, e, scale))
         return (++*count % POLL_EVERY == 0 && interrupted(jb)) ? CG_ERR_INTERRUPTED : CG_OK;
     const cg_target *t = jb->target;
     const int nr = t->n_resolved;
@@ -511,7 +511,8 @@ static void outer_values(const job *jb, cg_index obj, double *values)
 /* Objects order[begin..end) (or begin..end) into out, one thread; stops at the
    first error of any thread (recorded in *failed). With factors, each
    object's values are formed in this thread's row of values (a copy of the
-   job pointing at it) just before the object is visited. */
+   job pointing at it) just before the object is visited. Leaves sc->lucy
+   empty (freed). */
 static void visit_range(const job *shared, double *out, scratch *sc, const cg_index *order, cg_index begin,
                         cg_index end, int *failed)
 {
@@ -533,8 +534,8 @@ static void visit_range(const job *shared, double *out, scratch *sc, const cg_in
         return;
     }
     for (cg_index o = begin; o < end; ++o) {
-        if (load_status(failed) != CG_OK) return;
-        if (interrupted(jb)) { store_status(failed, CG_ERR_INTERRUPTED); return; }
+        if (load_status(failed) != CG_OK) break;
+        if (interrupted(jb)) { store_status(failed, CG_ERR_INTERRUPTED); break; }
 #if defined(__GNUC__)
         if (order && o + PREFETCH_AHEAD < end) {
             /* sorted objects are read out of input order: fetch ahead */
@@ -552,8 +553,11 @@ static void visit_range(const job *shared, double *out, scratch *sc, const cg_in
         const cg_index obj = order ? order[o] : o;
         if (jb->factors) outer_values(jb, obj, values);
         const cg_status s = scatter_object(jb, out, sc, obj);
-        if (s != CG_OK) { store_status(failed, s); return; }
+        if (s != CG_OK) { store_status(failed, s); break; }
     }
+    /* Lucy's segments still waiting for their values (cg_visit_lucy): into
+       out before this range counts as done */
+    cg_lucy_batch_flush(sc);
 }
 
 /* Slabs: the objects cut along the first resolved axis into slabs of W
@@ -808,7 +812,7 @@ static cg_status run_objects(job *jb, double *out, cg_index P, size_t width, int
 #pragma omp parallel num_threads(n_threads) if (n_threads > 1)
 #endif
         {
-            scratch sc = {NULL, 0};
+            scratch sc = {NULL, 0, NULL};
             for (;;) {
                 cg_index i;
 #ifdef _OPENMP
@@ -862,7 +866,7 @@ static cg_status run_objects(job *jb, double *out, cg_index P, size_t width, int
 #endif
         double *mine = tid == 0 ? out : buffers + (size_t)(tid - 1) * (size_t)P * width;
         const cg_index begin = jb->n * tid / n_threads, end = jb->n * (tid + 1) / n_threads;
-        scratch sc = {NULL, 0};
+        scratch sc = {NULL, 0, NULL};
         visit_range(jb, mine, &sc, order, begin, end, &failed);
         free(sc.buf);
     }

@@ -216,6 +216,46 @@ def test_whole_box_values_against_mpmath(case):
     assert err <= RTOL, case
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_segments_batched_across_contacts_equal_node_by_node(dim):
+    """Lucy's whole boxes wait in a batch of several contacts (their values computed together, their terms added
+    in object order): mixed with zero-length segments (the node-by-node path), oblique ones (narrowed rows) and boxes
+    of 5-8 and more than 8 nodes per row, shuffled, the sums equal the node-by-node path's bit for bit, on 1 and 2
+    threads and with factors (the outer product formed per object)."""
+    rng = np.random.default_rng(dim)
+    n = 8 if dim == 3 else 20
+    starts, vectors = lattice_contacts(n, dim)
+    m = len(starts)
+    along = rng.integers(0, m, m // 6)
+    vectors[along] *= rng.uniform(3.0, 9.0, (len(along), 1))          # rows of 5-8 and more nodes
+    vectors[rng.integers(0, m, m // 20)] = 0.0                          # zero length: node by node
+    oblique = rng.integers(0, m, m // 10)
+    vectors[oblique] = rng.normal(scale=1.5, size=(len(oblique), dim))  # narrowed rows
+    order = rng.permutation(m)
+    starts, vectors = starts[order], vectors[order]
+    side = (n - 1) * 0.99 + 1.0
+    box = cg.Box(np.zeros(dim), np.full(dim, side))
+    shape = (n,) * dim
+    fast = assert_fast_equals_node_by_node(box, shape, 1.5, starts, vectors, f"{dim}D mixed", seed=dim)
+    rng = np.random.default_rng(dim)
+    values = rng.normal(size=(m, 9))
+    values[3::7] = 0.0
+    assert np.array_equal(fast, scatter(box, shape, cg.Lucy(1.5), starts, vectors, values, n_threads=2))
+    if dim == 3:
+        forces = rng.normal(size=(m, 3))
+        grid = cg.Grid(box, shape)
+        target = _engine.core_target(grid, box)
+        outer = [_core.scatter_segments_outer(target, _engine.core_kernel(cg.Lucy(1.5), 1.0), starts, vectors,
+                                              forces, n_threads=t) for t in (1, 2)]
+        kernel = cg.Lucy(1.5)
+        kernel._per_node = True
+        slow = _core.scatter_segments(target, _engine.core_kernel(kernel, 1.0), starts, vectors,
+                                      np.ascontiguousarray(np.einsum("ni,nj->nij", forces, vectors).reshape(m, 9)),
+                                      n_threads=1)
+        assert np.array_equal(outer[0], slow)
+        assert np.array_equal(outer[1], slow)
+
+
 @pytest.mark.skipif(not cg.have_openmp(), reason="serial build")
 @pytest.mark.parametrize("n0", [47, 46, 40, 37])
 def test_slab_schedule_thread_counts_bit_for_bit(n0):
