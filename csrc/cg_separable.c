@@ -1090,15 +1090,29 @@ tables_done:;
                         }
                     }
                     cand_bits &= valid & ~in_bits;
-                    while (cand_bits) {
-                        const cg_index k = __builtin_ctzll(cand_bits);
-                        cand_bits &= cand_bits - 1;
-                        if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
-                        const int m = cuts.n++;
-                        cuts.q[0][m] = xq;
-                        cuts.q[1][m] = yq;
-                        cuts.q[2][m] = cslot[2][k];
-                        cuts.node[m] = base + k * stride[2];
+                    if (cand_bits) {
+                        /* the batch's arrays and count in locals: stored through, the
+                           struct's fields would be reloaded after every store */
+                        const double *z2 = cslot[2];
+                        double *bq0 = cuts.q[0], *bq1 = cuts.q[1], *bq2 = cuts.q[2];
+                        cg_index *bnode = cuts.node;
+                        const cg_index st2 = stride[2];
+                        int m = cuts.n;
+                        while (cand_bits) {
+                            const cg_index k = __builtin_ctzll(cand_bits);
+                            cand_bits &= cand_bits - 1;
+                            if (m == CUT_BATCH) {
+                                cuts.n = m;
+                                cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
+                                m = 0;
+                            }
+                            bq0[m] = xq;
+                            bq1[m] = yq;
+                            bq2[m] = z2[k];
+                            bnode[m] = base + k * st2;
+                            ++m;
+                        }
+                        cuts.n = m;
                     }
                     goto row_done;
                 }
