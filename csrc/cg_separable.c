@@ -257,11 +257,14 @@ INLINE void erfcx_long(vwd x, vwd *out)
    erfcx_one: VW lanes of each at a time in vector registers (the two short
    polynomials side by side, their Horner steps interleaved: each step waits
    for the previous one's result); the long series only where some argument of the
-   batch exceeds ERFCX_SHORT_MAX (cutoffs beyond 4 sqrt(2) w), lane by lane */
-INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n)
+   batch exceeds ERFCX_SHORT_MAX (cutoffs beyond 4 sqrt(2) w), lane by lane;
+   the arguments are scanned for that only if may_exceed (the caller knows
+   none does: a cut node's |x| is at most the cutoff over sqrt(2) w) */
+INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n, int may_exceed)
 {
     int beyond = 0;
-    for (cg_index i = 0; i < n; ++i) beyond |= (x[i] > ERFCX_SHORT_MAX) | (z[i] > ERFCX_SHORT_MAX);
+    if (may_exceed)
+        for (cg_index i = 0; i < n; ++i) beyond |= (x[i] > ERFCX_SHORT_MAX) | (z[i] > ERFCX_SHORT_MAX);
 #ifdef HAVE_V4D
     const vwd limit = SPLAT(ERFCX_SHORT_MAX);
     for (cg_index i = 0; i < n; i += VW) {
@@ -369,12 +372,14 @@ INLINE void cut_lanes(cg_index n, const double *restrict q0, const double *restr
 }
 
 /* value = factor * (|T0 - T1| or, where the ends straddle the foot, 2A - T0 -
-   T1), T = E erfcx; short[i] = 1 where a term exceeds 16 times the value */
-INLINE void cut_values(cg_index n, const double *restrict t0s, const double *restrict spans,
+   T1), T = E erfcx; short[i] = 1 where a term exceeds 16 times the value;
+   returns whether some lane is short (most batches have none: no scan) */
+INLINE int cut_values(cg_index n, const double *restrict t0s, const double *restrict spans,
                        const double *restrict e0, const double *restrict e1, const double *restrict ea,
                        const double *restrict c0, const double *restrict c1, double factor, double *restrict value,
                        double *restrict is_short)
 {
+    int64_t any_short = 0; /* lanes as wide as the doubles' (the reduction is vectorised) */
     for (cg_index i = 0; i < n; ++i) {
         const double T0 = (e0[i] * c0[i]) * e0[i], T1 = (e1[i] * c1[i]) * e1[i], twoA = 2.0 * ea[i] * ea[i];
         const double t0 = t0s[i], t1 = t0s[i] + spans[i];
@@ -383,8 +388,11 @@ INLINE void cut_values(cg_index n, const double *restrict t0s, const double *res
         const double v = straddle ? (twoA - T0) - T1 : diff;
         const double largest = straddle ? twoA : larger;
         value[i] = v * factor;
-        is_short[i] = (spans[i] > 0.0) & !(16.0 * v >= largest) ? 1.0 : 0.0;
+        const int64_t short_i = (spans[i] > 0.0) & !(16.0 * v >= largest);
+        is_short[i] = short_i ? 1.0 : 0.0;
+        any_short |= short_i;
     }
+    return any_short != 0;
 }
 
 /* The exact line integral at the gathered nodes, added to out (amp: the
@@ -421,14 +429,18 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
     cg_exp_in_place(e0, n_padded);
     cg_exp_in_place(e1, n_padded);
     cg_exp_in_place(ea, n_padded);
-    erfcx_in_place2(c0, c1, n_padded);
+    /* |t| is at most R (to round-off: the clipped part of the segment, or an end inside
+       the ball, or the foot of a node within R of the segment), so erfcx's arguments
+       exceed ERFCX_SHORT_MAX = 4 only where R > 4 sqrt(2) w; a margin for the rounding */
+    erfcx_in_place2(c0, c1, n_padded, R2 > 31.9 * (w * w));
     double *restrict value = b->value;
-    cut_values(n_padded, b->t0, b->span, e0, e1, ea, c0, c1, factor, value, is_short);
+    const int any_short = cut_values(n_padded, b->t0, b->span, e0, e1, ea, c0, c1, factor, value, is_short);
     const double *a2s = b->a2, *t0s = b->t0, *spans = b->span;
     int n_short = 0;
     int short_lane[CUT_BATCH];
-    for (int i = 0; i < n; ++i)
-        if (is_short[i] != 0.0) short_lane[n_short++] = i;
+    if (any_short)
+        for (int i = 0; i < n; ++i)
+            if (is_short[i] != 0.0) short_lane[n_short++] = i;
     if (n_short) {
         /* the short intervals: Gauss-Legendre on [s0, s0 + span] */
         double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
@@ -1207,7 +1219,7 @@ void cg_gaussian_erfcx(const double *x, double *out, cg_index n)
         const cg_index m = n - i0 < CUT_BATCH ? n - i0 : CUT_BATCH;
         const cg_index padded = (m + VW - 1) / VW * VW;
         for (cg_index i = 0; i < padded; ++i) a[i] = b[i] = i < m ? x[i0 + i] : 0.0;
-        erfcx_in_place2(a, b, padded);
+        erfcx_in_place2(a, b, padded, 1);
         for (cg_index i = 0; i < m; ++i) out[i0 + i] = a[i];
     }
 }
