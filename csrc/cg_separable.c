@@ -179,32 +179,32 @@ static const double ERFCX_CHEB[ERFCX_TERMS] = {
 
 /* erfcx on [0, ERFCX_SHORT_MAX], where the cut nodes' arguments lie for
    cutoffs up to 4 sqrt(2) w (|t| / (sqrt(2) w) with |t| at most the cutoff):
-   a Chebyshev series in v = (3x - 4) / (x + 4), which maps [0, 4] to [-1, 1]
-   (the half of the series above's y range that these x reach; 19 terms,
-   fitted in 40-digit arithmetic, the next below 7e-20; one division instead
-   of two). Within 3.5 ulp of the exact value on [0, 4] (the series above: 3.4
-   there; both checked against mpmath in tests/test_gauss_exact_fast.py). */
+   a polynomial of degree 18 in v = (3x - 4) / (x + 4), which maps [0, 4] to
+   [-1, 1] (the half of the series above's y range that these x reach; one
+   division instead of two). It is a Chebyshev series of 19 terms fitted in
+   40-digit arithmetic (the next term below 7e-20), converted exactly to
+   powers of v and rounded: the coefficients' magnitudes sum to 1.00000 and
+   the values are 0.137 to 1, so Horner's rule (2 operations per term, where
+   Clenshaw's recurrence takes 3) loses no more than the series did. Within
+   2.5 ulp of the exact value on [0, 4] (the Chebyshev form: 3.5; checked
+   against mpmath in tests/test_gauss_exact_fast.py). */
 #define ERFCX_SHORT_MAX 4.0
 #define ERFCX_SHORT_TERMS 19
-static const double ERFCX_SHORT_CHEB[ERFCX_SHORT_TERMS] = {
-    0.4558856333139209,     -0.4079050615574189,     0.10862689023855111,    -0.023057900796451525,
-    0.003931427060498061,   -0.0005332297234880755,  5.562820647003941e-05,  -4.085096451392684e-06,
-    1.5104177078146664e-07, 5.963346571331681e-09,   -1.0531881840670427e-09, 2.3253332596099296e-11,
-    4.528134170145485e-12,  -2.611068402078748e-13,  -2.0272500136325893e-14, 1.815116950550159e-15,
-    1.1428033970938386e-16, -1.1445685677338689e-17, -8.348437223169942e-19,
+static const double ERFCX_SHORT_POLY[ERFCX_SHORT_TERMS] = {
+    0.3511346940289053,     -0.3413688586994343,     0.18679878538547712,    -0.08179648450710927,
+    0.028805854367752032,   -0.008071598027091873,   0.0017402399209039921,  -0.0002648129191416756,
+    2.0713280768648866e-05, 1.4566599959765932e-06,  -5.678735758042798e-07, 2.745972842231866e-08,
+    9.880146231411115e-09,  -1.1865933048288481e-09, -1.8197454417255487e-10, 3.2926820058151594e-11,
+    4.237149035268989e-12,  -7.501044565500683e-13,  -1.0942463637153306e-13,
 };
 
 INLINE double erfcx_one(double x)
 {
     if (!(x > ERFCX_SHORT_MAX)) {
-        const double v = (3.0 * x - 4.0) / (x + 4.0), v2 = v + v;
-        double b1 = 0.0, b2 = 0.0;
-        for (int j = ERFCX_SHORT_TERMS - 1; j >= 1; --j) {
-            const double bj = (v2 * b1 - b2) + ERFCX_SHORT_CHEB[j];
-            b2 = b1;
-            b1 = bj;
-        }
-        return (v * b1 - b2) + ERFCX_SHORT_CHEB[0];
+        const double v = (3.0 * x - 4.0) / (x + 4.0);
+        double p = ERFCX_SHORT_POLY[ERFCX_SHORT_TERMS - 1];
+        for (int j = ERFCX_SHORT_TERMS - 2; j >= 0; --j) p = p * v + ERFCX_SHORT_POLY[j];
+        return p;
     }
     const double y = (x - 4.0) / (x + 4.0), y2 = y + y;
     double b1 = 0.0, b2 = 0.0;
@@ -234,10 +234,14 @@ INLINE void chebyshev_series(vwd t, const double *coef, int terms, vwd *sum)
     *sum = (t * b1 - b2) + coef[0];
 }
 
-/* erfcx_one's short series, VW lanes */
+/* erfcx_one's short polynomial, VW lanes */
 INLINE void erfcx_short(vwd x, vwd *out)
 {
-    chebyshev_series((SPLAT(3.0) * x - SPLAT(4.0)) / (x + SPLAT(4.0)), ERFCX_SHORT_CHEB, ERFCX_SHORT_TERMS, out);
+    const vwd v = (SPLAT(3.0) * x - SPLAT(4.0)) / (x + SPLAT(4.0));
+    vwd p = SPLAT(ERFCX_SHORT_POLY[ERFCX_SHORT_TERMS - 1]);
+#pragma GCC unroll 32
+    for (int j = ERFCX_SHORT_TERMS - 2; j >= 0; --j) p = p * v + ERFCX_SHORT_POLY[j];
+    *out = p;
 }
 
 /* erfcx_one's long series, VW lanes */
@@ -251,13 +255,16 @@ INLINE void erfcx_long(vwd x, vwd *out)
 
 /* x[i] = erfcx(x[i]) and z[i] = erfcx(z[i]) for n a multiple of VW, as
    erfcx_one: VW lanes of each at a time in vector registers (the two short
-   series side by side, their recurrences interleaved: each step waits for the
-   previous one's result); the long series only where some argument of the
-   batch exceeds ERFCX_SHORT_MAX (cutoffs beyond 4 sqrt(2) w), lane by lane */
-INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n)
+   polynomials side by side, their Horner steps interleaved: each step waits
+   for the previous one's result); the long series only where some argument of the
+   batch exceeds ERFCX_SHORT_MAX (cutoffs beyond 4 sqrt(2) w), lane by lane;
+   the arguments are scanned for that only if may_exceed (the caller knows
+   none does: a cut node's |x| is at most the cutoff over sqrt(2) w) */
+INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n, int may_exceed)
 {
     int beyond = 0;
-    for (cg_index i = 0; i < n; ++i) beyond |= (x[i] > ERFCX_SHORT_MAX) | (z[i] > ERFCX_SHORT_MAX);
+    if (may_exceed)
+        for (cg_index i = 0; i < n; ++i) beyond |= (x[i] > ERFCX_SHORT_MAX) | (z[i] > ERFCX_SHORT_MAX);
 #ifdef HAVE_V4D
     const vwd limit = SPLAT(ERFCX_SHORT_MAX);
     for (cg_index i = 0; i < n; i += VW) {
@@ -365,12 +372,14 @@ INLINE void cut_lanes(cg_index n, const double *restrict q0, const double *restr
 }
 
 /* value = factor * (|T0 - T1| or, where the ends straddle the foot, 2A - T0 -
-   T1), T = E erfcx; short[i] = 1 where a term exceeds 16 times the value */
-INLINE void cut_values(cg_index n, const double *restrict t0s, const double *restrict spans,
+   T1), T = E erfcx; short[i] = 1 where a term exceeds 16 times the value;
+   returns whether some lane is short (most batches have none: no scan) */
+INLINE int cut_values(cg_index n, const double *restrict t0s, const double *restrict spans,
                        const double *restrict e0, const double *restrict e1, const double *restrict ea,
                        const double *restrict c0, const double *restrict c1, double factor, double *restrict value,
                        double *restrict is_short)
 {
+    int64_t any_short = 0; /* lanes as wide as the doubles' (the reduction is vectorised) */
     for (cg_index i = 0; i < n; ++i) {
         const double T0 = (e0[i] * c0[i]) * e0[i], T1 = (e1[i] * c1[i]) * e1[i], twoA = 2.0 * ea[i] * ea[i];
         const double t0 = t0s[i], t1 = t0s[i] + spans[i];
@@ -379,8 +388,11 @@ INLINE void cut_values(cg_index n, const double *restrict t0s, const double *res
         const double v = straddle ? (twoA - T0) - T1 : diff;
         const double largest = straddle ? twoA : larger;
         value[i] = v * factor;
-        is_short[i] = (spans[i] > 0.0) & !(16.0 * v >= largest) ? 1.0 : 0.0;
+        const int64_t short_i = (spans[i] > 0.0) & !(16.0 * v >= largest);
+        is_short[i] = short_i ? 1.0 : 0.0;
+        any_short |= short_i;
     }
+    return any_short != 0;
 }
 
 /* The exact line integral at the gathered nodes, added to out (amp: the
@@ -417,14 +429,18 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
     cg_exp_in_place(e0, n_padded);
     cg_exp_in_place(e1, n_padded);
     cg_exp_in_place(ea, n_padded);
-    erfcx_in_place2(c0, c1, n_padded);
+    /* |t| is at most R (to round-off: the clipped part of the segment, or an end inside
+       the ball, or the foot of a node within R of the segment), so erfcx's arguments
+       exceed ERFCX_SHORT_MAX = 4 only where R > 4 sqrt(2) w; a margin for the rounding */
+    erfcx_in_place2(c0, c1, n_padded, R2 > 31.9 * (w * w));
     double *restrict value = b->value;
-    cut_values(n_padded, b->t0, b->span, e0, e1, ea, c0, c1, factor, value, is_short);
+    const int any_short = cut_values(n_padded, b->t0, b->span, e0, e1, ea, c0, c1, factor, value, is_short);
     const double *a2s = b->a2, *t0s = b->t0, *spans = b->span;
     int n_short = 0;
     int short_lane[CUT_BATCH];
-    for (int i = 0; i < n; ++i)
-        if (is_short[i] != 0.0) short_lane[n_short++] = i;
+    if (any_short)
+        for (int i = 0; i < n; ++i)
+            if (is_short[i] != 0.0) short_lane[n_short++] = i;
     if (n_short) {
         /* the short intervals: Gauss-Legendre on [s0, s0 + span] */
         double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
@@ -1086,15 +1102,29 @@ tables_done:;
                         }
                     }
                     cand_bits &= valid & ~in_bits;
-                    while (cand_bits) {
-                        const cg_index k = __builtin_ctzll(cand_bits);
-                        cand_bits &= cand_bits - 1;
-                        if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
-                        const int m = cuts.n++;
-                        cuts.q[0][m] = xq;
-                        cuts.q[1][m] = yq;
-                        cuts.q[2][m] = cslot[2][k];
-                        cuts.node[m] = base + k * stride[2];
+                    if (cand_bits) {
+                        /* the batch's arrays and count in locals: stored through, the
+                           struct's fields would be reloaded after every store */
+                        const double *z2 = cslot[2];
+                        double *bq0 = cuts.q[0], *bq1 = cuts.q[1], *bq2 = cuts.q[2];
+                        cg_index *bnode = cuts.node;
+                        const cg_index st2 = stride[2];
+                        int m = cuts.n;
+                        while (cand_bits) {
+                            const cg_index k = __builtin_ctzll(cand_bits);
+                            cand_bits &= cand_bits - 1;
+                            if (m == CUT_BATCH) {
+                                cuts.n = m;
+                                cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
+                                m = 0;
+                            }
+                            bq0[m] = xq;
+                            bq1[m] = yq;
+                            bq2[m] = z2[k];
+                            bnode[m] = base + k * st2;
+                            ++m;
+                        }
+                        cuts.n = m;
                     }
                     goto row_done;
                 }
@@ -1189,7 +1219,7 @@ void cg_gaussian_erfcx(const double *x, double *out, cg_index n)
         const cg_index m = n - i0 < CUT_BATCH ? n - i0 : CUT_BATCH;
         const cg_index padded = (m + VW - 1) / VW * VW;
         for (cg_index i = 0; i < padded; ++i) a[i] = b[i] = i < m ? x[i0 + i] : 0.0;
-        erfcx_in_place2(a, b, padded);
+        erfcx_in_place2(a, b, padded, 1);
         for (cg_index i = 0; i < m; ++i) out[i0 + i] = a[i];
     }
 }

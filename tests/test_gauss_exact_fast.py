@@ -249,8 +249,8 @@ def test_row_bookkeeping_short_and_long_rows(nz, cutoff):
 
 
 def test_erfcx_against_mpmath_over_its_whole_range():
-    """The closed form's erfcx (cg_separable.c): the short series on [0, 4], where the cut nodes' arguments lie for
-    cutoffs up to 4 sqrt(2) w, and the long one beyond, within 4 ulp of 40-digit mpmath; a value does not depend on
+    """The closed form's erfcx (cg_separable.c): the short polynomial on [0, 4], where the cut nodes' arguments lie for
+    cutoffs up to 4 sqrt(2) w, and the long series beyond, within 4 ulp of 40-digit mpmath; a value does not depend on
     the other arguments of its batch (the long series is chosen lane by lane)."""
     rng = np.random.default_rng(16)
     short = np.concatenate([np.linspace(0.0, 4.0, 2001), rng.uniform(0.0, 4.0, 2000),
