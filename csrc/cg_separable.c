@@ -839,13 +839,12 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     double *d2[CG_MAX_LINE_POINTS][3], *ex[CG_MAX_LINE_POINTS][3];
     const size_t per_table = (size_t)(n0 + n1 + n2);
     double *d2_all = buf, *ex_all = buf + (size_t)G * per_table;
-    for (int g = 0; g < G; ++g) {
+    for (int g = 0; g < (hybrid ? 0 : G); ++g) { /* the exact form: below, in its own layout */
         double *p = d2_all + (size_t)g * per_table;
         for (int s = 0; s < 3; ++s) {
             d2[g][s] = p;
             ex[g][s] = ex_all + (p - d2_all);
             p += count[s];
-            if (hybrid) continue; /* below, in one loop per point */
             double *restrict dst = d2[g][s];
             const double *restrict node = cslot[s];
             const double shift = jb->is_segment ? gx[g] * es[s] : 0.0; /* the rule point - x */
@@ -1045,6 +1044,10 @@ tables_done:;
         double ci[CG_MAX_LINE_POINTS]; /* the rule's weights times the plane's */
         if (factor != 2)
             for (int g = 0; g < G; ++g) ci[g] = gw[g] * gx_t[i * G + g];
+        /* the plane's share of every row's constants */
+        const double x_i = cslot[0][i], px_i = x_i * es[0], fx_i = factor == 2 ? fx[i] : 0.0;
+        const double a0_i = endA[0][i], b0_i = endB[0][i];
+        const cg_index base_i = (first[0] + i) * stride[0] + first[1] * stride[1] + first[2] * stride[2];
         /* rows whose line misses the capsule carry nothing: the plane's rows that
            meet it, as bits (n1 <= 64), VW rows at a time */
         uint64_t plane_bits = ~UINT64_C(0);
@@ -1083,7 +1086,7 @@ tables_done:;
 #endif
             /* the nodes of the row that receive anything: row[k0..k1) */
             cg_index k0 = n2, k1 = 0;
-            const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + first[2] * stride[2];
+            const cg_index base = base_i + j * stride[1];
             {
 #ifdef HAVE_V4D
                 if (n1 > 64)
@@ -1094,7 +1097,7 @@ tables_done:;
                 }
                 /* the rule is exact where both ends, hence the whole segment, lie inside
                    the ball (an interval: two balls meet the row in intervals) */
-                const double a01 = endA[0][i] + endA[1][j], b01 = endB[0][i] + endB[1][j];
+                const double a01 = a0_i + endA[1][j], b01 = b0_i + endB[1][j];
                 const double *za = endA[2], *zb = endB[2];
 #ifdef HAVE_V4D
                 if (n2 <= 64) {
@@ -1107,8 +1110,8 @@ tables_done:;
                        the exact form decides near the sphere itself) */
                     const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
                     uint64_t in_bits = 0, cand_bits = 0, near_bits = 0;
-                    const double xq = cslot[0][i], yq = cslot[1][j];
-                    const double pxy = xq * es[0] + yq * es[1];
+                    const double xq = x_i, yq = cslot[1][j];
+                    const double pxy = px_i + yq * es[1];
                     {
                         const vwd a01v = SPLAT(a01), b01v = SPLAT(b01), R2v = SPLAT(R2), Rmv = SPLAT(R2_margin);
                         const vwd Rcv = SPLAT(R2_cyl), pxyv = SPLAT(pxy), ilv = SPLAT(inv_L2), L2v = SPLAT(L2);
@@ -1219,7 +1222,7 @@ tables_done:;
             double rs = 1.0;
             const double *rw = row;
             if (factor == 2) {
-                rs = fx[i] * fy[j];
+                rs = fx_i * fy[j];
                 rw = fz;
             } else if (factor == 1) {
                 const double *gy_j = gy_t + j * G;
