@@ -649,6 +649,31 @@ INLINE uint64_t mask_bits(vwl m)
 }
 #endif
 
+/* three masks' lanes as bits (mask_bits of each): in the 4-wide build one
+   horizontal OR for all three (the lanes of each in their own 4 bits) */
+INLINE void mask_bits3(vwl a, vwl b, vwl c, uint64_t *ba, uint64_t *bb, uint64_t *bc)
+{
+#if VW == 4
+    const vwl bit_a = {1, 2, 4, 8}, bit_b = {16, 32, 64, 128}, bit_c = {256, 512, 1024, 2048};
+    vwl m = (a & bit_a) | (b & bit_b) | (c & bit_c);
+#if defined(__clang__)
+    m |= __builtin_shufflevector(m, m, 2, 3, 0, 1);
+    m |= __builtin_shufflevector(m, m, 1, 0, 3, 2);
+#else
+    m |= __builtin_shuffle(m, (vwl){2, 3, 0, 1});
+    m |= __builtin_shuffle(m, (vwl){1, 0, 3, 2});
+#endif
+    const uint64_t all = (uint64_t)m[0];
+    *ba = all & 15;
+    *bb = (all >> 4) & 15;
+    *bc = all >> 8;
+#else
+    *ba = mask_bits(a);
+    *bb = mask_bits(b);
+    *bc = mask_bits(c);
+#endif
+}
+
 INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index stride_j, cg_index n0, cg_index n1,
                          cg_index n2, int G, double *const (*d2)[3], double *const (*ex)[3], const double *gw,
                          double R2, double *const rows[2], const double *restrict v, int nv)
@@ -793,11 +818,12 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         count[s] = (cg_index)l - (cg_index)f + 1;
     }
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
+    const size_t per_table_f = (size_t)(n0 + n1 + n2); /* hybrid: the factorised weights (below) */
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
     /* tables d2, g per rule point; end-point tables, a cut batch and a row's
        distances (hybrid); node coordinates; a row */
     /* the row has ROW_PAD more doubles: the exact form's rows are summed 8 at a time */
-    const size_t hybrid_need = hybrid ? per_point + CUT_BATCH_DOUBLES + n2 : 0;
+    const size_t hybrid_need = hybrid ? per_point + CUT_BATCH_DOUBLES + n2 + per_table_f + 2 * ROW_PAD + n2 : 0;
     const size_t need = (size_t)G * per_point + EXP_PAD + hybrid_need + (size_t)(n0 + n1 + n2) +
                         2 * ((size_t)n2 + ROW_PAD);
     double *buf = scratch_get(sc, need);
@@ -829,13 +855,12 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     double *d2[CG_MAX_LINE_POINTS][3], *ex[CG_MAX_LINE_POINTS][3];
     const size_t per_table = (size_t)(n0 + n1 + n2);
     double *d2_all = buf, *ex_all = buf + (size_t)G * per_table;
-    for (int g = 0; g < G; ++g) {
+    for (int g = 0; g < (hybrid ? 0 : G); ++g) { /* the exact form: below, in its own layout */
         double *p = d2_all + (size_t)g * per_table;
         for (int s = 0; s < 3; ++s) {
             d2[g][s] = p;
             ex[g][s] = ex_all + (p - d2_all);
             p += count[s];
-            if (hybrid) continue; /* below, in one loop per point */
             double *restrict dst = d2[g][s];
             const double *restrict node = cslot[s];
             const double shift = jb->is_segment ? gx[g] * es[s] : 0.0; /* the rule point - x */
@@ -858,6 +883,18 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
             }
         }
     }
+    /* The rule's weight at node (i, j, k) is sum_g gw[g] X_g[i] Y_g[j] Z_g[k]; along a slot the
+       segment does not move (es = 0) the table is the same for every point. Where it moves along
+       at most one slot (a segment along a grid axis, or of zero length), the weights are an
+       outer product fx[i] fy[j] fz[k], the moving slot's table summed over the points once per
+       object (factor 2): a row is then fz times a scalar, with no sum over the points per row.
+       Where it moves along slots 0 and 1 only (in a grid plane of constant z), a row is gz times
+       a scalar sum over the points (factor 1). Else each row is summed over the points
+       (inside_row, factor 0). */
+    const int moves0 = es[0] != 0.0, moves1 = es[1] != 0.0, moves2 = es[2] != 0.0;
+    const int factor = !hybrid || G < 2 ? 0 : (moves0 + moves1 + moves2 <= 1 ? 2 : (!moves2 ? 1 : 0));
+    double *const fx = dk + n2, *const fy = fx + n0, *const fz = fy + n1; /* factor 2 (hybrid's scratch) */
+    double *const pz = fz + n2 + ROW_PAD; /* hybrid: the rows' q.e along slot 2, node by node */
     {
         /* whole vectors only (EXP_PAD): a scalar remainder would cost more than the rest */
         const size_t n_all = (size_t)G * per_table, n_padded = (n_all + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
@@ -884,6 +921,40 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
             const size_t m_padded = (m + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
             for (size_t i = m; i < m_padded; ++i) packed[i] = 0.0;
             cg_exp_in_place(packed, (cg_index)m_padded);
+            if (factor == 2) {
+                /* the outer product's tables straight from the packed ones (the summed slot: the
+                   moving one, slot 0 where none moves) */
+                const int sum0 = moves0 || !(moves1 || moves2);
+                const double *restrict px = packed + at[0], *restrict py = packed + at[1], *restrict pz = packed + at[2];
+                if (sum0) {
+                    for (cg_index i = 0; i < n0; ++i) fx[i] = 0.0;
+                    for (int g = 0; g < G; ++g) {
+                        const double c = gw[g], *restrict xg = px + (moves0 ? (size_t)g * n0 : 0);
+                        for (cg_index i = 0; i < n0; ++i) fx[i] += c * xg[i];
+                    }
+                } else {
+                    memcpy(fx, px, (size_t)n0 * sizeof(double));
+                }
+                if (moves1) {
+                    for (cg_index j = 0; j < n1; ++j) fy[j] = 0.0;
+                    for (int g = 0; g < G; ++g) {
+                        const double c = gw[g], *restrict yg = py + (size_t)g * n1;
+                        for (cg_index j = 0; j < n1; ++j) fy[j] += c * yg[j];
+                    }
+                } else {
+                    memcpy(fy, py, (size_t)n1 * sizeof(double));
+                }
+                if (moves2) {
+                    for (cg_index k = 0; k < n2; ++k) fz[k] = 0.0;
+                    for (int g = 0; g < G; ++g) {
+                        const double c = gw[g], *restrict zg = pz + (size_t)g * n2;
+                        for (cg_index k = 0; k < n2; ++k) fz[k] += c * zg[k];
+                    }
+                } else {
+                    memcpy(fz, pz, (size_t)n2 * sizeof(double));
+                }
+                goto tables_done;
+            }
             for (int s = 0; s < 2; ++s) {
                 double *restrict dst = ex_all + (s == 0 ? 0 : (size_t)G * n0);
                 const double *restrict src = packed + at[s];
@@ -947,8 +1018,13 @@ tables_done:;
                 endB[s][k] = qb * qb;
             }
         }
+        for (cg_index k = 0; k < n2; ++k) pz[k] = cslot[2][k] * es[2];
+        for (cg_index k = n2; k < n2 + ROW_PAD; ++k) pz[k] = 0.0;
     }
     const double R2_margin = R2 * (1.0 + 1e-12); /* the exact form decides near the sphere itself */
+    /* the capsule's test by the distance to the line, |q|^2 - p^2 / L^2: its round-off, a few ulp of
+       |q|^2 <= R^2 + L^2, within this margin */
+    const double R2_cyl = R2_margin + 1e-14 * L2;
     const int nv = jb->n_values;
     const double *values = jb->mode == MODE_VALUE ? jb->values + obj * nv : NULL;
     const double e2d[3] = {es[0], es[1], 0.0};
@@ -982,7 +1058,12 @@ tables_done:;
     const int far_check = R - L > FAR_BEYOND_END * w; /* else no node with both ends inside is that far */
     for (cg_index i = 0; i < n0; ++i) {
         double ci[CG_MAX_LINE_POINTS]; /* the rule's weights times the plane's */
-        for (int g = 0; g < G; ++g) ci[g] = gw[g] * gx_t[i * G + g];
+        if (factor != 2)
+            for (int g = 0; g < G; ++g) ci[g] = gw[g] * gx_t[i * G + g];
+        /* the plane's share of every row's constants */
+        const double x_i = cslot[0][i], px_i = x_i * es[0], fx_i = factor == 2 ? fx[i] : 0.0;
+        const double a0_i = endA[0][i], b0_i = endB[0][i];
+        const cg_index base_i = (first[0] + i) * stride[0] + first[1] * stride[1] + first[2] * stride[2];
         /* rows whose line misses the capsule carry nothing: the plane's rows that
            meet it, as bits (n1 <= 64), VW rows at a time */
         uint64_t plane_bits = ~UINT64_C(0);
@@ -1021,7 +1102,7 @@ tables_done:;
 #endif
             /* the nodes of the row that receive anything: row[k0..k1) */
             cg_index k0 = n2, k1 = 0;
-            const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + first[2] * stride[2];
+            const cg_index base = base_i + j * stride[1];
             {
 #ifdef HAVE_V4D
                 if (n1 > 64)
@@ -1032,34 +1113,44 @@ tables_done:;
                 }
                 /* the rule is exact where both ends, hence the whole segment, lie inside
                    the ball (an interval: two balls meet the row in intervals) */
-                const double a01 = endA[0][i] + endA[1][j], b01 = endB[0][i] + endB[1][j];
+                const double a01 = a0_i + endA[1][j], b01 = b0_i + endB[1][j];
                 const double *za = endA[2], *zb = endB[2];
 #ifdef HAVE_V4D
                 if (n2 <= 64) {
-                    /* the same tests as the walks and loops below, VW nodes at a time, as bits */
+                    /* the same tests as the walks and loops below, VW nodes at a time, as bits, in
+                       one pass: the rule's nodes (both ends inside), those near enough to the ends
+                       (far_check), and the capsule's candidates. A node is in the capsule if it is
+                       in either end's ball or, projecting onto the segment (0 <= p = q.e <= L^2),
+                       its squared distance to the line, |q|^2 - p^2 / L^2, is below R^2: the
+                       nodes row_distance2 puts inside, up to round-off of |q|^2 (R2_cyl's margin;
+                       the exact form decides near the sphere itself) */
                     const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
-                    uint64_t in_bits = 0, cand_bits = 0;
-                    const vwd a01v = SPLAT(a01), b01v = SPLAT(b01), R2v = SPLAT(R2);
-                    for (cg_index kw = 0; kw < n2; kw += VW) {
-                        vwd zav, zbv;
-                        memcpy(&zav, za + kw, sizeof zav);
-                        memcpy(&zbv, zb + kw, sizeof zbv);
-                        in_bits |= mask_bits((vwl)(a01v + zav < R2v) & (vwl)(b01v + zbv < R2v)) << kw;
+                    uint64_t in_bits = 0, cand_bits = 0, near_bits = 0;
+                    const double xq = x_i, yq = cslot[1][j];
+                    const double pxy = px_i + yq * es[1];
+                    {
+                        const vwd a01v = SPLAT(a01), b01v = SPLAT(b01), R2v = SPLAT(R2), Rmv = SPLAT(R2_margin);
+                        const vwd Rcv = SPLAT(R2_cyl), pxyv = SPLAT(pxy), ilv = SPLAT(inv_L2), L2v = SPLAT(L2);
+                        const vwd zero = {0.0}, lov = SPLAT(far_lo), hiv = SPLAT(far_hi);
+                        for (cg_index kw = 0; kw < n2; kw += VW) {
+                            vwd zav, zbv, pzv;
+                            memcpy(&zav, za + kw, sizeof zav);
+                            memcpy(&zbv, zb + kw, sizeof zbv);
+                            memcpy(&pzv, pz + kw, sizeof pzv);
+                            const vwd sa = a01v + zav, sb = b01v + zbv, p = pxyv + pzv;
+                            const vwl cyl = (vwl)(sa - (p * p) * ilv < Rcv) & (vwl)(p >= zero) & (vwl)(p <= L2v);
+                            uint64_t bi, bc, bn;
+                            mask_bits3((vwl)(sa < R2v) & (vwl)(sb < R2v), (vwl)(sa < Rmv) | (vwl)(sb < Rmv) | cyl,
+                                       (vwl)(p >= lov) & (vwl)(p <= hiv), &bi, &bc, &bn);
+                            in_bits |= bi << kw;
+                            cand_bits |= bc << kw;
+                            near_bits |= bn << kw;
+                        }
                     }
                     in_bits &= valid;
                     if (far_check && in_bits) {
-                        /* of the rule's nodes, those at most FAR_BEYOND_END w beyond the ends */
-                        const double pij = cslot[0][i] * es[0] + cslot[1][j] * es[1];
-                        const vwd pv = SPLAT(pij), e2v = SPLAT(es[2]);
-                        const vwd lov = SPLAT(far_lo), hiv = SPLAT(far_hi);
-                        uint64_t near_bits = 0;
-                        for (cg_index kw = 0; kw < n2; kw += VW) {
-                            vwd zc;
-                            memcpy(&zc, cslot[2] + kw, sizeof zc);
-                            const vwd p = pv + zc * e2v;
-                            near_bits |= mask_bits((vwl)(p >= lov) & (vwl)(p <= hiv)) << kw;
-                        }
-                        /* as the walks: the first and last near node of [first, last] inside */
+                        /* of the rule's nodes, those at most FAR_BEYOND_END w beyond the ends: as the
+                           walks, the first and last near node of [first, last] inside */
                         const int fa = __builtin_ctzll(in_bits), fb = 63 - __builtin_clzll(in_bits);
                         const uint64_t span_ab = (fb == 63 ? ~UINT64_C(0) : (UINT64_C(1) << (fb + 1)) - 1) &
                                                  ~((UINT64_C(1) << fa) - 1);
@@ -1077,53 +1168,27 @@ tables_done:;
                     if (in_bits) {
                         k0 = __builtin_ctzll(in_bits);
                         k1 = 64 - __builtin_clzll(in_bits);
-                        inside_row(row, k0, k1, G, ci, gy_t + j * G, gz_of);
-                    }
-                    /* the capsule's nodes (row_distance2's operations) outside the rule's interval */
-                    const double xq = cslot[0][i], yq = cslot[1][j];
-                    {
-                        const double exs = es[0], eys = es[1], ezs = es[2];
-                        const double pxy = xq * exs + yq * eys;
-                        const vwd pxyv = SPLAT(pxy), ezv = SPLAT(ezs), il = SPLAT(inv_L2);
-                        const vwd zero = {0.0}, one = SPLAT(1.0), Rm = SPLAT(R2_margin);
-                        const vwd xv = SPLAT(xq), yv = SPLAT(yq);
-                        const vwd exv = SPLAT(exs), eyv = SPLAT(eys);
-                        for (cg_index kw = 0; kw < n2; kw += VW) {
-                            vwd z;
-                            memcpy(&z, cslot[2] + kw, sizeof z);
-                            vwd t = (pxyv + z * ezv) * il;
-                            const vwl below = (vwl)(t < zero);
-                            t = (vwd)((vwl)t & ~below); /* 0.0 where below (its bits are 0) */
-                            const vwl above = (vwl)(t > one);
-                            t = (vwd)(((vwl)t & ~above) | ((vwl)one & above));
-                            const vwd d0 = xv - t * exv, d1 = yv - t * eyv, d2k = z - t * ezv;
-                            const vwd dd = (d0 * d0 + d1 * d1) + d2k * d2k;
-                            cand_bits |= mask_bits((vwl)(dd < Rm)) << kw;
-                        }
+                        if (!factor) inside_row(row, k0, k1, G, ci, gy_t + j * G, gz_of);
                     }
                     cand_bits &= valid & ~in_bits;
                     if (cand_bits) {
-                        /* the batch's arrays and count in locals: stored through, the
-                           struct's fields would be reloaded after every store */
-                        const double *z2 = cslot[2];
-                        double *bq0 = cuts.q[0], *bq1 = cuts.q[1], *bq2 = cuts.q[2];
-                        cg_index *bnode = cuts.node;
-                        const cg_index st2 = stride[2];
+                        /* room for the whole row first, then the row's candidates through local
+                           pointers (no flush test, no reload of the batch's fields per node) */
+                        if (cuts.n + n2 > CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
                         int m = cuts.n;
-                        while (cand_bits) {
+                        double *restrict q0 = cuts.q[0], *restrict q1 = cuts.q[1], *restrict q2 = cuts.q[2];
+                        cg_index *restrict nodes = cuts.node;
+                        const double *restrict zc = cslot[2];
+                        const cg_index s2 = stride[2];
+                        do {
                             const cg_index k = __builtin_ctzll(cand_bits);
                             cand_bits &= cand_bits - 1;
-                            if (m == CUT_BATCH) {
-                                cuts.n = m;
-                                cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
-                                m = 0;
-                            }
-                            bq0[m] = xq;
-                            bq1[m] = yq;
-                            bq2[m] = z2[k];
-                            bnode[m] = base + k * st2;
+                            q0[m] = xq;
+                            q1[m] = yq;
+                            q2[m] = zc[k];
+                            nodes[m] = base + k * s2;
                             ++m;
-                        }
+                        } while (cand_bits);
                         cuts.n = m;
                     }
                     goto row_done;
@@ -1147,7 +1212,7 @@ tables_done:;
                 if (ia < ib) {
                     k0 = ia;
                     k1 = ib;
-                    inside_row(row, ia, ib, G, ci, gy_t + j * G, gz_of);
+                    if (!factor) inside_row(row, ia, ib, G, ci, gy_t + j * G, gz_of);
                 }
                 /* elsewhere, the part inside the ball, at the nodes near enough to the
                    segment (the capsule: the exact form decides near its surface) */
@@ -1169,11 +1234,25 @@ tables_done:;
         row_done:
 #endif
             if (k0 >= k1) continue;
+            /* the row's weights: rs rw[k] */
+            double rs = 1.0;
+            const double *rw = row;
+            if (factor == 2) {
+                rs = fx_i * fy[j];
+                rw = fz;
+            } else if (factor == 1) {
+                const double *gy_j = gy_t + j * G;
+                rs = 0.0;
+                for (int g = 0; g < G; ++g) rs += ci[g] * gy_j[g];
+                rw = gz_of[0];
+            }
             if (jb->mode == MODE_VALUE) {
-                block_add(out + (base + k0 * stride[2]) * jb->out_width, 1.0, row + k0, k1 - k0, values, nv);
+                block_add(out + (base + k0 * stride[2]) * jb->out_width, rs, rw + k0, k1 - k0, values, nv);
             } else {
-                for (cg_index k = k0; k < k1; ++k)
-                    if (row[k] != 0.0) cg_accumulate(jb, out, obj, base + k * stride[2], row[k], NULL);
+                for (cg_index k = k0; k < k1; ++k) {
+                    const double wk = rs * rw[k];
+                    if (wk != 0.0) cg_accumulate(jb, out, obj, base + k * stride[2], wk, NULL);
+                }
             }
         }
     }
