@@ -126,8 +126,9 @@ ALWAYS_INLINE int object_box(const job *jb, const double *x, const double *e, in
 
 /* visit_nodes for a point target (nr resolved axes, a constant where inlined
    with one): with the points sorted by their first coordinate, only those
-   with it inside [bmin, bmax] (the first found by bisection); each point
-   still receives its terms in object order, so the sums are the same */
+   with it inside [bmin, bmax] (the first found from a table of cells, else
+   by bisection); each point still receives its terms in object order, so
+   the sums are the same */
 ALWAYS_INLINE cg_status visit_points(const job *jb, double *out, cg_index obj, const double *x, const double *e,
                                      double scale, cg_index *count, int nr)
 {
@@ -720,10 +721,10 @@ static int sort_points(const job *jb, cg_index **order, double **first, cg_index
        them: cell[j] is the first point at or above the cell's lower edge
        (approximately: visit_points steps from there to the exact first) */
     const double lo = (*first)[0], span = (*first)[P - 1] - lo;
-    if (span > 0.0 && isfinite(span)) {
+    const double inv = (double)P / span;
+    if (span > 0.0 && isfinite(span) && isfinite(inv)) {
         *cell = malloc(((size_t)P + 1) * sizeof **cell);
         if (*cell) {
-            const double inv = (double)P / span;
             cg_index k = 0;
             for (cg_index j = 0; j <= P; ++j) {
                 while (k < P && ((*first)[k] - lo) * inv < (double)j) ++k;
