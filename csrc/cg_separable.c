@@ -138,70 +138,6 @@ INLINE void block_add_n(double *restrict o, double scale, const double *restrict
     }
 }
 
-/* block_add_n for nv = 9 (3D stress tensors), two nodes (18 contiguous values) at a time in whole
-   vectors: the ninth value of a node no longer a scalar update of its own. The same products
-   (scale w[k]) v[c] and sums, so the same results. */
-INLINE void block_add_9(double *restrict o, double scale, const double *restrict w, cg_index nk,
-                        const double *restrict v)
-{
-    cg_index k = 0;
-#ifdef HAVE_V4D
-#if VW >= 8
-    /* 18 = 8 + 8 + 2: node k's 8, its 9th and node k + 1's first 7, node k + 1's last 2 */
-    v8d va;
-    memcpy(&va, v, sizeof va);
-    const v8d vb = {v[8], v[0], v[1], v[2], v[3], v[4], v[5], v[6]};
-    const v2d vc = {v[7], v[8]};
-    for (; k + 2 <= nk; k += 2) {
-        const double w0 = scale * w[k], w1 = scale * w[k + 1];
-        const v8d wa = {w0, w0, w0, w0, w0, w0, w0, w0}, wb = {w0, w1, w1, w1, w1, w1, w1, w1};
-        const v2d wc = {w1, w1};
-        double *ok = o + 9 * k;
-        v8d a0, a1;
-        v2d a2;
-        memcpy(&a0, ok, sizeof a0);
-        memcpy(&a1, ok + 8, sizeof a1);
-        memcpy(&a2, ok + 16, sizeof a2);
-        a0 += wa * va;
-        a1 += wb * vb;
-        a2 += wc * vc;
-        memcpy(ok, &a0, sizeof a0);
-        memcpy(ok + 8, &a1, sizeof a1);
-        memcpy(ok + 16, &a2, sizeof a2);
-    }
-#else
-    /* 18 = 4 + 4 + 4 + 4 + 2 */
-    const v4d v0 = {v[0], v[1], v[2], v[3]}, v1 = {v[4], v[5], v[6], v[7]};
-    const v4d v2 = {v[8], v[0], v[1], v[2]}, v3 = {v[3], v[4], v[5], v[6]};
-    const v2d v4 = {v[7], v[8]};
-    for (; k + 2 <= nk; k += 2) {
-        const double w0 = scale * w[k], w1 = scale * w[k + 1];
-        const v4d wa = {w0, w0, w0, w0}, wb = {w0, w1, w1, w1}, wc = {w1, w1, w1, w1};
-        const v2d wd = {w1, w1};
-        double *ok = o + 9 * k;
-        v4d a0, a1, a2, a3;
-        v2d a4;
-        memcpy(&a0, ok, sizeof a0);
-        memcpy(&a1, ok + 4, sizeof a1);
-        memcpy(&a2, ok + 8, sizeof a2);
-        memcpy(&a3, ok + 12, sizeof a3);
-        memcpy(&a4, ok + 16, sizeof a4);
-        a0 += wa * v0;
-        a1 += wa * v1;
-        a2 += wb * v2;
-        a3 += wc * v3;
-        a4 += wd * v4;
-        memcpy(ok, &a0, sizeof a0);
-        memcpy(ok + 4, &a1, sizeof a1);
-        memcpy(ok + 8, &a2, sizeof a2);
-        memcpy(ok + 12, &a3, sizeof a3);
-        memcpy(ok + 16, &a4, sizeof a4);
-    }
-#endif
-#endif
-    if (k < nk) block_add_n(o + 9 * k, scale, w + k, nk - k, v, 9);
-}
-
 INLINE void block_add(double *restrict o, double scale, const double *restrict w, cg_index nk,
                       const double *restrict v, int nv)
 {
@@ -216,7 +152,7 @@ INLINE void block_add(double *restrict o, double scale, const double *restrict w
     case 3: block_add_n(o, scale, w, nk, v, 3); return;
     case 4: block_add_n(o, scale, w, nk, v, 4); return;
     case 7: block_add_n(o, scale, w, nk, v, 7); return;   /* 2D density, momentum and momentum flux in one scatter */
-    case 9: block_add_9(o, scale, w, nk, v); return;      /* 3D stress tensors */
+    case 9: block_add_n(o, scale, w, nk, v, 9); return;   /* 3D stress tensors */
     case 13: block_add_n(o, scale, w, nk, v, 13); return; /* 3D density, momentum and momentum flux */
     default: block_add_n(o, scale, w, nk, v, nv); return;
     }
