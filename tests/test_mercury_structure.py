@@ -123,7 +123,7 @@ def test_fstat_whose_last_frame_lost_its_lines_is_an_error(tmp_path):
     last = max(k for k, line in enumerate(lines) if line.startswith(b"#"))
     f = write(tmp_path, **{"g.fstat": b"\n".join(lines[:last + 1]) + b"\n"})
     with pytest.raises(ValueError, match=rf"g\.fstat:{last - 1}: the last frame \(t = 20\.0001\) has no interaction"):
-        MercuryReader(STEM + ".data", f["g.fstat"], density=1.0)
+        MercuryReader(STEM + ".data", f["g.fstat"], restart_path=False, density=1.0)
 
 
 def test_blank_line_inside_an_fstat_header_is_an_error(tmp_path):
@@ -134,7 +134,7 @@ def test_blank_line_inside_an_fstat_header_is_an_error(tmp_path):
     k = [i for i, line in enumerate(lines) if line.startswith(b"#")][7]      # inside the third frame's header
     f = write(tmp_path, **{"g.fstat": b"\n".join(lines[:k] + [b""] + lines[k:])})
     with pytest.raises(ValueError, match=rf"g\.fstat:\d+: \d '#' header lines? in a row"):
-        MercuryReader(STEM + ".data", f["g.fstat"], density=1.0)
+        MercuryReader(STEM + ".data", f["g.fstat"], restart_path=False, density=1.0)
 
 
 def test_fstat_line_of_another_frame_is_an_error(tmp_path):
@@ -155,7 +155,7 @@ def test_truncated_restart_is_an_error(tmp_path):
     k = next(i for i, line in enumerate(lines) if line.startswith("Particles"))
     f = write(tmp_path, **{"g.restart": "".join(lines[:k])})
     with pytest.raises(ValueError, match=r"g\.restart: no 'Particles N' line"):
-        MercuryReader(STEM + ".data", restart_path=f["g.restart"])
+        MercuryReader(STEM + ".data", False, restart_path=f["g.restart"])
 
 
 @pytest.mark.parametrize("change, got", [(" 0.5 0 0 0 0 0 0 0\n", 15), (" 0 0 0 0 0 0 0\n", 13)])
