@@ -158,6 +158,24 @@ static double exact_strtod(const unsigned char *tok, size_t n)
     return v;
 }
 
+/* The exponent part at p ('e' or 'E', an optional sign, digits) added to
+   *exp10; returns the byte after it, NULL when no digit follows. */
+static inline const unsigned char *exponent_part(const unsigned char *p, const unsigned char *end, int64_t *exp10)
+{
+    ++p;
+    int eneg = 0;
+    if (p < end && (*p == '+' || *p == '-')) {
+        eneg = *p == '-';
+        ++p;
+    }
+    if (p == end || !is_digit(*p)) return NULL;
+    int64_t e = 0;
+    for (; p < end && is_digit(*p); ++p)
+        if (e < 100000000) e = e * 10 + (*p - '0'); /* beyond this the value is 0 or inf anyway */
+    *exp10 += eneg ? -e : e;
+    return p;
+}
+
 /* Parse [tok, end) as a float; returns CG_OK or CG_ERR_TEXT_NUMBER. *special: 0 finite, 1 nan/inf. */
 static cg_status parse_double(const unsigned char *tok, const unsigned char *end, double *value, int *special)
 {
@@ -209,19 +227,7 @@ static cg_status parse_double(const unsigned char *tok, const unsigned char *end
         }
     }
     if (!any) return CG_ERR_TEXT_NUMBER;
-    if (p < end && (*p == 'e' || *p == 'E')) {
-        ++p;
-        int eneg = 0;
-        if (p < end && (*p == '+' || *p == '-')) {
-            eneg = *p == '-';
-            ++p;
-        }
-        if (p == end || !is_digit(*p)) return CG_ERR_TEXT_NUMBER;
-        int64_t e = 0;
-        for (; p < end && is_digit(*p); ++p)
-            if (e < 100000000) e = e * 10 + (*p - '0'); /* beyond this the value is 0 or inf anyway */
-        exp10 += eneg ? -e : e;
-    }
+    if (p < end && (*p == 'e' || *p == 'E') && !(p = exponent_part(p, end, &exp10))) return CG_ERR_TEXT_NUMBER;
     if (p != end) return CG_ERR_TEXT_NUMBER;
     if (man == 0) {
         *value = neg ? -0.0 : 0.0;
@@ -362,19 +368,7 @@ static inline const unsigned char *exponent_on(const unsigned char *p, const uns
                                                double *value)
 {
     if (ndigits == 0) return NULL;
-    if (p < end && (*p == 'e' || *p == 'E')) {
-        ++p;
-        int eneg = 0;
-        if (p < end && (*p == '+' || *p == '-')) {
-            eneg = *p == '-';
-            ++p;
-        }
-        if (p == end || !is_digit(*p)) return NULL;
-        int64_t e = 0;
-        for (; p < end && is_digit(*p); ++p)
-            if (e < 100000000) e = e * 10 + (*p - '0');
-        exp10 += eneg ? -e : e;
-    }
+    if (p < end && (*p == 'e' || *p == 'E') && !(p = exponent_part(p, end, &exp10))) return NULL;
     if (p < end && byte_class[*p] == TOKEN) return NULL;
     return decide_double(man, exp10, ndigits, neg, digits, p, value);
 }
