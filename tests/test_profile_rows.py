@@ -179,9 +179,10 @@ def test_lucy_point_gradients(seed):
 
 
 def test_gaussian_points():
-    """The Gaussian's points on a profile go through the blocks too (cg_profile.c, job.profile_gauss; the
-    separable path's bits, checked against its build when the route was added): the node-by-node path's to
-    1e-12, stencils longer than a block; both vector builds and thread counts bit for bit."""
+    """The Gaussian's points on a profile go through the blocks too where stencils are short (cg_profile.c,
+    job.profile_gauss: at most 16 nodes; the separable path's bits, checked against its build when the route
+    was added), through the separable path where they are longer: the node-by-node path's to 1e-12; both
+    vector builds and thread counts bit for bit."""
     rng = np.random.default_rng(17)
     box = cg.Box([0, 0, 0], [6, 6, 30])
     starts = box.lower + rng.uniform(size=(400, 3)) * box.lengths
@@ -190,7 +191,7 @@ def test_gaussian_points():
     starts[:20, 2] = grid.axis_coordinates[2][300:320]   # on nodes
     values = rng.normal(size=(len(starts), 13))
     values[0] = -0.0
-    for width in (0.4, 0.05):
+    for width in (0.02, 0.012, 0.4):                     # 11 and 7 nodes an object (blocks), 201 (separable)
         make = lambda R: cg.Gaussian(width)              # noqa: E731
         fast = sums(box, 1500, "z", make, 1.0, starts, None, values)
         assert np.count_nonzero(fast) > 0
