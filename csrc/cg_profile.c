@@ -22,8 +22,10 @@
  * order; cg_visit_profile then serves the others, object by object.
  */
 #include "cg_internal.h"
+#include "cg_vmath.h"
 
 #include <math.h>
+#include <string.h>
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__has_attribute)
 #if __has_attribute(target_clones) && defined(__x86_64__) && !defined(CGBOUND_NO_CLONES)
@@ -239,6 +241,52 @@ static void point_values(int wide, int count, const double *q, double R, double 
     point_values_narrow(count, q, R, C, lucy, w);
 }
 
+/* The Gaussian's point weights at the node offsets q[i] as cg_visit_separable
+   forms them on one resolved axis: the two missing slots' tables are exp(0) =
+   1 exactly, so a node's weight is (prefactor 1) 1 times exp(-(q^2) / 2w^2)
+   (cg_exp_in_place, lane by lane: the same bits in any width), taken where
+   0 + q^2 < R^2 (rows_of_one_point's test); in[i] = 1 there, else 0 (a node
+   inside takes the object even where its weight underflows to 0, as there) */
+INLINE void gauss_values_body(int count, const double *restrict q, double R2, double inv2w2, double C,
+                              double *restrict in, double *restrict w)
+{
+    for (int i = 0; i < count; ++i) w[i] = -(q[i] * q[i]) * inv2w2;
+    cg_exp_in_place(w, count);
+    for (int i = 0; i < count; ++i) {
+        const int inside = 0.0 + q[i] * q[i] < R2;
+        in[i] = inside ? 1.0 : 0.0;
+        w[i] = inside ? C * w[i] : 0.0;
+    }
+}
+
+PROFILE_CLONES static void gauss_values_narrow(int count, const double *restrict q, double R2, double inv2w2,
+                                               double C, double *restrict in, double *restrict w)
+{
+    gauss_values_body(count, q, R2, inv2w2, C, in, w);
+}
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void gauss_values_wide(int count, const double *restrict q, double R2,
+                                                                 double inv2w2, double C, double *restrict in,
+                                                                 double *restrict w)
+{
+    gauss_values_body(count, q, R2, inv2w2, C, in, w);
+}
+#endif
+
+static void gauss_values(int wide, int count, const double *q, double R2, double inv2w2, double C, double *in,
+                         double *w)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (wide) {
+        gauss_values_wide(count, q, R2, inv2w2, C, in, w);
+        return;
+    }
+#endif
+    (void)wide;
+    gauss_values_narrow(count, q, R2, inv2w2, C, in, w);
+}
+
 /* Lucy's two-axis marginal and its gradient at the node offsets q[i]: v[i]
    as point_values, g[i] the gradient along the resolved axis as
    cg_lucy_marginal_gradient forms it (factor * q) */
@@ -358,6 +406,26 @@ int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, 
 /* pairs of one block at most (plus the padding of the last vector) */
 #define PROFILE_PAIRS 512
 
+/* o[c] += wi * v[c], c < nv: 4 at a time in vectors (element-wise products and
+   sums, no FMA in ISO C mode: the scalar loop's bits; the compiler leaves that
+   loop scalar, its 13 values per pair the larger part of a Gaussian's pair) */
+INLINE void add_row(double *restrict o, double wi, const double *restrict v, int nv)
+{
+    int c = 0;
+#if defined(__GNUC__)
+    typedef double v4 __attribute__((vector_size(32)));
+    const v4 w4 = {wi, wi, wi, wi};
+    for (; c + 4 <= nv; c += 4) {
+        v4 a, b;
+        memcpy(&a, o + c, sizeof a);
+        memcpy(&b, v + c, sizeof b);
+        a += w4 * b;
+        memcpy(o + c, &a, sizeof a);
+    }
+#endif
+    for (; c < nv; ++c) o[c] += wi * v[c];
+}
+
 /* out[node[i] * width + c] += w[i] * val[i][c], c < nv, for every non-zero
    w[i] (cg_ball_add's and cg_lucy_add9's sums: their vector forms are these
    element-wise products and sums) */
@@ -367,9 +435,7 @@ INLINE void pairs_add_body(int count, const double *restrict w, const cg_index *
     for (int i = 0; i < count; ++i) {
         const double wi = w[i];
         if (wi == 0.0) continue;
-        double *restrict o = out + node[i] * width;
-        const double *restrict v = val[i];
-        for (int c = 0; c < nv; ++c) o[c] += wi * v[c];
+        add_row(out + node[i] * width, wi, val[i], nv);
     }
 }
 
@@ -380,17 +446,16 @@ INLINE void pairs_add_gradient_body(int count, const double *restrict v, const d
 {
     for (int i = 0; i < count; ++i) {
         if (!(v[i] != 0.0 || g[i] != 0.0)) continue;
-        double *restrict o = out + node[i] * width;
-        const double *restrict r = val[i];
-        const double gi = g[i];
-        for (int c = 0; c < nv; ++c) o[c] += gi * r[c];
+        add_row(out + node[i] * width, g[i], val[i], nv);
     }
 }
 
 INLINE void pairs_add_any(int count, const double *v, const double *w, const cg_index *node,
                           const double *const *val, int width, int nv, double *out)
 {
-    if (v) pairs_add_gradient_body(count, v, w, node, val, width, nv, out);
+    /* fixed widths: the rows' loops unrolled (the Gaussian's points: 13 values, with v) */
+    if (v && nv == 13 && width == 13) pairs_add_gradient_body(count, v, w, node, val, 13, 13, out);
+    else if (v) pairs_add_gradient_body(count, v, w, node, val, width, nv, out);
     else if (nv == 9 && width == 9) pairs_add_body(count, w, node, val, 9, 9, out); /* a stress */
     else if (nv == 13 && width == 13) pairs_add_body(count, w, node, val, 13, 13, out); /* density to flux */
     else pairs_add_body(count, w, node, val, width, nv, out);
@@ -467,7 +532,12 @@ static void flush_block(const job *jb, profile_block *B, double *out)
     }
     if (B->np > 0) {
         const int padded = pad_lanes(B->np, B->q_pt, NULL, NULL, NULL);
-        if (gradient) {
+        if (jb->profile_gauss) {
+            /* v: the nodes inside the cutoff (pairs_add's gradient form adds w where v != 0) */
+            const double w = k->width;
+            gauss_values(jb->wide, padded, B->q_pt, R * R, 0.5 / (w * w), C, B->v_pt, B->w_pt);
+            for (int i = 0; i < B->np; ++i) B->v[B->pt_pair[i]] = B->v_pt[i];
+        } else if (gradient) {
             gradient_values(jb->wide, padded, B->q_pt, R, C, B->v_pt, B->w_pt);
             for (int i = 0; i < B->np; ++i) B->v[B->pt_pair[i]] = B->v_pt[i];
         } else {
@@ -476,13 +546,14 @@ static void flush_block(const job *jb, profile_block *B, double *out)
         }
         for (int i = 0; i < B->np; ++i) B->w[B->pt_pair[i]] = B->w_pt[i];
     }
-    pairs_add(jb->wide, B->n, gradient ? B->v : NULL, B->w, B->node, B->val, jb->out_width, jb->n_values, out);
+    pairs_add(jb->wide, B->n, gradient || jb->profile_gauss ? B->v : NULL, B->w, B->node, B->val, jb->out_width, jb->n_values, out);
     B->n = B->ns = B->np = 0;
 }
 
 int cg_profile_blocks(const job *jb)
 {
-    return jb->profile_rows && !(jb->is_segment && jb->ray) && !jb->target->periodic[0];
+    return (jb->profile_rows && !(jb->is_segment && jb->ray) && !jb->target->periodic[0]) ||
+           (jb->profile_gauss && !jb->target->periodic[0]);
 }
 
 /* (cloned: floor and ceil are single instructions from SSE 4.1 on) */
@@ -542,6 +613,17 @@ PROFILE_CLONES void cg_visit_profile_objects(const job *jb, double *out, const c
             val = jb->values + obj * nv;
         }
         const cg_index count = last - first + 1;
+        if (jb->profile_gauss) {
+            /* the object's nodes in order, across as many blocks as they fill */
+            for (cg_index kk = first; kk <= last; ++kk) {
+                if (B.n == PROFILE_PAIRS) flush_block(jb, &B, out);
+                B.q_pt[B.np] = z[kk] - x;
+                B.pt_pair[B.np++] = B.n;
+                B.node[B.n] = kk;
+                B.val[B.n++] = val;
+            }
+            continue;
+        }
         if (B.n + count > PROFILE_PAIRS) {
             flush_block(jb, &B, out);
             if (count > PROFILE_PAIRS) { /* a long stencil alone, in batches */

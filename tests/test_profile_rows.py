@@ -176,3 +176,31 @@ def test_lucy_point_gradients(seed):
     far = cg.Box([1e6] * 3, [1e6 + 6] * 3)
     starts = far.lower + rng.uniform(size=(200, 3)) * far.lengths
     assert_same_bits(far, 40, "z", cg.Lucy, 0.9, starts, None, rng.normal(size=(200, 3)), "near 1e6", gradient=True)
+
+
+def test_gaussian_points():
+    """The Gaussian's points on a profile go through the blocks too where stencils are short (cg_profile.c,
+    job.profile_gauss: at most 16 nodes; the separable path's bits, checked against its build when the route
+    was added), through the separable path where they are longer: the node-by-node path's to 1e-12; both
+    vector builds and thread counts bit for bit."""
+    rng = np.random.default_rng(17)
+    box = cg.Box([0, 0, 0], [6, 6, 30])
+    starts = box.lower + rng.uniform(size=(400, 3)) * box.lengths
+    starts[:, 2] = 4.0 + 22.0 * rng.uniform(size=400)
+    grid, _, _ = profile(box, 1500, "z", cg.Lucy, 1.0)
+    starts[:20, 2] = grid.axis_coordinates[2][300:320]   # on nodes
+    values = rng.normal(size=(len(starts), 13))
+    values[0] = -0.0
+    for width in (0.02, 0.012, 0.4):                     # 11 and 7 nodes an object (blocks), 201 (separable)
+        make = lambda R: cg.Gaussian(width)              # noqa: E731
+        fast = sums(box, 1500, "z", make, 1.0, starts, None, values)
+        assert np.count_nonzero(fast) > 0
+        assert fast.tobytes() == sums(box, 1500, "z", make, 1.0, starts, None, values, n_threads=2).tobytes()
+        narrow = narrow_build(lambda: sums(box, 1500, "z", make, 1.0, starts, None, values))
+        assert fast.tobytes() == narrow.tobytes()
+        slow = sums(box, 1500, "z", make, 1.0, starts, None, values, per_node=True)
+        assert np.abs(fast - slow).max() <= 1e-12 * np.abs(slow).max()
+    long = lambda R: cg.Gaussian(2.0)                    # noqa: E731  (about 1200 nodes an object)
+    fast = sums(box, 1500, "z", long, 1.0, starts[:60], None, values[:60, :3])
+    slow = sums(box, 1500, "z", long, 1.0, starts[:60], None, values[:60, :3], per_node=True)
+    assert np.abs(fast - slow).max() <= 1e-12 * np.abs(slow).max()
