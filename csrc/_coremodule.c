@@ -633,6 +633,27 @@ static int index_converter(PyObject *obj, void *address)
     return Py_CLEANUP_SUPPORTED;
 }
 
+/* The piece lists of the ring paths: segment (one entry per piece) and, for
+   n_groups rings or columns, first (their first pieces and one more, ending
+   at the number of pieces; NULL: none). 0 with a ValueError set. */
+static int check_pieces(const index_array *first, const index_array *segment, npy_intp n_pieces, npy_intp n_groups,
+                        const char *group)
+{
+    if (first && PyArray_DIM(first->array, 0) != n_groups + 1) {
+        PyErr_Format(PyExc_ValueError, "first: expected one entry per %s and one more (the pieces' end)", group);
+        return 0;
+    }
+    if (PyArray_DIM(segment->array, 0) != n_pieces) {
+        PyErr_SetString(PyExc_ValueError, "segment: expected one entry per piece (the length of lo)");
+        return 0;
+    }
+    if (first && ((const cg_index *)PyArray_DATA(first->array))[n_groups] != n_pieces) {
+        PyErr_SetString(PyExc_ValueError, "first: expected its last entry to be the number of pieces");
+        return 0;
+    }
+    return 1;
+}
+
 static PyObject *py_ring_moments(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
@@ -698,10 +719,7 @@ static PyObject *py_ring_segment_sum(PyObject *self, PyObject *args, PyObject *k
         PyErr_SetString(PyExc_ValueError, "r, z, weight: expected finite numbers (r >= 0)");
         goto done;
     }
-    if (PyArray_DIM(segment.array, 0) != lo.rows) {
-        PyErr_SetString(PyExc_ValueError, "segment: expected one entry per piece (the length of lo)");
-        goto done;
-    }
+    if (!check_pieces(NULL, &segment, lo.rows, 0, NULL)) goto done;
     const npy_intp shape[3] = {3, 3, 3};
     out = (PyArrayObject *)PyArray_ZEROS(gradient ? 3 : 2, shape, NPY_DOUBLE, 0);
     if (!out) goto done;
@@ -753,18 +771,7 @@ static PyObject *py_ring_segment_columns(PyObject *self, PyObject *args, PyObjec
                                      array_converter, &geom, array_converter, &tens, &gradient, threads_converter,
                                      &n_threads))
         goto done;
-    if (PyArray_DIM(first.array, 0) != rings.rows + 1) {
-        PyErr_SetString(PyExc_ValueError, "first: expected one entry per ring and one more (the pieces' end)");
-        goto done;
-    }
-    if (PyArray_DIM(segment.array, 0) != lo.rows) {
-        PyErr_SetString(PyExc_ValueError, "segment: expected one entry per piece (the length of lo)");
-        goto done;
-    }
-    if (((const cg_index *)PyArray_DATA(first.array))[rings.rows] != lo.rows) {
-        PyErr_SetString(PyExc_ValueError, "first: expected its last entry to be the number of pieces");
-        goto done;
-    }
+    if (!check_pieces(&first, &segment, lo.rows, rings.rows, "ring")) goto done;
     const npy_intp shape[2] = {rings.rows, gradient ? 27 : 9};
     out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_DOUBLE, 0);
     if (!out) goto done;
@@ -900,18 +907,7 @@ static PyObject *py_axial_segment_sum(PyObject *self, PyObject *args, PyObject *
                                      index_converter, &panels, array_converter, &starts, array_converter, &vectors,
                                      array_converter, &values, threads_converter, &n_threads))
         goto done;
-    if (PyArray_DIM(first.array, 0) != bottoms.rows + 1) {
-        PyErr_SetString(PyExc_ValueError, "first: expected one entry per column and one more (the pieces' end)");
-        goto done;
-    }
-    if (PyArray_DIM(segment.array, 0) != lo.rows) {
-        PyErr_SetString(PyExc_ValueError, "segment: expected one entry per piece (the length of lo)");
-        goto done;
-    }
-    if (((const cg_index *)PyArray_DATA(first.array))[bottoms.rows] != lo.rows) {
-        PyErr_SetString(PyExc_ValueError, "first: expected its last entry to be the number of pieces");
-        goto done;
-    }
+    if (!check_pieces(&first, &segment, lo.rows, bottoms.rows, "column")) goto done;
     const npy_intp shape[2] = {bottoms.rows, 9};
     out = (PyArrayObject *)PyArray_ZEROS(2, shape, NPY_DOUBLE, 0);
     if (!out) goto done;
