@@ -322,6 +322,12 @@ def test_companion_files_not_given_are_named_in_a_warning(files3):
     assert "no particle is fixed" not in str(record[0].message)
 
 
+def test_companion_arguments_other_than_paths_none_or_false_are_refused_by_name(files3):
+    for name in ("fstat_path", "restart_path"):
+        with pytest.raises(TypeError, match=f"{name}: expected a path, None or False, got 0"):
+            MercuryReader(files3["a.data"], **{"fstat_path": False, "restart_path": False, name: 0}, density=1.0)
+
+
 def test_no_warning_without_companion_files(tmp_path):
     f = write(tmp_path, **{"b.data": DATA3})
     with warnings.catch_warnings():

@@ -185,6 +185,8 @@ class MercuryReader(FrameReader):
         if dim is not None and dim not in (2, 3):
             raise ValueError(f"dim: expected 2 or 3, got {dim!r}")
         self.data_path = os.path.abspath(os.fspath(data_path))
+        self.fstat_path = self._optional_path(fstat_path, "fstat_path")
+        self.restart_path = self._optional_path(restart_path, "restart_path")
         if fstat_path is None:
             self._warn_companion(".fstat", "fstat_path", "the frames have no contacts (no contact stress, no "
                                  "interaction force density)")
@@ -192,10 +194,6 @@ class MercuryReader(FrameReader):
             lost = (["no particle is fixed (a base's particles count as flowing)"] if fixed is None else []) + (
                 ["no axis is periodic"] if periodic is None else [])
             self._warn_companion(".restart", "restart_path", " and ".join(lost))
-        self.fstat_path = None if fstat_path is None or fstat_path is False else os.path.abspath(
-            os.fspath(fstat_path))
-        self.restart_path = None if restart_path is None or restart_path is False else os.path.abspath(
-            os.fspath(restart_path))
         data_frames = scan_data(self.data_path, dim)
         dims = {f[4] for f in data_frames}
         if len(dims) > 1:
@@ -219,6 +217,15 @@ class MercuryReader(FrameReader):
         self._cache = None
 
     # ------------------------------------------------------------------------------------------
+    @staticmethod
+    def _optional_path(value, name):
+        """A companion file's absolute path; None for None or False (not given, or declined)."""
+        if value is None or value is False:
+            return None
+        if not isinstance(value, (str, bytes, os.PathLike)):
+            raise TypeError(f"{name}: expected a path, None or False, got {value!r}")
+        return os.path.abspath(os.fspath(value))
+
     def _warn_companion(self, suffix, keyword, consequence):
         """Say so when ``name<suffix>`` lies beside ``name.data`` but ``keyword=`` was not given: reading
         without it is allowed, but not silently."""
