@@ -333,6 +333,120 @@ static void cut_batch_init(cut_batch *b, double *mem)
     b->arg = mem + 8 * CUT_BATCH;
 }
 
+#ifdef HAVE_V4D
+typedef uint64_t vwu __attribute__((vector_size(8 * VW)));
+
+/* lanes of a where m is set, else of b (m: all ones or zero per lane) */
+#define SELECT(m, a, b) ((vwd)(((vwl)(a) & (m)) | ((vwl)(b) & ~(m))))
+
+/* cg_exp_in_place's operations on VW lanes in registers (the same bits) */
+INLINE void exp_lanes(vwd x0, vwd *out)
+{
+    const vwd log2e = SPLAT(1.4426950408889634), shifter = SPLAT(0x1.8p52), zero = {0.0};
+    const vwd ln2_hi = SPLAT(6.93147180369123816490e-01), ln2_lo = SPLAT(1.90821492927058770002e-10);
+    const vwl below = x0 < SPLAT(-708.0);
+    const vwd v = SELECT(below, SPLAT(-708.0), SELECT(x0 > zero, zero, x0));
+    const vwd shifted = v * log2e + shifter; /* k in the low bits of the mantissa */
+    const vwd kd = shifted - shifter;
+    const vwd r = (v - kd * ln2_hi) - kd * ln2_lo;
+    vwd p = SPLAT(1.0 / 6227020800.0);
+    p = p * r + 1.0 / 479001600.0;
+    p = p * r + 1.0 / 39916800.0;
+    p = p * r + 1.0 / 3628800.0;
+    p = p * r + 1.0 / 362880.0;
+    p = p * r + 1.0 / 40320.0;
+    p = p * r + 1.0 / 5040.0;
+    p = p * r + 1.0 / 720.0;
+    p = p * r + 1.0 / 120.0;
+    p = p * r + 1.0 / 24.0;
+    p = p * r + 1.0 / 6.0;
+    p = p * r + 0.5;
+    p = p * r + 1.0;
+    p = p * r + 1.0;
+    const vwu bits = ((vwu)shifted - UINT64_C(0x4338000000000000) + 1023) << 52; /* 2^k */
+    *out = (vwd)((vwl)(p * (vwd)bits) & ~below);
+}
+
+INLINE uint64_t mask_bits(vwl m); /* below */
+
+/* sqrt of each lane (a loop the compiler turns into one vector square root) */
+INLINE void sqrt_lanes(vwd x, vwd *out)
+{
+    vwd r;
+    for (int l = 0; l < VW; ++l) r[l] = sqrt(x[l]);
+    *out = r;
+}
+
+/* The closed form on VW lanes of a batch (i a multiple of VW), in registers:
+   the part [t0, t1] of the segment inside each node's ball (s0 - u and span
+   in units of the segment, kept with a^2 for the fallback), the exponentials
+   at the two ends and the foot (of half the exponents: exp(x / 2)^2 reaches
+   the subnormal values down to exp(-1416) where the exponential stops at
+   exp(-708): far nodes, cutoffs beyond 37 w), erfcx of the ends' |x|, and
+   value = factor * (|T0 - T1| or, where the ends straddle the foot, 2A - T0 -
+   T1), T = E erfcx; *is_short: the lanes where a term exceeds 16 times the
+   value (short intervals, for the fallback; through a pointer, as
+   chebyshev_series' result) */
+INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, const double *e, double L2, double R2, double w,
+                            double factor, int may_exceed, vwl *is_short)
+{
+    const double inv_L2 = 1.0 / L2, L = sqrt(L2), inv4w2 = 0.25 / (w * w);
+    const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w);
+    const vwd zero = {0.0}, one = SPLAT(1.0);
+    const vwd ilv = SPLAT(inv_L2), Lv = SPLAT(L), i4 = SPLAT(inv4w2), isw = SPLAT(inv_sqrt2w);
+    const vwd ex = SPLAT(e[0]), ey = SPLAT(e[1]), ez = SPLAT(e[2]);
+    vwd q0, q1, q2;
+    memcpy(&q0, b->q[0] + i, sizeof q0);
+    memcpy(&q1, b->q[1] + i, sizeof q1);
+    memcpy(&q2, b->q[2] + i, sizeof q2);
+    const vwd u = (q0 * ex + q1 * ey + q2 * ez) * ilv;
+    const vwd d0 = q0 - u * ex, d1 = q1 - u * ey, d2 = q2 - u * ez;
+    const vwd a2 = d0 * d0 + d1 * d1 + d2 * d2;
+    vwd b2 = SPLAT(R2) - a2;
+    b2 = SELECT(b2 > zero, b2, zero);
+    vwd half;
+    sqrt_lanes(b2 * ilv, &half);
+    vwd s0 = u - half, s1 = u + half;
+    s0 = SELECT(s0 > zero, s0, zero);
+    s1 = SELECT(s1 < one, s1, one);
+    vwd span = s1 - s0;
+    span = SELECT(span > zero, span, zero);
+    const vwd t0 = (s0 - u) * Lv, t1 = t0 + span * Lv;
+    const vwd t0s = s0 - u;
+    memcpy(b->a2 + i, &a2, sizeof a2);
+    memcpy(b->t0 + i, &t0s, sizeof t0s);
+    memcpy(b->span + i, &span, sizeof span);
+    vwd E0, E1, EA, C0, C1;
+    exp_lanes(-(a2 + t0 * t0) * i4, &E0);
+    exp_lanes(-(a2 + t1 * t1) * i4, &E1);
+    exp_lanes(-a2 * i4, &EA);
+    const vwd x0 = SELECT(t0 < zero, -t0, t0) * isw, x1 = SELECT(t1 < zero, -t1, t1) * isw;
+    erfcx_short(x0, &C0);
+    erfcx_short(x1, &C1);
+    if (may_exceed) {
+        /* the long series where an argument exceeds the short one's range */
+        const vwd limit = SPLAT(ERFCX_SHORT_MAX);
+        const vwl f0 = x0 > limit, f1 = x1 > limit;
+        if (mask_bits(f0 | f1)) {
+            vwd l0, l1;
+            erfcx_long(x0, &l0);
+            erfcx_long(x1, &l1);
+            C0 = SELECT(f0, l0, C0);
+            C1 = SELECT(f1, l1, C1);
+        }
+    }
+    const vwd T0 = (E0 * C0) * E0, T1 = (E1 * C1) * E1, twoA = SPLAT(2.0) * EA * EA;
+    const vwd s1u = t0s + span;
+    const vwl straddle = (t0s < zero) & (s1u > zero);
+    const vwl first = T0 > T1;
+    const vwd diff = SELECT(first, T0 - T1, T1 - T0), larger = SELECT(first, T0, T1);
+    const vwd v = SELECT(straddle, (twoA - T0) - T1, diff);
+    const vwd largest = SELECT(straddle, twoA, larger);
+    const vwd value = v * SPLAT(factor);
+    memcpy(b->value + i, &value, sizeof value);
+    *is_short = (span > zero) & ~(SPLAT(16.0) * v >= largest);
+}
+#else
 /* the lanes of a batch: the part [t0, t1] of the segment inside each node's
    ball (as s0 - u and span, in units of the segment) and the arguments of the
    closed form: e0, e1, ea the exponents at the two ends and at the foot, c0,
@@ -395,6 +509,8 @@ INLINE int cut_values(cg_index n, const double *restrict t0s, const double *rest
     return any_short != 0;
 }
 
+#endif
+
 /* The exact line integral at the gathered nodes, added to out (amp: the
    kernel's prefactor times the object's scale). With a^2 the node's squared
    distance to the segment's line, t the signed distance along it from the
@@ -419,8 +535,28 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
     if (n == 0 || !(L2 > 0.0)) return;
     const double inv2w2 = 0.5 / (w * w);
     const double factor = amp * 1.2533141373155003 * w / sqrt(L2); /* sqrt(pi/2) w / L: per unit of s */
+    double *restrict value = b->value;
+    double *const is_short = b->arg + 5 * CUT_BATCH;
+    /* |t| is at most R (to round-off: the clipped part of the segment, or an end inside
+       the ball, or the foot of a node within R of the segment), so erfcx's arguments
+       exceed ERFCX_SHORT_MAX = 4 only where R > 4 sqrt(2) w; a margin for the rounding */
+    const int may_exceed = R2 > 31.9 * (w * w);
+#ifdef HAVE_V4D
+    /* whole vectors: the lanes past n are not used */
+    const cg_index n_padded = (n + VW - 1) / VW * VW;
+    for (int k = 0; k < VW - 1; ++k) /* (not a loop to n_padded: that becomes calls of memset) */
+        if (n + k < n_padded) b->q[0][n + k] = b->q[1][n + k] = b->q[2][n + k] = 0.0;
+    vwl shorts = {0};
+    for (cg_index i = 0; i < n_padded; i += VW) {
+        vwl s;
+        cut_lanes_fused(b, i, e, L2, R2, w, factor, may_exceed, &s);
+        memcpy(is_short + i, &s, sizeof s); /* all ones (a NaN) or +0 */
+        shorts |= s;
+    }
+    const int any_short = mask_bits(shorts) != 0;
+#else
     double *const e0 = b->arg, *const e1 = e0 + CUT_BATCH, *const ea = e1 + CUT_BATCH;
-    double *const c0 = ea + CUT_BATCH, *const c1 = c0 + CUT_BATCH, *const is_short = c1 + CUT_BATCH;
+    double *const c0 = ea + CUT_BATCH, *const c1 = c0 + CUT_BATCH;
     /* whole vectors (EXP_PAD; CUT_BATCH is a multiple of it): the lanes past n are not used */
     const cg_index n_padded = (n + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
     for (cg_index m = n; m < n_padded; ++m) b->q[0][m] = b->q[1][m] = b->q[2][m] = 0.0;
@@ -429,12 +565,9 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
     cg_exp_in_place(e0, n_padded);
     cg_exp_in_place(e1, n_padded);
     cg_exp_in_place(ea, n_padded);
-    /* |t| is at most R (to round-off: the clipped part of the segment, or an end inside
-       the ball, or the foot of a node within R of the segment), so erfcx's arguments
-       exceed ERFCX_SHORT_MAX = 4 only where R > 4 sqrt(2) w; a margin for the rounding */
-    erfcx_in_place2(c0, c1, n_padded, R2 > 31.9 * (w * w));
-    double *restrict value = b->value;
+    erfcx_in_place2(c0, c1, n_padded, may_exceed);
     const int any_short = cut_values(n_padded, b->t0, b->span, e0, e1, ea, c0, c1, factor, value, is_short);
+#endif
     const double *a2s = b->a2, *t0s = b->t0, *spans = b->span;
     int n_short = 0;
     int short_lane[CUT_BATCH];
