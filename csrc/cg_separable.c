@@ -339,13 +339,15 @@ typedef uint64_t vwu __attribute__((vector_size(8 * VW)));
 /* lanes of a where m is set, else of b (m: all ones or zero per lane) */
 #define SELECT(m, a, b) ((vwd)(((vwl)(a) & (m)) | ((vwl)(b) & ~(m))))
 
-/* cg_exp_in_place's operations on VW lanes in registers (the same bits) */
+/* cg_exp_in_place's operations on VW lanes in registers (the same bits) for
+   x0 <= 0 or NaN (the callers' exponents are minus sums of squares times a
+   positive constant), where its clamp to 0 from above changes nothing */
 INLINE void exp_lanes(vwd x0, vwd *out)
 {
-    const vwd log2e = SPLAT(1.4426950408889634), shifter = SPLAT(0x1.8p52), zero = {0.0};
+    const vwd log2e = SPLAT(1.4426950408889634), shifter = SPLAT(0x1.8p52);
     const vwd ln2_hi = SPLAT(6.93147180369123816490e-01), ln2_lo = SPLAT(1.90821492927058770002e-10);
     const vwl below = x0 < SPLAT(-708.0);
-    const vwd v = SELECT(below, SPLAT(-708.0), SELECT(x0 > zero, zero, x0));
+    const vwd v = SELECT(below, SPLAT(-708.0), x0);
     const vwd shifted = v * log2e + shifter; /* k in the low bits of the mantissa */
     const vwd kd = shifted - shifter;
     const vwd r = (v - kd * ln2_hi) - kd * ln2_lo;
