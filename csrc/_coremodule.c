@@ -1211,7 +1211,7 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
     for (Py_ssize_t c = 0; c < ncols; ++c) n_int += is_int[c] != 0;
     if (max_rows < 0) { /* unknown: at most one row per line */
         Py_BEGIN_ALLOW_THREADS
-        max_rows = (Py_ssize_t)cg_text_count_lines(text, length);
+        max_rows = (Py_ssize_t)cg_text_count_lines_threads(text, length, n_threads);
         Py_END_ALLOW_THREADS
     }
     if (max_rows > 0 && ncols > PY_SSIZE_T_MAX / (Py_ssize_t)sizeof(double) / max_rows) {
