@@ -1286,12 +1286,13 @@ static PyObject *py_text_count_lines(PyObject *self, PyObject *args)
     (void)self;
     text_buffer data = {0};
     Py_ssize_t start, stop;
+    int n_threads = 1;
     PyObject *ret = NULL;
-    if (!PyArg_ParseTuple(args, "O&nn", convert_text_buffer, &data, &start, &stop)) return NULL;
+    if (!PyArg_ParseTuple(args, "O&nn|i", convert_text_buffer, &data, &start, &stop, &n_threads)) return NULL;
     if (check_text_range(&data, start, stop)) {
         int64_t count;
         Py_BEGIN_ALLOW_THREADS
-        count = cg_text_count_lines((const char *)data.view.buf + start, (size_t)(stop - start));
+        count = cg_text_count_lines_threads((const char *)data.view.buf + start, (size_t)(stop - start), n_threads);
         Py_END_ALLOW_THREADS
         ret = PyLong_FromLongLong((long long)count);
     }
@@ -1424,8 +1425,8 @@ done:
         {"text_release_tables", py_text_release_tables, METH_NOARGS,                                             \
          "text_release_tables() -> bytes freed: drops the cached blocks of frame tables that no array uses."},      \
         {"text_count_lines", py_text_count_lines, METH_VARARGS,                                                     \
-         "text_count_lines(data, start, stop) -> the lines of data[start:stop] (cg_text_count_lines): its '\\n' "   \
-         "bytes, plus one if it is not empty and does not end with one."},
+         "text_count_lines(data, start, stop, n_threads=1) -> the lines of data[start:stop] "                      \
+         "(cg_text_count_lines_threads): its '\\n' bytes, plus one if it is not empty and does not end with one."},
 
 /* ================================================================== */
 /* end of the text-parsing block                                        */

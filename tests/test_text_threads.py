@@ -224,3 +224,11 @@ def test_reused_table_blocks_never_overwrite_a_held_table(lines):
     address = _text.parse_table(data, ncols=8).values.ctypes.data  # dropped at once: its block is free again
     assert _text.parse_table(other, ncols=8).values.ctypes.data == address
     assert _engine.text_release_tables() > 0
+
+
+def test_threaded_line_count(lines):
+    data = ("\n".join(lines) + "\n").encode()
+    for text in (data, data[:-1], data[:-7]):
+        expected = text.count(b"\n") + (not text.endswith(b"\n"))
+        assert [_text.count_lines(text, threads=t) for t in (1, 2, 3, None)] == [expected] * 4
+        assert _text.count_lines(text, 5, len(text) - 3, threads=2) == _text.count_lines(text[5:-3])

@@ -205,7 +205,7 @@ def _count_newlines(buf, start, stop):
     boolean array of the frame first, a third of the scan's time)."""
     if stop <= start:
         return 0
-    return _text.count_lines(buf, start, stop) - (buf[stop - 1] != 10)  # bytes, bytearray, mmap: an int
+    return _text.count_lines(buf, start, stop, threads=None) - (buf[stop - 1] != 10)  # buf[k]: an int
 
 
 def _check_rows(buf, head, stop, path):

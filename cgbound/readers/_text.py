@@ -155,11 +155,14 @@ def find_lines(data, prefix, start=0, stop=None):
     return _engine.text_find_lines(data, start, stop, prefix)
 
 
-def count_lines(data, start=0, stop=None):
+def count_lines(data, start=0, stop=None, threads=1):
     """The lines of data[start:stop] (its newlines, plus one if it is not empty and does not end with one),
-    counted by the C text layer 8 bytes at a time; no offsets are kept."""
+    counted by the C text layer 16 bytes at a time, on up to ``threads`` threads (None: the core's setting)
+    for ranges of 4 MB and more; no offsets are kept."""
     stop = _size(data) if stop is None else stop
-    return _engine.text_count_lines(data, start, stop)
+    if threads is None:
+        threads = _threads.get_num_threads()
+    return _engine.text_count_lines(data, start, stop, threads)
 
 
 def _is_gzip(path):
