@@ -270,7 +270,7 @@ class DumpIndex:
         # mapped), in anonymous memory with huge pages where the system has them: a 60 MB frame read into
         # bytes costs 15,000 page faults (35-50 ms), into this 30 (11 ms)
         size = stop - offset
-        buf = _text_buffer(size)
+        buf = _text.frame_buffer(size)
         try:
             with open(self.path, "rb") as f:
                 f.seek(offset)
@@ -284,22 +284,6 @@ class DumpIndex:
                 buf.close()
             except BufferError:  # an error's traceback still views it: it is freed with the traceback
                 pass
-
-
-def _text_buffer(size):
-    """A writable buffer of size bytes (an anonymous map: find, slices and the buffer protocol like bytes), with
-    transparent huge pages where the system has them (2 MB pages: the kernel's page faults and zeroing
-    were three quarters of reading a frame's text into a new bytes object)."""
-    try:
-        buf = mmap.mmap(-1, size, flags=mmap.MAP_PRIVATE)
-    except (AttributeError, TypeError):  # no flags (Windows)
-        return mmap.mmap(-1, size)
-    if hasattr(mmap, "MADV_HUGEPAGE"):
-        try:
-            buf.madvise(mmap.MADV_HUGEPAGE)
-        except OSError:  # a kernel without transparent huge pages: small pages then
-            pass
-    return buf
 
 
 def _read_frame(buf, start, stop, kind, path, line, int_columns, integral_columns=()):
