@@ -717,9 +717,8 @@ static int newlines_in_word(uint64_t w)
     return (int)(((zero >> 7) * 0x0101010101010101ULL) >> 56);
 }
 
-int64_t cg_text_count_lines(const char *text, size_t length)
+static int64_t count_newlines(const char *text, size_t length)
 {
-    if (!text || !length) return 0;
     /* counted 8 bytes at a time (a memchr per line costs a call per ~60-byte row); with SSE2 (every x86-64)
        16 at a time: each '\n' adds 1 to its byte lane (subtracting the compare's -1), the lanes summed by psadbw
        before any can wrap (255 blocks), about 0.2 instructions per byte instead of 1.5 */
@@ -743,7 +742,32 @@ int64_t cg_text_count_lines(const char *text, size_t length)
         n += newlines_in_word(w);
     }
     for (; k < length; ++k) n += text[k] == '\n';
-    return text[length - 1] == '\n' ? n : n + 1;
+    return n;
+}
+
+int64_t cg_text_count_lines(const char *text, size_t length)
+{
+    if (!text || !length) return 0;
+    return count_newlines(text, length) + (text[length - 1] != '\n');
+}
+
+int64_t cg_text_count_lines_threads(const char *text, size_t length, int n_threads)
+{
+    if (!text || !length) return 0;
+    int parts = n_threads < CG_TEXT_MAX_THREADS ? n_threads : CG_TEXT_MAX_THREADS;
+    if ((size_t)parts > length / CG_TEXT_BYTES_PER_THREAD) parts = (int)(length / CG_TEXT_BYTES_PER_THREAD);
+    if (parts < 2) return cg_text_count_lines(text, length);
+    /* newlines add up over any cut, so the parts are plain byte ranges */
+    int64_t n = 0;
+#ifdef _OPENMP
+#pragma omp parallel for num_threads(parts) schedule(static, 1) reduction(+ : n)
+#endif
+    for (int k = 0; k < parts; ++k) {
+        const size_t step = length / (size_t)parts, a = step * (size_t)k;
+        const size_t b = k + 1 < parts ? a + step : length;
+        n += count_newlines(text + a, b - a);
+    }
+    return n + (text[length - 1] != '\n');
 }
 
 cg_status cg_text_find_lines(const char *text, size_t length, const char *prefix, size_t prefix_length,

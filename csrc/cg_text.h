@@ -109,6 +109,8 @@ cg_status cg_text_parse_table_threads(const char *text, size_t length, int64_t n
 /* Number of lines in the range: '\n' count, plus one if the range is not
  * empty and does not end with '\n'. An upper bound for the rows it holds. */
 int64_t cg_text_count_lines(const char *text, size_t length);
+/* The same count over up to n_threads threads (ranges of at least 2 CG_TEXT_BYTES_PER_THREAD). */
+int64_t cg_text_count_lines_threads(const char *text, size_t length, int n_threads);
 
 /*
  * Byte offsets (from text) of the lines whose first prefix_length bytes equal

@@ -200,12 +200,12 @@ def _content_end(buf, start, stop):
     return start
 
 
-def _count_newlines(buf, start, stop, block=1 << 24):
-    total = 0
-    for a in range(start, stop, block):
-        b = min(stop, a + block)
-        total += int(np.count_nonzero(np.frombuffer(buf, np.uint8, b - a, a) == 10))
-    return total
+def _count_newlines(buf, start, stop):
+    """The '\\n' bytes of buf[start:stop] (the C line count, 16 bytes at a time: a NumPy comparison made a
+    boolean array of the frame first, a third of the scan's time)."""
+    if stop <= start:
+        return 0
+    return _text.count_lines(buf, start, stop, threads=None) - (buf[stop - 1] != 10)  # buf[k]: an int
 
 
 def _check_rows(buf, head, stop, path):
@@ -266,13 +266,24 @@ class DumpIndex:
                 self._checkpoints = _text.gzip_checkpoints(self.path)
             buf = _text.read_range(self.path, offset, stop, self._checkpoints)
             return _read_frame(buf, 0, len(buf), self.kind, self.path, line, int_columns, integral_columns)
-        with open(self.path, "rb") as f:  # one frame's text in memory (an mmap could not be closed while an
-            f.seek(offset)                # error's traceback still views it)
-            buf = f.read(stop - offset)
-        if len(buf) != stop - offset:
-            raise ValueError(f"{self.path}: the file changed since it was scanned (the frame at timestep "
-                             f"{dict(self.frames)[offset]} ends early); open the reader again")
-        return _read_frame(buf, 0, len(buf), self.kind, self.path, line, int_columns, integral_columns)
+        # one frame's text in memory (a map of the file would crash the process if the file were cut while
+        # mapped), in anonymous memory with huge pages where the system has them: a 60 MB frame read into
+        # bytes costs 15,000 page faults (35-50 ms), into this 30 (11 ms)
+        size = stop - offset
+        buf = _text.frame_buffer(size)
+        try:
+            with open(self.path, "rb") as f:
+                f.seek(offset)
+                got = f.readinto(buf)
+            if got != size:
+                raise ValueError(f"{self.path}: the file changed since it was scanned (the frame at timestep "
+                                 f"{dict(self.frames)[offset]} ends early); open the reader again")
+            return _read_frame(buf, 0, size, self.kind, self.path, line, int_columns, integral_columns)
+        finally:
+            try:
+                buf.close()
+            except BufferError:  # an error's traceback still views it: it is freed with the traceback
+                pass
 
 
 def _read_frame(buf, start, stop, kind, path, line, int_columns, integral_columns=()):

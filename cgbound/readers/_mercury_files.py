@@ -374,7 +374,7 @@ def read_fstat_rows(path, time, rows_start, rows_stop, first_line):
     width = len(data[text.start():None if eol < 0 else eol].split())
     what = "an .fstat line 'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz'"
     if width < FSTAT_COLUMNS:
-        line = first_line + data.count(b"\n", 0, text.start())
+        line = first_line + bytes(data[:text.start()]).count(b"\n")
         raise ValueError(f"{path}:{line}: expected {FSTAT_COLUMNS} columns "
                          f"'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz', got {width}")
     try:
@@ -387,7 +387,7 @@ def read_fstat_rows(path, time, rows_start, rows_stop, first_line):
 
     def line_of(k):
         if not numbered:   # blank lines may sit between rows: number the non-blank lines once, on demand
-            numbered.extend(first_line + j for j, line in enumerate(data.split(b"\n")) if line.strip())
+            numbered.extend(first_line + j for j, line in enumerate(bytes(data).split(b"\n")) if line.strip())
         return numbered[k]
 
     return table.values, table.ints, line_of

@@ -3,6 +3,7 @@
  * exact values. Run by tests/test_text_parser.py (also under valgrind). */
 #define _DEFAULT_SOURCE
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
 #include <unistd.h>
@@ -52,6 +53,19 @@ int main(void)
             CHECK(cg_text_count_lines(at, len) >= 0);
             double v;
             cg_text_parse_double(at, len, &v);
+        }
+    }
+    /* the threaded line count: cut anywhere, with and without a final line end */
+    {
+        const size_t big = 5 * ((size_t)1 << 20) + 7;
+        char *text = malloc(big);
+        CHECK(text != NULL);
+        if (text) {
+            for (size_t k = 0; k < big; ++k) text[k] = (char)(k % 61 == 60 || k % 4099 == 17 ? '\n' : 'x');
+            for (size_t len = big - 2; len <= big; ++len)
+                for (int t = 1; t <= 3; ++t)
+                    CHECK(cg_text_count_lines_threads(text, len, t) == cg_text_count_lines(text, len));
+            free(text);
         }
     }
     /* values */
