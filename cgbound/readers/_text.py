@@ -26,10 +26,7 @@ _ROWS = 10
 class Table(NamedTuple):
     """A parsed table: ``values`` (rows, ncols) float64 with every column, ``ints`` (rows,
     len(int_columns)) int64 with the integer columns in ``int_columns`` order, ``end`` the offset in
-    data where the table ended. Tables of 1 MB and more are views of blocks the parser keeps and parses
-    into again once no array uses them (no page faults per frame; ``_engine.text_release_tables()`` frees
-    the unused ones): they do not own their data (``flags.owndata`` is False), so ``ndarray.resize``
-    refuses them."""
+    data where the table ended."""
 
     values: np.ndarray
     ints: np.ndarray
