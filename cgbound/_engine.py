@@ -126,11 +126,6 @@ def text_find_lines(data, start, stop, prefix):
     return _core.text_find_lines(data, start, stop, prefix)
 
 
-def text_release_tables():
-    """Frees the cached blocks of parsed frame tables that no array uses any more; returns the bytes freed."""
-    return _core.text_release_tables()
-
-
 def text_count_lines(data, start, stop, n_threads=1):
     """The lines of ``data[start:stop]``: its newlines, plus one if it does not end with one (ranges of 4 MB and
     more counted over up to n_threads threads)."""

@@ -1082,107 +1082,6 @@ static int check_text_range(const text_buffer *b, Py_ssize_t start, Py_ssize_t s
     return 1;
 }
 
-/*
- * Frame tables from a small cache of blocks. A fresh table of tens of MB costs its page faults (the kernel
- * zeroes every page on first touch: 15% of a parse on .fstat frames); a reader parses one frame after the
- * other, and the previous frame's table is usually gone by then. So tables of at least TEXT_CACHE_MIN_BYTES
- * are views of blocks (1-D uint8 arrays, NumPy's allocator) kept here: a block is free again only when the
- * cache holds its one reference (Py_REFCNT == 1), i.e. no table or view of it is alive anywhere, so a buffer
- * a user holds is never written. The GIL serialises the cache; a block being parsed into is referenced by its
- * table. At most TEXT_CACHE_SLOTS blocks, TEXT_CACHE_MAX_BYTES in all; text_release_tables() drops the free ones.
- */
-#define TEXT_CACHE_SLOTS 4
-#define TEXT_CACHE_MIN_BYTES ((npy_intp)1 << 20)
-#define TEXT_CACHE_MAX_BYTES ((npy_intp)1 << 30)
-static PyObject *text_cache[TEXT_CACHE_SLOTS];
-
-static npy_intp text_cache_bytes(void)
-{
-    npy_intp total = 0;
-    for (int k = 0; k < TEXT_CACHE_SLOTS; ++k)
-        if (text_cache[k]) total += PyArray_NBYTES((PyArrayObject *)text_cache[k]);
-    return total;
-}
-
-/* a C-contiguous rows x cols table of type (8-byte items), uninitialised */
-static PyArrayObject *text_table_new(npy_intp rows, npy_intp cols, int type)
-{
-    const npy_intp shape[2] = {rows, cols};
-    const npy_intp nbytes = rows * cols * 8;
-#ifdef Py_GIL_DISABLED
-    const int cached = 0; /* reference counts are not a proof of exclusive use without the GIL */
-#else
-    const int cached = nbytes >= TEXT_CACHE_MIN_BYTES && nbytes <= TEXT_CACHE_MAX_BYTES;
-#endif
-    if (!cached) return (PyArrayObject *)PyArray_SimpleNew(2, shape, type);
-    /* the smallest free block that holds the table, if it is not more than 4 times as large (a small table
-       would keep a large block alive) */
-    int best = -1;
-    for (int k = 0; k < TEXT_CACHE_SLOTS; ++k) {
-        PyObject *b = text_cache[k];
-        if (!b || Py_REFCNT(b) != 1) continue;
-        const npy_intp size = PyArray_NBYTES((PyArrayObject *)b);
-        if (size >= nbytes && size / 4 <= nbytes &&
-            (best < 0 || size < PyArray_NBYTES((PyArrayObject *)text_cache[best])))
-            best = k;
-    }
-    PyObject *block;
-    if (best >= 0) {
-        block = text_cache[best];
-        Py_INCREF(block);
-    } else {
-        /* a new block, with room for frames that grow a little; it replaces an empty slot or the smallest
-           free block, if the total stays within bounds; otherwise it is not kept */
-        const npy_intp size = nbytes + nbytes / 8;
-        block = PyArray_SimpleNew(1, &size, NPY_UINT8);
-        if (!block) return NULL;
-        int slot = -1;
-        for (int k = 0; k < TEXT_CACHE_SLOTS; ++k) {
-            PyObject *b = text_cache[k];
-            if (!b) {
-                slot = k;
-                break;
-            }
-            if (Py_REFCNT(b) == 1 && (slot < 0 || PyArray_NBYTES((PyArrayObject *)b) <
-                                                      PyArray_NBYTES((PyArrayObject *)text_cache[slot])))
-                slot = k;
-        }
-        if (slot >= 0) {
-            const npy_intp old = text_cache[slot] ? PyArray_NBYTES((PyArrayObject *)text_cache[slot]) : 0;
-            if (text_cache_bytes() - old + size <= TEXT_CACHE_MAX_BYTES) {
-                Py_XDECREF(text_cache[slot]);
-                Py_INCREF(block);
-                text_cache[slot] = block;
-            }
-        }
-    }
-    PyArrayObject *table = (PyArrayObject *)PyArray_NewFromDescr(&PyArray_Type, PyArray_DescrFromType(type), 2,
-                                                                 shape, NULL, PyArray_DATA((PyArrayObject *)block),
-                                                                 NPY_ARRAY_CARRAY, NULL);
-    if (!table) {
-        Py_DECREF(block);
-        return NULL;
-    }
-    if (PyArray_SetBaseObject(table, block) < 0) { /* it takes the reference to block, even on failure */
-        Py_DECREF(table);
-        return NULL;
-    }
-    return table;
-}
-
-static PyObject *py_text_release_tables(PyObject *self, PyObject *args)
-{
-    (void)self;
-    (void)args;
-    npy_intp released = 0;
-    for (int k = 0; k < TEXT_CACHE_SLOTS; ++k)
-        if (text_cache[k] && Py_REFCNT(text_cache[k]) == 1) {
-            released += PyArray_NBYTES((PyArrayObject *)text_cache[k]);
-            Py_CLEAR(text_cache[k]);
-        }
-    return PyLong_FromSsize_t(released);
-}
-
 static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
 {
     (void)self;
@@ -1219,8 +1118,8 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
         goto done;
     }
     const npy_intp vshape[2] = {max_rows, ncols}, ishape[2] = {max_rows, n_int};
-    values = text_table_new(vshape[0], vshape[1], NPY_DOUBLE);
-    ints = values ? text_table_new(ishape[0], ishape[1], NPY_INT64) : NULL;
+    values = (PyArrayObject *)PyArray_SimpleNew(2, vshape, NPY_DOUBLE);
+    ints = (PyArrayObject *)PyArray_SimpleNew(2, ishape, NPY_INT64);
     if (!values || !ints) goto done;
     cg_text_result res;
     cg_status st;
@@ -1422,8 +1321,6 @@ done:
         {"text_find_lines", py_text_find_lines, METH_VARARGS,                                                       \
          "text_find_lines(data, start, stop, prefix) -> int64 offsets (from the start of data) of the lines of "    \
          "data[start:stop] that start with prefix."},                                                                \
-        {"text_release_tables", py_text_release_tables, METH_NOARGS,                                             \
-         "text_release_tables() -> bytes freed: drops the cached blocks of frame tables that no array uses."},      \
         {"text_count_lines", py_text_count_lines, METH_VARARGS,                                                     \
          "text_count_lines(data, start, stop, n_threads=1) -> the lines of data[start:stop] "                      \
          "(cg_text_count_lines_threads): its '\\n' bytes, plus one if it is not empty and does not end with one."},

@@ -203,29 +203,6 @@ def test_threads_argument_is_checked():
             _text.parse_table(b"1 2\n", ncols=2, threads=bad)
 
 
-def test_reused_table_blocks_never_overwrite_a_held_table(lines):
-    """Large tables are views of cached blocks (csrc/_coremodule.c, text_table_new): a block is parsed into
-    again only when no array uses it, so tables, their views and their integer tables that are still held
-    keep their values while other frames are parsed; a dropped table's block is reused."""
-    from cgbound import _engine
-    data = ("\n".join(lines) + "\n").encode()
-    other = ("\n".join(lines[::-1]) + "\n").encode()
-    first = _text.parse_table(data, ncols=8, int_columns=(0, 1))
-    assert first.values.nbytes >= 1 << 20
-    expected, expected_ints = bits(first.values).copy(), first.ints.copy()
-    column, ints_view = first.values[:, 2], first.ints[::2]
-    for text in (other, data, other):  # the tables held, then only views of them
-        _text.parse_table(text, ncols=8, int_columns=(0, 1), threads=2)
-        np.testing.assert_array_equal(bits(column), expected[:, 2])
-        np.testing.assert_array_equal(ints_view, expected_ints[::2])
-        if first is not None:
-            np.testing.assert_array_equal(bits(first.values), expected)
-            first = None
-    address = _text.parse_table(data, ncols=8).values.ctypes.data  # dropped at once: its block is free again
-    assert _text.parse_table(other, ncols=8).values.ctypes.data == address
-    assert _engine.text_release_tables() > 0
-
-
 def test_threaded_line_count(lines):
     data = ("\n".join(lines) + "\n").encode()
     for text in (data, data[:-1], data[:-7]):
