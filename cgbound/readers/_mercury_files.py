@@ -111,14 +111,20 @@ def scan_windows(path, size=None, line_starts=True):
 
 
 def read_range(path, start, stop):
-    """Bytes [start, stop) of the file (decompressed if gzip, from the scan's checkpoint before start)."""
-    if not is_gzip(path):
-        return _read_text_range(path, start, stop)
-    checkpoints = _GZIP_CHECKPOINTS.get(_gzip_key(path))
-    if checkpoints is None:
-        checkpoints = gzip_checkpoints(path)
-        _remember_checkpoints(path, checkpoints)
-    return _read_text_range(path, start, stop, checkpoints)
+    """Bytes [start, stop) of the file (decompressed if gzip, from the scan's checkpoint before start); a ValueError
+    naming the file if it ends before stop (cut since it was scanned: an .fstat frame would lose contacts)."""
+    if is_gzip(path):
+        checkpoints = _GZIP_CHECKPOINTS.get(_gzip_key(path))
+        if checkpoints is None:
+            checkpoints = gzip_checkpoints(path)
+            _remember_checkpoints(path, checkpoints)
+        data = _read_text_range(path, start, stop, checkpoints)
+    else:
+        data = _read_text_range(path, start, stop)
+    if len(data) != max(stop - start, 0):
+        raise ValueError(f"{path}: the file changed since it was scanned (it ends at byte {start + len(data)}, a "
+                         f"frame was expected up to byte {stop}); open the reader again")
+    return data
 
 
 def _empty_file_error(path, what):

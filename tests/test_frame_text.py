@@ -1,0 +1,97 @@
+"""Frames read again in any order and from threads give the frames read first (each frame's text goes through
+cgbound.readers._text.read_range's buffer); a file cut after the reader scanned it is refused by name."""
+import math
+import pickle
+import threading
+
+import numpy as np
+import pytest
+
+import cgbound as cg
+from cgbound.readers import LammpsReader, MercuryReader, write_mercury
+
+
+def _lattice(n, seed, time):
+    """A simple-cubic lattice of n^3 spheres (radius 0.5), every neighbour pair in contact."""
+    rng = np.random.default_rng(seed)
+    ax = 0.5 + 0.99 * np.arange(n)
+    pos = np.stack([g.ravel() for g in np.meshgrid(ax, ax, ax, indexing="ij")], axis=1)
+    idx = np.arange(n ** 3).reshape(n, n, n)
+    i = np.concatenate([np.take(idx, range(n - 1), axis=a).ravel() for a in range(3)])
+    j = np.concatenate([np.take(idx, range(1, n), axis=a).ravel() for a in range(3)])
+    normal = (pos[i] - pos[j]) / 0.99
+    force = normal * rng.uniform(0.9, 1.1, i.size)[:, None]
+    box = cg.Box([0, 0, 0], [n, n, n])
+    return cg.Snapshot(pos, rng.normal(size=pos.shape), np.ones(len(pos)), box=box, radii=np.full(len(pos), 0.5),
+                       time=time, contacts=cg.Contacts(i, j, force, 0.5 * (pos[i] + pos[j])))
+
+
+def test_mercury_frames_in_any_order_and_threads(tmp_path):
+    # frames of different sizes, so that the buffers grow and shrink
+    write_mercury([_lattice(6, 0, 0.0), _lattice(4, 1, 1.0), _lattice(7, 2, 2.0)], tmp_path / "m.data",
+                  tmp_path / "m.fstat")
+    args = (tmp_path / "m.data", tmp_path / "m.fstat")
+    options = dict(restart_path=False, periodic=(False,) * 3,
+                   density=1.0 / (4.0 / 3.0 * math.pi * 0.5 ** 3))
+    expected = list(MercuryReader(*args, **options))
+    assert [len(s.positions) for s in expected] == [216, 64, 343]
+    reader = MercuryReader(*args, **options)
+    got = [(k, reader[k]) for k in (1, 0, 2, 2, 0, 1)]
+    lock = threading.Lock()
+
+    def read(k):
+        snap = reader[k]
+        with lock:
+            got.append((k, snap))
+
+    for _ in range(3):
+        threads = [threading.Thread(target=read, args=(k,)) for k in (2, 0, 1, 2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        reader._cache = None
+    got += [(k, pickle.loads(pickle.dumps(reader))[k]) for k in (2, 1)]
+    assert len(got) == 6 + 12 + 2
+    for k, snap in got:
+        np.testing.assert_array_equal(snap.positions, expected[k].positions)
+        np.testing.assert_array_equal(snap.contacts.force, expected[k].contacts.force)
+        np.testing.assert_array_equal(snap.contacts.i, expected[k].contacts.i)
+
+
+def test_lammps_frames_in_any_order(tmp_path):
+    atoms, pairs = tmp_path / "a.dump", tmp_path / "p.dump"
+    with open(atoms, "w") as fa, open(pairs, "w") as fp:
+        for ts, snap in enumerate([_lattice(5, 0, 0.0), _lattice(3, 1, 1.0), _lattice(6, 2, 2.0)]):
+            n, c = len(snap.positions), snap.contacts
+            fa.write(f"ITEM: TIMESTEP\n{ts}\nITEM: NUMBER OF ATOMS\n{n}\nITEM: BOX BOUNDS ff ff ff\n"
+                     + "0 8\n" * 3 + "ITEM: ATOMS id type x y z vx vy vz radius mass\n")
+            for k in range(n):
+                fa.write(f"{k + 1} 1 {' '.join(repr(float(x)) for x in snap.positions[k])} "
+                         f"{' '.join(repr(float(x)) for x in snap.velocities[k])} 0.5 1\n")
+            fp.write(f"ITEM: TIMESTEP\n{ts}\nITEM: NUMBER OF ENTRIES\n{len(c.i)}\nITEM: BOX BOUNDS ff ff ff\n"
+                     + "0 8\n" * 3 + "ITEM: ENTRIES c_pp[1] c_pp[2] c_pl[1] c_pl[2] c_pl[3]\n")
+            for m in range(len(c.i)):
+                fp.write(f"{c.i[m] + 1} {c.j[m] + 1} {' '.join(repr(float(x)) for x in c.force[m])}\n")
+    options = dict(pair_style="total", pair_values=("fx", "fy", "fz"))
+    expected = list(LammpsReader(atoms, pairs, **options))
+    reader = LammpsReader(atoms, pairs, **options)
+    for k in (1, 2, 0, 2, 1):
+        snap = reader[k]
+        np.testing.assert_array_equal(snap.positions, expected[k].positions)
+        np.testing.assert_array_equal(snap.contacts.force, expected[k].contacts.force)
+    assert [len(s.positions) for s in expected] == [125, 27, 216]
+
+
+def test_a_file_cut_after_the_scan_is_refused_naming_it(tmp_path):
+    write_mercury([_lattice(4, 0, 0.0), _lattice(4, 1, 1.0)], tmp_path / "m.data", tmp_path / "m.fstat")
+    reader = MercuryReader(tmp_path / "m.data", tmp_path / "m.fstat", restart_path=False, periodic=(False,) * 3,
+                           density=1.0)
+    reader[0]
+    for name in ("m.fstat", "m.data"):
+        path = tmp_path / name
+        text = path.read_bytes()
+        path.write_bytes(text[:text.rindex(b"\n", 0, text.rindex(b"\n", 0, len(text) - 1)) + 1])  # 2 whole lines
+        reader._cache = None
+        with pytest.raises(ValueError, match=rf"{name}: the file changed since it was scanned .*open the reader again"):
+            reader[1]
