@@ -741,6 +741,148 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
 }
 #endif
 
+/* An estimate of the first k with c[k] >= z, and of one past the last with c[k] <= z, c[0..n) a row's node
+   coordinates (uniform spacing 1 / inv_h; inv_h 0: none), in [0, n]: the caller corrects it by comparisons
+   with the coordinates themselves (exact for any spacing; a node of error costs a comparison) */
+INLINE cg_index coord_estimate(const double *c, cg_index n, double z, double inv_h)
+{
+    double t = (z - c[0]) * inv_h;
+    t = t > -1.0 ? t : -1.0; /* (and NaN) */
+    t = t < (double)(n - 1) ? t : (double)(n - 1);
+    return (cg_index)(t + 1.0);
+}
+
+/* Per object, what the rows' bounds need (row_bounds): the segment e (slots), L2 = |e|^2; R2m, the squared cutoff
+   with a margin for rounding (1e-8 (R + L)^2), R2mL2 = R2m L2; cyl_a = e0^2 + e1^2 and its inverse (0 where it is
+   0); inv_e2 = 1 / e2 (0 where e2 is 0); tm, a margin on the rows' coordinate bounds (1e-9 (R + L)); pm, one on
+   q.e (1e-9 (R + L) L); z0 = the rows' first coordinate, ih = 1 / the spacing (0: none), n2 = nodes per row. */
+typedef struct capsule_geom {
+    double e[3], L2, R2m, R2mL2, cyl_a, inv_cyl_a, inv_e2, tm, pm, z0, ih, last;
+} capsule_geom;
+
+/* The bounds of rows j0 <= j < j1 of plane x (a0 = x^2, b0 = (x - e0)^2; the rows' y, ya = y^2, yb = (y - e1)^2 as
+   the rule's test sums them): [lo, hi], the part of the row within sqrt(R2m) of the segment (empty: lo > hi),
+   and [glo, ghi], the part within sqrt(R2m) of both ends (the rule's nodes lie in it), each widened by tm; lo_k
+   ... ghi_k: the node indices the bounds fall at, estimated from the spacing (coord_estimate's form). The capsule
+   is convex: its part of a line is the hull of the end balls' parts (half widths sA, sB around 0 and e2) and the
+   cylinder's between the end planes, L2 |q|^2 - (q.e)^2 < R2m L2, by Lagrange's identity
+   cyl_a t^2 - 2 (q.e at t = 0) e2 t + (x e1 - y e0)^2 + e2^2 (x^2 + y^2) - R2m L2 < 0 (cyl_a = 0: the segment
+   is along the rows, the balls' hull holds the cylinder's part; else at least 1e-4 L2, the caller's condition,
+   for its roots' rounding). Branch-free, VW rows at a time (vectorised). */
+INLINE void row_bounds(const capsule_geom *g, cg_index j0, cg_index j1, double x, double a0, double b0,
+                       const double *restrict yc, const double *restrict ya, const double *restrict yb,
+                       double *restrict lo, double *restrict hi, double *restrict glo, double *restrict ghi,
+                       double *restrict lo_k, double *restrict hi_k, double *restrict glo_k, double *restrict ghi_k)
+{
+    const double e0 = g->e[0], e1 = g->e[1], e2 = g->e[2], L2 = g->L2, R2m = g->R2m, R2mL2 = g->R2mL2;
+    const double cyl_a = g->cyl_a, inv_cyl_a = g->inv_cyl_a, inv_e2 = g->inv_e2, tm = g->tm, pm = g->pm;
+    const double z0 = g->z0, ih = g->ih, last = g->last, px = x * e0, e22 = e2 * e2;
+    const int cyl = cyl_a > 0.0;
+    /* e2 = 0: the end planes are the same for the whole row, which lies between them (q.e in [-pm, L2 + pm]) or
+       not; else they clip it (inf: no clipping; -inf, inf: no test) */
+    const double unclipped = e2 == 0.0 ? INFINITY : 0.0;
+    const double p_lo = e2 == 0.0 ? -pm : -INFINITY, p_hi = e2 == 0.0 ? L2 + pm : INFINITY;
+    for (cg_index j = j0; j < j1; ++j) {
+        const double y = yc[j], a01 = a0 + ya[j], b01 = b0 + yb[j];
+        const double DA = R2m - a01, DB = R2m - b01;
+        const int hasA = DA > 0.0, hasB = DB > 0.0;
+        const double sA = sqrt(hasA ? DA : 0.0), sB = sqrt(hasB ? DB : 0.0);
+        double l = hasA ? -sA : INFINITY, h = hasA ? sA : -INFINITY;
+        const double bl = e2 - sB, bh = e2 + sB;
+        l = hasB & (bl < l) ? bl : l;
+        h = hasB & (bh > h) ? bh : h;
+        if (cyl) {
+            const double p = px + y * e1, cross = x * e1 - y * e0;
+            const double c = (cross * cross + e22 * a01) - R2mL2, b = -p * e2;
+            const double disc = b * b - cyl_a * c;
+            const double r = sqrt(disc > 0.0 ? disc : 0.0);
+            double t1 = (-b - r) * inv_cyl_a, t2 = (-b + r) * inv_cyl_a;
+            /* the end planes: q.e = 0 and L2 (along a row where e2 != 0; else the whole row or none) */
+            const double s0 = -p * inv_e2, s1 = (L2 - p) * inv_e2;
+            const double slo = (s0 < s1 ? s0 : s1) - unclipped, shi = (s0 > s1 ? s0 : s1) + unclipped;
+            const int between = (p >= p_lo) & (p <= p_hi);
+            t1 = t1 > slo ? t1 : slo;
+            t2 = t2 < shi ? t2 : shi;
+            const int ok = (disc >= 0.0) & between & (t1 <= t2);
+            l = ok & (t1 < l) ? t1 : l;
+            h = ok & (t2 > h) ? t2 : h;
+        }
+        const double gl = -sA > bl ? -sA : bl, gh = sA < bh ? sA : bh;
+        const int both = hasA & hasB;
+        const double L_ = l - tm, H_ = h + tm, GL = both ? gl - tm : INFINITY, GH = both ? gh + tm : -INFINITY;
+        lo[j] = L_;
+        hi[j] = H_;
+        glo[j] = GL;
+        ghi[j] = GH;
+        double k;
+        k = (L_ - z0) * ih;
+        k = k > -1.0 ? k : -1.0;
+        lo_k[j] = (k < last ? k : last) + 1.0;
+        k = (H_ - z0) * ih;
+        k = k > -1.0 ? k : -1.0;
+        hi_k[j] = (k < last ? k : last) + 1.0;
+        k = (GL - z0) * ih;
+        k = k > -1.0 ? k : -1.0;
+        glo_k[j] = (k < last ? k : last) + 1.0;
+        k = (GH - z0) * ih;
+        k = k > -1.0 ? k : -1.0;
+        ghi_k[j] = (k < last ? k : last) + 1.0;
+    }
+}
+
+/* The first k with c[k] >= z and one past the last k with c[k] <= z, c non-decreasing (a row's coordinates,
+   -inf before and +inf after them: no index checks), from an estimate k (row_bounds' estimates from the
+   spacing), corrected by comparisons with the coordinates themselves: exact for any spacing */
+INLINE cg_index first_at_least(const double *c, double z, cg_index k)
+{
+    while (c[k - 1] >= z) --k;
+    while (c[k] < z) ++k;
+    return k;
+}
+
+INLINE cg_index past_at_most(const double *c, double z, cg_index k)
+{
+    while (c[k] <= z) ++k;
+    while (c[k - 1] > z) --k;
+    return k;
+}
+
+/* The nodes k0 <= k < k1 of a row (node index base + k; its coordinates q = (xq, yq, zc[k])) to the cut batch,
+   VW at a time: writes up to VW - 1 lanes past them (the caller leaves that room; the next nodes, or the flush's
+   padding, overwrite them) and reads as far past zc */
+INLINE void cut_push_range(cut_batch *b, double xq, double yq, const double *zc, cg_index base, cg_index k0,
+                           cg_index k1)
+{
+    int m = b->n;
+    b->n = m + (int)(k1 - k0);
+#ifdef HAVE_V4D
+    const vwd xv = SPLAT(xq), yv = SPLAT(yq);
+#if VW == 8
+    const vwl step = {8, 8, 8, 8, 8, 8, 8, 8};
+    vwl node = (vwl){0, 1, 2, 3, 4, 5, 6, 7} + (base + k0);
+#else
+    const vwl step = {4, 4, 4, 4};
+    vwl node = (vwl){0, 1, 2, 3} + (base + k0);
+#endif
+    for (cg_index k = k0; k < k1; k += VW, m += VW) {
+        vwd z;
+        memcpy(&z, zc + k, sizeof z);
+        memcpy(b->q[0] + m, &xv, sizeof xv);
+        memcpy(b->q[1] + m, &yv, sizeof yv);
+        memcpy(b->q[2] + m, &z, sizeof z);
+        memcpy(b->node + m, &node, sizeof node);
+        node += step;
+    }
+#else
+    for (cg_index k = k0; k < k1; ++k, ++m) {
+        b->q[0][m] = xq;
+        b->q[1][m] = yq;
+        b->q[2][m] = zc[k];
+        b->node[m] = base + k;
+    }
+#endif
+}
+
 /* Two builds of the visit below: cg_separable_wide.c compiles this file again
    for AVX-512 (VW = 8, CG_SEPARABLE_WIDE); here, on x86-64 with GCC, an AVX2
    and a baseline version are cloned and chosen at load time (VW = 4). The
@@ -823,7 +965,9 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     /* tables d2, g per rule point; end-point tables, a cut batch and a row's
        distances (hybrid); node coordinates; a row */
     /* the row has ROW_PAD more doubles: the exact form's rows are summed 8 at a time */
-    const size_t hybrid_need = hybrid ? per_point + CUT_BATCH_DOUBLES + n2 + per_table_f + 2 * ROW_PAD + n2 : 0;
+    /* (then the rows' bounds: 8 n1, and the row's coordinates with sentinels: n2 + VW + 1) */
+    const size_t hybrid_need =
+        hybrid ? per_point + CUT_BATCH_DOUBLES + n2 + per_table_f + 2 * ROW_PAD + n2 + 8 * (size_t)n1 + n2 + VW + 1 : 0;
     const size_t need = (size_t)G * per_point + EXP_PAD + hybrid_need + (size_t)(n0 + n1 + n2) +
                         2 * ((size_t)n2 + ROW_PAD);
     double *buf = scratch_get(sc, need);
@@ -1056,6 +1200,181 @@ tables_done:;
     /* q . e of the nodes the rule keeps: at most FAR_BEYOND_END w beyond either end */
     const double far_lo = -FAR_BEYOND_END * w * L, far_hi = L2 + FAR_BEYOND_END * w * L;
     const int far_check = R - L > FAR_BEYOND_END * w; /* else no node with both ends inside is that far */
+    /* Each row's nodes by intervals: those of the capsule (within R of the segment) are an interval of the row, and
+       those whose ball holds the whole segment (within R of both ends) an interval of that. The capsule's from its
+       geometry (row_bounds, a few square roots per row), with a margin for rounding (R2m, tm): a superset of the
+       nodes with a value (the rest the closed form finds empty); the rule's by the node-by-node path's exact tests
+       (a01 + za[k] < R2 and the same at the other end), walked from a bound by the same geometry. A segment
+       almost along the rows (at less than 0.01 rad to them, but not along them) would make the capsule's roots
+       round too much: the scalar path below. */
+    const double cyl_a = es[0] * es[0] + es[1] * es[1];
+    if (!(cyl_a > 0.0 && cyl_a < 1e-4 * L2)) {
+        const double reach = R + L;
+        capsule_geom geo;
+        for (int s = 0; s < 3; ++s) geo.e[s] = es[s];
+        geo.L2 = L2;
+        geo.R2m = R2 + 1e-8 * (reach * reach);
+        geo.R2mL2 = geo.R2m * L2;
+        geo.cyl_a = cyl_a;
+        geo.inv_cyl_a = cyl_a > 0.0 ? 1.0 / cyl_a : 0.0;
+        geo.inv_e2 = es[2] != 0.0 ? 1.0 / es[2] : 0.0;
+        geo.tm = 1e-9 * reach;
+        geo.pm = 1e-9 * reach * L;
+        geo.z0 = cslot[2][0];
+        geo.ih = jb->inv_spacing[2 - pad];
+        geo.last = (double)(n2 - 1);
+        const double R2m = geo.R2m, tm = geo.tm, pm = geo.pm;
+        /* a plane's rows that meet the capsule: its shadow on the plane (the 2-D capsule of the segment's first two
+           slots), the end discs' intervals and the strip's |x e1 - y e0| < W between the end lines; a shadow almost
+           along the rows: every row (the rows' own bounds decide) */
+        const double e0sq = es[0] * es[0];
+        const int every_row = e0sq > 0.0 && e0sq < 1e-4 * L2_2d, strip = e0sq > 0.0 && !every_row;
+        const double W = sqrt(R2m * L2_2d), inv_e0 = es[0] != 0.0 ? 1.0 / es[0] : 0.0;
+        const double inv_e1 = es[1] != 0.0 ? 1.0 / es[1] : 0.0;
+        const double ih1 = pad <= 1 ? jb->inv_spacing[1 - pad] : 0.0;
+        const double *const yc = cslot[1], *const za = endA[2], *const zb = endB[2];
+        /* the rows' bounds (row_bounds), and the row's coordinates between -inf and +inf (the walks' sentinels;
+           VW - 1 more for cut_push_range's reads) */
+        double *const b_lo = pz + n2 + ROW_PAD, *const b_hi = b_lo + n1, *const b_glo = b_hi + n1;
+        double *const b_ghi = b_glo + n1, *const k_lo = b_ghi + n1, *const k_hi = k_lo + n1;
+        double *const k_glo = k_hi + n1, *const k_ghi = k_glo + n1, *const zs = k_ghi + n1 + 1;
+        zs[-1] = -INFINITY;
+        for (cg_index k = 0; k < n2; ++k) zs[k] = cslot[2][k];
+        for (cg_index k = n2; k < n2 + VW; ++k) zs[k] = INFINITY;
+        for (cg_index i = 0; i < n0; ++i) {
+            const double x_i = cslot[0][i], px_i = x_i * es[0];
+            const double a0_i = endA[0][i], b0_i = endB[0][i];
+            cg_index J0 = 0, J1 = n1;
+            if (!every_row) {
+                const double DA = R2m - a0_i, DB = R2m - b0_i;
+                double l = INFINITY, h = -INFINITY;
+                if (DA > 0.0) {
+                    const double sq = sqrt(DA);
+                    l = -sq;
+                    h = sq;
+                }
+                if (DB > 0.0) {
+                    const double sq = sqrt(DB), bl = es[1] - sq, bh = es[1] + sq;
+                    l = bl < l ? bl : l;
+                    h = bh > h ? bh : h;
+                }
+                if (strip) {
+                    const double xe1 = x_i * es[1];
+                    double t1 = (xe1 - W) * inv_e0, t2 = (xe1 + W) * inv_e0;
+                    if (t1 > t2) {
+                        const double tmp = t1;
+                        t1 = t2;
+                        t2 = tmp;
+                    }
+                    int ok = 1;
+                    if (es[1] == 0.0) {
+                        ok = px_i >= -pm && px_i <= L2_2d + pm;
+                    } else {
+                        double s0 = -px_i * inv_e1, s1 = (L2_2d - px_i) * inv_e1;
+                        if (s0 > s1) {
+                            const double tmp = s0;
+                            s0 = s1;
+                            s1 = tmp;
+                        }
+                        t1 = t1 > s0 ? t1 : s0;
+                        t2 = t2 < s1 ? t2 : s1;
+                        ok = t1 <= t2;
+                    }
+                    if (ok) {
+                        l = t1 < l ? t1 : l;
+                        h = t2 > h ? t2 : h;
+                    }
+                }
+                if (!(l <= h)) continue;
+                /* the rows with y in [l - tm, h + tm] (coord_estimate's walks, with index checks) */
+                J0 = coord_estimate(yc, n1, l - tm, ih1);
+                while (J0 > 0 && yc[J0 - 1] >= l - tm) --J0;
+                while (J0 < n1 && yc[J0] < l - tm) ++J0;
+                J1 = coord_estimate(yc, n1, h + tm, ih1);
+                while (J1 < n1 && yc[J1] <= h + tm) ++J1;
+                while (J1 > 0 && yc[J1 - 1] > h + tm) --J1;
+                if (J0 >= J1) continue;
+            }
+            row_bounds(&geo, J0, J1, x_i, a0_i, b0_i, yc, endA[1], endB[1], b_lo, b_hi, b_glo, b_ghi, k_lo, k_hi,
+                       k_glo, k_ghi);
+            double ci[CG_MAX_LINE_POINTS]; /* the rule's weights times the plane's */
+            if (factor != 2)
+                for (int g = 0; g < G; ++g) ci[g] = gw[g] * gx_t[i * G + g];
+            const double fx_i = factor == 2 ? fx[i] : 0.0;
+            const cg_index base_i = (first[0] + i) * stride[0] + first[1] * stride[1] + first[2]; /* stride[2] = 1 */
+            for (cg_index j = J0; j < J1; ++j) {
+                if (!(b_lo[j] <= b_hi[j])) continue;
+                const cg_index c0 = first_at_least(zs, b_lo[j], (cg_index)k_lo[j]);
+                const cg_index c1 = past_at_most(zs, b_hi[j], (cg_index)k_hi[j]);
+                if (c0 >= c1) continue;
+                const double yq = yc[j];
+                /* the rule's nodes [k0, k1) (none: k0 = k1 = c1) */
+                cg_index k0 = c1, k1 = c1;
+                if (b_glo[j] <= b_ghi[j]) {
+                    const double a01 = a0_i + endA[1][j], b01 = b0_i + endB[1][j];
+                    cg_index g0 = first_at_least(zs, b_glo[j], (cg_index)k_glo[j]);
+                    cg_index g1 = past_at_most(zs, b_ghi[j], (cg_index)k_ghi[j]);
+                    while (g0 < g1 && !((a01 + za[g0] < R2) & (b01 + zb[g0] < R2))) ++g0;
+                    while (g1 > g0 && !((a01 + za[g1 - 1] < R2) & (b01 + zb[g1 - 1] < R2))) --g1;
+                    if (far_check) {
+                        /* those at most FAR_BEYOND_END w beyond the ends (q.e grows along the row) */
+                        const double pxy = px_i + yq * es[1];
+                        while (g0 < g1 && !(pxy + pz[g0] >= far_lo && pxy + pz[g0] <= far_hi)) ++g0;
+                        while (g1 > g0 && !(pxy + pz[g1 - 1] >= far_lo && pxy + pz[g1 - 1] <= far_hi)) --g1;
+                    }
+                    if (g0 < g1) {
+                        k0 = g0;
+                        k1 = g1;
+                    }
+                }
+                const cg_index base = base_i + j * stride[1];
+                const cg_index n_cut = (c1 - c0) - (k1 - k0);
+                if (n_cut > 0) {
+                    if (cuts.n + n_cut > CUT_BATCH - (VW - 1)) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
+                    if (n_cut <= CUT_BATCH - (VW - 1)) {
+                        if (c0 < k0) cut_push_range(&cuts, x_i, yq, zs, base, c0, k0);
+                        if (k1 < c1) cut_push_range(&cuts, x_i, yq, zs, base, k1, c1);
+                    } else {
+                        for (cg_index k = c0; k < c1; ++k) {
+                            if (k == k0) k = k1;
+                            if (k >= c1) break;
+                            if (cuts.n == CUT_BATCH) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
+                            const int m = cuts.n++;
+                            cuts.q[0][m] = x_i;
+                            cuts.q[1][m] = yq;
+                            cuts.q[2][m] = zs[k];
+                            cuts.node[m] = base + k;
+                        }
+                    }
+                }
+                if (k0 >= k1) continue;
+                /* the row's weights: rs rw[k] */
+                double rs = 1.0;
+                const double *rw = row;
+                if (factor == 2) {
+                    rs = fx_i * fy[j];
+                    rw = fz;
+                } else if (factor == 1) {
+                    const double *gy_j = gy_t + j * G;
+                    rs = 0.0;
+                    for (int g = 0; g < G; ++g) rs += ci[g] * gy_j[g];
+                    rw = gz_of[0];
+                } else {
+                    inside_row(row, k0, k1, G, ci, gy_t + j * G, gz_of);
+                }
+                if (jb->mode == MODE_VALUE) {
+                    block_add(out + (base + k0) * jb->out_width, rs, rw + k0, k1 - k0, values, nv);
+                } else {
+                    for (cg_index k = k0; k < k1; ++k) {
+                        const double wk = rs * rw[k];
+                        if (wk != 0.0) cg_accumulate(jb, out, obj, base + k, wk, NULL);
+                    }
+                }
+            }
+        }
+        cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
+        return 1;
+    }
     for (cg_index i = 0; i < n0; ++i) {
         double ci[CG_MAX_LINE_POINTS]; /* the rule's weights times the plane's */
         if (factor != 2)
