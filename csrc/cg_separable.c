@@ -847,14 +847,15 @@ INLINE cg_index past_at_most(const double *c, double z, cg_index k)
     return k;
 }
 
-/* The nodes k0 <= k < k1 of a row (node index base + k; its coordinates q = (xq, yq, zc[k])) to the cut batch,
-   VW at a time: writes up to VW - 1 lanes past them (the caller leaves that room; the next nodes, or the flush's
-   padding, overwrite them) and reads as far past zc */
-INLINE void cut_push_range(cut_batch *b, double xq, double yq, const double *zc, cg_index base, cg_index k0,
-                           cg_index k1)
+/* The nodes k0 <= k < k1 of a row (node index base + k; its coordinates q = (xq, yq, zc[k])) to the cut batch's
+   arrays q0, q1, q2, node from lane m on; returns the next lane. VW at a time: writes up to VW - 1 lanes past
+   them (the caller leaves that room; the next nodes, or the flush's padding, overwrite them) and reads as far
+   past zc. (The batch's pointers are the caller's locals: stores through memcpy would make the compiler reload
+   them from the struct.) */
+INLINE int cut_push_range(double *restrict q0, double *restrict q1, double *restrict q2, cg_index *restrict nodes,
+                          int m, double xq, double yq, const double *zc, cg_index base, cg_index k0, cg_index k1)
 {
-    int m = b->n;
-    b->n = m + (int)(k1 - k0);
+    const int next = m + (int)(k1 - k0);
 #ifdef HAVE_V4D
     const vwd xv = SPLAT(xq), yv = SPLAT(yq);
 #if VW == 8
@@ -867,20 +868,21 @@ INLINE void cut_push_range(cut_batch *b, double xq, double yq, const double *zc,
     for (cg_index k = k0; k < k1; k += VW, m += VW) {
         vwd z;
         memcpy(&z, zc + k, sizeof z);
-        memcpy(b->q[0] + m, &xv, sizeof xv);
-        memcpy(b->q[1] + m, &yv, sizeof yv);
-        memcpy(b->q[2] + m, &z, sizeof z);
-        memcpy(b->node + m, &node, sizeof node);
+        memcpy(q0 + m, &xv, sizeof xv);
+        memcpy(q1 + m, &yv, sizeof yv);
+        memcpy(q2 + m, &z, sizeof z);
+        memcpy(nodes + m, &node, sizeof node);
         node += step;
     }
 #else
     for (cg_index k = k0; k < k1; ++k, ++m) {
-        b->q[0][m] = xq;
-        b->q[1][m] = yq;
-        b->q[2][m] = zc[k];
-        b->node[m] = base + k;
+        q0[m] = xq;
+        q1[m] = yq;
+        q2[m] = zc[k];
+        nodes[m] = base + k;
     }
 #endif
+    return next;
 }
 
 /* Two builds of the visit below: cg_separable_wide.c compiles this file again
@@ -1233,6 +1235,8 @@ tables_done:;
         const double inv_e1 = es[1] != 0.0 ? 1.0 / es[1] : 0.0;
         const double ih1 = pad <= 1 ? jb->inv_spacing[1 - pad] : 0.0;
         const double *const yc = cslot[1], *const za = endA[2], *const zb = endB[2];
+        double *const q0 = cuts.q[0], *const q1 = cuts.q[1], *const q2 = cuts.q[2];
+        cg_index *const qnode = cuts.node;
         /* the rows' bounds (row_bounds), and the row's coordinates between -inf and +inf (the walks' sentinels;
            VW - 1 more for cut_push_range's reads) */
         double *const b_lo = pz + n2 + ROW_PAD, *const b_hi = b_lo + n1, *const b_glo = b_hi + n1;
@@ -1332,8 +1336,10 @@ tables_done:;
                 if (n_cut > 0) {
                     if (cuts.n + n_cut > CUT_BATCH - (VW - 1)) cut_batch_flush(&cuts, jb, out, obj, es, L2, R2, w, amp);
                     if (n_cut <= CUT_BATCH - (VW - 1)) {
-                        if (c0 < k0) cut_push_range(&cuts, x_i, yq, zs, base, c0, k0);
-                        if (k1 < c1) cut_push_range(&cuts, x_i, yq, zs, base, k1, c1);
+                        int m = cuts.n;
+                        if (c0 < k0) m = cut_push_range(q0, q1, q2, qnode, m, x_i, yq, zs, base, c0, k0);
+                        if (k1 < c1) m = cut_push_range(q0, q1, q2, qnode, m, x_i, yq, zs, base, k1, c1);
+                        cuts.n = m;
                     } else {
                         for (cg_index k = c0; k < c1; ++k) {
                             if (k == k0) k = k1;
