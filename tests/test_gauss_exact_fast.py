@@ -250,13 +250,12 @@ def test_row_bookkeeping_short_and_long_rows(nz, cutoff):
 
 @pytest.mark.parametrize("cutoff", [3.0, 5.0])
 def test_row_intervals_with_nodes_exactly_on_the_spheres(cutoff):
-    """Each row's capsule and rule intervals come from the geometry (cg_separable.c, row_bounds), the rule's ends
-    by the node-by-node tests: nodes exactly on a cutoff sphere, or on the edge of the rule's region (within R of
-    both ends), are classified as node by node. Segments from a node to a node, w = h = 0.5, so the squared
+    """Nodes exactly on a cutoff sphere, or on the edge of the rule's region (within R of both ends), are classified
+    by the rows' masks (cg_separable.c) as node by node. Segments from a node to a node, w = h = 0.5, so the squared
     distances are exact in binary and R = 3 or 5 spacings puts nodes such as (2, 2, 1) h and (3, 4, 0) h from an
-    end on its sphere; also a segment within 0.01 rad of the rows (the mask path) and one whose shadow on a plane
-    is almost along its rows (every row of the plane). Against the node-by-node path (value-relative) and the two
-    vector builds bit for bit."""
+    end on its sphere; also a segment at 1e-3 rad to the rows and one whose shadow on a plane is almost along its
+    rows (cases a row classification by intervals from the geometry must treat apart). Against the node-by-node
+    path (value-relative) and the two vector builds bit for bit."""
     w = 0.5
     box = cg.Box([0, 0, 0], [8, 8, 8])
     shape = (16, 16, 16)                                   # nodes at 0.25 + 0.5 k
