@@ -482,5 +482,9 @@ int cg_visit_separable_wide(const job *jb, double *out, scratch *sc, cg_index ob
                             double scale);
 #endif
 int cg_separable_wide_available(void);
+/* cg_separable.c's erfcx for the closed form's lanes, x[i] and z[i] in place
+   (n a multiple of 4; may_exceed: some argument may exceed 4), for
+   cg_profile.c's blocks: the cut nodes' bits */
+void cg_erfcx_in_place2(double *x, double *z, cg_index n, int may_exceed);
 
 #endif /* CGBOUND_CG_INTERNAL_H */

@@ -385,8 +385,10 @@ static cg_status prepare(job *jb)
     if (jb->profile_rows) jb->wide = cg_separable_wide_available();
     /* the Gaussian's points on a profile: blocks of objects (cg_profile.c), not the separable
        path's per-object tables, where stencils are short: the blocks save ~65 ns per object but
-       add ~4 ns per node against the separable path's contiguous rows (AVX-512, W2) */
-    jb->profile_gauss = jb->separable && t->n_resolved == 1 && !jb->is_segment && jb->mode == MODE_VALUE &&
+       add ~4 ns per node against the separable path's contiguous rows (AVX-512, W2); segments
+       likewise with the exact line integral (not rays: their length is cut per object) */
+    jb->profile_gauss = jb->separable && t->n_resolved == 1 && jb->mode == MODE_VALUE &&
+                        (!jb->is_segment || (!jb->ray && jb->line_points == 0)) &&
                         2.0 * k->radius * jb->inv_spacing[0] + 1.0 <= PROFILE_GAUSS_MAX_NODES;
     if (jb->moment) {
         /* the first moment (cg_moment.c): node by node */
