@@ -265,10 +265,12 @@ def test_gaussian_segments(far):
             big = slow > 1e-3 * slow.max()
             assert np.max(np.abs(fast[big] - slow[big]) / slow[big]) <= 1e-12
             assert np.array_equal(fast == 0.0, slow == 0.0)
-        # segments short enough for slabs (any thread count the same sums), some too long for a rule
+        # segments short enough for slabs (any thread count the same sums), some too long for a rule; 5 times
+        # over (enough work for 2 threads: cg_scatter.c's MIN_WORK_PER_THREAD)
         short = np.abs(vectors[:, 2]) <= 2.0
         assert np.any(short & ~ruled)
-        s, v, values = starts[short], vectors[short], rng.normal(size=(np.count_nonzero(short), 9))
+        s, v = np.tile(starts[short], (5, 1)), np.tile(vectors[short], (5, 1))
+        values = rng.normal(size=(len(s), 9))
         one = sums(box, 300, "z", make, 1.0, s, v, values)
         assert one.tobytes() == sums(box, 300, "z", make, 1.0, s, v, values, n_threads=2).tobytes()
         assert one.tobytes() == narrow_build(lambda: sums(box, 300, "z", make, 1.0, s, v, values)).tobytes()
