@@ -898,20 +898,24 @@ PROFILE_CLONES void cg_visit_profile_objects(const job *jb, double *out, const c
             const int segment = jb->is_segment && ez != 0.0;
             const double points = segment ? (double)cg_gaussian_roundoff_points(sqrt(0.0 + ez * ez), jb->kernel->width)
                                           : 0.0;
-            for (cg_index kk = first; kk <= last; ++kk) {
-                if (B.n == PROFILE_PAIRS) flush_block(jb, &B, out);
-                const double q = z[kk] - x;
-                if (segment) {
-                    B.q_seg[B.ns] = q;
+            if (segment) {
+                for (cg_index kk = first; kk <= last; ++kk) {
+                    if (B.n == PROFILE_PAIRS) flush_block(jb, &B, out);
+                    B.q_seg[B.ns] = z[kk] - x;
                     B.e[B.ns] = ez;
                     B.rule_points[B.ns] = points;
                     B.seg_pair[B.ns++] = B.n;
-                } else {
-                    B.q_pt[B.np] = q;
-                    B.pt_pair[B.np++] = B.n;
+                    B.node[B.n] = kk;
+                    B.val[B.n++] = val;
                 }
-                B.node[B.n] = kk;
-                B.val[B.n++] = val;
+            } else {
+                for (cg_index kk = first; kk <= last; ++kk) {
+                    if (B.n == PROFILE_PAIRS) flush_block(jb, &B, out);
+                    B.q_pt[B.np] = z[kk] - x;
+                    B.pt_pair[B.np++] = B.n;
+                    B.node[B.n] = kk;
+                    B.val[B.n++] = val;
+                }
             }
             continue;
         }
