@@ -503,7 +503,7 @@ typedef struct profile_block {
     double rule_points[PROFILE_PAIRS + PROFILE_PAD];
     int seg_pair[PROFILE_PAIRS], pt_pair[PROFILE_PAIRS];
     double w_seg[PROFILE_PAIRS + PROFILE_PAD], w_pt[PROFILE_PAIRS + PROFILE_PAD], v_pt[PROFILE_PAIRS + PROFILE_PAD];
-    double w[PROFILE_PAIRS], v[PROFILE_PAIRS];
+    double w[PROFILE_PAIRS + PROFILE_PAD], v[PROFILE_PAIRS + PROFILE_PAD]; /* (lanes' padding: points alone) */
     cg_index node[PROFILE_PAIRS];
     const double *val[PROFILE_PAIRS];
 } profile_block;
@@ -671,19 +671,33 @@ INLINE void gauss_segments_body(const job *jb, profile_block *B)
     /* the lanes of each route, the rule's by its number of points */
     int rule_lane[PROFILE_PAIRS], cut_lane[PROFILE_PAIRS], n_rule = 0, n_cut = 0;
     int per_points[CG_MAX_LINE_POINTS + 2] = {0};
+    double points_lo = CG_MAX_LINE_POINTS, points_hi = 0.0; /* of the rule's lanes */
     for (int i = 0; i < ns; ++i) {
         const int p = B->seg_pair[i];
-        B->w[p] = B->v[p] = 0.0;
+        B->w[p] = 0.0;
+        B->v[p] = rule[i];
+        const double G = rule[i] != 0.0 ? B->rule_points[i] : points_lo;
+        points_lo = G < points_lo ? G : points_lo;
+        points_hi = rule[i] != 0.0 && G > points_hi ? G : points_hi;
         rule_lane[n_rule] = i;
         n_rule += rule[i] != 0.0;
         cut_lane[n_cut] = i;
         n_cut += cut[i] != 0.0;
     }
     if (n_rule > 0) {
-        int by_points[PROFILE_PAIRS];
-        for (int m = 0; m < n_rule; ++m) ++per_points[(int)B->rule_points[rule_lane[m]] + 1];
-        for (int G = 0; G <= CG_MAX_LINE_POINTS; ++G) per_points[G + 1] += per_points[G];
-        for (int m = 0; m < n_rule; ++m) by_points[per_points[(int)B->rule_points[rule_lane[m]]]++] = rule_lane[m];
+        int by_points_sorted[PROFILE_PAIRS];
+        const int *by_points = rule_lane;
+        if (points_lo == points_hi) {
+            /* one rule for all (most blocks) */
+            per_points[(int)points_lo] = n_rule;
+            for (int G = (int)points_lo + 1; G <= CG_MAX_LINE_POINTS; ++G) per_points[G] = n_rule;
+        } else {
+            for (int m = 0; m < n_rule; ++m) ++per_points[(int)B->rule_points[rule_lane[m]] + 1];
+            for (int G = 0; G <= CG_MAX_LINE_POINTS; ++G) per_points[G + 1] += per_points[G];
+            for (int m = 0; m < n_rule; ++m)
+                by_points_sorted[per_points[(int)B->rule_points[rule_lane[m]]]++] = rule_lane[m];
+            by_points = by_points_sorted;
+        }
         /* per_points[G] is now the end of G's lanes */
         double q[GAUSS_RULE_CHUNK], ez[GAUSS_RULE_CHUNK], wt[GAUSS_RULE_CHUNK];
         double args[CG_MAX_LINE_POINTS * GAUSS_RULE_CHUNK];
@@ -706,7 +720,6 @@ INLINE void gauss_segments_body(const job *jb, profile_block *B)
                 for (int m = 0; m < n; ++m) {
                     const int p = B->seg_pair[by_points[m0 + m]];
                     B->w[p] = 1.0 * wt[m]; /* the slots' factor exp(-0) exp(-0) */
-                    B->v[p] = 1.0;
                 }
             }
             begin = end;
@@ -811,19 +824,30 @@ static void flush_block(const job *jb, profile_block *B, double *out)
     }
     if (B->np > 0) {
         const int padded = pad_lanes(B->np, B->q_pt, NULL, NULL, NULL);
+        /* only points' lanes: lane i is pair i, the values straight into the pairs' */
+        const int direct = B->ns == 0;
+        double *const v = direct ? B->v : B->v_pt, *const w = direct ? B->w : B->w_pt;
         if (jb->profile_gauss) {
             /* v: the nodes inside the cutoff (pairs_add's gradient form adds w where v != 0) */
-            const double w = k->width;
-            gauss_values(jb->wide, padded, B->q_pt, R * R, 0.5 / (w * w), gauss_point_constant(jb), B->v_pt, B->w_pt);
-            for (int i = 0; i < B->np; ++i) B->v[B->pt_pair[i]] = B->v_pt[i];
+            const double width = k->width;
+            gauss_values(jb->wide, padded, B->q_pt, R * R, 0.5 / (width * width), gauss_point_constant(jb), v, w);
         } else if (gradient) {
-            gradient_values(jb->wide, padded, B->q_pt, R, C, B->v_pt, B->w_pt);
-            for (int i = 0; i < B->np; ++i) B->v[B->pt_pair[i]] = B->v_pt[i];
+            gradient_values(jb->wide, padded, B->q_pt, R, C, v, w);
         } else {
             /* a zero-length segment's psi * scale: scale is 1 here, and w * 1.0 is w */
-            point_values(jb->wide, padded, B->q_pt, R, C, lucy, B->w_pt);
+            point_values(jb->wide, padded, B->q_pt, R, C, lucy, w);
         }
-        for (int i = 0; i < B->np; ++i) B->w[B->pt_pair[i]] = B->w_pt[i];
+        if (!direct) {
+            if (gradient || jb->profile_gauss) {
+                for (int i = 0; i < B->np; ++i) {
+                    const int p = B->pt_pair[i];
+                    B->v[p] = v[i];
+                    B->w[p] = w[i];
+                }
+            } else {
+                for (int i = 0; i < B->np; ++i) B->w[B->pt_pair[i]] = w[i];
+            }
+        }
     }
     pairs_add(jb->wide, B->n, gradient || jb->profile_gauss ? B->v : NULL, B->w, B->node, B->val, jb->out_width, jb->n_values, out);
     B->n = B->ns = B->np = 0;
