@@ -230,15 +230,16 @@ def gaussian_segments_case(rng, box, w, count=1500):
 
 @pytest.mark.parametrize("far", [False, True])
 def test_gaussian_segments(far):
-    """The Gaussian's segments (exact line integrals) on a profile go through the blocks where stencils are short
-    (cg_profile.c, job.profile_gauss, as its points): cg_visit_separable's bits for segments it takes (those of a
-    rule, at most 4.6 w along the axis: checked against it on a periodic copy of the profile, which it takes
-    object by object), the closed form at every node for longer ones (the node-by-node erf form's values to
-    1e-12 of the largest and of each value above 1e-3 of it); far: a cutoff of 6 w (nodes far beyond an end
-    take the closed form). 9 values, the outer form's 3 factors, 13 and 1 value; near 1e6; the separable path
-    where stencils are longer; both vector builds and thread counts bit for bit."""
+    """The Gaussian's segments (exact line integrals) on a profile go through the blocks where stencils have at
+    most 64 nodes (cg_profile.c, job.profile_gauss; its points: 16): cg_visit_separable's bits for segments it
+    takes (those of a rule, at most 4.6 w along the axis: checked against it on a periodic copy of the profile,
+    which it takes object by object), the closed form at every node for longer ones (the node-by-node erf
+    form's values to 1e-12 of the largest and of each value above 1e-3 of it); far: a cutoff of 6 w (nodes far
+    beyond an end take the closed form), 25 nodes a stencil. 9 values, the outer form's 3 factors, 13 and 1
+    value; near 1e6; the separable path where stencils are longer; both vector builds and thread counts bit
+    for bit."""
     rng = np.random.default_rng(23 + far)
-    w, cutoff = (0.12, 6.0) if far else (0.25, 3.0)      # 15.4 and 15.9 nodes a stencil: the blocks
+    w, cutoff = (0.2, 6.0) if far else (0.25, 3.0)       # 25 and 16 nodes a stencil: the blocks
     make = lambda R: cg.Gaussian(w, cutoff=cutoff * w)   # noqa: E731
     for box in (cg.Box([0, 0, 0], [6, 6, 30]), cg.Box([1e6] * 3, [1e6 + 6, 1e6 + 6, 1e6 + 30]))[:2 - far]:
         periodic = cg.Box(box.lower, box.upper, periodic=[False, False, True])
@@ -274,8 +275,8 @@ def test_gaussian_segments(far):
         one = sums(box, 300, "z", make, 1.0, s, v, values)
         assert one.tobytes() == sums(box, 300, "z", make, 1.0, s, v, values, n_threads=2).tobytes()
         assert one.tobytes() == narrow_build(lambda: sums(box, 300, "z", make, 1.0, s, v, values)).tobytes()
-    if not far:                                          # 31 nodes a stencil: the separable path
-        wide = lambda R: cg.Gaussian(0.5, cutoff=1.5)    # noqa: E731
+    if not far:                                          # 73 nodes a stencil: the separable path
+        wide = lambda R: cg.Gaussian(1.2, cutoff=3.6)    # noqa: E731
         fast = sums(box, 300, "z", wide, 1.0, starts, vectors, ones)
         slow = sums(box, 300, "z", wide, 1.0, starts, vectors, ones, per_node=True)
         assert np.abs(fast - slow).max() <= 1e-12 * np.abs(slow).max()
