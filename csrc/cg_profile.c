@@ -19,7 +19,10 @@
  * cg_lucy_marginal_gradient). Non-periodic profiles without rays take their
  * objects in blocks (cg_visit_profile_objects, below): one list of (object,
  * node) pairs per block, one vectorised pass over it, the sums in the same
- * order; cg_visit_profile then serves the others, object by object.
+ * order; cg_visit_profile then serves the others, object by object. The
+ * Gaussian's points and exact segment integrals on such profiles
+ * (job.profile_gauss) take the same blocks with cg_visit_separable's numbers
+ * (see "The Gaussian's segments" below).
  */
 #include "cg_internal.h"
 #include "cg_vmath.h"

@@ -275,7 +275,18 @@ def test_gaussian_segments(far):
         one = sums(box, 300, "z", make, 1.0, s, v, values)
         assert one.tobytes() == sums(box, 300, "z", make, 1.0, s, v, values, n_threads=2).tobytes()
         assert one.tobytes() == narrow_build(lambda: sums(box, 300, "z", make, 1.0, s, v, values)).tobytes()
-    if not far:                                          # 73 nodes a stencil: the separable path
+    if far:
+        # tails: single segments too long for a rule, a cutoff of 20 w (values down to 1e-80 of the peak), each
+        # nonzero value to 1e-12 of itself
+        make = lambda R: cg.Gaussian(0.05, cutoff=1.0)   # noqa: E731  (21 nodes a stencil)
+        for length in (0.3, -0.7, 1.4):
+            start, vector = np.array([[1.0, 2.0, 12.34]]), np.array([[0.3, 0.1, length]])
+            fast = sums(box, 300, "z", make, 1.0, start, vector, np.ones((1, 1)))[:, 0]
+            slow = sums(box, 300, "z", make, 1.0, start, vector, np.ones((1, 1)), per_node=True)[:, 0]
+            assert np.array_equal(fast == 0.0, slow == 0.0) and slow.min() == 0.0 and slow.max() > 1e70 * \
+                slow[slow > 0].min()
+            assert np.max(np.abs(fast - slow)[slow > 0] / slow[slow > 0]) <= 1e-12
+    else:                                                # 73 nodes a stencil: the separable path
         wide = lambda R: cg.Gaussian(1.2, cutoff=3.6)    # noqa: E731
         fast = sums(box, 300, "z", wide, 1.0, starts, vectors, ones)
         slow = sums(box, 300, "z", wide, 1.0, starts, vectors, ones, per_node=True)
