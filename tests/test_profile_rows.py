@@ -231,7 +231,7 @@ def gaussian_segments_case(rng, box, w, count=1500):
 @pytest.mark.parametrize("far", [False, True])
 def test_gaussian_segments(far):
     """The Gaussian's segments (exact line integrals) on a profile go through the blocks where stencils have at
-    most 64 nodes (cg_profile.c, job.profile_gauss; its points: 16): cg_visit_separable's bits for segments it
+    most 40 nodes (cg_profile.c, job.profile_gauss; its points: 16): cg_visit_separable's bits for segments it
     takes (those of a rule, at most 4.6 w along the axis: checked against it on a periodic copy of the profile,
     which it takes object by object), the closed form at every node for longer ones (the node-by-node erf
     form's values to 1e-12 of the largest and of each value above 1e-3 of it); far: a cutoff of 6 w (nodes far
