@@ -295,8 +295,9 @@ typedef struct job {
     int gradient_rows;         /* use cg_visit_gradient_points (gradients of points on a grid) */
     int profile_rows;          /* use cg_visit_profile (Lucy's, Heaviside's values, Lucy's point gradients on one
                                   resolved axis, two averaged) */
-    int profile_gauss;         /* the Gaussian's point values on such a profile: cg_visit_profile_objects (the
-                                  separable path's numbers) */
+    int profile_gauss;         /* the Gaussian's point values and exact segment integrals on such a profile:
+                                  cg_visit_profile_objects (the separable path's numbers; segments too long
+                                  for its rule: the closed form) */
     int wide;                  /* ... its AVX-512 build (and cg_visit_lucy's) */
     int lucy_box;              /* cg_visit_lucy may evaluate whole boxes: a grid of >= 2 resolved axes, all spaced */
     double inv_spacing[3];     /* grids: 1 / spacing (0 where the spacing is 0) */
@@ -467,8 +468,8 @@ int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, 
 /* Whether cg_visit_profile_objects takes this job's objects (a profile, not
    periodic along its axis, no rays), and the objects order[begin..end) (or
    begin..end) of such a job, at most CG_PROFILE_OBJECTS of them, in blocks of (object, node)
-   pairs: the same bits as cg_visit_profile object by object (the Gaussian's points,
-   job.profile_gauss: as cg_visit_separable's, object by object). */
+   pairs: the same bits as cg_visit_profile object by object (the Gaussian's points and
+   segments, job.profile_gauss: as cg_visit_separable's, object by object). */
 #define CG_PROFILE_OBJECTS 32
 int cg_profile_blocks(const job *jb);
 void cg_visit_profile_objects(const job *jb, double *out, const cg_index *order, cg_index begin, cg_index end);
@@ -482,5 +483,9 @@ int cg_visit_separable_wide(const job *jb, double *out, scratch *sc, cg_index ob
                             double scale);
 #endif
 int cg_separable_wide_available(void);
+/* cg_separable.c's erfcx for the closed form's lanes, x[i] and z[i] in place
+   (n a multiple of 4; may_exceed: some argument may exceed 4), for
+   cg_profile.c's blocks: the cut nodes' bits */
+void cg_erfcx_in_place2(double *x, double *z, cg_index n, int may_exceed);
 
 #endif /* CGBOUND_CG_INTERNAL_H */

@@ -19,7 +19,10 @@
  * cg_lucy_marginal_gradient). Non-periodic profiles without rays take their
  * objects in blocks (cg_visit_profile_objects, below): one list of (object,
  * node) pairs per block, one vectorised pass over it, the sums in the same
- * order; cg_visit_profile then serves the others, object by object.
+ * order; cg_visit_profile then serves the others, object by object. The
+ * Gaussian's points and exact segment integrals on such profiles
+ * (job.profile_gauss) take the same blocks with cg_visit_separable's numbers
+ * (see "The Gaussian's segments" below).
  */
 #include "cg_internal.h"
 #include "cg_vmath.h"
@@ -453,8 +456,10 @@ INLINE void pairs_add_gradient_body(int count, const double *restrict v, const d
 INLINE void pairs_add_any(int count, const double *v, const double *w, const cg_index *node,
                           const double *const *val, int width, int nv, double *out)
 {
-    /* fixed widths: the rows' loops unrolled (the Gaussian's points: 13 values, with v) */
+    /* fixed widths: the rows' loops unrolled (the Gaussian's points: 13 values, its contacts' stress: 9,
+       with v) */
     if (v && nv == 13 && width == 13) pairs_add_gradient_body(count, v, w, node, val, 13, 13, out);
+    else if (v && nv == 9 && width == 9) pairs_add_gradient_body(count, v, w, node, val, 9, 9, out); /* stress */
     else if (v) pairs_add_gradient_body(count, v, w, node, val, width, nv, out);
     else if (nv == 9 && width == 9) pairs_add_body(count, w, node, val, 9, 9, out); /* a stress */
     else if (nv == 13 && width == 13) pairs_add_body(count, w, node, val, 13, 13, out); /* density to flux */
@@ -496,9 +501,12 @@ typedef struct profile_block {
     int n, ns, np;
     double q_seg[PROFILE_PAIRS + PROFILE_PAD], e[PROFILE_PAIRS + PROFILE_PAD], L[PROFILE_PAIRS + PROFILE_PAD],
         unit[PROFILE_PAIRS + PROFILE_PAD], q_pt[PROFILE_PAIRS + PROFILE_PAD];
+    /* the Gaussian's segments (job.profile_gauss): q_seg, e (the segment along the axis) and
+       the points of the segment's rule, 0 where it has none (cg_gaussian_roundoff_points) */
+    double rule_points[PROFILE_PAIRS + PROFILE_PAD];
     int seg_pair[PROFILE_PAIRS], pt_pair[PROFILE_PAIRS];
     double w_seg[PROFILE_PAIRS + PROFILE_PAD], w_pt[PROFILE_PAIRS + PROFILE_PAD], v_pt[PROFILE_PAIRS + PROFILE_PAD];
-    double w[PROFILE_PAIRS], v[PROFILE_PAIRS];
+    double w[PROFILE_PAIRS + PROFILE_PAD], v[PROFILE_PAIRS + PROFILE_PAD]; /* (lanes' padding: points alone) */
     cg_index node[PROFILE_PAIRS];
     const double *val[PROFILE_PAIRS];
 } profile_block;
@@ -518,6 +526,291 @@ static int pad_lanes(int n, double *a, double *b, double *c, double *d)
     return padded;
 }
 
+/* ------------------------------------------------------------------ */
+/* The Gaussian's segments on a profile (job.profile_gauss, exact line
+   integrals): cg_visit_separable's numbers for one resolved axis, lane by
+   lane over a block's pairs. There the two averaged axes are slots with one
+   node at 0 and a segment of length 0 along them, so that every sum over the
+   slots reduces to the resolved one's terms (0 * 0 = +0 and +0 + x = x, as
+   written out below where it is not exact for every x), and each node takes
+   one term of each object: the segment's Gauss-Legendre rule
+   (cg_gaussian_roundoff_points: the tables' exp(-(q - x_g e)^2 / 2w^2)
+   summed with the weights times the prefactor, the slots' factor exp(-0) = 1)
+   at the nodes whose ball holds both ends, near enough to them (FAR_BEYOND_END);
+   the closed form in tails (erfcx, cut_batch_flush's lanes, a short
+   Gauss-Legendre rule where it would cancel) at the other nodes of the capsule;
+   nothing at a segment of length 0 along the axis there (those of length +-0
+   are the points' lanes: the slots' sum of the weights times exp(-q^2 / 2w^2)).
+   Segments too long for a rule (cg_visit_separable leaves them to the
+   node-by-node erf form) take the closed form at all their nodes: the same
+   integral, to round-off relative to each value. */
+
+/* cg_separable.c's FAR_BEYOND_END: nodes farther beyond an end (in w) take the closed form */
+#define GAUSS_FAR_BEYOND_END 4.0
+/* lanes of the rule and of the closed form evaluated at a time (whole vectors) */
+#define GAUSS_RULE_CHUNK 64
+#define GAUSS_CUT_CHUNK 128
+/* the closed form's fallback: Gauss-Legendre points on a short interval (as cut_batch_flush's) */
+#define GAUSS_CUT_FALLBACK 8
+
+/* each lane's route: rule[i] = 1 where the segment's rule takes node i, cut[i] = 1
+   where the closed form does (cg_visit_separable's tests, in_bits and cand_bits,
+   node by node: its walks' intervals are these nodes, the tests being monotone
+   along the axis) */
+INLINE void gauss_routes_body(int count, const double *restrict q, const double *restrict ez,
+                              const double *restrict points, double R, double w, double *restrict rule,
+                              double *restrict cut)
+{
+    const double R2 = R * R, R2_margin = R2 * (1.0 + 1e-12);
+    for (int i = 0; i < count; ++i) {
+        const double L2 = 0.0 + ez[i] * ez[i], L = sqrt(L2);
+        const double inv_L2 = L2 > 0.0 ? 1.0 / L2 : 0.0, R2_cyl = R2_margin + 1e-14 * L2;
+        const double qb = q[i] - ez[i];
+        const double sa = 0.0 + q[i] * q[i], sb = 0.0 + qb * qb, p = 0.0 + q[i] * ez[i];
+        const int cyl = (sa - (p * p) * inv_L2 < R2_cyl) & (p >= 0.0) & (p <= L2);
+        const int cand = (sa < R2_margin) | (sb < R2_margin) | cyl;
+        const int far_check = R - L > GAUSS_FAR_BEYOND_END * w;
+        const double far_lo = -GAUSS_FAR_BEYOND_END * w * L, far_hi = L2 + GAUSS_FAR_BEYOND_END * w * L;
+        const int near = (far_check == 0) | ((p >= far_lo) & (p <= far_hi));
+        const int in = (points[i] > 0.0) & (sa < R2) & (sb < R2) & near;
+        rule[i] = in ? 1.0 : 0.0;
+        /* a segment of length 0 (ez below sqrt of the smallest double): its cut nodes carry 0 */
+        cut[i] = cand & (in == 0) & (L2 > 0.0) ? 1.0 : 0.0;
+    }
+}
+
+/* the rule's weights at n nodes (q, ez per lane), G points x_g, weights gw_g
+   (times the prefactor): sum_g gw_g exp(-(q - x_g ez)^2 / 2w^2), in g order
+   from +0 (args: G n doubles) */
+INLINE void gauss_rule_body(int n, int G, const double *restrict q, const double *restrict ez,
+                            const double *restrict gx, const double *restrict gw, double inv2w2,
+                            double *restrict args, double *restrict w)
+{
+    for (int g = 0; g < G; ++g)
+        for (int i = 0; i < n; ++i) {
+            const double qg = q[i] - gx[g] * ez[i];
+            args[g * n + i] = -(qg * qg) * inv2w2;
+        }
+    cg_exp_in_place(args, (cg_index)G * n);
+    for (int i = 0; i < n; ++i) w[i] = 0.0;
+    for (int g = 0; g < G; ++g)
+        for (int i = 0; i < n; ++i) w[i] += gw[g] * args[g * n + i];
+}
+
+/* cut_lanes with the node (0, 0, q) and the segment (0, 0, ez) per lane: the
+   exponents e0, e1, ea (halved), erfcx's arguments c0, c1, and the factor
+   sqrt(pi/2) w C / L */
+INLINE void gauss_cut_lanes_body(int n, const double *restrict q, const double *restrict ez, double R2, double w,
+                                 double C, double *restrict a2s, double *restrict t0s, double *restrict spans,
+                                 double *restrict e0, double *restrict e1, double *restrict ea,
+                                 double *restrict c0, double *restrict c1, double *restrict factor)
+{
+    const double inv4w2 = 0.25 / (w * w), inv_sqrt2w = 1.0 / (1.4142135623730951 * w);
+    const double amp_w = C * 1.2533141373155003 * w;
+    for (int i = 0; i < n; ++i) {
+        const double L2 = 0.0 + ez[i] * ez[i], inv_L2 = 1.0 / L2, L = sqrt(L2);
+        const double u = (0.0 + q[i] * ez[i]) * inv_L2;
+        const double d0 = 0.0 - u * 0.0, d2 = q[i] - u * ez[i];
+        const double a2 = (d0 * d0 + d0 * d0) + d2 * d2;
+        double b2 = R2 - a2;
+        b2 = b2 > 0.0 ? b2 : 0.0;
+        const double half = sqrt(b2 * inv_L2);
+        double s0 = u - half, s1 = u + half;
+        s0 = s0 > 0.0 ? s0 : 0.0;
+        s1 = s1 < 1.0 ? s1 : 1.0;
+        double span = s1 - s0;
+        span = span > 0.0 ? span : 0.0;
+        const double t0 = (s0 - u) * L, t1 = t0 + span * L;
+        a2s[i] = a2;
+        t0s[i] = s0 - u;
+        spans[i] = span;
+        e0[i] = -(a2 + t0 * t0) * inv4w2;
+        e1[i] = -(a2 + t1 * t1) * inv4w2;
+        ea[i] = -a2 * inv4w2;
+        c0[i] = (t0 < 0.0 ? -t0 : t0) * inv_sqrt2w;
+        c1[i] = (t1 < 0.0 ? -t1 : t1) * inv_sqrt2w;
+        factor[i] = amp_w / L;
+    }
+}
+
+/* cut_values with a factor per lane */
+INLINE int gauss_cut_values_body(int n, const double *restrict t0s, const double *restrict spans,
+                                 const double *restrict e0, const double *restrict e1, const double *restrict ea,
+                                 const double *restrict c0, const double *restrict c1, const double *restrict factor,
+                                 double *restrict value, double *restrict is_short)
+{
+    int64_t any_short = 0;
+    for (int i = 0; i < n; ++i) {
+        const double T0 = (e0[i] * c0[i]) * e0[i], T1 = (e1[i] * c1[i]) * e1[i], twoA = 2.0 * ea[i] * ea[i];
+        const double t0 = t0s[i], t1 = t0s[i] + spans[i];
+        const int straddle = (t0 < 0.0) & (t1 > 0.0);
+        const double diff = T0 > T1 ? T0 - T1 : T1 - T0, larger = T0 > T1 ? T0 : T1;
+        const double v = straddle ? (twoA - T0) - T1 : diff;
+        const double largest = straddle ? twoA : larger;
+        value[i] = v * factor[i];
+        const int64_t short_i = (spans[i] > 0.0) & !(16.0 * v >= largest);
+        is_short[i] = short_i ? 1.0 : 0.0;
+        any_short |= short_i;
+    }
+    return any_short != 0;
+}
+
+/* The weights of a block's segment lanes into B->w, B->v at their pairs (v = 1:
+   the rule's nodes, added whatever their weight, as block_add adds a row; 0: the
+   closed form's, added where not 0, as cut_batch_flush) */
+INLINE void gauss_segments_body(const job *jb, profile_block *B)
+{
+    const cg_kernel *k = jb->kernel;
+    const double R = k->radius, R2 = R * R, w = k->width, C = k->prefactor, inv2w2 = 0.5 / (w * w);
+    const int ns = B->ns;
+    const int padded = (ns + PROFILE_PAD - 1) / PROFILE_PAD * PROFILE_PAD;
+    for (int i = ns; i < padded; ++i) {
+        B->q_seg[i] = B->q_seg[ns - 1];
+        B->e[i] = B->e[ns - 1];
+        B->rule_points[i] = B->rule_points[ns - 1];
+    }
+    double *const rule = B->w_seg, *const cut = B->L; /* (Lucy's lanes: free here) */
+    gauss_routes_body(padded, B->q_seg, B->e, B->rule_points, R, w, rule, cut);
+    /* the lanes of each route, the rule's by its number of points */
+    int rule_lane[PROFILE_PAIRS], cut_lane[PROFILE_PAIRS], n_rule = 0, n_cut = 0;
+    int per_points[CG_MAX_LINE_POINTS + 2] = {0};
+    double points_lo = CG_MAX_LINE_POINTS, points_hi = 0.0; /* of the rule's lanes */
+    for (int i = 0; i < ns; ++i) {
+        const int p = B->seg_pair[i];
+        B->w[p] = 0.0;
+        B->v[p] = rule[i];
+        const double G = rule[i] != 0.0 ? B->rule_points[i] : points_lo;
+        points_lo = G < points_lo ? G : points_lo;
+        points_hi = rule[i] != 0.0 && G > points_hi ? G : points_hi;
+        rule_lane[n_rule] = i;
+        n_rule += rule[i] != 0.0;
+        cut_lane[n_cut] = i;
+        n_cut += cut[i] != 0.0;
+    }
+    if (n_rule > 0) {
+        int by_points_sorted[PROFILE_PAIRS];
+        const int *by_points = rule_lane;
+        if (points_lo == points_hi) {
+            /* one rule for all (most blocks) */
+            per_points[(int)points_lo] = n_rule;
+            for (int G = (int)points_lo + 1; G <= CG_MAX_LINE_POINTS; ++G) per_points[G] = n_rule;
+        } else {
+            for (int m = 0; m < n_rule; ++m) ++per_points[(int)B->rule_points[rule_lane[m]] + 1];
+            for (int G = 0; G <= CG_MAX_LINE_POINTS; ++G) per_points[G + 1] += per_points[G];
+            for (int m = 0; m < n_rule; ++m)
+                by_points_sorted[per_points[(int)B->rule_points[rule_lane[m]]]++] = rule_lane[m];
+            by_points = by_points_sorted;
+        }
+        /* per_points[G] is now the end of G's lanes */
+        double q[GAUSS_RULE_CHUNK], ez[GAUSS_RULE_CHUNK], wt[GAUSS_RULE_CHUNK];
+        double args[CG_MAX_LINE_POINTS * GAUSS_RULE_CHUNK];
+        int begin = 0;
+        for (int G = 1; G <= CG_MAX_LINE_POINTS; ++G) {
+            const int end = per_points[G];
+            if (end == begin) continue;
+            double gx[CG_MAX_LINE_POINTS], gw[CG_MAX_LINE_POINTS];
+            cg_gauss_legendre01(G, gx, gw);
+            for (int g = 0; g < G; ++g) gw[g] *= 1.0 * C; /* scale (1) times the prefactor */
+            for (int m0 = begin; m0 < end; m0 += GAUSS_RULE_CHUNK) {
+                const int n = end - m0 < GAUSS_RULE_CHUNK ? end - m0 : GAUSS_RULE_CHUNK;
+                const int n_padded = (n + PROFILE_PAD - 1) / PROFILE_PAD * PROFILE_PAD;
+                for (int m = 0; m < n_padded; ++m) {
+                    const int i = by_points[m < n ? m0 + m : m0 + n - 1];
+                    q[m] = B->q_seg[i];
+                    ez[m] = B->e[i];
+                }
+                gauss_rule_body(n_padded, G, q, ez, gx, gw, inv2w2, args, wt);
+                for (int m = 0; m < n; ++m) {
+                    const int p = B->seg_pair[by_points[m0 + m]];
+                    B->w[p] = 1.0 * wt[m]; /* the slots' factor exp(-0) exp(-0) */
+                }
+            }
+            begin = end;
+        }
+    }
+    if (n_cut > 0) {
+        double q[GAUSS_CUT_CHUNK], ez[GAUSS_CUT_CHUNK], a2s[GAUSS_CUT_CHUNK], t0s[GAUSS_CUT_CHUNK];
+        double spans[GAUSS_CUT_CHUNK], factor[GAUSS_CUT_CHUNK], value[GAUSS_CUT_CHUNK], is_short[GAUSS_CUT_CHUNK];
+        double ex[3 * GAUSS_CUT_CHUNK], c[2 * GAUSS_CUT_CHUNK]; /* e0, e1, ea; c0, c1 */
+        double arg[GAUSS_CUT_FALLBACK * GAUSS_CUT_CHUNK];
+        int short_lane[GAUSS_CUT_CHUNK];
+        for (int m0 = 0; m0 < n_cut; m0 += GAUSS_CUT_CHUNK) {
+            const int n = n_cut - m0 < GAUSS_CUT_CHUNK ? n_cut - m0 : GAUSS_CUT_CHUNK;
+            const int n_padded = (n + PROFILE_PAD - 1) / PROFILE_PAD * PROFILE_PAD;
+            for (int m = 0; m < n_padded; ++m) {
+                const int i = cut_lane[m < n ? m0 + m : m0 + n - 1];
+                q[m] = B->q_seg[i];
+                ez[m] = B->e[i];
+            }
+            double *const e0 = ex, *const e1 = ex + n_padded, *const ea = ex + 2 * n_padded;
+            double *const c0 = c, *const c1 = c + n_padded;
+            gauss_cut_lanes_body(n_padded, q, ez, R2, w, C, a2s, t0s, spans, e0, e1, ea, c0, c1, factor);
+            cg_exp_in_place(ex, 3 * n_padded);
+            cg_erfcx_in_place2(c0, c1, n_padded, R2 > 31.9 * (w * w));
+            const int any_short = gauss_cut_values_body(n_padded, t0s, spans, e0, e1, ea, c0, c1, factor, value,
+                                                        is_short);
+            int n_short = 0;
+            if (any_short)
+                for (int m = 0; m < n; ++m)
+                    if (is_short[m] != 0.0) short_lane[n_short++] = m;
+            if (n_short) {
+                /* the short intervals: Gauss-Legendre on [s0, s0 + span] (cut_batch_flush's) */
+                double gx[GAUSS_CUT_FALLBACK], gw[GAUSS_CUT_FALLBACK];
+                cg_gauss_legendre01(GAUSS_CUT_FALLBACK, gx, gw);
+                for (int g = 0; g < GAUSS_CUT_FALLBACK; ++g)
+                    for (int s = 0; s < n_short; ++s) {
+                        const int m = short_lane[s];
+                        const double t = t0s[m] + gx[g] * spans[m], L2 = 0.0 + ez[m] * ez[m];
+                        arg[g * n_short + s] = -(a2s[m] + t * t * L2) * (0.5 * inv2w2);
+                    }
+                cg_exp_in_place(arg, (cg_index)GAUSS_CUT_FALLBACK * n_short);
+                for (int s = 0; s < n_short; ++s) {
+                    const int m = short_lane[s];
+                    double sum = 0.0;
+                    for (int g = 0; g < GAUSS_CUT_FALLBACK; ++g)
+                        sum += (gw[g] * arg[g * n_short + s]) * arg[g * n_short + s];
+                    value[m] = (1.0 * C * sum) * spans[m];
+                }
+            }
+            for (int m = 0; m < n; ++m) B->w[B->seg_pair[cut_lane[m0 + m]]] = value[m];
+        }
+    }
+}
+
+PROFILE_CLONES static void gauss_segments_narrow(const job *jb, profile_block *B) { gauss_segments_body(jb, B); }
+
+#ifdef CG_HAVE_WIDE_SEPARABLE
+__attribute__((target("avx512f"))) static void gauss_segments_wide(const job *jb, profile_block *B)
+{
+    gauss_segments_body(jb, B);
+}
+#endif
+
+static void gauss_segments(const job *jb, profile_block *B)
+{
+#ifdef CG_HAVE_WIDE_SEPARABLE
+    if (jb->wide) {
+        gauss_segments_wide(jb, B);
+        return;
+    }
+#endif
+    gauss_segments_narrow(jb, B);
+}
+
+/* the constant of the points' lanes (gauss_values): the prefactor for points; for
+   segments of length +-0 along the axis, cg_visit_separable's weight of their
+   rows, the sum of their rule's weights times the prefactor (times exp(-0) = 1) */
+static double gauss_point_constant(const job *jb)
+{
+    const cg_kernel *k = jb->kernel;
+    if (!jb->is_segment) return k->prefactor;
+    double gx[CG_MAX_LINE_POINTS], gw[CG_MAX_LINE_POINTS], sum = 0.0;
+    const int G = cg_gaussian_roundoff_points(0.0, k->width);
+    cg_gauss_legendre01(G, gx, gw);
+    for (int g = 0; g < G; ++g) sum += gw[g] * (1.0 * k->prefactor) * 1.0;
+    return sum * 1.0;
+}
+
 /* the kernel over the block's lanes, then its pairs added in order */
 static void flush_block(const job *jb, profile_block *B, double *out)
 {
@@ -525,26 +818,39 @@ static void flush_block(const job *jb, profile_block *B, double *out)
     const cg_kernel *k = jb->kernel;
     const double R = k->radius, C = k->prefactor;
     const int lucy = k->type == CG_KERNEL_LUCY, gradient = jb->mode == MODE_GRADIENT;
-    if (B->ns > 0) {
+    if (B->ns > 0 && jb->profile_gauss) {
+        gauss_segments(jb, B);
+    } else if (B->ns > 0) {
         const int padded = pad_lanes(B->ns, B->q_seg, B->e, B->L, B->unit);
         segment_lanes(jb->wide, padded, B->q_seg, B->e, B->L, B->unit, R, C, lucy, B->w_seg);
         for (int i = 0; i < B->ns; ++i) B->w[B->seg_pair[i]] = B->w_seg[i];
     }
     if (B->np > 0) {
         const int padded = pad_lanes(B->np, B->q_pt, NULL, NULL, NULL);
+        /* only points' lanes: lane i is pair i, the values straight into the pairs' */
+        const int direct = B->ns == 0;
+        double *const v = direct ? B->v : B->v_pt, *const w = direct ? B->w : B->w_pt;
         if (jb->profile_gauss) {
             /* v: the nodes inside the cutoff (pairs_add's gradient form adds w where v != 0) */
-            const double w = k->width;
-            gauss_values(jb->wide, padded, B->q_pt, R * R, 0.5 / (w * w), C, B->v_pt, B->w_pt);
-            for (int i = 0; i < B->np; ++i) B->v[B->pt_pair[i]] = B->v_pt[i];
+            const double width = k->width;
+            gauss_values(jb->wide, padded, B->q_pt, R * R, 0.5 / (width * width), gauss_point_constant(jb), v, w);
         } else if (gradient) {
-            gradient_values(jb->wide, padded, B->q_pt, R, C, B->v_pt, B->w_pt);
-            for (int i = 0; i < B->np; ++i) B->v[B->pt_pair[i]] = B->v_pt[i];
+            gradient_values(jb->wide, padded, B->q_pt, R, C, v, w);
         } else {
             /* a zero-length segment's psi * scale: scale is 1 here, and w * 1.0 is w */
-            point_values(jb->wide, padded, B->q_pt, R, C, lucy, B->w_pt);
+            point_values(jb->wide, padded, B->q_pt, R, C, lucy, w);
         }
-        for (int i = 0; i < B->np; ++i) B->w[B->pt_pair[i]] = B->w_pt[i];
+        if (!direct) {
+            if (gradient || jb->profile_gauss) {
+                for (int i = 0; i < B->np; ++i) {
+                    const int p = B->pt_pair[i];
+                    B->v[p] = v[i];
+                    B->w[p] = w[i];
+                }
+            } else {
+                for (int i = 0; i < B->np; ++i) B->w[B->pt_pair[i]] = w[i];
+            }
+        }
     }
     pairs_add(jb->wide, B->n, gradient || jb->profile_gauss ? B->v : NULL, B->w, B->node, B->val, jb->out_width, jb->n_values, out);
     B->n = B->ns = B->np = 0;
@@ -614,13 +920,29 @@ PROFILE_CLONES void cg_visit_profile_objects(const job *jb, double *out, const c
         }
         const cg_index count = last - first + 1;
         if (jb->profile_gauss) {
-            /* the object's nodes in order, across as many blocks as they fill */
-            for (cg_index kk = first; kk <= last; ++kk) {
-                if (B.n == PROFILE_PAIRS) flush_block(jb, &B, out);
-                B.q_pt[B.np] = z[kk] - x;
-                B.pt_pair[B.np++] = B.n;
-                B.node[B.n] = kk;
-                B.val[B.n++] = val;
+            /* the object's nodes in order, across as many blocks as they fill: points and segments
+               of length +-0 along the axis as points, other segments with their rule's points */
+            const int segment = jb->is_segment && ez != 0.0;
+            const double points = segment ? (double)cg_gaussian_roundoff_points(sqrt(0.0 + ez * ez), jb->kernel->width)
+                                          : 0.0;
+            if (segment) {
+                for (cg_index kk = first; kk <= last; ++kk) {
+                    if (B.n == PROFILE_PAIRS) flush_block(jb, &B, out);
+                    B.q_seg[B.ns] = z[kk] - x;
+                    B.e[B.ns] = ez;
+                    B.rule_points[B.ns] = points;
+                    B.seg_pair[B.ns++] = B.n;
+                    B.node[B.n] = kk;
+                    B.val[B.n++] = val;
+                }
+            } else {
+                for (cg_index kk = first; kk <= last; ++kk) {
+                    if (B.n == PROFILE_PAIRS) flush_block(jb, &B, out);
+                    B.q_pt[B.np] = z[kk] - x;
+                    B.pt_pair[B.np++] = B.n;
+                    B.node[B.n] = kk;
+                    B.val[B.n++] = val;
+                }
             }
             continue;
         }

@@ -1437,4 +1437,9 @@ void cg_gaussian_erfcx(const double *x, double *out, cg_index n)
         for (cg_index i = 0; i < m; ++i) out[i0 + i] = a[i];
     }
 }
+
+HOT_CLONES void cg_erfcx_in_place2(double *x, double *z, cg_index n, int may_exceed)
+{
+    erfcx_in_place2(x, z, n, may_exceed);
+}
 #endif

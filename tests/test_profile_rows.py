@@ -204,3 +204,90 @@ def test_gaussian_points():
     fast = sums(box, 1500, "z", long, 1.0, starts[:60], None, values[:60, :3])
     slow = sums(box, 1500, "z", long, 1.0, starts[:60], None, values[:60, :3], per_node=True)
     assert np.abs(fast - slow).max() <= 1e-12 * np.abs(slow).max()
+
+
+def gaussian_segments_case(rng, box, w, count=1500):
+    """Segments of every rule's length along z (+-0, near 0, 0.05 w to 8 w: the last too long for a rule), a
+    lattice's contacts (two thirds of length +0 along z), some starting and ending on nodes; all at least
+    cutoff + length clear of the profile's ends (a periodic copy's other images then reach no node)."""
+    z0, side = box.lower[2], box.lengths[2]
+    starts = box.lower + rng.uniform(size=(count, 3)) * box.lengths
+    starts[:, 2] = z0 + side * (0.3 + 0.4 * rng.uniform(size=count))
+    length = w * rng.choice([0.0, 1e-9, 0.05, 0.3, 1.0, 2.0, 4.0, 8.0], size=count)
+    vectors = rng.normal(size=(count, 3)) * length[:, None]
+    vectors[:, 2] = np.clip(vectors[:, 2], -0.2 * side, 0.2 * side)
+    vectors[1::7, 2] = -0.0
+    grid = cg.Grid(box, (1, 1, 300), average=("x", "y"))
+    h = grid.axis_coordinates[2][1] - grid.axis_coordinates[2][0]
+    on = slice(2, None, 11)                              # on nodes, node to node
+    starts[on, 2] = grid.axis_coordinates[2][100 + rng.integers(0, 100, size=len(starts[on]))]
+    vectors[on, 2] = h * rng.integers(-4, 5, size=len(starts[on]))
+    lattice_starts, lattice_vectors = lattice_contacts(5, 3, 0.99)
+    starts = np.concatenate([starts, lattice_starts + [box.lower[0], box.lower[1], z0 + 0.45 * side]])
+    vectors = np.concatenate([vectors, lattice_vectors])
+    return starts, vectors
+
+
+@pytest.mark.parametrize("far", [False, True])
+def test_gaussian_segments(far):
+    """The Gaussian's segments (exact line integrals) on a profile go through the blocks where stencils have at
+    most 40 nodes (cg_profile.c, job.profile_gauss; its points: 16): cg_visit_separable's bits for segments it
+    takes (those of a rule, at most 4.6 w along the axis: checked against it on a periodic copy of the profile,
+    which it takes object by object), the closed form at every node for longer ones (the node-by-node erf
+    form's values to 1e-12 of the largest and of each value above 1e-3 of it); far: a cutoff of 6 w (nodes far
+    beyond an end take the closed form), 25 nodes a stencil. 9 values, the outer form's 3 factors, 13 and 1
+    value; near 1e6; the separable path where stencils are longer; both vector builds and thread counts bit
+    for bit."""
+    rng = np.random.default_rng(23 + far)
+    w, cutoff = (0.2, 6.0) if far else (0.25, 3.0)       # 25 and 16 nodes a stencil: the blocks
+    make = lambda R: cg.Gaussian(w, cutoff=cutoff * w)   # noqa: E731
+    for box in (cg.Box([0, 0, 0], [6, 6, 30]), cg.Box([1e6] * 3, [1e6 + 6, 1e6 + 6, 1e6 + 30]))[:2 - far]:
+        periodic = cg.Box(box.lower, box.upper, periodic=[False, False, True])
+        starts, vectors = gaussian_segments_case(rng, box, w)
+        ruled = np.abs(vectors[:, 2]) <= 4.6 * w
+        # and a segment of value 0 below the profile, as long as it: no slabs (cg_scatter.c's plan_slabs), so
+        # that both runs add each node's terms in the objects' order; it reaches no node (its periodic images
+        # add zeros)
+        s_ruled = np.concatenate([starts[ruled], [box.lower - [0, 0, 3 * box.lengths[2]]]])
+        v_ruled = np.concatenate([vectors[ruled], [[0.0, 0.0, box.lengths[2]]]])
+        for nv, outer in ((9, False), (3, True), (13, False), (1, False)):
+            values = rng.normal(size=(len(s_ruled), nv))
+            values[-1] = 0.0
+            kw = dict(outer=outer)
+            fast = sums(box, 300, "z", make, 1.0, s_ruled, v_ruled, values, **kw)
+            separable = sums(periodic, 300, "z", make, 1.0, s_ruled, v_ruled, values, **kw)
+            assert np.count_nonzero(fast) > 0
+            assert fast.tobytes() == separable.tobytes(), (nv, outer, np.abs(fast - separable).max())
+        ones = np.ones((len(starts), 1))
+        for sel in (~ruled, slice(None)):
+            fast = sums(box, 300, "z", make, 1.0, starts[sel], vectors[sel], ones[sel])[:, 0]
+            slow = sums(box, 300, "z", make, 1.0, starts[sel], vectors[sel], ones[sel], per_node=True)[:, 0]
+            assert np.abs(fast - slow).max() <= 1e-12 * np.abs(slow).max()
+            big = slow > 1e-3 * slow.max()
+            assert np.max(np.abs(fast[big] - slow[big]) / slow[big]) <= 1e-12
+            assert np.array_equal(fast == 0.0, slow == 0.0)
+        # segments short enough for slabs (any thread count the same sums), some too long for a rule; 5 times
+        # over (enough work for 2 threads: cg_scatter.c's MIN_WORK_PER_THREAD)
+        short = np.abs(vectors[:, 2]) <= 2.0
+        assert np.any(short & ~ruled)
+        s, v = np.tile(starts[short], (5, 1)), np.tile(vectors[short], (5, 1))
+        values = rng.normal(size=(len(s), 9))
+        one = sums(box, 300, "z", make, 1.0, s, v, values)
+        assert one.tobytes() == sums(box, 300, "z", make, 1.0, s, v, values, n_threads=2).tobytes()
+        assert one.tobytes() == narrow_build(lambda: sums(box, 300, "z", make, 1.0, s, v, values)).tobytes()
+    if far:
+        # tails: single segments too long for a rule, a cutoff of 20 w (values down to 1e-80 of the peak), each
+        # nonzero value to 1e-12 of itself
+        make = lambda R: cg.Gaussian(0.05, cutoff=1.0)   # noqa: E731  (21 nodes a stencil)
+        for length in (0.3, -0.7, 1.4):
+            start, vector = np.array([[1.0, 2.0, 12.34]]), np.array([[0.3, 0.1, length]])
+            fast = sums(box, 300, "z", make, 1.0, start, vector, np.ones((1, 1)))[:, 0]
+            slow = sums(box, 300, "z", make, 1.0, start, vector, np.ones((1, 1)), per_node=True)[:, 0]
+            assert np.array_equal(fast == 0.0, slow == 0.0) and slow.min() == 0.0 and slow.max() > 1e70 * \
+                slow[slow > 0].min()
+            assert np.max(np.abs(fast - slow)[slow > 0] / slow[slow > 0]) <= 1e-12
+    else:                                                # 73 nodes a stencil: the separable path
+        wide = lambda R: cg.Gaussian(1.2, cutoff=3.6)    # noqa: E731
+        fast = sums(box, 300, "z", wide, 1.0, starts, vectors, ones)
+        slow = sums(box, 300, "z", wide, 1.0, starts, vectors, ones, per_node=True)
+        assert np.abs(fast - slow).max() <= 1e-12 * np.abs(slow).max()
