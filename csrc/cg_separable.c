@@ -352,19 +352,7 @@ INLINE void exp_lanes(vwd x0, vwd *out)
     const vwd kd = shifted - shifter;
     const vwd r = (v - kd * ln2_hi) - kd * ln2_lo;
     vwd p = SPLAT(1.0 / 6227020800.0);
-    p = p * r + 1.0 / 479001600.0;
-    p = p * r + 1.0 / 39916800.0;
-    p = p * r + 1.0 / 3628800.0;
-    p = p * r + 1.0 / 362880.0;
-    p = p * r + 1.0 / 40320.0;
-    p = p * r + 1.0 / 5040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    p = p * r + 1.0;
+    CG_EXP_TAYLOR13(p, r);
     const vwu bits = ((vwu)shifted - UINT64_C(0x4338000000000000) + 1023) << 52; /* 2^k */
     *out = (vwd)((vwl)(p * (vwd)bits) & ~below);
 }

@@ -18,6 +18,26 @@
 #define CG_VMATH_INLINE static inline
 #endif
 
+/* p <- exp(r) for |r| <= 0.347, p holding 1/13! on entry: the Taylor polynomial
+   of degree 13 in Horner form (r and p scalars, or GCC vectors of doubles:
+   cg_exp_in_place and the vector lanes of cg_separable.c, the same bits) */
+#define CG_EXP_TAYLOR13(p, r)                                                  \
+    do {                                                                       \
+        p = p * (r) + 1.0 / 479001600.0;                                       \
+        p = p * (r) + 1.0 / 39916800.0;                                        \
+        p = p * (r) + 1.0 / 3628800.0;                                         \
+        p = p * (r) + 1.0 / 362880.0;                                          \
+        p = p * (r) + 1.0 / 40320.0;                                           \
+        p = p * (r) + 1.0 / 5040.0;                                            \
+        p = p * (r) + 1.0 / 720.0;                                             \
+        p = p * (r) + 1.0 / 120.0;                                             \
+        p = p * (r) + 1.0 / 24.0;                                              \
+        p = p * (r) + 1.0 / 6.0;                                               \
+        p = p * (r) + 0.5;                                                     \
+        p = p * (r) + 1.0;                                                     \
+        p = p * (r) + 1.0;                                                     \
+    } while (0)
+
 /* x[i] = exp(x[i]) for x[i] <= 0, in a loop the compiler vectorises (libm's
    exp is one call per value). exp(x) = 2^k exp(r), k = round(x / ln 2), with
    r = x - k ln 2 (two-part ln 2, exact products) in [-0.347, 0.347] and
@@ -36,19 +56,7 @@ CG_VMATH_INLINE void cg_exp_in_place(double *restrict x, cg_index n)
         const double kd = shifted - shifter;
         const double r = (v - kd * ln2_hi) - kd * ln2_lo;
         double p = 1.0 / 6227020800.0;
-        p = p * r + 1.0 / 479001600.0;
-        p = p * r + 1.0 / 39916800.0;
-        p = p * r + 1.0 / 3628800.0;
-        p = p * r + 1.0 / 362880.0;
-        p = p * r + 1.0 / 40320.0;
-        p = p * r + 1.0 / 5040.0;
-        p = p * r + 1.0 / 720.0;
-        p = p * r + 1.0 / 120.0;
-        p = p * r + 1.0 / 24.0;
-        p = p * r + 1.0 / 6.0;
-        p = p * r + 0.5;
-        p = p * r + 1.0;
-        p = p * r + 1.0;
+        CG_EXP_TAYLOR13(p, r);
         uint64_t bits;
         memcpy(&bits, &shifted, sizeof bits);
         bits = (bits - shifter_bits + 1023) << 52; /* 2^k */

@@ -191,11 +191,16 @@ def test_gaussian_points():
     starts[:20, 2] = grid.axis_coordinates[2][300:320]   # on nodes
     values = rng.normal(size=(len(starts), 13))
     values[0] = -0.0
+    # the objects 80 times over for the thread check: enough work for 2 threads (MIN_WORK_PER_THREAD), which
+    # 400 objects of 7-11 nodes are not (they ran on one)
+    many_starts, many_values = np.tile(starts, (80, 1)), np.tile(values, (80, 1))
     for width in (0.02, 0.012, 0.4):                     # 11 and 7 nodes an object (blocks), 201 (separable)
         make = lambda R: cg.Gaussian(width)              # noqa: E731
         fast = sums(box, 1500, "z", make, 1.0, starts, None, values)
         assert np.count_nonzero(fast) > 0
-        assert fast.tobytes() == sums(box, 1500, "z", make, 1.0, starts, None, values, n_threads=2).tobytes()
+        many = sums(box, 1500, "z", make, 1.0, many_starts, None, many_values)
+        assert many.tobytes() == sums(box, 1500, "z", make, 1.0, many_starts, None, many_values,
+                                      n_threads=2).tobytes()
         narrow = narrow_build(lambda: sums(box, 1500, "z", make, 1.0, starts, None, values))
         assert fast.tobytes() == narrow.tobytes()
         slow = sums(box, 1500, "z", make, 1.0, starts, None, values, per_node=True)
