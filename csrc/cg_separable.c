@@ -929,16 +929,42 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     double *dk = row + 2 * (n2 + ROW_PAD) + CUT_BATCH_DOUBLES; /* hybrid: a row's squared distances */
     /* node coordinates relative to x (points, and the exact form's ends) */
     double *cslot[3] = {coord, coord + n0, coord + n0 + n1};
+    /* hybrid: squared distances of the nodes to the two ends, per slot (in the same pass) */
+    double *endA[3] = {NULL, NULL, NULL}, *endB[3] = {NULL, NULL, NULL};
+    if (hybrid) {
+        double *p = buf + 2 * (size_t)G * (size_t)(n0 + n1 + n2) + EXP_PAD;
+        for (int s = 0; s < 3; ++s) {
+            endA[s] = p;
+            endB[s] = p + count[s];
+            p += 2 * count[s];
+        }
+    }
     if (!jb->is_segment || hybrid) {
         for (int s = 0; s < 3; ++s) {
             if (s < pad) {
                 cslot[s][0] = 0.0;
+                if (hybrid) {
+                    const double qb = 0.0 - es[s];
+                    endA[s][0] = 0.0 * 0.0;
+                    endB[s][0] = qb * qb;
+                }
                 continue;
             }
             const double *restrict c = t->coords[s - pad] + first[s];
             double *restrict dst = cslot[s];
             const double xs_s = xs[s];
-            for (cg_index k = 0; k < count[s]; ++k) dst[k] = c[k] - xs_s;
+            if (hybrid) {
+                double *restrict a = endA[s], *restrict b = endB[s];
+                const double e_s = es[s];
+                for (cg_index k = 0; k < count[s]; ++k) {
+                    const double qa = c[k] - xs_s, qb = qa - e_s;
+                    dst[k] = qa;
+                    a[k] = qa * qa;
+                    b[k] = qb * qb;
+                }
+            } else {
+                for (cg_index k = 0; k < count[s]; ++k) dst[k] = c[k] - xs_s;
+            }
         }
     }
     /* per rule point g and slot s: d2[g][s][k] = (node - point)^2 and
@@ -1050,20 +1076,8 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         cg_exp_in_place(ex_all, (cg_index)n_padded);
     }
 tables_done:;
-    /* hybrid: squared distances of the nodes to the two ends, per slot */
-    double *endA[3] = {NULL, NULL, NULL}, *endB[3] = {NULL, NULL, NULL};
+    /* hybrid: the rows' q.e along slot 2 (the ends' tables: with the coordinates above) */
     if (hybrid) {
-        double *p = buf + 2 * (size_t)G * per_table + EXP_PAD;
-        for (int s = 0; s < 3; ++s) {
-            endA[s] = p;
-            endB[s] = p + count[s];
-            p += 2 * count[s];
-            for (cg_index k = 0; k < count[s]; ++k) {
-                const double qa = cslot[s][k], qb = cslot[s][k] - es[s];
-                endA[s][k] = qa * qa;
-                endB[s][k] = qb * qb;
-            }
-        }
         for (cg_index k = 0; k < n2; ++k) pz[k] = cslot[2][k] * es[2];
         for (cg_index k = n2; k < n2 + ROW_PAD; ++k) pz[k] = 0.0;
     }
