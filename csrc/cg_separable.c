@@ -93,6 +93,40 @@ typedef v4d vwd;
 #define SPLAT(x) ((vwd){(x), (x), (x), (x)})
 #endif
 
+/* factor 2: f[i] = sum_g gw[g] tab_g[i], the points in order from 0.0 (tab_g = tab + g n, or
+   one table `same` for every point); i in blocks of 4 up to n rounded up: f and the tables
+   must have room for (and tolerate) 3 more values */
+INLINE void factor2_sum(double *restrict f, const double *restrict tab, const double *restrict same,
+                        const double *gw, int G, cg_index n)
+{
+    for (cg_index i = 0; i < n; i += 4) {
+#ifdef HAVE_V4D
+        v4d acc = {0.0, 0.0, 0.0, 0.0};
+        for (int g = 0; g < G; ++g) {
+            const double *restrict t = same ? same + i : tab + (size_t)g * (size_t)n + i;
+            const v4d c = {gw[g], gw[g], gw[g], gw[g]};
+            v4d v;
+            memcpy(&v, t, sizeof v);
+            acc += c * v;
+        }
+        memcpy(f + i, &acc, sizeof acc);
+#else
+        double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0;
+        for (int g = 0; g < G; ++g) {
+            const double c = gw[g], *restrict t = same ? same + i : tab + (size_t)g * (size_t)n + i;
+            a0 += c * t[0];
+            a1 += c * t[1];
+            a2 += c * t[2];
+            a3 += c * t[3];
+        }
+        f[i] = a0;
+        f[i + 1] = a1;
+        f[i + 2] = a2;
+        f[i + 3] = a3;
+#endif
+    }
+}
+
 /* o[k * nv + c] += (scale * w[k]) * v[c] for k < nk, c < nv (1.0 * w[k] is
    w[k]): a rank-one update of nk contiguous nodes of nv values each */
 INLINE void block_add_n(double *restrict o, double scale, const double *restrict w, cg_index nk,
@@ -886,6 +920,63 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
 #endif
 #endif
 
+/* The packed exponent table of a segment that does not move along some slot (below, in the
+   visit), its exponentials, and with fx (factor 2) the outer product's tables fx, fy, fz from
+   it. Not inlined: inside the visit this code changed the register allocation of its row
+   loops (measured: more instructions there than saved here). */
+#if defined(__GNUC__)
+__attribute__((noinline))
+#endif
+HOT_CLONES static void packed_tables(double *restrict packed, size_t at[3], double *const cslot[3],
+                                     const cg_index count[3], const double es[3], const double *gx,
+                                     const double *gw, int G, double inv2w2, double *restrict fx,
+                                     double *restrict fy, double *restrict fz)
+{
+    size_t m = 0;
+    for (int s = 0; s < 3; ++s) {
+        at[s] = m;
+        const int points = es[s] == 0.0 ? 1 : G;
+        const cg_index n = count[s];
+        const double *restrict cs = cslot[s];
+        for (int g = 0; g < points; ++g) {
+            /* (indexed by k, not m++: the loop vectorises) */
+            const double shift = gx[g] * es[s];
+            /* whole blocks of 4 (no scalar remainder): the lanes past n read the next slot's
+               coordinates or the zeroed row after them, and write over the next table's start
+               (written after) or the padding (zeroed below) */
+            double *restrict dst = packed + m;
+            for (cg_index k = 0; k < n; k += 4)
+                for (int l = 0; l < 4; ++l) {
+                    const double q = cs[k + l] - shift;
+                    dst[k + l] = -(q * q) * inv2w2;
+                }
+            m += (size_t)n;
+        }
+    }
+    const size_t m_padded = (m + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
+    /* a whole EXP_PAD of zeros (a fixed count, not a memset call): the padding, and
+       what the factor-2 sums below read past the last table */
+    for (int i = 0; i < EXP_PAD; ++i) packed[m + (size_t)i] = 0.0;
+    cg_exp_in_place(packed, (cg_index)m_padded);
+    if (!fx) return;
+    /* the outer product's tables straight from the packed ones (the summed slot: the
+       moving one, slot 0 where none moves) */
+    const int moves0 = es[0] != 0.0, moves1 = es[1] != 0.0, moves2 = es[2] != 0.0;
+    const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
+    const int sum0 = moves0 || !(moves1 || moves2);
+    const double *restrict px = packed + at[0], *restrict py = packed + at[1], *restrict pz = packed + at[2];
+    /* the summed slot first, in whole blocks of 4 (no scalar remainder): its writes
+       past the table reach the next table (copied after it) or, for slot 2, the
+       ROW_PAD gap before pz; its reads past the last table, the zeros above or the
+       next slot's values (unused lanes) */
+    if (sum0) factor2_sum(fx, px, moves0 ? NULL : px, gw, G, n0);
+    if (moves1) factor2_sum(fy, py, NULL, gw, G, n1);
+    if (moves2) factor2_sum(fz, pz, NULL, gw, G, n2);
+    if (!sum0) memcpy(fx, px, (size_t)n0 * sizeof(double));
+    if (!moves1) memcpy(fy, py, (size_t)n1 * sizeof(double));
+    if (!moves2) memcpy(fz, pz, (size_t)n2 * sizeof(double));
+}
+
 #ifndef CG_SEPARABLE_WIDE
 static
 #endif
@@ -954,22 +1045,49 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     double *coord = buf + (size_t)G * per_point + EXP_PAD + (hybrid ? per_point : 0); /* node - x, per slot */
     double *row = coord + (n0 + n1 + n2);
     cut_batch cuts = {0, {NULL, NULL, NULL}, NULL, NULL, NULL, NULL, NULL, NULL};
+    /* (from 0: packed_tables reads up to 3 values past the coordinates) */
     if (hybrid || G > 1)
-        for (cg_index k = n2; k < 2 * (n2 + ROW_PAD); ++k) row[k] = 0.0;
+        for (cg_index k = 0; k < 2 * (n2 + ROW_PAD); ++k) row[k] = 0.0;
     if (hybrid) cut_batch_init(&cuts, row + n2 + ROW_PAD);
     double *dk = row + 2 * (n2 + ROW_PAD) + CUT_BATCH_DOUBLES; /* hybrid: a row's squared distances */
     /* node coordinates relative to x (points, and the exact form's ends) */
     double *cslot[3] = {coord, coord + n0, coord + n0 + n1};
+    /* hybrid: squared distances of the nodes to the two ends, per slot (in the same pass) */
+    double *endA[3] = {NULL, NULL, NULL}, *endB[3] = {NULL, NULL, NULL};
+    if (hybrid) {
+        double *p = buf + 2 * (size_t)G * (size_t)(n0 + n1 + n2) + EXP_PAD;
+        for (int s = 0; s < 3; ++s) {
+            endA[s] = p;
+            endB[s] = p + count[s];
+            p += 2 * count[s];
+        }
+    }
     if (!jb->is_segment || hybrid) {
         for (int s = 0; s < 3; ++s) {
             if (s < pad) {
                 cslot[s][0] = 0.0;
+                if (hybrid) {
+                    const double qb = 0.0 - es[s];
+                    endA[s][0] = 0.0 * 0.0;
+                    endB[s][0] = qb * qb;
+                }
                 continue;
             }
             const double *restrict c = t->coords[s - pad] + first[s];
             double *restrict dst = cslot[s];
             const double xs_s = xs[s];
-            for (cg_index k = 0; k < count[s]; ++k) dst[k] = c[k] - xs_s;
+            if (hybrid) {
+                double *restrict a = endA[s], *restrict b = endB[s];
+                const double e_s = es[s];
+                for (cg_index k = 0; k < count[s]; ++k) {
+                    const double qa = c[k] - xs_s, qb = qa - e_s;
+                    dst[k] = qa;
+                    a[k] = qa * qa;
+                    b[k] = qb * qb;
+                }
+            } else {
+                for (cg_index k = 0; k < count[s]; ++k) dst[k] = c[k] - xs_s;
+            }
         }
     }
     /* per rule point g and slot s: d2[g][s][k] = (node - point)^2 and
@@ -1029,55 +1147,9 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                the layout below: the same values with fewer exponentials. The packing's
                padding may reach into ex_all, which is written after it. */
             double *restrict packed = d2_all;
-            size_t m = 0, at[3];
-            for (int s = 0; s < 3; ++s) {
-                at[s] = m;
-                const int points = es[s] == 0.0 ? 1 : G;
-                for (int g = 0; g < points; ++g) {
-                    const double shift = gx[g] * es[s];
-                    for (cg_index k = 0; k < count[s]; ++k) {
-                        const double q = cslot[s][k] - shift;
-                        packed[m++] = -(q * q) * inv2w2;
-                    }
-                }
-            }
-            const size_t m_padded = (m + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
-            for (size_t i = m; i < m_padded; ++i) packed[i] = 0.0;
-            cg_exp_in_place(packed, (cg_index)m_padded);
-            if (factor == 2) {
-                /* the outer product's tables straight from the packed ones (the summed slot: the
-                   moving one, slot 0 where none moves) */
-                const int sum0 = moves0 || !(moves1 || moves2);
-                const double *restrict px = packed + at[0], *restrict py = packed + at[1], *restrict pz = packed + at[2];
-                if (sum0) {
-                    for (cg_index i = 0; i < n0; ++i) fx[i] = 0.0;
-                    for (int g = 0; g < G; ++g) {
-                        const double c = gw[g], *restrict xg = px + (moves0 ? (size_t)g * n0 : 0);
-                        for (cg_index i = 0; i < n0; ++i) fx[i] += c * xg[i];
-                    }
-                } else {
-                    memcpy(fx, px, (size_t)n0 * sizeof(double));
-                }
-                if (moves1) {
-                    for (cg_index j = 0; j < n1; ++j) fy[j] = 0.0;
-                    for (int g = 0; g < G; ++g) {
-                        const double c = gw[g], *restrict yg = py + (size_t)g * n1;
-                        for (cg_index j = 0; j < n1; ++j) fy[j] += c * yg[j];
-                    }
-                } else {
-                    memcpy(fy, py, (size_t)n1 * sizeof(double));
-                }
-                if (moves2) {
-                    for (cg_index k = 0; k < n2; ++k) fz[k] = 0.0;
-                    for (int g = 0; g < G; ++g) {
-                        const double c = gw[g], *restrict zg = pz + (size_t)g * n2;
-                        for (cg_index k = 0; k < n2; ++k) fz[k] += c * zg[k];
-                    }
-                } else {
-                    memcpy(fz, pz, (size_t)n2 * sizeof(double));
-                }
-                goto tables_done;
-            }
+            size_t at[3];
+            packed_tables(packed, at, cslot, count, es, gx, gw, G, inv2w2, factor == 2 ? fx : NULL, fy, fz);
+            if (factor == 2) goto tables_done;
             for (int s = 0; s < 2; ++s) {
                 double *restrict dst = ex_all + (s == 0 ? 0 : (size_t)G * n0);
                 const double *restrict src = packed + at[s];
@@ -1127,20 +1199,8 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         cg_exp_in_place(ex_all, (cg_index)n_padded);
     }
 tables_done:;
-    /* hybrid: squared distances of the nodes to the two ends, per slot */
-    double *endA[3] = {NULL, NULL, NULL}, *endB[3] = {NULL, NULL, NULL};
+    /* hybrid: the rows' q.e along slot 2 (the ends' tables: with the coordinates above) */
     if (hybrid) {
-        double *p = buf + 2 * (size_t)G * per_table + EXP_PAD;
-        for (int s = 0; s < 3; ++s) {
-            endA[s] = p;
-            endB[s] = p + count[s];
-            p += 2 * count[s];
-            for (cg_index k = 0; k < count[s]; ++k) {
-                const double qa = cslot[s][k], qb = cslot[s][k] - es[s];
-                endA[s][k] = qa * qa;
-                endB[s][k] = qb * qb;
-            }
-        }
         for (cg_index k = 0; k < n2; ++k) pz[k] = cslot[2][k] * es[2];
         for (cg_index k = n2; k < n2 + ROW_PAD; ++k) pz[k] = 0.0;
     }
