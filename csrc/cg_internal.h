@@ -483,6 +483,12 @@ int cg_visit_separable_wide(const job *jb, double *out, scratch *sc, cg_index ob
                             double scale);
 #endif
 int cg_separable_wide_available(void);
+/* The exact Gaussian's segment rule (cg_gaussian_roundoff_points) is exact to
+   round-off relative to the kernel's peak; relative to a node's own value it
+   keeps 1e-14 up to 4.25 w beyond an end (every rule, all its lengths;
+   measured against mpmath). Nodes farther than this many w beyond an end go
+   to the closed form (cg_separable.c, cg_profile.c). */
+#define CG_GAUSS_FAR_BEYOND_END 4.0
 /* cg_separable.c's erfcx for the closed form's lanes, x[i] and z[i] in place
    (n a multiple of 4; may_exceed: some argument may exceed 4), for
    cg_profile.c's blocks: the cut nodes' bits */

@@ -536,7 +536,7 @@ static int pad_lanes(int n, double *a, double *b, double *c, double *d)
    one term of each object: the segment's Gauss-Legendre rule
    (cg_gaussian_roundoff_points: the tables' exp(-(q - x_g e)^2 / 2w^2)
    summed with the weights times the prefactor, the slots' factor exp(-0) = 1)
-   at the nodes whose ball holds both ends, near enough to them (FAR_BEYOND_END);
+   at the nodes whose ball holds both ends, near enough to them (CG_GAUSS_FAR_BEYOND_END);
    the closed form in tails (erfcx, cut_batch_flush's lanes, a short
    Gauss-Legendre rule where it would cancel) at the other nodes of the capsule;
    nothing at a segment of length 0 along the axis there (those of length +-0
@@ -545,8 +545,6 @@ static int pad_lanes(int n, double *a, double *b, double *c, double *d)
    node-by-node erf form) take the closed form at all their nodes: the same
    integral, to round-off relative to each value. */
 
-/* cg_separable.c's FAR_BEYOND_END: nodes farther beyond an end (in w) take the closed form */
-#define GAUSS_FAR_BEYOND_END 4.0
 /* lanes of the rule and of the closed form evaluated at a time (whole vectors) */
 #define GAUSS_RULE_CHUNK 64
 #define GAUSS_CUT_CHUNK 128
@@ -569,8 +567,8 @@ INLINE void gauss_routes_body(int count, const double *restrict q, const double 
         const double sa = 0.0 + q[i] * q[i], sb = 0.0 + qb * qb, p = 0.0 + q[i] * ez[i];
         const int cyl = (sa - (p * p) * inv_L2 < R2_cyl) & (p >= 0.0) & (p <= L2);
         const int cand = (sa < R2_margin) | (sb < R2_margin) | cyl;
-        const int far_check = R - L > GAUSS_FAR_BEYOND_END * w;
-        const double far_lo = -GAUSS_FAR_BEYOND_END * w * L, far_hi = L2 + GAUSS_FAR_BEYOND_END * w * L;
+        const int far_check = R - L > CG_GAUSS_FAR_BEYOND_END * w;
+        const double far_lo = -CG_GAUSS_FAR_BEYOND_END * w * L, far_hi = L2 + CG_GAUSS_FAR_BEYOND_END * w * L;
         const int near = (far_check == 0) | ((p >= far_lo) & (p <= far_hi));
         const int in = (points[i] > 0.0) & (sa < R2) & (sb < R2) & near;
         rule[i] = in ? 1.0 : 0.0;

@@ -328,11 +328,8 @@ INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n, 
 #endif
 }
 
-/* The segment's rule (cg_gaussian_roundoff_points) is exact to round-off
-   relative to the kernel's peak; relative to a node's own value it keeps 1e-14
-   up to 4.25 w beyond an end (every rule, all its lengths; measured against
-   mpmath). Nodes farther beyond an end go to the closed form. */
-#define FAR_BEYOND_END 4.0
+/* nodes farther than this many w beyond an end go to the closed form (cg_internal.h) */
+#define FAR_BEYOND_END CG_GAUSS_FAR_BEYOND_END
 
 /* Nodes evaluated by the closed form (cut_batch_flush): those whose
    ball the segment leaves ("cut" nodes), and those too far beyond an end for
@@ -471,7 +468,10 @@ INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, const double *e, dou
     *is_short = (span > zero) & ~(SPLAT(16.0) * v >= largest);
 }
 #else
-/* the lanes of a batch: the part [t0, t1] of the segment inside each node's
+/* (cg_profile.c's gauss_cut_lanes_body and gauss_cut_values_body are this and
+   cut_values for one resolved axis, a segment per lane, with the same bits:
+   test_profile_rows.py's test_gaussian_segments compares them; change both.)
+   the lanes of a batch: the part [t0, t1] of the segment inside each node's
    ball (as s0 - u and span, in units of the segment) and the arguments of the
    closed form: e0, e1, ea the exponents at the two ends and at the foot, c0,
    c1 the ends' |x| (erfcx's arguments). Loops of this shape are vectorised. */
