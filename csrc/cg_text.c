@@ -461,6 +461,194 @@ static inline const unsigned char *fast_int(const unsigned char *p, const unsign
     return scalar_int(p, end, value);
 }
 
+#ifdef CG_TEXT_SWAR
+/*
+ * The row path: rows of the usual shape parsed with no range check per byte. It runs only on tokens that
+ * start at least QUICK_MARGIN bytes before the range's end, and a token parser reads at most QUICK_READ
+ * bytes from the token's start (bounded digit runs: longer tokens go to the reference path), so every read
+ * is inside the range. Anything unusual (a '+' sign, 16+ integer digits, 24+ fraction digits, 4+ exponent
+ * digits, nan/inf, malformed text, blank lines, a row of the wrong length) makes the row return NULL, and
+ * the general loop parses that row again from its start: errors and nan/inf counts come only from there.
+ */
+#define QUICK_READ 48
+#define QUICK_MARGIN 64
+
+/* the value of the digits of v before its first non-digit byte nd (!= 0), and their number in *k */
+static inline uint64_t word_digits(uint64_t v, uint64_t nd, unsigned *k)
+{
+    *k = leading_digits(nd);
+    return digits_value(v, *k);
+}
+
+static inline const unsigned char *quick_exponent(const unsigned char *p, uint64_t man, int64_t exp10,
+                                                  int64_t ndigits, int neg, const unsigned char *digits,
+                                                  double *value);
+
+/* [-]?digits[.digits]?([eE][+-]?digits)? ended by a non-token byte; reads [p, p + QUICK_READ) only:
+   sign 1, integer part <= 16, '.' 1, fraction <= 24, exponent <= 5, the end byte 1 */
+static inline const unsigned char *quick_double(const unsigned char *p, double *value)
+{
+    const int neg = *p == '-';
+    p += neg;
+    const unsigned char *digits = p;
+    if (is_digit(p[0])) {
+        if (byte_class[p[1]] != TOKEN) { /* one digit alone: the 0s and 1s of unused columns */
+            const double v = (double)(p[0] - '0');
+            *value = neg ? -v : v;
+            return p + 1;
+        }
+        if (p[1] == '.') { /* d.ddd: the digit and 7 of the fraction as one word (the '.' replaced) */
+            uint64_t w = (load8(p + 1) & ~(uint64_t)0xFF) | (uint64_t)p[0], man;
+            uint64_t nd = nondigit_bytes(w);
+            unsigned k;
+            p += 1;
+            if (!nd) {
+                man = digits_value(w, 8);
+                p += 8;
+                w = load8(p);
+                nd = nondigit_bytes(w);
+                if (!nd) {
+                    man = man * 100000000u + digits_value(w, 8);
+                    p += 8;
+                    w = load8(p);
+                    nd = nondigit_bytes(w);
+                    if (!nd) return NULL;
+                }
+                man = man * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
+                p += k;
+            } else {
+                man = word_digits(w, nd, &k);
+                p += k;
+            }
+            /* p: after the fraction's digits; digits + 1 is the '.' */
+            return quick_exponent(p, man, -(p - (digits + 2)), p - digits - 1, neg, digits, value);
+        }
+    }
+    uint64_t w = load8(p), nd = nondigit_bytes(w), man;
+    unsigned k;
+    if (nd) {
+        man = word_digits(w, nd, &k);
+        p += k;
+    } else { /* 8 integer digits or more */
+        man = digits_value(w, 8);
+        w = load8(p + 8);
+        nd = nondigit_bytes(w);
+        if (!nd) return NULL;
+        man = man * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
+        p += 8 + k;
+    }
+    int64_t ndigits = p - digits, exp10 = 0;
+    if (*p == '.') {
+        const unsigned char *fraction = ++p;
+        w = load8(p);
+        nd = nondigit_bytes(w);
+        if (!nd) {
+            man = man * 100000000u + digits_value(w, 8);
+            p += 8;
+            w = load8(p);
+            nd = nondigit_bytes(w);
+            if (!nd) {
+                man = man * 100000000u + digits_value(w, 8); /* may wrap: decide_double counts the digits */
+                p += 8;
+                w = load8(p);
+                nd = nondigit_bytes(w);
+                if (!nd) return NULL;
+            }
+        }
+        man = man * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
+        p += k;
+        exp10 = fraction - p;
+        ndigits += p - fraction;
+    }
+    if (ndigits == 0) return NULL;
+    return quick_exponent(p, man, exp10, ndigits, neg, digits, value);
+}
+
+/* the end of quick_double from the byte after the mantissa's digits: an exponent of 1 to 3 digits, the token's
+   end, the value */
+static inline const unsigned char *quick_exponent(const unsigned char *p, uint64_t man, int64_t exp10,
+                                                  int64_t ndigits, int neg, const unsigned char *digits,
+                                                  double *value)
+{
+    if ((*p | 0x20) == 'e') {
+        ++p;
+        const int eneg = *p == '-';
+        p += (*p == '-') | (*p == '+');
+        if (!is_digit(*p)) return NULL;
+        int64_t e = *p++ - '0';
+        if (is_digit(*p)) {
+            e = e * 10 + (*p++ - '0');
+            if (is_digit(*p)) {
+                e = e * 10 + (*p++ - '0');
+                if (is_digit(*p)) return NULL;
+            }
+        }
+        exp10 += eneg ? -e : e;
+    }
+    if (byte_class[*p] == TOKEN) return NULL;
+    return decide_double(man, exp10, ndigits, neg, digits, p, value);
+}
+
+/* [-]?digits with at most 15 digits ended by a non-token byte; reads [p, p + 17] only */
+static inline const unsigned char *quick_int(const unsigned char *p, int64_t *value)
+{
+    const int neg = *p == '-';
+    p += neg;
+    uint64_t w = load8(p), nd = nondigit_bytes(w), x;
+    unsigned k;
+    if (nd) {
+        x = word_digits(w, nd, &k);
+        if (k == 0) return NULL;
+        p += k;
+    } else {
+        x = digits_value(w, 8);
+        w = load8(p + 8);
+        nd = nondigit_bytes(w);
+        if (!nd) return NULL;
+        x = x * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
+        p += 8 + k;
+    }
+    if (byte_class[*p] == TOKEN) return NULL;
+    *value = neg ? -(int64_t)x : (int64_t)x;
+    return p;
+}
+
+/*
+ * One row from p (a line start at least QUICK_MARGIN bytes before end): ncols tokens (kinds[c]: 1 integer
+ * column) separated by runs of separators, the line ended by '\n' (trailing separators allowed). Returns
+ * the start of the next line with vrow and irow filled, or NULL (see above; the row may be partly written).
+ */
+static const unsigned char *quick_row(const unsigned char *p, const unsigned char *end, int64_t ncols,
+                                      const unsigned char *kinds, double *vrow, int64_t *irow)
+{
+    const unsigned char *limit = end - QUICK_MARGIN;
+    for (int64_t c = 0;;) {
+        if (p > limit) return NULL;
+        const unsigned char *q;
+        if (kinds[c]) {
+            int64_t iv;
+            q = quick_int(p, &iv);
+            if (q) {
+                *irow++ = iv;
+                vrow[c] = (double)iv;
+            }
+        } else {
+            q = quick_double(p, &vrow[c]);
+        }
+        if (!q) { /* not a token start: more separators (then parse again), or the reference path */
+            if (byte_class[*p] != SPACE) return NULL;
+            while (p < end && byte_class[*p] == SPACE) ++p;
+            continue;
+        }
+        p = q; /* a separator or '\n' */
+        if (++c == ncols) break;
+        if (*p++ == '\n') return NULL; /* too few tokens */
+    }
+    while (p < end && byte_class[*p] == SPACE) ++p;
+    return p < end && *p == '\n' ? p + 1 : NULL;
+}
+#endif
+
 cg_status cg_text_parse_double(const char *token, size_t length, double *value)
 {
     if (!token || !value) return CG_ERR_ARGUMENT;
@@ -537,7 +725,28 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
 
     const unsigned char *base = (const unsigned char *)text, *p = base, *end = base + length;
     int64_t line = 0, row = 0;
+#ifdef CG_TEXT_SWAR
+    /* the row path (quick_row) for tables of up to 256 columns, on lines that start QUICK_MARGIN bytes or
+       more before the end */
+    unsigned char kinds[256];
+    const int quick = ncols <= 256 && length > QUICK_MARGIN;
+    if (quick)
+        for (int64_t c = 0; c < ncols; ++c) kinds[c] = int_columns && int_columns[c];
+    const unsigned char *quick_end = quick ? end - QUICK_MARGIN : base;
+#endif
     while (p < end) {
+#ifdef CG_TEXT_SWAR
+        if (p < quick_end && row < max_rows) {
+            const unsigned char *q = quick_row(p, end, ncols, kinds, values + row * ncols,
+                                               n_int ? ints + row * n_int : NULL);
+            if (q) {
+                p = q;
+                ++line;
+                if (++row == max_rows && (flags & CG_TEXT_STOP_AT_MAX_ROWS)) break;
+                continue;
+            }
+        }
+#endif
         const unsigned char *line_start = p;
         while (p < end && byte_class[*p] == SPACE) ++p;
         if (p == end || *p == '\n') { /* a line without tokens (p == end: separators after the last line end) */
