@@ -328,6 +328,9 @@ static inline const unsigned char *scan_digits(const unsigned char *p, const uns
  * cases, subnormals, overflow). Both paths are correctly rounded, so the
  * value is the same.
  */
+static inline const unsigned char *decide_value(uint64_t man, int64_t exp10, int neg, const unsigned char *p,
+                                                double *value);
+
 static inline const unsigned char *decide_double(uint64_t man, int64_t exp10, int64_t ndigits, int neg,
                                                  const unsigned char *digits, const unsigned char *p, double *value)
 {
@@ -336,6 +339,13 @@ static inline const unsigned char *decide_double(uint64_t man, int64_t exp10, in
         for (; q < p && (*q == '0' || *q == '.'); ++q) ndigits -= *q == '0';
         if (ndigits > 19) return NULL;
     }
+    return decide_value(man, exp10, neg, p, value);
+}
+
+/* decide_double for a mantissa known to hold at most 19 significant digits (so man did not wrap) */
+static inline const unsigned char *decide_value(uint64_t man, int64_t exp10, int neg, const unsigned char *p,
+                                                double *value)
+{
     if (man == 0) {
         *value = neg ? -0.0 : 0.0;
         return p;
@@ -463,15 +473,20 @@ static inline const unsigned char *fast_int(const unsigned char *p, const unsign
 
 #ifdef CG_TEXT_SWAR
 /*
- * The row path: rows of the usual shape parsed with no range check per byte. It runs only on tokens that
- * start at least QUICK_MARGIN bytes before the range's end, and a token parser reads at most QUICK_READ
- * bytes from the token's start (bounded digit runs: longer tokens go to the reference path), so every read
- * is inside the range. Anything unusual (a '+' sign, 16+ integer digits, 24+ fraction digits, 4+ exponent
+ * The row path: rows of the usual shape parsed with no range check per byte. A token parser reads at most
+ * QUICK_READ bytes from the token's start (digit runs are bounded: longer tokens go to the reference path)
+ * and a token it accepts ends, with the byte after it, inside them; so with one separator between tokens
+ * the c-th token starts within c * QUICK_READ bytes of the line's start, and a row is taken only if
+ * ncols * QUICK_READ bytes remain (after a run of separators, the same for the columns left). Anything
+ * unusual (a '+' sign, 16+ integer digits, 24+ fraction digits, 4+ exponent digits, 20+ significant
  * digits, nan/inf, malformed text, blank lines, a row of the wrong length) makes the row return NULL, and
  * the general loop parses that row again from its start: errors and nan/inf counts come only from there.
  */
 #define QUICK_READ 48
-#define QUICK_MARGIN 64
+
+/* the bytes that may follow a token: a separator (columns before the last), a separator or '\n' (the last) */
+static const unsigned char after_mid[256] = {['\t'] = 1, ['\v'] = 1, ['\f'] = 1, ['\r'] = 1, [' '] = 1};
+static const unsigned char after_last[256] = {['\t'] = 1, ['\n'] = 1, ['\v'] = 1, ['\f'] = 1, ['\r'] = 1, [' '] = 1};
 
 /* the value of the digits of v before its first non-digit byte nd (!= 0), and their number in *k */
 static inline uint64_t word_digits(uint64_t v, uint64_t nd, unsigned *k)
@@ -480,35 +495,55 @@ static inline uint64_t word_digits(uint64_t v, uint64_t nd, unsigned *k)
     return digits_value(v, *k);
 }
 
-static inline const unsigned char *quick_exponent(const unsigned char *p, uint64_t man, int64_t exp10,
-                                                  int64_t ndigits, int neg, const unsigned char *digits,
-                                                  double *value);
-
-/* [-]?digits[.digits]?([eE][+-]?digits)? ended by a non-token byte; reads [p, p + QUICK_READ) only:
-   sign 1, integer part <= 16, '.' 1, fraction <= 24, exponent <= 5, the end byte 1 */
-static inline const unsigned char *quick_double(const unsigned char *p, double *value)
+/* the end of quick_double from the byte after the mantissa's digits (at most 19 significant): an exponent of 1
+   to 3 digits, the byte after the token (one of after), the value */
+static inline const unsigned char *quick_exponent(const unsigned char *p, const unsigned char *after, uint64_t man,
+                                                  int64_t exp10, int neg, double *value)
 {
-    const int neg = *p == '-';
-    p += neg;
-    const unsigned char *digits = p;
-    if (is_digit(p[0])) {
-        if (byte_class[p[1]] != TOKEN) { /* one digit alone: the 0s and 1s of unused columns */
-            const double v = (double)(p[0] - '0');
-            *value = neg ? -v : v;
-            return p + 1;
+    if ((*p | 0x20) == 'e') {
+        ++p;
+        const int eneg = *p == '-';
+        p += (*p == '-') | (*p == '+');
+        if (!is_digit(*p)) return NULL;
+        int64_t e = *p++ - '0';
+        if (is_digit(*p)) {
+            e = e * 10 + (*p++ - '0');
+            if (is_digit(*p)) {
+                e = e * 10 + (*p++ - '0');
+                if (is_digit(*p)) return NULL;
+            }
         }
+        exp10 += eneg ? -e : e;
+    }
+    if (!after[*p]) return NULL;
+    return decide_value(man, exp10, neg, p, value);
+}
+
+/* [-]?digits[.digits]?([eE][+-]?digits)? followed by a byte of after; returns that byte's address. p: after
+   the sign, neg: whether it was '-'; not a digit followed by a byte of after (the row loop takes those). Reads
+   [p - 1, p - 1 + QUICK_READ) only: sign 1, integer part <= 16, '.' 1, fraction <= 24, exponent <= 5, the byte
+   after 1 */
+static inline const unsigned char *quick_double(const unsigned char *p, int neg, const unsigned char *after,
+                                                double *value)
+{
+    const unsigned char *digits = p;
+    uint64_t w, nd, man;
+    unsigned k;
+    if (is_digit(p[0])) {
         if (p[1] == '.') { /* d.ddd: the digit and 7 of the fraction as one word (the '.' replaced) */
-            uint64_t w = (load8(p + 1) & ~(uint64_t)0xFF) | (uint64_t)p[0], man;
-            uint64_t nd = nondigit_bytes(w);
-            unsigned k;
-            p += 1;
-            if (!nd) {
-                man = digits_value(w, 8);
+            const uint64_t first = (load8(p + 1) & ~(uint64_t)0xFF) | (uint64_t)p[0];
+            nd = nondigit_bytes(first);
+            ++p;
+            if (nd) {
+                man = word_digits(first, nd, &k);
+                p += k;
+            } else {
+                man = digits_value(first, 8);
                 p += 8;
                 w = load8(p);
                 nd = nondigit_bytes(w);
                 if (!nd) {
-                    man = man * 100000000u + digits_value(w, 8);
+                    man = man * 100000000u + digits_value(w, 8); /* may wrap: the digits are counted below */
                     p += 8;
                     w = load8(p);
                     nd = nondigit_bytes(w);
@@ -516,16 +551,16 @@ static inline const unsigned char *quick_double(const unsigned char *p, double *
                 }
                 man = man * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
                 p += k;
-            } else {
-                man = word_digits(w, nd, &k);
-                p += k;
+                /* p - digits - 1 digits, the leading zeros among them those first starts with (up to 7) */
+                if (p - digits - 1 > 19 &&
+                    p - digits - 1 - (int64_t)(__builtin_ctzll((first ^ 0x3030303030303030ULL) | (1ULL << 63)) >> 3) > 19)
+                    return NULL;
             }
-            /* p: after the fraction's digits; digits + 1 is the '.' */
-            return quick_exponent(p, man, -(p - (digits + 2)), p - digits - 1, neg, digits, value);
+            return quick_exponent(p, after, man, digits + 2 - p, neg, value);
         }
     }
-    uint64_t w = load8(p), nd = nondigit_bytes(w), man;
-    unsigned k;
+    w = load8(p);
+    nd = nondigit_bytes(w);
     if (nd) {
         man = word_digits(w, nd, &k);
         p += k;
@@ -548,7 +583,7 @@ static inline const unsigned char *quick_double(const unsigned char *p, double *
             w = load8(p);
             nd = nondigit_bytes(w);
             if (!nd) {
-                man = man * 100000000u + digits_value(w, 8); /* may wrap: decide_double counts the digits */
+                man = man * 100000000u + digits_value(w, 8); /* may wrap: the digits are counted below */
                 p += 8;
                 w = load8(p);
                 nd = nondigit_bytes(w);
@@ -561,36 +596,15 @@ static inline const unsigned char *quick_double(const unsigned char *p, double *
         ndigits += p - fraction;
     }
     if (ndigits == 0) return NULL;
-    return quick_exponent(p, man, exp10, ndigits, neg, digits, value);
-}
-
-/* the end of quick_double from the byte after the mantissa's digits: an exponent of 1 to 3 digits, the token's
-   end, the value */
-static inline const unsigned char *quick_exponent(const unsigned char *p, uint64_t man, int64_t exp10,
-                                                  int64_t ndigits, int neg, const unsigned char *digits,
-                                                  double *value)
-{
-    if ((*p | 0x20) == 'e') {
-        ++p;
-        const int eneg = *p == '-';
-        p += (*p == '-') | (*p == '+');
-        if (!is_digit(*p)) return NULL;
-        int64_t e = *p++ - '0';
-        if (is_digit(*p)) {
-            e = e * 10 + (*p++ - '0');
-            if (is_digit(*p)) {
-                e = e * 10 + (*p++ - '0');
-                if (is_digit(*p)) return NULL;
-            }
-        }
-        exp10 += eneg ? -e : e;
+    if (ndigits > 19) { /* leading zeros count as digits but add no value */
+        for (const unsigned char *q = digits; q < p && (*q == '0' || *q == '.'); ++q) ndigits -= *q == '0';
+        if (ndigits > 19) return NULL;
     }
-    if (byte_class[*p] == TOKEN) return NULL;
-    return decide_double(man, exp10, ndigits, neg, digits, p, value);
+    return quick_exponent(p, after, man, exp10, neg, value);
 }
 
-/* [-]?digits with at most 15 digits ended by a non-token byte; reads [p, p + 17] only */
-static inline const unsigned char *quick_int(const unsigned char *p, int64_t *value)
+/* [-]?digits with at most 15 digits followed by a byte of after; reads [p, p + 17] only */
+static inline const unsigned char *quick_int(const unsigned char *p, const unsigned char *after, int64_t *value)
 {
     const int neg = *p == '-';
     p += neg;
@@ -608,42 +622,67 @@ static inline const unsigned char *quick_int(const unsigned char *p, int64_t *va
         x = x * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
         p += 8 + k;
     }
-    if (byte_class[*p] == TOKEN) return NULL;
+    if (!after[*p]) return NULL;
     *value = neg ? -(int64_t)x : (int64_t)x;
     return p;
 }
 
 /*
- * One row from p (a line start at least QUICK_MARGIN bytes before end): ncols tokens (kinds[c]: 1 integer
- * column) separated by runs of separators, the line ended by '\n' (trailing separators allowed). Returns
- * the start of the next line with vrow and irow filled, or NULL (see above; the row may be partly written).
+ * One row from p (a line start with at least ncols * QUICK_READ bytes to end): ncols tokens (kinds[c]: 1
+ * for an integer column) separated by runs of separators, the line ended by '\n' (trailing separators
+ * allowed). run[c]: how many float columns from c on may be taken as a block of one-digit tokens each
+ * followed by ' ' (not the last column). Returns the start of the next line with vrow and irow filled, or
+ * NULL (see above; the row may be partly written).
  */
 static const unsigned char *quick_row(const unsigned char *p, const unsigned char *end, int64_t ncols,
-                                      const unsigned char *kinds, double *vrow, int64_t *irow)
+                                      const unsigned char *kinds, const unsigned char *run, double *vrow,
+                                      int64_t *irow)
 {
-    const unsigned char *limit = end - QUICK_MARGIN;
-    for (int64_t c = 0;;) {
-        if (p > limit) return NULL;
-        const unsigned char *q;
+    const int64_t last = ncols - 1;
+    for (int64_t c = 0; c < ncols;) {
+        const unsigned char *after = c < last ? after_mid : after_last, *q;
         if (kinds[c]) {
             int64_t iv;
-            q = quick_int(p, &iv);
+            q = quick_int(p, after, &iv);
             if (q) {
                 *irow++ = iv;
                 vrow[c] = (double)iv;
             }
         } else {
-            q = quick_double(p, &vrow[c]);
+            const int neg = *p == '-';
+            const unsigned char *s = p + neg;
+            if (is_digit(s[0]) && after[s[1]]) { /* one digit alone: the 0s and 1s of unused columns */
+                if (run[c] && s[1] == ' ' && !neg) {
+                    /* n tokens "d " (1 to 4) from one word: the first byte that does not fit ("d" <= 9 or
+                       " " == 0 after the xor) has its high bit set */
+                    const uint64_t t = load8(p) ^ 0x2030203020302030ULL;
+                    const uint64_t misfit =
+                        (((t & 0x7F7F7F7F7F7F7F7FULL) + 0x7F767F767F767F76ULL) | t) & 0x8080808080808080ULL;
+                    unsigned n = misfit ? (unsigned)__builtin_ctzll(misfit) >> 4 : 4;
+                    if (n > run[c]) n = run[c];
+                    for (unsigned i = 0; i < n; ++i) vrow[c + i] = (double)(p[2 * i] - '0');
+                    p += 2 * n;
+                    c += n;
+                    continue;
+                }
+                const double v = (double)(s[0] - '0');
+                vrow[c] = neg ? -v : v;
+                q = s + 1;
+            } else {
+                q = quick_double(s, neg, after, &vrow[c]);
+            }
         }
         if (!q) { /* not a token start: more separators (then parse again), or the reference path */
             if (byte_class[*p] != SPACE) return NULL;
             while (p < end && byte_class[*p] == SPACE) ++p;
+            if (end - p < (ncols - c) * QUICK_READ) return NULL;
             continue;
         }
-        p = q; /* a separator or '\n' */
-        if (++c == ncols) break;
-        if (*p++ == '\n') return NULL; /* too few tokens */
+        p = q + 1;
+        ++c;
     }
+    if (p[-1] == '\n') return p;
+    --p; /* trailing separators */
     while (p < end && byte_class[*p] == SPACE) ++p;
     return p < end && *p == '\n' ? p + 1 : NULL;
 }
@@ -726,18 +765,21 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
     const unsigned char *base = (const unsigned char *)text, *p = base, *end = base + length;
     int64_t line = 0, row = 0;
 #ifdef CG_TEXT_SWAR
-    /* the row path (quick_row) for tables of up to 256 columns, on lines that start QUICK_MARGIN bytes or
-       more before the end */
-    unsigned char kinds[256];
-    const int quick = ncols <= 256 && length > QUICK_MARGIN;
+    /* the row path (quick_row) for tables of up to 256 columns, on lines with ncols * QUICK_READ bytes or more
+       to the end */
+    unsigned char kinds[256], run[256];
+    const int quick = ncols <= 256 && length > (size_t)ncols * QUICK_READ;
     if (quick)
-        for (int64_t c = 0; c < ncols; ++c) kinds[c] = int_columns && int_columns[c];
-    const unsigned char *quick_end = quick ? end - QUICK_MARGIN : base;
+        for (int64_t c = ncols - 1; c >= 0; --c) {
+            kinds[c] = int_columns && int_columns[c];
+            run[c] = c == ncols - 1 || kinds[c] ? 0 : (unsigned char)(run[c + 1] < 4 ? run[c + 1] + 1 : 4);
+        }
+    const unsigned char *quick_end = quick ? end - ncols * QUICK_READ : base; /* the last line start taken */
 #endif
     while (p < end) {
 #ifdef CG_TEXT_SWAR
-        if (p < quick_end && row < max_rows) {
-            const unsigned char *q = quick_row(p, end, ncols, kinds, values + row * ncols,
+        if (quick && p <= quick_end && row < max_rows) {
+            const unsigned char *q = quick_row(p, end, ncols, kinds, run, values + row * ncols,
                                                n_int ? ints + row * n_int : NULL);
             if (q) {
                 p = q;
