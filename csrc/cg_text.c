@@ -483,6 +483,11 @@ static inline const unsigned char *fast_int(const unsigned char *p, const unsign
  * the general loop parses that row again from its start: errors and nan/inf counts come only from there.
  */
 #define QUICK_READ 48
+#if defined(__GNUC__)
+#define QUICK_INLINE static inline __attribute__((always_inline)) /* one copy per column kind and end table */
+#else
+#define QUICK_INLINE static inline
+#endif
 
 /* the bytes that may follow a token: a separator (columns before the last), a separator or '\n' (the last) */
 static const unsigned char after_mid[256] = {['\t'] = 1, ['\v'] = 1, ['\f'] = 1, ['\r'] = 1, [' '] = 1};
@@ -523,7 +528,7 @@ static inline const unsigned char *quick_exponent(const unsigned char *p, const 
    the sign, neg: whether it was '-'; not a digit followed by a byte of after (the row loop takes those). Reads
    [p - 1, p - 1 + QUICK_READ) only: sign 1, integer part <= 16, '.' 1, fraction <= 24, exponent <= 5, the byte
    after 1 */
-static inline const unsigned char *quick_double(const unsigned char *p, int neg, const unsigned char *after,
+QUICK_INLINE const unsigned char *quick_double(const unsigned char *p, int neg, const unsigned char *after,
                                                 double *value)
 {
     const unsigned char *digits = p;
@@ -628,6 +633,58 @@ static inline const unsigned char *quick_int(const unsigned char *p, const unsig
 }
 
 /*
+ * One column of a row (or a block of one-digit ones) from p, the column *c: returns the address after the
+ * byte that follows its last token with *c advanced, or after a run of separators with *c unchanged (the
+ * column is parsed again from there), or NULL. after: the bytes that may follow a token (after_mid: *c is
+ * not the last column).
+ */
+QUICK_INLINE const unsigned char *quick_column(const unsigned char *p, const unsigned char *end, int64_t *c,
+                                                int64_t ncols, const unsigned char *kinds, const unsigned char *run,
+                                                double *vrow, int64_t **irow, const unsigned char *after)
+{
+    const int64_t col = *c;
+    const unsigned char *q;
+    if (kinds[col]) {
+        int64_t iv;
+        q = quick_int(p, after, &iv);
+        if (q) {
+            *(*irow)++ = iv;
+            vrow[col] = (double)iv;
+        }
+    } else {
+        const int neg = *p == '-';
+        const unsigned char *s = p + neg;
+        if (is_digit(s[0]) && after[s[1]]) { /* one digit alone: the 0s and 1s of unused columns */
+            if (run[col] && s[1] == ' ' && !neg) {
+                /* n tokens "d " (1 to 4) from one word: the first byte that does not fit ("d" <= 9 or
+                   " " == 0 after the xor) has its high bit set */
+                const uint64_t t = load8(p) ^ 0x2030203020302030ULL;
+                const uint64_t misfit =
+                    (((t & 0x7F7F7F7F7F7F7F7FULL) + 0x7F767F767F767F76ULL) | t) & 0x8080808080808080ULL;
+                unsigned n = misfit ? (unsigned)__builtin_ctzll(misfit) >> 4 : 4;
+                if (n > run[col]) n = run[col];
+                for (unsigned i = 0; i < n; ++i) vrow[col + i] = (double)(p[2 * i] - '0');
+                *c = col + n;
+                return p + 2 * n;
+            }
+            const double v = (double)(s[0] - '0');
+            vrow[col] = neg ? -v : v;
+            q = s + 1;
+        } else {
+            q = quick_double(s, neg, after, &vrow[col]);
+        }
+    }
+    if (q) {
+        *c = col + 1;
+        return q + 1;
+    }
+    /* not a token start: more separators, or the reference path */
+    if (byte_class[*p] != SPACE) return NULL;
+    while (p < end && byte_class[*p] == SPACE) ++p;
+    return end - p < (ncols - col) * QUICK_READ ? NULL : p;
+}
+
+/*
  * One row from p (a line start with at least ncols * QUICK_READ bytes to end): ncols tokens (kinds[c]: 1
  * for an integer column) separated by runs of separators, the line ended by '\n' (trailing separators
  * allowed). run[c]: how many float columns from c on may be taken as a block of one-digit tokens each
@@ -639,48 +696,11 @@ static const unsigned char *quick_row(const unsigned char *p, const unsigned cha
                                       int64_t *irow)
 {
     const int64_t last = ncols - 1;
-    for (int64_t c = 0; c < ncols;) {
-        const unsigned char *after = c < last ? after_mid : after_last, *q;
-        if (kinds[c]) {
-            int64_t iv;
-            q = quick_int(p, after, &iv);
-            if (q) {
-                *irow++ = iv;
-                vrow[c] = (double)iv;
-            }
-        } else {
-            const int neg = *p == '-';
-            const unsigned char *s = p + neg;
-            if (is_digit(s[0]) && after[s[1]]) { /* one digit alone: the 0s and 1s of unused columns */
-                if (run[c] && s[1] == ' ' && !neg) {
-                    /* n tokens "d " (1 to 4) from one word: the first byte that does not fit ("d" <= 9 or
-                       " " == 0 after the xor) has its high bit set */
-                    const uint64_t t = load8(p) ^ 0x2030203020302030ULL;
-                    const uint64_t misfit =
-                        (((t & 0x7F7F7F7F7F7F7F7FULL) + 0x7F767F767F767F76ULL) | t) & 0x8080808080808080ULL;
-                    unsigned n = misfit ? (unsigned)__builtin_ctzll(misfit) >> 4 : 4;
-                    if (n > run[c]) n = run[c];
-                    for (unsigned i = 0; i < n; ++i) vrow[c + i] = (double)(p[2 * i] - '0');
-                    p += 2 * n;
-                    c += n;
-                    continue;
-                }
-                const double v = (double)(s[0] - '0');
-                vrow[c] = neg ? -v : v;
-                q = s + 1;
-            } else {
-                q = quick_double(s, neg, after, &vrow[c]);
-            }
-        }
-        if (!q) { /* not a token start: more separators (then parse again), or the reference path */
-            if (byte_class[*p] != SPACE) return NULL;
-            while (p < end && byte_class[*p] == SPACE) ++p;
-            if (end - p < (ncols - c) * QUICK_READ) return NULL;
-            continue;
-        }
-        p = q + 1;
-        ++c;
-    }
+    int64_t c = 0;
+    while (c < last)
+        if (!(p = quick_column(p, end, &c, ncols, kinds, run, vrow, &irow, after_mid))) return NULL;
+    while (c == last)
+        if (!(p = quick_column(p, end, &c, ncols, kinds, run, vrow, &irow, after_last))) return NULL;
     if (p[-1] == '\n') return p;
     --p; /* trailing separators */
     while (p < end && byte_class[*p] == SPACE) ++p;
