@@ -209,3 +209,120 @@ def test_threaded_line_count(lines):
         expected = text.count(b"\n") + (not text.endswith(b"\n"))
         assert [_text.count_lines(text, threads=t) for t in (1, 2, 3, None)] == [expected] * 4
         assert _text.count_lines(text, 5, len(text) - 3, threads=2) == _text.count_lines(text[5:-3])
+
+
+# ------------------------------------------------------------------------------------------------
+# the row path (quick_row in cg_text.c): rows that start ncols * 48 bytes or more before the range's end
+# are parsed without per-byte range checks; anything unusual is parsed again by the general loop
+
+def row_path_token(rng, integer=False):
+    """A token as engines write them, or one of the edge cases of the row path's word arithmetic."""
+    if integer:
+        return rng.choice(["0", "-0", "7", "-1", "+7", "007", str(rng.randint(0, 10 ** rng.randint(1, 15))),
+                           str(-rng.randint(0, 10 ** 15)), str(rng.randint(10 ** 15, 2 ** 63 - 1)),
+                           "-9223372036854775808", "9223372036854775807"])
+    kind = rng.random()
+    if kind < 0.25:  # the one-digit tokens of unused columns, in runs
+        return rng.choice(["0", "0", "0", "1", "-1", "-0", "9"])
+    if kind < 0.55:
+        x = rng.uniform(-1, 1) * 10.0 ** rng.randint(-8, 8)
+        return rng.choice([f"{x:.17g}", repr(x), f"{x:g}", f"{x:.6e}", f"{x:.{rng.randint(0, 12)}f}"])
+    if kind < 0.65:  # any double: subnormals, huge exponents
+        x = struct.unpack("<d", struct.pack("<Q", rng.getrandbits(64)))[0]
+        return repr(x) if x == x and abs(x) != float("inf") else "1.5"
+    if kind < 0.85:  # d.ddd and dd.ddd with 1 to 26 fraction digits, leading zeros, 1-4 exponent digits
+        head = rng.choice(["0", "1", "-0", "-9", "12", "0.000", "123456789012345"])
+        frac = "".join(rng.choice("0123456789") for _ in range(rng.randint(1, 26)))
+        tail = rng.choice(["", "", "e5", "E-3", "e+05", "e-0307", "e308", "e-330"])
+        return (head if "." in head else head + ".") + frac + tail
+    return rng.choice(EDGE_TOKENS + [".5", "5.", "-.5e1", "+1.5", "1e0005", "16777217", "9007199254740993"])
+
+
+def row_path_text(rng, rows, ncols, int_columns, plain):
+    seps = [" "] if plain else [" "] * 8 + ["  ", "\t", " \t ", "\v", "\f", "\r "]
+    ends = ["\n"] if plain else ["\n"] * 6 + ["\r\n", " \n", "\t\r\n"]
+    lines = []
+    for _ in range(rows):
+        sparse = rng.random() < 0.3  # rows of mostly one-digit tokens (the runs the row path takes 4 at a time)
+        words = [rng.choice("0000123456789") if sparse and rng.random() < 0.8 and c not in int_columns
+                 else row_path_token(rng, c in int_columns) for c in range(ncols)]
+        lead = "" if plain or rng.random() < 0.9 else rng.choice(seps)
+        lines.append(lead + "".join(w + rng.choice(seps) for w in words[:-1]) + words[-1] + rng.choice(ends))
+    return "".join(lines).encode()
+
+
+def twin(data, ncols, int_columns):
+    """Python's reading of the table: (float bits, ints) per row (int columns are stored as float(int) too)."""
+    values, ints = [], []
+    lines = data.split(b"\n")
+    for line in lines[:-1] if lines[-1] == b"" else lines:
+        words = line.split()
+        assert len(words) == ncols
+        values.append([float_bits(float(int(w)) if c in int_columns else float(w)) for c, w in enumerate(words)])
+        ints.append([int(words[c]) for c in int_columns])
+    return np.array(values, dtype=np.int64), np.array(ints, dtype=np.int64).reshape(len(values), -1)
+
+
+@pytest.mark.parametrize("plain", [True, False])
+def test_row_path_equals_python_float_on_adversarial_rows(plain):
+    """Rows of engine-formatted and edge-case tokens (one-digit runs, 17-26 digit mantissas, leading zeros,
+    exponents, subnormals, signs, int64 limits) with single spaces, or with tabs, runs of separators, CR,
+    CRLF and leading/trailing separators; every cut near the end (tokens straddling the last row-path row and
+    the range end, with and without a final line end): float() and int() bit for bit."""
+    rng = random.Random(14 + plain)
+    ncols, int_columns = 7, (1,)
+    data = row_path_text(rng, 1500, ncols, int_columns, plain)
+    expected = twin(data, ncols, int_columns)
+    table = _text.parse_table(data, ncols=ncols, int_columns=int_columns, threads=1, allow_nonfinite=True)
+    np.testing.assert_array_equal(bits(table.values), expected[0])
+    np.testing.assert_array_equal(table.ints, expected[1])
+    for cut in range(len(data) - 8 * 48, len(data), 7):
+        text = data[:cut]
+        try:
+            want = twin(text, ncols, int_columns)
+        except (AssertionError, ValueError):
+            with pytest.raises(ValueError):
+                _text.parse_table(text, ncols=ncols, int_columns=int_columns, threads=1, allow_nonfinite=True)
+            continue
+        got = _text.parse_table(text, ncols=ncols, int_columns=int_columns, threads=1, allow_nonfinite=True)
+        np.testing.assert_array_equal(bits(got.values), want[0])
+        np.testing.assert_array_equal(got.ints, want[1])
+
+
+ROW_DAMAGE = BAD_TOKENS + ["1\x00", "\x00", "0\xff", "\xc3\xa9", "1.0 ", "nan", "-1.#INF", "1e99999", "0x1p3"]
+
+
+@pytest.mark.parametrize("at", [3, 200])
+def test_row_path_errors_equal_the_general_loop(at):
+    """A damaged row among good ones (bad tokens, NUL and non-ASCII bytes, too few or too many tokens, a blank
+    line, a float or an out-of-range value in the int column, nan): the message is the one the general loop
+    gives for that row alone (parsed as a short range, which the row path never takes)."""
+    rng = random.Random(at)
+    ncols, int_columns = 6, (0,)
+    good = [line for line in row_path_text(rng, 500, ncols, int_columns, plain=True).split(b"\n")[:-1]
+            if all(abs(float(w)) < float("inf") for w in line.split())]
+    cases = []
+    for token in ROW_DAMAGE:
+        for column in (0, 2, 5):
+            words = good[at].split()
+            words[column] = token.encode("latin-1")
+            cases.append(b" ".join(words))
+    words = good[at].split()
+    cases += [b" ".join(words[:-1]), b" ".join(words + [b"0"]), b"", b"  \t", b"0 " + b" ".join(words[1:]) + b" 0",
+              b"99999999999999999999 " + b" ".join(words[1:]), b"1.5 " + b" ".join(words[1:])]
+    def outcome(data, row, **kw):
+        """The error message, or the bits of the row-th row."""
+        try:
+            table = _text.parse_table(data, ncols=ncols, int_columns=int_columns, threads=1, **kw)
+            return bits(table.values[row]).tolist() + table.ints[row].tolist()
+        except ValueError as exc:
+            return str(exc)
+
+    errors = 0
+    for row in cases:
+        data = b"\n".join(good[:at + 1] + [row] + good[at + 1:]) + b"\n"
+        alone = outcome(row + b"\n", 0, first_line=at + 2)
+        assert outcome(data, at + 1) == alone, row
+        errors += isinstance(alone, str)
+    assert errors >= len(cases) - 8  # the few damages that leave a valid row (e.g. '1.0 ' in a float column)
+    assert errors >= len(cases) - 12

@@ -31,9 +31,18 @@ int main(void)
                            /* longer than the 8-byte word paths need: every prefix ends a word short of the page */
                            "7 0.5\n8 1.0273923374642910\n9 -0.0029136591653913836\n10 4.46e-05\n11 -0\n12 1e+05",
                            "123456789012 0.1234567890123456789012\n-1234567890123456 12345678901234567890.5e+05",
-                           "1234567 12345678\n123456789 1234567.12345678e-12345678\n9 +.5"};
-    double values[16];
-    int64_t ints[16], offsets[8], count;
+                           "1234567 12345678\n123456789 1234567.12345678e-12345678\n9 +.5",
+                           /* longer than the row path's margin (2 columns x 48 bytes): rows of the usual shapes
+                              and every way to leave it, cut at every byte before the page */
+                           "0 0\n-1 0.95395734275277411\n12345678 1.5e-05\n0.0029136591653913836 -0.010000000000000009\n"
+                           "7 0\r\n1\t2 \n3  4\n5 0.1234567890123456789012345\n6 1.e5\n123456789012345678 1\n"
+                           "-0 -0.0\n8 1e308\n9 .5\n10 5.\n11 1e-0005\n12 nan\n0 0\n0 0\n0 0\n-1 -9.7e-300\n"
+                           "1234567890123456 2.2250738585072011e-308\n17 18\n19 0.95395734275277411\n20 1.0e-100",
+                           "0 0\n-1 0.95395734275277411\n12345678 1.5e-05\n0.0029136591653913836 -0.010000000000000009\n"
+                           "13 0 0\n14 15\n16 17\n18 19\n20 21\n22 23\n24 25\n26 27\n28 29\n30 31\n32 33\n34 35\n"
+                           "36 37\n38 39\n40 41\n42 43\n44 45\n46 47\n48 49\n50 51\n52 53\n54 55\n56 57\n58 59\n"};
+    double values[128];
+    int64_t ints[128], offsets[8], count;
     const unsigned char int_cols[2] = {1, 0};
     for (size_t t = 0; t < sizeof texts / sizeof *texts; ++t) {
         const size_t n = strlen(texts[t]);
@@ -42,10 +51,10 @@ int main(void)
             memcpy(at, texts[t], len);
             cg_text_result res;
             for (int flags = 0; flags < 2; ++flags) {
-                cg_status st = cg_text_parse_table(at, len, 2, NULL, flags, 8, values, NULL, &res);
+                cg_status st = cg_text_parse_table(at, len, 2, NULL, flags, 64, values, NULL, &res);
                 CHECK(st == CG_OK || (st >= CG_ERR_TEXT_NUMBER && st <= CG_ERR_TEXT_ROWS));
                 CHECK(res.error.offset + res.error.length <= (int64_t)len);
-                st = cg_text_parse_table(at, len, 2, int_cols, flags, 8, values, ints, &res);
+                st = cg_text_parse_table(at, len, 2, int_cols, flags, 64, values, ints, &res);
                 CHECK(st == CG_OK || (st >= CG_ERR_TEXT_NUMBER && st <= CG_ERR_TEXT_ROWS));
             }
             CHECK(cg_text_find_lines(at, len, "3 ", 2, offsets, 8, &count) == CG_OK);
