@@ -1,9 +1,12 @@
 /* cg_text.c -- one-pass numeric tables from text, and the frame scan (cg_text.h).
  *
- * Speed: each token is first tried by fast_double / fast_int, which parse the common forms in one pass
- * (digits 8 bytes at a time, the last partial word included, no separate scan for the token's end; byte
- * by byte where fewer than 8 bytes of the range remain, so nothing past it is read); everything else (and
- * every error) goes through parse_double / parse_int, the reference path. cg_text_parse_table_threads cuts
+ * Speed: a row that starts ncols * QUICK_READ bytes or more before the range's end is first tried by
+ * quick_row (no range check per byte, one-digit tokens and d.ddd mantissas decided early, runs of "0 "
+ * four per word); a row it does not take, and every row near the end, goes through the general loop,
+ * where each token is tried by fast_double / fast_int, which parse the common forms in one pass (digits 8
+ * bytes at a time, the last partial word included, no separate scan for the token's end; byte by byte
+ * where fewer than 8 bytes of the range remain, so nothing past it is read); everything else (and every
+ * error) goes through parse_double / parse_int, the reference path. cg_text_parse_table_threads cuts
  * large ranges at line starts over OpenMP threads. */
 #include "cg_text.h"
 
