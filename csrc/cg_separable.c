@@ -173,7 +173,7 @@ INLINE void block_add_n(double *restrict o, double scale, const double *restrict
 }
 
 /* An object's values whose coefficient is not +-0 (MODE_VALUE), where there are at most PICK_MAX
-   of them and fewer than all: its updates add only those (block_add_picked). That changes no output
+   of them and at most half: its updates add only those (block_add_picked). That changes no output
    bit: a skipped term is w * (+-0) = +-0 for a finite weight w (the caller checks that the weights
    are finite), and x + +-0 == x for every x but -0, which no output holds: outputs start at +0
    (cg.h: a caller's -0 may stay -0 where a term is +-0) and a sum of two doubles is -0 only if both
@@ -200,7 +200,8 @@ INLINE int pick_values(const double *v, int nv, picked *p)
         nonzero |= (uint64_t)z << c;
         n += z;
     }
-    if (n == 0 || n > PICK_MAX || n == nv) return n;
+    /* (at most half of them: a vector adds 2 or 4 contiguous values in the time of one picked) */
+    if (n == 0 || n > PICK_MAX || 2 * n > nv) return n;
     for (int m = 0; m < n; ++m) {
         const int c = __builtin_ctzll(nonzero);
         nonzero &= nonzero - 1;

@@ -1,6 +1,6 @@
 """The separable Gaussian adds only an object's values whose coefficient is not +-0 where there are at most 3 of
-them (cg_separable.c's pick_values: a contact's stress along a grid axis has 1 value of 9), and nothing for an
-object whose values are all +-0. That must change no output bit: a skipped term is w * (+-0) = +-0 and the outputs,
+them and at most half (cg_separable.c's pick_values: a contact's stress along a grid axis has 1 value of 9), and
+nothing for an object whose values are all +-0. That must change no output bit: a skipped term is w * (+-0) = +-0 and the outputs,
 which start at +0, never hold -0.
 
 Bit for bit (the doubles' bits: -0 and +0 differ) against the plain update of every value, which the same objects
