@@ -4,7 +4,9 @@
  * Plain C11, no Python. Every function that can fail returns a cg_status;
  * cg_strerror() turns it into a message. The core never allocates memory
  * that the caller must free: callers own every array they pass in, and the
- * output arrays are accumulated into (+=), so the caller zeroes them first.
+ * output arrays are accumulated into (+=), so the caller zeroes them first
+ * (with +0: terms that are +-0, such as those of a value that is +-0, may be
+ * skipped, which leaves an output of -0 at -0 where adding +0 would not).
  *
  * Vocabulary
  *   D        spatial dimension of the data (2 or 3).
