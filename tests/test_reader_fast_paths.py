@@ -124,3 +124,49 @@ def test_lines_in_turn_tolerances_match_the_norms(seed):
             assert (got is not None) == lines_in_turn_by_norms(i, jraw, force, point, lines, tol_force, tol_point)
             if got is not None:
                 np.testing.assert_array_equal(got, np.where(i[0::2] < i[1::2], lines[0::2], lines[1::2]))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_row_norms_are_numpys_norm_bit_for_bit(dim):
+    """The LAMMPS reader's contact distances (a pass per column) against np.linalg.norm(axis=1), which they
+    replaced: the same bits over the whole exponent range, with overflow to inf, zeros and nan."""
+    from cgbound.readers.lammps import row_norms
+    rng = np.random.default_rng(dim)
+    v = rng.normal(size=(20_000, dim)) * 10.0 ** rng.integers(-300, 300, size=(20_000, 1)).astype(float)
+    v[::97] = 0.0
+    v[5, 0], v[7, -1] = np.nan, 1e308
+    with np.errstate(over="ignore"):
+        expected = np.linalg.norm(v, axis=1)
+        got = row_norms(v)
+    assert got.dtype == np.float64 and got.tobytes() == expected.tobytes()
+
+
+def test_lammps_atoms_in_any_row_order_read_as_sorted_by_id(tmp_path):
+    """A frame whose rows are sorted by ID (the columns copied) and the same frame in LAMMPS' order (gathered by
+    the ID order) give the same frame, bit for bit: particles, walls, contacts, IDs and dumped forces."""
+    import os
+    from cgbound.readers import LammpsReader
+    base = os.path.join(os.path.dirname(__file__), "data", "lammps", "hooke3d")
+    out = []
+    for part in open(os.path.join(base, "atoms.dump"), "rb").read().split(b"ITEM: TIMESTEP\n")[1:]:
+        lines = part.rstrip(b"\n").split(b"\n")
+        head = next(k for k, line in enumerate(lines) if line.startswith(b"ITEM: ATOMS")) + 1
+        rows = sorted(lines[head:], key=lambda row: int(row.split()[0]))
+        out.append(b"ITEM: TIMESTEP\n" + b"\n".join(lines[:head] + rows) + b"\n")
+    sorted_dump = tmp_path / "atoms.dump"
+    sorted_dump.write_bytes(b"".join(out))
+    opts = dict(pair_values=("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4"), walls=["w"], fixed_types=[2],
+                body_force=(0.0, 0.0, -1.0))
+    a = LammpsReader(os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump"), **opts)
+    b = LammpsReader(sorted_dump, os.path.join(base, "pairs.dump"), **opts)
+    assert len(a) == len(b) == 3
+    for k in range(3):
+        fa, fb = a.frame(k), b.frame(k)
+        for x, y in [(fa.ids, fb.ids), (fa.types, fb.types), (fa.forces, fb.forces), (fa.contact_ids, fb.contact_ids),
+                     (fa.overlap, fb.overlap)] + [(getattr(fa.snapshot, name), getattr(fb.snapshot, name)) for name in
+                                                  ("positions", "velocities", "masses", "radii", "fixed", "species")] \
+                + [(getattr(fa.snapshot.contacts, name), getattr(fb.snapshot.contacts, name))
+                   for name in ("i", "j", "force", "point")]:
+            assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
+        assert np.any(fa.snapshot.contacts.j == -1) and not np.all(np.diff(a._atoms_dump.read(a._frames[k][0])["data"]
+                                                                           .integers("id")) > 0)
