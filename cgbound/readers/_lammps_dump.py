@@ -303,8 +303,7 @@ def _read_frame(buf, start, stop, kind, path, line, int_columns, integral_column
             # accepts or reports it as before
             try:
                 table = parse(sorted(ints + integral))
-                if all(np.all((table.integers(columns[k]) > -2 ** 53) & (table.integers(columns[k]) < 2 ** 53))
-                       for k in integral):
+                if all(_within_doubles(table.integers(columns[k])) for k in integral):
                     head["data"] = table
             except ValueError:
                 pass
@@ -318,6 +317,11 @@ def _read_frame(buf, start, stop, kind, path, line, int_columns, integral_column
             head["data"].integer_columns[name] = _whole_numbers(head["data"][name], name, head, path)
     del head["rows"], head["rows_line"]  # offsets in buf are not part of the frame's description
     return head
+
+
+def _within_doubles(ints):
+    """Whether every value is in (-2**53, 2**53) (exact in a double): two reductions, no boolean arrays."""
+    return ints.size == 0 or (int(ints.min()) > -2 ** 53 and int(ints.max()) < 2 ** 53)
 
 
 def _whole_numbers(column, name, head, path):

@@ -584,7 +584,8 @@ class LammpsReader(FrameReader):
         if names.get("branch"):
             branch = self._vectors(tab, names["branch"])
         else:
-            branch = pos_i - np.take(pos, j, axis=0)
+            branch = np.take(pos, j, axis=0)
+            np.subtract(pos_i, branch, out=branch)   # (in place: a new array's pages cost the kernel's zeroing)
             if any(box.periodic):   # (the minimum image changes components along periodic axes only)
                 branch = box.minimum_image(branch)
         dist = row_norms(branch)
@@ -601,8 +602,9 @@ class LammpsReader(FrameReader):
                     i[keep], j[keep], force[keep], branch[keep], dist[keep], overlap[keep], pos_i[keep], radii_i[keep])
         if np.any(dist == 0):
             raise ValueError(f"{path}: two atoms at the same position at timestep {timestep}")
-        # point = pos[i] - (radii[i] - overlap / 2) n, n = branch / dist: the same operations, in place
-        point = np.divide(branch, dist[:, None])
+        # point = pos[i] - (radii[i] - overlap / 2) n, n = branch / dist: the same operations, in place (over the
+        # branches, this function's own array)
+        point = np.divide(branch, dist[:, None], out=branch)
         np.multiply(point, (radii_i - 0.5 * overlap)[:, None], out=point)
         np.subtract(pos_i, point, out=point)
         if self.wrap and any(box.periodic):
