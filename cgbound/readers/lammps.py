@@ -200,11 +200,13 @@ def contact_indices(ids, id1, id2, path, timestep):
     n = ids.size
     if n and int(ids[-1]) - int(ids[0]) == n - 1:
         # sorted distinct IDs spanning n values are consecutive (LAMMPS numbers atoms 1..N): the position is
-        # the ID minus the first, for IDs within [first, last] (the bounds are compared, not the differences,
-        # which could wrap around in int64)
-        first, last = ids[0], ids[-1]
-        bad = (id1 < first) | (id1 > last) | (id2 < first) | (id2 > last)
+        # the ID minus the first, for IDs within [first, last]: exactly those whose difference, wrapped around in
+        # 64 bits and read as unsigned, is at most last - first (subtracting first maps [first, last] one to one
+        # onto [0, last - first]), one subtraction and one comparison per array
+        first, span = ids[0], np.uint64(int(ids[-1]) - int(ids[0]))
         i, j = id1 - first, id2 - first
+        bad = i.view(np.uint64) > span
+        bad |= j.view(np.uint64) > span
     elif n:
         i = np.searchsorted(ids, id1)
         j = np.searchsorted(ids, id2)
