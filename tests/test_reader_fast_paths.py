@@ -170,3 +170,42 @@ def test_lammps_atoms_in_any_row_order_read_as_sorted_by_id(tmp_path):
             assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
         assert np.any(fa.snapshot.contacts.j == -1) and not np.all(np.diff(a._atoms_dump.read(a._frames[k][0])["data"]
                                                                            .integers("id")) > 0)
+
+
+def test_lammps_inactive_pair_rows_are_dropped_and_the_rest_kept_bit_for_bit(tmp_path):
+    """drop_inactive: the rows of a dump local with no overlap and zero force (pairs within the force cutoff, not
+    touching) are dropped; every other row (overlapping with zero force, or a force without overlap) is kept with
+    the values read when nothing is dropped."""
+    from cgbound.readers import LammpsReader
+    ax = 0.5 + 0.99 * np.arange(3)
+    pos = np.stack([g.ravel() for g in np.meshgrid(ax, ax, ax, indexing="ij")], axis=1)
+    n = len(pos)
+    rng = np.random.default_rng(3)
+    rows = []
+    for a in range(n):
+        for b in range(a + 1, n):
+            d = np.linalg.norm(pos[a] - pos[b])
+            if d < 1.0:       # touching: a force, or none (kept for its overlap)
+                f = rng.normal(size=3) if rng.random() < 0.8 else np.zeros(3)
+            elif d < 2.0:     # within the cutoff, not touching: no force (dropped), or one (kept)
+                f = np.zeros(3) if rng.random() < 0.8 else rng.normal(size=3)
+            else:
+                continue
+            rows.append(f"{a + 1} {b + 1} {' '.join(repr(float(x)) for x in f)}\n")
+    atoms, pairs = tmp_path / "a.dump", tmp_path / "p.dump"
+    atoms.write_text(f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{n}\nITEM: BOX BOUNDS ff ff ff\n" + "0 3\n" * 3
+                     + "ITEM: ATOMS id type x y z radius mass\n"
+                     + "".join(f"{k + 1} 1 {' '.join(repr(float(x)) for x in pos[k])} 0.5 1\n" for k in range(n)))
+    pairs.write_text(f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ENTRIES\n{len(rows)}\nITEM: BOX BOUNDS ff ff ff\n"
+                     + "0 3\n" * 3 + "ITEM: ENTRIES c_pp[1] c_pp[2] c_pl[1] c_pl[2] c_pl[3]\n" + "".join(rows))
+    options = dict(pair_style="total", pair_values=("fx", "fy", "fz"), check_forces=False)
+    every = LammpsReader(atoms, pairs, drop_inactive=False, **options).frame(0)
+    active = LammpsReader(atoms, pairs, **options).frame(0)
+    c = every.snapshot.contacts
+    keep = (every.overlap > 0) | np.any(c.force != 0, axis=1)
+    assert 0 < keep.sum() < len(keep) and np.any(every.overlap[keep] < 0) and np.any(np.all(c.force[keep] == 0, axis=1))
+    for x, y in [(c.i[keep], active.snapshot.contacts.i), (c.j[keep], active.snapshot.contacts.j),
+                 (c.force[keep], active.snapshot.contacts.force), (c.point[keep], active.snapshot.contacts.point),
+                 (every.contact_ids[keep], active.contact_ids), (every.overlap[keep], active.overlap)]:
+        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
+    np.testing.assert_array_equal(every.contact_ids, [[int(r.split()[0]), int(r.split()[1])] for r in rows])

@@ -595,11 +595,13 @@ class LammpsReader(FrameReader):
             raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or 'diameter' column")
         radii_i = np.take(radii, i)
         overlap = radii_i + np.take(radii, j) - dist
+        kept = None
         if self.drop_inactive:
             keep = overlap > 0
             for a in range(force.shape[1]):     # (one pass per column, not a boolean (M, D) array reduced)
                 keep |= force[:, a] != 0
             if not keep.all():     # (every row kept: no copies)
+                kept = keep
                 i, j, force, branch, dist, overlap, pos_i, radii_i = (
                     i[keep], j[keep], force[keep], branch[keep], dist[keep], overlap[keep], pos_i[keep], radii_i[keep])
         if np.any(dist == 0):
@@ -611,7 +613,9 @@ class LammpsReader(FrameReader):
         np.subtract(pos_i, point, out=point)
         if self.wrap and any(box.periodic):
             point = box.wrap(point)
-        contact_ids = np.stack([np.take(ids, i), np.take(ids, j)], axis=1)
+        # ids[i], ids[j]: the contacts' own IDs (contact_indices found each one there), taken from the table
+        contact_ids = np.empty((len(i), 2), np.int64)
+        contact_ids[:, 0], contact_ids[:, 1] = (id1, id2) if kept is None else (id1[kept], id2[kept])
         return i, j, force, point, contact_ids, overlap
 
 
