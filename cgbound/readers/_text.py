@@ -262,6 +262,18 @@ _spare_lock = threading.Lock()
 SPARE_MAX = 1 << 29
 
 
+def _after_fork_in_child():
+    """A child process starts without the parent's spare (its pages would be copied on the first write) and with a
+    new lock (a thread of the parent may have held the old one at the fork)."""
+    global _spare_lock
+    _spare_lock = threading.Lock()
+    _spare.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
 def _close(buf):
     try:
         buf.close()
