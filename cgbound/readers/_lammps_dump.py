@@ -7,6 +7,7 @@ parsing a frame checks every value (numbers, integers where LAMMPS writes intege
 are ``ValueError`` naming the file, the frame (timestep) and the 1-based line. Gzipped dumps are
 decompressed as a stream (zlib) into the same parser, resuming at checkpoints instead of the start.
 """
+import math
 import mmap
 import os
 import re
@@ -142,7 +143,7 @@ def _header(buf, start, stop, kind, path, line):
             columns = raw.decode("utf-8", errors="backslashreplace").split()[2:]
             if not columns:
                 raise ValueError(f"{where(number)}: '{table_item.decode()}' names no columns; the file is damaged")
-            twice = sorted({c for c in columns if columns.count(c) > 1})
+            twice = sorted({c for c in columns if columns.count(c) > 1}) if len(set(columns)) < len(columns) else []
             if twice:
                 raise ValueError(f"{where(number)}: the column(s) {twice} appear twice in the header; "
                                  f"dump every column once")
@@ -183,7 +184,7 @@ def _number(raw, number, what, where):
             value = float(words[0])
         except ValueError:
             pass
-    if value is None or not np.isfinite(value):
+    if value is None or not math.isfinite(value):
         raise ValueError(f"{where(number)}: expected {what}, found {_show(raw)}; the file is damaged")
     return value
 
@@ -271,7 +272,7 @@ class DumpIndex:
         # (_text.frame_text): a 60 MB frame read into bytes costs 15,000 page faults (35-50 ms), into a new
         # buffer 30 and the kernel's zeroing (15 ms in all), into the spare 9 ms
         size = stop - offset
-        with _text.frame_text(self.path, offset, stop) as (buf, got):
+        with _text.frame_text(self.path, offset, stop, compressed=False) as (buf, got):
             if got != size:
                 raise ValueError(f"{self.path}: the file changed since it was scanned (the frame at timestep "
                                  f"{dict(self.frames)[offset]} ends early); open the reader again")

@@ -136,7 +136,8 @@ def read_range(path, start, stop):
 def frame_range(path, start, stop):
     """:func:`read_range` as ``(data, size)`` in the reused frame buffer (:func:`._text.frame_text`): the text is
     ``data[:size]`` (data may be longer), valid inside the block."""
-    with frame_text(path, start, stop, _gzip_checkpoints_of(path) if is_gzip(path) else None) as (data, got):
+    compressed = is_gzip(path)
+    with frame_text(path, start, stop, _gzip_checkpoints_of(path) if compressed else None, compressed) as (data, got):
         if got != max(stop - start, 0):
             raise _changed(path, start, stop, got)
         yield data, got

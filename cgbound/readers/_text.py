@@ -310,14 +310,15 @@ def _keep_buffer(buf):
 
 
 @contextlib.contextmanager
-def frame_text(path, start, stop, checkpoints=None):
+def frame_text(path, start, stop, checkpoints=None, compressed=None):
     """Bytes [start, stop) of the file's (decompressed, if gzip) content as ``(buf, got)``: the text is
     ``buf[:got]`` (got < stop - start if the file was cut since it was scanned: the caller says so). Only the
     first ``got`` bytes are the range: a plain file's text goes into the spare frame buffer when it is large
     enough (the rest of it holds an earlier frame's text), which is kept again for the next frame when the block
-    ends without an error. gzip: as :func:`read_range`."""
+    ends without an error. gzip: as :func:`read_range`. compressed: whether the file is gzip, if the caller knows
+    (None: its magic number is read)."""
     size = max(stop - start, 0)
-    if size == 0 or _is_gzip(path):
+    if size == 0 or (_is_gzip(path) if compressed is None else compressed):
         data = read_range(path, start, stop, checkpoints)
         yield data, len(data)
         return
