@@ -130,15 +130,35 @@ def test_lines_in_turn_tolerances_match_the_norms(seed):
 def test_row_norms_are_numpys_norm_bit_for_bit(dim):
     """The LAMMPS reader's contact distances (a pass per column) against np.linalg.norm(axis=1), which they
     replaced: the same bits over the whole exponent range, with overflow to inf, zeros and nan."""
-    from cgbound.readers.lammps import row_norms
+    from cgbound.readers.checks import row_norms, row_squares
     rng = np.random.default_rng(dim)
     v = rng.normal(size=(20_000, dim)) * 10.0 ** rng.integers(-300, 300, size=(20_000, 1)).astype(float)
     v[::97] = 0.0
     v[5, 0], v[7, -1] = np.nan, 1e308
-    with np.errstate(over="ignore"):
-        expected = np.linalg.norm(v, axis=1)
-        got = row_norms(v)
-    assert got.dtype == np.float64 and got.tobytes() == expected.tobytes()
+    with np.errstate(over="ignore", invalid="ignore"):
+        for got, expected in [(row_norms(v), np.linalg.norm(v, axis=1)), (row_squares(v), np.sum(v ** 2, axis=1))]:
+            assert got.dtype == np.float64 and got.tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_particle_forces_are_the_snapshots_bit_for_bit(dim):
+    """The LAMMPS reader's force-balance sums (np.bincount) against Snapshot.particle_forces (np.add.at): particles
+    in many contacts as i and as j, walls, fixed particles, a body force, forces over many magnitudes."""
+    import cgbound as cg
+    from cgbound.readers.checks import particle_forces
+    rng = np.random.default_rng(dim)
+    n, m = 300, 4000
+    i = rng.integers(0, n, m)
+    j = np.where(rng.random(m) < 0.1, -1, (i + rng.integers(1, n, m)) % n)
+    keep = np.unique(np.stack([np.minimum(i, j), np.maximum(i, j)], axis=1), axis=0, return_index=True)[1]
+    keep = np.union1d(keep, np.flatnonzero(j < 0))       # one listing per pair; every wall contact
+    i, j = i[keep], j[keep]
+    force = rng.normal(size=(len(i), dim)) * 10.0 ** rng.integers(-8, 8, size=(len(i), 1))
+    pos = rng.normal(size=(n, dim))
+    snap = cg.Snapshot(pos, masses=rng.uniform(0.5, 2.0, n), contacts=cg.Contacts(i, j, force, pos[i]),
+                       fixed=rng.random(n) < 0.2, body_force=rng.normal(size=dim))
+    assert np.bincount(i, minlength=n).max() > 5 and np.any(snap.fixed)
+    assert particle_forces(snap).tobytes() == snap.particle_forces().tobytes()
 
 
 def test_lammps_atoms_in_any_row_order_read_as_sorted_by_id(tmp_path):

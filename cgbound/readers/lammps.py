@@ -96,7 +96,7 @@ from ..snapshot import Contacts, Snapshot
 from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
 from .checks import (FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, dump_local_header, force_balance,
-                     generic_columns)
+                     generic_columns, particle_forces, row_norms)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -192,7 +192,7 @@ class LammpsFrame:
             raise ValueError("force_balance: the atoms dump has no fx fy fz columns")
         snap = self.snapshot
         checked = np.ones(snap.n_particles, bool) if fixed else snap.flowing
-        return force_balance(snap.particle_forces(), self.forces, snap.contacts.force, checked)
+        return force_balance(particle_forces(snap), self.forces, snap.contacts.force, checked)
 
 
 def contact_indices(ids, id1, id2, path, timestep):
@@ -632,16 +632,6 @@ def table_columns(tab, names, rows=None):
         else:
             np.take(column, rows, out=out[:, a])
     return out
-
-
-def row_norms(vectors):
-    """The Euclidean norm of each row of an (M, D) array, as np.linalg.norm(vectors, axis=1) computes it
-    ((x0 x0 + x1 x1) + x2 x2, then sqrt: the same bits, tests/test_reader_fast_paths.py) in a pass per column
-    instead of a (M, D) square and a reduction along the short axis (5 times slower)."""
-    out = vectors[:, 0] * vectors[:, 0]
-    for a in range(1, vectors.shape[1]):
-        out += vectors[:, a] * vectors[:, a]
-    return np.sqrt(out, out=out)
 
 
 class _Atoms(NamedTuple):

@@ -67,8 +67,8 @@ import os
 import numpy as np
 
 from .._validate import integer
-from .checks import compute_columns, dump_local_header
-from .lammps import LammpsReader, contact_indices, row_norms
+from .checks import compute_columns, dump_local_header, row_norms
+from .lammps import LammpsReader, contact_indices
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns"]
 
