@@ -159,6 +159,10 @@ def test_particle_forces_are_the_snapshots_bit_for_bit(dim):
                        fixed=rng.random(n) < 0.2, body_force=rng.normal(size=dim))
     assert np.bincount(i, minlength=n).max() > 5 and np.any(snap.fixed)
     assert particle_forces(snap).tobytes() == snap.particle_forces().tobytes()
+    pairs = j >= 0     # no walls, nothing fixed: the arrays taken whole
+    snap = cg.Snapshot(pos, masses=snap.masses, contacts=cg.Contacts(i[pairs], j[pairs], force[pairs], pos[i[pairs]]),
+                       body_force=snap.body_force[0])
+    assert particle_forces(snap).tobytes() == snap.particle_forces().tobytes()
 
 
 def test_lammps_atoms_in_any_row_order_read_as_sorted_by_id(tmp_path):

@@ -58,13 +58,21 @@ def particle_forces(snapshot):
     n, dim = snapshot.n_particles, snapshot.dim
     f = np.zeros((n, dim))
     if len(c):
+        m = len(c)
         pair = c.j >= 0
-        index = np.concatenate([c.i, c.j[pair]])
+        every = bool(pair.all())    # (no walls: the arrays as they are, not selected copies)
+        index = np.concatenate([c.i, c.j if every else c.j[pair]])
+        weights = np.empty(index.shape[0])
         for a in range(dim):
-            f[:, a] = np.bincount(index, weights=np.concatenate([c.force[:, a], -c.force[pair, a]]), minlength=n)
+            weights[:m] = c.force[:, a]
+            np.negative(c.force[:, a] if every else c.force[pair, a], out=weights[m:])
+            f[:, a] = np.bincount(index, weights=weights, minlength=n)
     if snapshot.body_force is not None:
         flow = snapshot.flowing
-        f[flow] += snapshot.masses[flow, None] * snapshot.body_force[flow]
+        if flow.all():    # (every particle: the same products on all rows, without selecting them)
+            f += snapshot.masses[:, None] * snapshot.body_force
+        else:
+            f[flow] += snapshot.masses[flow, None] * snapshot.body_force[flow]
     return f
 
 
