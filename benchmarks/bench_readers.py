@@ -7,6 +7,8 @@ processes.
 Cases (files written once into --dir, then reused):
   lammps   LammpsReader(atoms.dump, pairs.dump, pair_style="total", pair_values=("fx", "fy", "fz")) on the W1 files
            of bench_end_to_end.py (97,336 atoms, 285,660 contacts, 2 frames, 45 MB), every frame's snapshot
+  forces   the same with fx fy fz in the atoms dump (the sums of the contact forces, %.17g): the reader's default
+           force-balance check runs on every frame
   mercury  MercuryReader(W1.data, W1.fstat, density=...) on the same lattice (each pair on two lines, 160 MB)
   atoms    bench_parse.py's atoms.dump (36 MB) through scan_dump + DumpIndex.read of every frame (its "reader" row)
   pairs    bench_parse.py's pairs.dump (120 MB, the IDs read as integers) likewise
@@ -25,7 +27,7 @@ import sys
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-CASES = ("lammps", "mercury", "atoms", "pairs")
+CASES = ("lammps", "forces", "mercury", "atoms", "pairs")
 
 
 def reader_of(case, directory):
@@ -45,6 +47,8 @@ def reader_of(case, directory):
     density = 1.0 / (4.0 / 3.0 * math.pi * 0.5 ** 3)
     return {
         "lammps": lambda: frames(LammpsReader(os.path.join(e2e, "atoms.dump"), os.path.join(e2e, "pairs.dump"),
+                                              pair_style="total", pair_values=("fx", "fy", "fz"))),
+        "forces": lambda: frames(LammpsReader(os.path.join(e2e, "atoms_forces.dump"), os.path.join(e2e, "pairs.dump"),
                                               pair_style="total", pair_values=("fx", "fy", "fz"))),
         "mercury": lambda: frames(MercuryReader(os.path.join(e2e, "W1.data"), os.path.join(e2e, "W1.fstat"),
                                                 density=density)),
@@ -73,11 +77,24 @@ def write_files(directory):
     write_parse_files(os.path.join(directory, "parse"), "%.17g")
     where = os.path.join(directory, "e2e")
     os.makedirs(where, exist_ok=True)
+    snap = None
     if not os.path.exists(os.path.join(where, "written")):
         snap = e2e.lattice(n=e2e.N)
         e2e.write_frames(snap, where)
         e2e.write_lammps(snap, where)
         open(os.path.join(where, "written"), "w").close()
+    if not os.path.exists(os.path.join(where, "atoms_forces.dump")):
+        import numpy as np
+        snap = snap or e2e.lattice(n=e2e.N)
+        n, forces = snap.n_particles, snap.particle_forces()
+        bounds = "".join(f"{float(a)!r} {float(b)!r}\n" for a, b in zip(snap.box.lower, snap.box.upper))
+        with open(os.path.join(where, "atoms_forces.dump.tmp"), "w") as fh:
+            for step, _ in enumerate(e2e.TIMES):
+                fh.write(f"ITEM: TIMESTEP\n{step * 1000}\nITEM: NUMBER OF ATOMS\n{n}\nITEM: BOX BOUNDS ff ff ff\n"
+                         f"{bounds}ITEM: ATOMS id type x y z vx vy vz fx fy fz radius mass\n")
+                e2e.write_rows(fh, np.column_stack([np.arange(1, n + 1), np.ones(n), snap.positions, snap.velocities,
+                                                    forces, np.full(n, 0.5), snap.masses]), "%.17g")
+        os.replace(os.path.join(where, "atoms_forces.dump.tmp"), os.path.join(where, "atoms_forces.dump"))
 
 
 def main():
