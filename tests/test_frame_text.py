@@ -95,3 +95,57 @@ def test_a_file_cut_after_the_scan_is_refused_naming_it(tmp_path):
         reader._cache = None
         with pytest.raises(ValueError, match=rf"{name}: the file changed since it was scanned .*open the reader again"):
             reader[1]
+
+
+def _spare_full_of_rows(size=1 << 22):
+    """A spare frame buffer (cgbound.readers._text) holding text that would parse: rows of 16 numbers."""
+    from cgbound.readers import _text
+    row = b" ".join([b"1"] * 16) + b"\n"
+    buf = _text.frame_buffer(size)
+    buf[:] = (row * (size // len(row) + 1))[:size]
+    _text._spare[:] = [buf]
+    return buf
+
+
+def test_frames_read_into_a_spare_holding_other_text_are_the_same(tmp_path):
+    """A frame's text goes into the spare buffer, longer than the frame and holding an earlier frame's text: only
+    the frame's bytes are read, so the frames, and a file cut since the scan, read as with a new buffer."""
+    from cgbound.readers import _text
+    write_mercury([_lattice(4, 0, 0.0), _lattice(3, 1, 1.0)], tmp_path / "m.data", tmp_path / "m.fstat")
+    options = dict(restart_path=False, periodic=(False,) * 3, density=1.0)
+    _text._spare.clear()
+    expected = list(MercuryReader(tmp_path / "m.data", tmp_path / "m.fstat", **options))
+    reader = MercuryReader(tmp_path / "m.data", tmp_path / "m.fstat", **options)
+    for k in (1, 0):
+        spare = _spare_full_of_rows()
+        snap = reader[k]
+        assert _text._spare == [spare]      # used and kept again
+        for name in ("positions", "velocities", "radii", "masses"):
+            assert getattr(snap, name).tobytes() == getattr(expected[k], name).tobytes()
+        for name in ("i", "j", "force", "point"):
+            assert getattr(snap.contacts, name).tobytes() == getattr(expected[k].contacts, name).tobytes()
+    text = (tmp_path / "m.fstat").read_bytes()
+    (tmp_path / "m.fstat").write_bytes(text[:text.rindex(b"\n", 0, len(text) - 1) + 1])   # its last line lost
+    reader._cache = None
+    _spare_full_of_rows()
+    with pytest.raises(ValueError, match=r"m\.fstat: the file changed since it was scanned"):
+        reader[1]
+    assert _text._spare == []     # a buffer an error left is not kept
+
+
+def test_lammps_frames_read_into_a_spare_holding_other_text_are_the_same():
+    import os
+    from cgbound.readers import _text
+    base = os.path.join(os.path.dirname(__file__), "data", "lammps", "hooke3d")
+    options = dict(pair_values=("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4"), walls=["w"], fixed_types=[2],
+                   body_force=(0.0, 0.0, -1.0))
+    _text._spare.clear()
+    expected = [LammpsReader(os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump"), **options).frame(k)
+                for k in range(3)]
+    reader = LammpsReader(os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump"), **options)
+    for k in (2, 0, 1):
+        _spare_full_of_rows()
+        got = reader.frame(k)
+        assert got.ids.tobytes() == expected[k].ids.tobytes()
+        assert got.snapshot.positions.tobytes() == expected[k].snapshot.positions.tobytes()
+        assert got.snapshot.contacts.force.tobytes() == expected[k].snapshot.contacts.force.tobytes()

@@ -124,3 +124,112 @@ def test_lines_in_turn_tolerances_match_the_norms(seed):
             assert (got is not None) == lines_in_turn_by_norms(i, jraw, force, point, lines, tol_force, tol_point)
             if got is not None:
                 np.testing.assert_array_equal(got, np.where(i[0::2] < i[1::2], lines[0::2], lines[1::2]))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_row_norms_are_numpys_norm_bit_for_bit(dim):
+    """The LAMMPS reader's contact distances (a pass per column) against np.linalg.norm(axis=1), which they
+    replaced: the same bits over the whole exponent range, with overflow to inf, zeros and nan."""
+    from cgbound.readers.checks import row_norms, row_squares
+    rng = np.random.default_rng(dim)
+    v = rng.normal(size=(20_000, dim)) * 10.0 ** rng.integers(-300, 300, size=(20_000, 1)).astype(float)
+    v[::97] = 0.0
+    v[5, 0], v[7, -1] = np.nan, 1e308
+    with np.errstate(over="ignore", invalid="ignore"):
+        for got, expected in [(row_norms(v), np.linalg.norm(v, axis=1)), (row_squares(v), np.sum(v ** 2, axis=1))]:
+            assert got.dtype == np.float64 and got.tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_particle_forces_are_the_snapshots_bit_for_bit(dim):
+    """The LAMMPS reader's force-balance sums (np.bincount) against Snapshot.particle_forces (np.add.at): particles
+    in many contacts as i and as j, walls, fixed particles, a body force, forces over many magnitudes."""
+    import cgbound as cg
+    from cgbound.readers.checks import particle_forces
+    rng = np.random.default_rng(dim)
+    n, m = 300, 4000
+    i = rng.integers(0, n, m)
+    j = np.where(rng.random(m) < 0.1, -1, (i + rng.integers(1, n, m)) % n)
+    keep = np.unique(np.stack([np.minimum(i, j), np.maximum(i, j)], axis=1), axis=0, return_index=True)[1]
+    keep = np.union1d(keep, np.flatnonzero(j < 0))       # one listing per pair; every wall contact
+    i, j = i[keep], j[keep]
+    force = rng.normal(size=(len(i), dim)) * 10.0 ** rng.integers(-8, 8, size=(len(i), 1))
+    pos = rng.normal(size=(n, dim))
+    snap = cg.Snapshot(pos, masses=rng.uniform(0.5, 2.0, n), contacts=cg.Contacts(i, j, force, pos[i]),
+                       fixed=rng.random(n) < 0.2, body_force=rng.normal(size=dim))
+    assert np.bincount(i, minlength=n).max() > 5 and np.any(snap.fixed)
+    assert particle_forces(snap).tobytes() == snap.particle_forces().tobytes()
+    pairs = j >= 0     # no walls, nothing fixed: the arrays taken whole
+    snap = cg.Snapshot(pos, masses=snap.masses, contacts=cg.Contacts(i[pairs], j[pairs], force[pairs], pos[i[pairs]]),
+                       body_force=snap.body_force[0])
+    assert particle_forces(snap).tobytes() == snap.particle_forces().tobytes()
+
+
+def test_lammps_atoms_in_any_row_order_read_as_sorted_by_id(tmp_path):
+    """A frame whose rows are sorted by ID (the columns copied) and the same frame in LAMMPS' order (gathered by
+    the ID order) give the same frame, bit for bit: particles, walls, contacts, IDs and dumped forces."""
+    import os
+    from cgbound.readers import LammpsReader
+    base = os.path.join(os.path.dirname(__file__), "data", "lammps", "hooke3d")
+    out = []
+    for part in open(os.path.join(base, "atoms.dump"), "rb").read().split(b"ITEM: TIMESTEP\n")[1:]:
+        lines = part.rstrip(b"\n").split(b"\n")
+        head = next(k for k, line in enumerate(lines) if line.startswith(b"ITEM: ATOMS")) + 1
+        rows = sorted(lines[head:], key=lambda row: int(row.split()[0]))
+        out.append(b"ITEM: TIMESTEP\n" + b"\n".join(lines[:head] + rows) + b"\n")
+    sorted_dump = tmp_path / "atoms.dump"
+    sorted_dump.write_bytes(b"".join(out))
+    opts = dict(pair_values=("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4"), walls=["w"], fixed_types=[2],
+                body_force=(0.0, 0.0, -1.0))
+    a = LammpsReader(os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump"), **opts)
+    b = LammpsReader(sorted_dump, os.path.join(base, "pairs.dump"), **opts)
+    assert len(a) == len(b) == 3
+    for k in range(3):
+        fa, fb = a.frame(k), b.frame(k)
+        for x, y in [(fa.ids, fb.ids), (fa.types, fb.types), (fa.forces, fb.forces), (fa.contact_ids, fb.contact_ids),
+                     (fa.overlap, fb.overlap)] + [(getattr(fa.snapshot, name), getattr(fb.snapshot, name)) for name in
+                                                  ("positions", "velocities", "masses", "radii", "fixed", "species")] \
+                + [(getattr(fa.snapshot.contacts, name), getattr(fb.snapshot.contacts, name))
+                   for name in ("i", "j", "force", "point")]:
+            assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
+        assert np.any(fa.snapshot.contacts.j == -1) and not np.all(np.diff(a._atoms_dump.read(a._frames[k][0])["data"]
+                                                                           .integers("id")) > 0)
+
+
+def test_lammps_inactive_pair_rows_are_dropped_and_the_rest_kept_bit_for_bit(tmp_path):
+    """drop_inactive: the rows of a dump local with no overlap and zero force (pairs within the force cutoff, not
+    touching) are dropped; every other row (overlapping with zero force, or a force without overlap) is kept with
+    the values read when nothing is dropped."""
+    from cgbound.readers import LammpsReader
+    ax = 0.5 + 0.99 * np.arange(3)
+    pos = np.stack([g.ravel() for g in np.meshgrid(ax, ax, ax, indexing="ij")], axis=1)
+    n = len(pos)
+    rng = np.random.default_rng(3)
+    rows = []
+    for a in range(n):
+        for b in range(a + 1, n):
+            d = np.linalg.norm(pos[a] - pos[b])
+            if d < 1.0:       # touching: a force, or none (kept for its overlap)
+                f = rng.normal(size=3) if rng.random() < 0.8 else np.zeros(3)
+            elif d < 2.0:     # within the cutoff, not touching: no force (dropped), or one (kept)
+                f = np.zeros(3) if rng.random() < 0.8 else rng.normal(size=3)
+            else:
+                continue
+            rows.append(f"{a + 1} {b + 1} {' '.join(repr(float(x)) for x in f)}\n")
+    atoms, pairs = tmp_path / "a.dump", tmp_path / "p.dump"
+    atoms.write_text(f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{n}\nITEM: BOX BOUNDS ff ff ff\n" + "0 3\n" * 3
+                     + "ITEM: ATOMS id type x y z radius mass\n"
+                     + "".join(f"{k + 1} 1 {' '.join(repr(float(x)) for x in pos[k])} 0.5 1\n" for k in range(n)))
+    pairs.write_text(f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ENTRIES\n{len(rows)}\nITEM: BOX BOUNDS ff ff ff\n"
+                     + "0 3\n" * 3 + "ITEM: ENTRIES c_pp[1] c_pp[2] c_pl[1] c_pl[2] c_pl[3]\n" + "".join(rows))
+    options = dict(pair_style="total", pair_values=("fx", "fy", "fz"), check_forces=False)
+    every = LammpsReader(atoms, pairs, drop_inactive=False, **options).frame(0)
+    active = LammpsReader(atoms, pairs, **options).frame(0)
+    c = every.snapshot.contacts
+    keep = (every.overlap > 0) | np.any(c.force != 0, axis=1)
+    assert 0 < keep.sum() < len(keep) and np.any(every.overlap[keep] < 0) and np.any(np.all(c.force[keep] == 0, axis=1))
+    for x, y in [(c.i[keep], active.snapshot.contacts.i), (c.j[keep], active.snapshot.contacts.j),
+                 (c.force[keep], active.snapshot.contacts.force), (c.point[keep], active.snapshot.contacts.point),
+                 (every.contact_ids[keep], active.contact_ids), (every.overlap[keep], active.overlap)]:
+        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
+    np.testing.assert_array_equal(every.contact_ids, [[int(r.split()[0]), int(r.split()[1])] for r in rows])

@@ -14,12 +14,12 @@ import re
 
 import numpy as np
 
-from ._text import count_lines, find_lines, gzip_checkpoints, iter_chunks, parse_table
+from ._text import count_lines, find_lines, frame_text, gzip_checkpoints, iter_chunks, parse_table
 from ._text import read_range as _read_text_range
 from .files import is_gzip
 
-__all__ = ["DATA_COLUMNS", "FSTAT_COLUMNS", "LINE_TIME_RTOL", "read_fstat_rows", "read_particles", "read_restart",
-           "scan_data", "scan_fstat"]
+__all__ = ["DATA_COLUMNS", "FSTAT_COLUMNS", "LINE_TIME_RTOL", "fstat_rows", "read_fstat_rows", "read_particles",
+           "read_restart", "scan_data", "scan_fstat"]
 
 DATA_COLUMNS = {3: 14, 2: 8}
 DATA_SPECIES = {3: 13, 2: 7}     # the species column of a .data particle line
@@ -110,21 +110,37 @@ def scan_windows(path, size=None, line_starts=True):
                 pass
 
 
+def _gzip_checkpoints_of(path):
+    checkpoints = _GZIP_CHECKPOINTS.get(_gzip_key(path))
+    if checkpoints is None:
+        checkpoints = gzip_checkpoints(path)
+        _remember_checkpoints(path, checkpoints)
+    return checkpoints
+
+
+def _changed(path, start, stop, got):
+    return ValueError(f"{path}: the file changed since it was scanned (it ends at byte {start + got}, a "
+                      f"frame was expected up to byte {stop}); open the reader again")
+
+
 def read_range(path, start, stop):
     """Bytes [start, stop) of the file (decompressed if gzip, from the scan's checkpoint before start); a ValueError
     naming the file if it ends before stop (cut since it was scanned: an .fstat frame would lose contacts)."""
-    if is_gzip(path):
-        checkpoints = _GZIP_CHECKPOINTS.get(_gzip_key(path))
-        if checkpoints is None:
-            checkpoints = gzip_checkpoints(path)
-            _remember_checkpoints(path, checkpoints)
-        data = _read_text_range(path, start, stop, checkpoints)
-    else:
-        data = _read_text_range(path, start, stop)
+    data = _read_text_range(path, start, stop, _gzip_checkpoints_of(path) if is_gzip(path) else None)
     if len(data) != max(stop - start, 0):
-        raise ValueError(f"{path}: the file changed since it was scanned (it ends at byte {start + len(data)}, a "
-                         f"frame was expected up to byte {stop}); open the reader again")
+        raise _changed(path, start, stop, len(data))
     return data
+
+
+@contextlib.contextmanager
+def frame_range(path, start, stop):
+    """:func:`read_range` as ``(data, size)`` in the reused frame buffer (:func:`._text.frame_text`): the text is
+    ``data[:size]`` (data may be longer), valid inside the block."""
+    compressed = is_gzip(path)
+    with frame_text(path, start, stop, _gzip_checkpoints_of(path) if compressed else None, compressed) as (data, got):
+        if got != max(stop - start, 0):
+            raise _changed(path, start, stop, got)
+        yield data, got
 
 
 def _empty_file_error(path, what):
@@ -351,49 +367,62 @@ def read_particles(path, header, n, dim, rows_start, rows_stop):
     lower, upper = np.array(head[2:2 + dim]), np.array(head[2 + dim:2 + 2 * dim])
     if n == 0:
         return time, lower, upper, np.zeros((0, ncol)), np.zeros(0, np.int64)
-    data = read_range(path, rows_start, rows_stop)
-    eol = data.find(b"\n")
-    width = len(data[:None if eol < 0 else eol].split())
-    what = f"a {dim}D .data particle line"
-    if width < ncol:
-        raise ValueError(f"{path}:{first_line + 1}: expected {ncol} columns for {what}, got {width} "
-                         f"(frame t = {time:g})")
-    try:
-        table = parse_table(data, 0, len(data), width, int_columns=(DATA_SPECIES[dim],), nrows=n, name=path,
-                            frame=f"t = {time:g}", first_line=first_line + 1)
-    except ValueError as exc:
-        raise _row_length_error(path, data, first_line + 1, width, what, time, exc) from None
+    with frame_range(path, rows_start, rows_stop) as (data, size):
+        eol = data.find(b"\n", 0, size)
+        width = len(data[:size if eol < 0 else eol].split())
+        what = f"a {dim}D .data particle line"
+        if width < ncol:
+            raise ValueError(f"{path}:{first_line + 1}: expected {ncol} columns for {what}, got {width} "
+                             f"(frame t = {time:g})")
+        try:
+            table = parse_table(data, 0, size, width, int_columns=(DATA_SPECIES[dim],), nrows=n, name=path,
+                                frame=f"t = {time:g}", first_line=first_line + 1)
+        except ValueError as exc:
+            raise _row_length_error(path, data[:size], first_line + 1, width, what, time, exc) from None
     values = table.values if width == ncol else np.ascontiguousarray(table.values[:, :ncol])
     return time, lower, upper, values, table.ints[:, 0]
 
 
-def read_fstat_rows(path, time, rows_start, rows_stop, first_line):
-    """The interaction lines of a .fstat frame: an (M, W) table (W >= FSTAT_COLUMNS: extra trailing columns are
-    kept, the C pass of the contacts skips them), the (M, 2) int64 indices i, j, and a function giving the 1-based
-    line number of row k; None, None, None if M = 0. The lines' times are checked against the frame's (within
-    LINE_TIME_RTOL) by the caller, with the contacts (csrc/cg_fstat.h)."""
-    data = read_range(path, rows_start, rows_stop)
-    text = _TEXT.search(data)
+def _fstat_rows(path, time, data, size, first_line):
+    """read_fstat_rows of the text data[:size]; line_of reads data when called."""
+    text = _TEXT.search(data, 0, size)
     if not text:
         return None, None, None
-    eol = data.find(b"\n", text.start())
-    width = len(data[text.start():None if eol < 0 else eol].split())
+    eol = data.find(b"\n", text.start(), size)
+    width = len(data[text.start():size if eol < 0 else eol].split())
     what = "an .fstat line 'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz'"
     if width < FSTAT_COLUMNS:
         line = first_line + bytes(data[:text.start()]).count(b"\n")
         raise ValueError(f"{path}:{line}: expected {FSTAT_COLUMNS} columns "
                          f"'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz', got {width}")
     try:
-        table = parse_table(data, 0, len(data), width, int_columns=(1, 2), skip_blank=True, name=path,
+        table = parse_table(data, 0, size, width, int_columns=(1, 2), skip_blank=True, name=path,
                             frame=f"t = {time:g}", first_line=first_line)
     except ValueError as exc:
-        raise _row_length_error(path, data, first_line, width, what, time, exc) from None
+        raise _row_length_error(path, data[:size], first_line, width, what, time, exc) from None
 
     numbered = []
 
     def line_of(k):
         if not numbered:   # blank lines may sit between rows: number the non-blank lines once, on demand
-            numbered.extend(first_line + j for j, line in enumerate(bytes(data).split(b"\n")) if line.strip())
+            numbered.extend(first_line + j for j, line in enumerate(bytes(data[:size]).split(b"\n")) if line.strip())
         return numbered[k]
 
     return table.values, table.ints, line_of
+
+
+def read_fstat_rows(path, time, rows_start, rows_stop, first_line):
+    """The interaction lines of a .fstat frame: an (M, W) table (W >= FSTAT_COLUMNS: extra trailing columns are
+    kept, the C pass of the contacts skips them), the (M, 2) int64 indices i, j, and a function giving the 1-based
+    line number of row k; None, None, None if M = 0. The lines' times are checked against the frame's (within
+    LINE_TIME_RTOL) by the caller, with the contacts (csrc/cg_fstat.h). The text is kept for line numbers as long
+    as the function is (:func:`fstat_rows` reuses it instead)."""
+    data = read_range(path, rows_start, rows_stop)
+    return _fstat_rows(path, time, data, len(data), first_line)
+
+
+@contextlib.contextmanager
+def fstat_rows(path, time, rows_start, rows_stop, first_line):
+    """:func:`read_fstat_rows` with the frame's text in the reused frame buffer: line_of works inside the block."""
+    with frame_range(path, rows_start, rows_stop) as (data, size):
+        yield _fstat_rows(path, time, data, size, first_line)

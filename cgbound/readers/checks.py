@@ -34,6 +34,48 @@ def generic_columns(columns):
     return [c for c in columns if _GENERIC.match(c)]
 
 
+def row_squares(vectors):
+    """The squared Euclidean norm of each row of an (M, D) array, as np.sum(vectors ** 2, axis=1) adds it
+    ((x0 x0 + x1 x1) + x2 x2: the same bits, tests/test_reader_fast_paths.py) in a pass per column instead of an
+    (M, D) square and a reduction along the short axis (5 times slower)."""
+    out = vectors[:, 0] * vectors[:, 0]
+    for a in range(1, vectors.shape[1]):
+        out += vectors[:, a] * vectors[:, a]
+    return out
+
+
+def row_norms(vectors):
+    """np.linalg.norm(vectors, axis=1), the same bits: the square root of :func:`row_squares`."""
+    out = row_squares(vectors)
+    return np.sqrt(out, out=out)
+
+
+def particle_forces(snapshot):
+    """``snapshot.particle_forces()``, the same bits, ten times faster: the contact forces on each particle (on i,
+    then minus them on j >= 0) summed by np.bincount per axis, a loop over the contacts in their order, the
+    additions np.add.at makes in the same order (starting from 0); then the body force on flowing particles."""
+    c = snapshot.contacts
+    n, dim = snapshot.n_particles, snapshot.dim
+    f = np.zeros((n, dim))
+    if len(c):
+        m = len(c)
+        pair = c.j >= 0
+        every = bool(pair.all())    # (no walls: the arrays as they are, not selected copies)
+        index = np.concatenate([c.i, c.j if every else c.j[pair]])
+        weights = np.empty(index.shape[0])
+        for a in range(dim):
+            weights[:m] = c.force[:, a]
+            np.negative(c.force[:, a] if every else c.force[pair, a], out=weights[m:])
+            f[:, a] = np.bincount(index, weights=weights, minlength=n)
+    if snapshot.body_force is not None:
+        flow = snapshot.flowing
+        if flow.all():    # (every particle: the same products on all rows, without selecting them)
+            f += snapshot.masses[:, None] * snapshot.body_force
+        else:
+            f[flow] += snapshot.masses[flow, None] * snapshot.body_force[flow]
+    return f
+
+
 def force_balance(total, dumped, contact_forces, checked=None):
     """How well per-particle force sums reproduce the forces an engine wrote.
 
@@ -42,13 +84,13 @@ def force_balance(total, dumped, contact_forces, checked=None):
     (default all). Returns a dict: ``mismatch`` ((N,) norms, NaN where not checked), ``scale`` and
     ``relative`` (the largest checked mismatch / scale).
     """
-    diff = np.linalg.norm(total - dumped, axis=1)
+    diff = row_norms(total - dumped)
     if checked is None:
         checked = np.ones(diff.shape[0], bool)
     if contact_forces.shape[0]:
-        scale = float(np.sqrt(np.mean(np.sum(contact_forces ** 2, axis=1))))
+        scale = float(np.sqrt(np.mean(row_squares(contact_forces))))
     else:
-        scale = float(np.sqrt(np.mean(np.sum(dumped ** 2, axis=1)))) if dumped.shape[0] else 0.0
+        scale = float(np.sqrt(np.mean(row_squares(dumped)))) if dumped.shape[0] else 0.0
     worst = float(np.max(diff[checked])) if checked.any() else 0.0
     return {"mismatch": np.where(checked, diff, np.nan), "scale": scale,
             "relative": worst / scale if scale > 0 else worst}

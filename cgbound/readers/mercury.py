@@ -119,7 +119,7 @@ from .. import _engine
 from .._validate import finite_number, index_array, integer
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
-from ._mercury_files import LINE_TIME_RTOL, read_fstat_rows, read_particles, read_restart, scan_data, scan_fstat
+from ._mercury_files import LINE_TIME_RTOL, fstat_rows, read_particles, read_restart, scan_data, scan_fstat
 from ._mercury_write import write_mercury
 from .files import CompanionFileWarning, companion
 from ._sequence import FrameReader, file_name
@@ -391,14 +391,14 @@ class MercuryReader(FrameReader):
         """The contacts of a .fstat frame: (Contacts, wall index, overlap). The per-line work (times, partners,
         the force on i and its orientation, the pairing, the walls) is one C pass, csrc/cg_fstat.h."""
         time = fstat[0]
-        rows, ints, line_of = read_fstat_rows(self.fstat_path, *fstat[:4])
-        if rows is None:
-            return Contacts.empty(self.dim), np.zeros(0, np.int64), np.zeros(0)
-        problem, detail, found = _engine.fstat_contacts(
-            rows, ints, time, LINE_TIME_RTOL * max(1.0, abs(time)), pos, radii, fixed, box.periodic,
-            [float(x) for x in box.lengths], self.rtol)
-        if problem:
-            raise self._fstat_problem(problem, detail, rows, ints, line_of, time, pos.shape[0])
+        with fstat_rows(self.fstat_path, *fstat[:4]) as (rows, ints, line_of):   # (line_of: inside the block)
+            if rows is None:
+                return Contacts.empty(self.dim), np.zeros(0, np.int64), np.zeros(0)
+            problem, detail, found = _engine.fstat_contacts(
+                rows, ints, time, LINE_TIME_RTOL * max(1.0, abs(time)), pos, radii, fixed, box.periodic,
+                [float(x) for x in box.lengths], self.rtol)
+            if problem:
+                raise self._fstat_problem(problem, detail, rows, ints, line_of, time, pos.shape[0])
         i, j, wall_index, force, point, overlap = found
         return Contacts.from_reader(i, j, force, point, parsed=("contacts.point",)), wall_index, overlap
 
