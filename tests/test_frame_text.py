@@ -149,3 +149,28 @@ def test_lammps_frames_read_into_a_spare_holding_other_text_are_the_same():
         assert got.ids.tobytes() == expected[k].ids.tobytes()
         assert got.snapshot.positions.tobytes() == expected[k].snapshot.positions.tobytes()
         assert got.snapshot.contacts.force.tobytes() == expected[k].snapshot.contacts.force.tobytes()
+
+
+def test_the_spare_is_given_back_when_the_last_reader_is_gone(tmp_path):
+    """The spare frame buffer lives only as long as a reader that reads frames: a notebook that read a file and
+    dropped its readers does not keep a frame's text."""
+    import gc
+    from cgbound.readers import _text
+    write_mercury([_lattice(3, 0, 0.0), _lattice(3, 1, 1.0)], tmp_path / "m.data", tmp_path / "m.fstat")
+    options = dict(restart_path=False, periodic=(False,) * 3, density=1.0)
+    gc.collect()
+    _text._spare.clear()
+    first = MercuryReader(tmp_path / "m.data", tmp_path / "m.fstat", **options)
+    second = MercuryReader(tmp_path / "m.data", tmp_path / "m.fstat", **options)
+    first[0]
+    assert len(_text._spare) == 1      # kept for the next frame
+    del first
+    gc.collect()
+    assert len(_text._spare) == 1      # the second reader still lives
+    second[1]
+    del second
+    gc.collect()
+    assert _text._spare == []
+    list(MercuryReader(tmp_path / "m.data", tmp_path / "m.fstat", **options))
+    gc.collect()
+    assert _text._spare == []          # a reader used and dropped in one expression keeps nothing either

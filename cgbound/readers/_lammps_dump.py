@@ -243,6 +243,7 @@ class DumpIndex:
         self.extent = {offset: (stop, line) for offset, _, stop, line in frames}
         self.compressed = compressed
         self._checkpoints = checkpoints
+        _text.hold_spare(self)
 
     def __iter__(self):
         return iter(self.frames)
@@ -254,6 +255,10 @@ class DumpIndex:
         state = dict(self.__dict__)
         state["_checkpoints"] = None
         return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        _text.hold_spare(self)
 
     def read(self, offset, int_columns=(), integral_columns=()):
         """The frame at ``offset``: dict with timestep, time (or None), box bounds/flags, column names,

@@ -13,6 +13,7 @@ import contextlib
 import mmap
 import os
 import threading
+import weakref
 import zlib
 from typing import NamedTuple
 
@@ -255,11 +256,30 @@ def frame_buffer(size):
 
 #: the frame buffer kept for the next frame's text (:func:`frame_text`): a new buffer's pages are faulted and zeroed
 #: by the kernel as the file is copied in (``perf``: 7 % of a MercuryDPM read in ``clear_page``, 6 ms per 60 MB
-#: frame), the spare's already were. At most one, of at most SPARE_MAX bytes: the reader's memory between frames
-#: grows by one frame's text, never more.
+#: frame), the spare's already were. At most one, of at most SPARE_MAX bytes, and only while a reader that reads
+#: frames is alive (:func:`hold_spare`): memory grows by one frame's text while files are open, and is given back
+#: when the last of their readers is gone.
 _spare = []
 _spare_lock = threading.Lock()
+_spare_holders = 0
 SPARE_MAX = 1 << 29
+
+
+def hold_spare(reader):
+    """Let frame_text keep a spare buffer for as long as ``reader`` lives (readers call it when made)."""
+    global _spare_holders
+    with _spare_lock:
+        _spare_holders += 1
+    weakref.finalize(reader, _release_spare)
+
+
+def _release_spare():
+    global _spare_holders
+    with _spare_lock:
+        _spare_holders -= 1
+        drop = _spare.pop() if _spare and _spare_holders <= 0 else None
+    if drop is not None:
+        _close(drop)
 
 
 def _after_fork_in_child():
@@ -300,7 +320,7 @@ def _keep_buffer(buf):
         _close(buf)
         return
     with _spare_lock:
-        if _spare and len(_spare[0]) >= len(buf):
+        if _spare_holders <= 0 or (_spare and len(_spare[0]) >= len(buf)):
             drop = buf
         else:
             drop = _spare.pop() if _spare else None

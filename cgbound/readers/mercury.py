@@ -123,6 +123,7 @@ from ._mercury_files import LINE_TIME_RTOL, fstat_rows, read_particles, read_res
 from ._mercury_write import write_mercury
 from .files import CompanionFileWarning, companion
 from ._sequence import FrameReader, file_name
+from ._text import hold_spare
 
 __all__ = ["MercuryReader", "MercuryFrame", "write_mercury"]
 
@@ -195,6 +196,7 @@ class MercuryReader(FrameReader):
                 ["no axis is periodic"] if periodic is None else [])
             self._warn_companion(".restart", "restart_path", " and ".join(lost))
         data_frames = scan_data(self.data_path, dim)
+        hold_spare(self)   # frames' text in one reused buffer while this reader lives
         dims = {f[4] for f in data_frames}
         if len(dims) > 1:
             raise ValueError(f"{self.data_path}: mixes 2D and 3D headers")
