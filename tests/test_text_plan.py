@@ -102,3 +102,14 @@ def test_parse_with_parts_larger_than_the_range_and_of_empty_ranges():
                 assert raw_parse(data, 3, bytes(3), -1, flags, parts) == expected
     with pytest.raises(ValueError, match="parts"):
         _engine.text_parse_table(b"1\n", 0, 2, 1, bytes(1), -1, 0, 1, 17)
+
+
+def test_skipped_blank_lines_shrink_the_tables_in_place():
+    """An undeclared count sizes the tables by lines; rows skipped as blank are given back (resize, no copy)."""
+    data = b"\n1 2 3\n \n4 5 6\n\n7 8 9\n\t\n"
+    for threads in (1, 2):
+        table = _text.parse_table(data, ncols=3, int_columns=(1,), skip_blank=True, threads=threads)
+        assert table.values.tolist() == [[1, 2, 3], [4, 5, 6], [7, 8, 9]] and table.ints.tolist() == [[2], [5], [8]]
+        for a in table:
+            if isinstance(a, np.ndarray):
+                assert a.flags.c_contiguous and a.flags.owndata and a.base is None
