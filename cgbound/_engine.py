@@ -127,9 +127,10 @@ def fstat_contacts(rows, partners, time, time_tolerance, positions, radii, fixed
                                 rtol)
 
 
-def text_find_lines(data, start, stop, prefix):
-    """Byte offsets of the lines of ``data[start:stop]`` that start with ``prefix``."""
-    return _core.text_find_lines(data, start, stop, prefix)
+def text_find_lines(data, start, stop, prefix, n_threads=1):
+    """Byte offsets of the lines of ``data[start:stop]`` that start with ``prefix`` (ranges of 4 MB and more
+    searched over up to n_threads threads)."""
+    return _core.text_find_lines(data, start, stop, prefix, n_threads)
 
 
 def text_count_lines(data, start, stop, n_threads=1):

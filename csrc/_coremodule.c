@@ -1199,11 +1199,17 @@ static PyObject *py_text_find_lines(PyObject *self, PyObject *args)
     (void)self;
     text_buffer data = {0}, prefix = {0};
     Py_ssize_t start, stop;
+    int n_threads = 1;
     PyArrayObject *offsets = NULL;
     PyObject *ret = NULL;
-    if (!PyArg_ParseTuple(args, "O&nnO&", convert_text_buffer, &data, &start, &stop, convert_text_buffer, &prefix))
+    if (!PyArg_ParseTuple(args, "O&nnO&|i", convert_text_buffer, &data, &start, &stop, convert_text_buffer, &prefix,
+                          &n_threads))
         return NULL;
     if (!check_text_range(&data, start, stop)) goto done;
+    if (n_threads < 1) {
+        PyErr_Format(PyExc_ValueError, "n_threads: expected a positive count, got %d", n_threads);
+        goto done;
+    }
     const char *text = (const char *)data.view.buf + start;
     const size_t length = (size_t)(stop - start);
     int64_t count = 0;
@@ -1213,8 +1219,8 @@ static PyObject *py_text_find_lines(PyObject *self, PyObject *args)
         if (!offsets) goto done;
         int64_t *out = (int64_t *)PyArray_DATA(offsets);
         Py_BEGIN_ALLOW_THREADS
-        cg_text_find_lines(text, length, (const char *)prefix.view.buf, (size_t)prefix.view.len, out, capacity,
-                           &count);
+        cg_text_find_lines_threads(text, length, (const char *)prefix.view.buf, (size_t)prefix.view.len, out,
+                                   capacity, &count, n_threads);
         for (int64_t i = 0; i < count && i < capacity; ++i) out[i] += start;
         Py_END_ALLOW_THREADS
         if (count <= capacity) break;
@@ -1372,8 +1378,8 @@ done:
          "parts (cg_text_plan_lines): int64 offsets in data of the parts and their end, and the lines before each " \
          "(the last: all of them)."},                                                                                \
         {"text_find_lines", py_text_find_lines, METH_VARARGS,                                                       \
-         "text_find_lines(data, start, stop, prefix) -> int64 offsets (from the start of data) of the lines of "    \
-         "data[start:stop] that start with prefix."},                                                                \
+         "text_find_lines(data, start, stop, prefix, n_threads=1) -> int64 offsets (from the start of data) of "   \
+         "the lines of data[start:stop] that start with prefix (cg_text_find_lines_threads)."},                      \
         {"text_count_lines", py_text_count_lines, METH_VARARGS,                                                     \
          "text_count_lines(data, start, stop, n_threads=1) -> the lines of data[start:stop] "                      \
          "(cg_text_count_lines_threads): its '\\n' bytes, plus one if it is not empty and does not end with one."},

@@ -695,7 +695,8 @@ cg_status cg_text_plan_lines(const char *text, size_t length, int parts, cg_text
 
 /* Part k of the plan parses into rows from plan->line[k] on (the lines before it), which leaves room for its rows;
    rows are closed up afterwards where blank lines were skipped. count: the plan's lines are not known yet, each
-   part counts its own first (in the same parallel region: no second wake-up of the threads). Any error: the
+   part but the last counts its own first (in the same parallel region: no second wake-up of the threads; the
+   plan's line[parts] is then not set). Any error: the
    range is parsed again in one pass, so errors are reported exactly as that pass reports them. */
 static cg_status parse_parts(const char *text, size_t length, cg_text_plan *plan, int count, int64_t ncols,
                              const unsigned char *int_columns, int64_t n_int, int flags, int64_t max_rows,
@@ -709,21 +710,21 @@ static cg_status parse_parts(const char *text, size_t length, cg_text_plan *plan
 #pragma omp parallel num_threads(parts)
 #endif
     {
-        if (count) {
+        if (count) { /* the last part's lines place no rows: not counted (its thread waits at the barrier) */
 #ifdef _OPENMP
 #pragma omp for schedule(static, 1)
 #endif
-            for (int k = 0; k < parts; ++k) lines[k] = part_lines(text, plan, k);
-#ifdef _OPENMP
-#pragma omp single
-#endif
-            sum_lines(plan, lines);
+            for (int k = 0; k < parts; ++k) lines[k] = k + 1 < parts ? part_lines(text, plan, k) : 0;
         }
 #ifdef _OPENMP
 #pragma omp for schedule(static, 1)
 #endif
         for (int k = 0; k < parts; ++k) {
-            const int64_t first = plan->line[k];
+            int64_t first = 0;
+            if (count) /* each thread sums the counts itself: no third barrier */
+                for (int j = 0; j < k; ++j) first += lines[j];
+            else
+                first = plan->line[k];
             const int64_t room = max_rows > first ? max_rows - first : 0; /* 0: any row is an error */
             status[k] = cg_text_parse_table(text + plan->start[k], (size_t)(plan->start[k + 1] - plan->start[k]),
                                             ncols, int_columns, flags & ~CG_TEXT_STOP_AT_MAX_ROWS, room,
@@ -731,6 +732,7 @@ static cg_status parse_parts(const char *text, size_t length, cg_text_plan *plan
                                             n_int ? (room ? ints + first * n_int : ints) : NULL, &part[k]);
         }
     }
+    if (count) sum_lines(plan, lines); /* line[parts] is wrong (the last part was not counted): unused */
     memset(result, 0, sizeof *result);
     for (int k = 0; k < parts; ++k) {
         if (status[k] != CG_OK)
@@ -894,35 +896,58 @@ int64_t cg_text_count_lines_threads(const char *text, size_t length, int n_threa
     return n + (text[length - 1] != '\n');
 }
 
-cg_status cg_text_find_lines(const char *text, size_t length, const char *prefix, size_t prefix_length,
-                             int64_t *offsets, int64_t capacity, int64_t *count)
+/* where find_lines puts what it finds: offsets[0 .. capacity) and a count beyond it; grow: a part's own list,
+   doubled as needed (failed: no memory) */
+typedef struct line_hits {
+    int64_t *at, n, capacity;
+    int grow, failed;
+} line_hits;
+
+static void add_hit(line_hits *h, int64_t offset)
 {
-    if (!count || capacity < 0 || (capacity > 0 && !offsets) || (!text && length) || (!prefix && prefix_length))
-        return CG_ERR_ARGUMENT;
-    int64_t n = 0;
-    const char *p = text, *end = text + length;
+    if (h->n == h->capacity && h->grow && !h->failed) {
+        const int64_t more = h->capacity ? 2 * h->capacity : 1024;
+        int64_t *at = realloc(h->at, (size_t)more * sizeof *at);
+        if (at) {
+            h->at = at;
+            h->capacity = more;
+        } else {
+            h->failed = 1;
+        }
+    }
+    if (h->n < h->capacity) h->at[h->n] = offset;
+    ++h->n;
+}
+
+/* the lines of [text, text + length) that start in [from, to) with the prefix */
+static void find_lines_in(const char *text, size_t length, size_t from, size_t to, const char *prefix,
+                          size_t prefix_length, line_hits *hits)
+{
+    const char *p = text + from, *stop = text + to, *end = text + length;
     if (prefix_length == 0) {
         /* every line start */
-        while (p < end) {
-            if (n < capacity) offsets[n] = p - text;
-            ++n;
+        if (from > 0 && p[-1] != '\n') { /* inside a line: from the next one */
+            const char *nl = memchr(p, '\n', (size_t)(end - p));
+            if (!nl) return;
+            p = nl + 1;
+        }
+        while (p < stop) {
+            add_hit(hits, p - text);
             const char *nl = memchr(p, '\n', (size_t)(end - p));
             if (!nl) break;
             p = nl + 1;
         }
-        *count = n;
-        return CG_OK;
+        return;
     }
     /* jump between occurrences of the prefix's first byte (rare in numeric
        rows for the prefixes we use: 'I' of ITEM:, '#'), keep those at a line start */
     const char first = prefix[0];
-    while (p < end) {
-        const char *hit = memchr(p, first, (size_t)(end - p));
+    while (p < stop) {
+        const char *hit = memchr(p, first, (size_t)(stop - p));
         if (!hit) break;
         if ((hit == text || hit[-1] == '\n') && (size_t)(end - hit) >= prefix_length &&
             memcmp(hit, prefix, prefix_length) == 0) {
-            if (n < capacity) offsets[n] = hit - text;
-            ++n;
+            add_hit(hits, hit - text);
             const char *nl = memchr(hit, '\n', (size_t)(end - hit));
             if (!nl) break;
             p = nl + 1;
@@ -930,6 +955,49 @@ cg_status cg_text_find_lines(const char *text, size_t length, const char *prefix
             p = hit + 1;
         }
     }
-    *count = n;
+}
+
+cg_status cg_text_find_lines(const char *text, size_t length, const char *prefix, size_t prefix_length,
+                             int64_t *offsets, int64_t capacity, int64_t *count)
+{
+    return cg_text_find_lines_threads(text, length, prefix, prefix_length, offsets, capacity, count, 1);
+}
+
+cg_status cg_text_find_lines_threads(const char *text, size_t length, const char *prefix, size_t prefix_length,
+                                     int64_t *offsets, int64_t capacity, int64_t *count, int n_threads)
+{
+    if (!count || capacity < 0 || (capacity > 0 && !offsets) || (!text && length) || (!prefix && prefix_length))
+        return CG_ERR_ARGUMENT;
+    const int parts = n_threads < 2 || length < 2 * CG_TEXT_BYTES_PER_THREAD ? 1 : cg_text_plan_parts(length, n_threads);
+    if (parts > 1) {
+        /* byte ranges (a line belongs to the part it starts in), each listed on its own thread: the first pass
+           over a fresh mapping of a file is mostly page faults, which the threads then share */
+        line_hits part[CG_TEXT_MAX_THREADS];
+        memset(part, 0, sizeof part);
+#ifdef _OPENMP
+#pragma omp parallel for num_threads(parts) schedule(static, 1)
+#endif
+        for (int k = 0; k < parts; ++k) {
+            part[k].grow = 1;
+            find_lines_in(text, length, length / (size_t)parts * (size_t)k,
+                          k + 1 < parts ? length / (size_t)parts * (size_t)(k + 1) : length, prefix, prefix_length,
+                          &part[k]);
+        }
+        int failed = 0;
+        int64_t n = 0;
+        for (int k = 0; k < parts; ++k) {
+            failed |= part[k].failed;
+            for (int64_t j = 0; j < part[k].n && !failed; ++j, ++n)
+                if (n < capacity) offsets[n] = part[k].at[j];
+            free(part[k].at);
+        }
+        if (!failed) {
+            *count = n;
+            return CG_OK;
+        }
+    }
+    line_hits hits = {offsets, 0, capacity, 0, 0}; /* one pass (also when a part's list found no memory) */
+    find_lines_in(text, length, 0, length, prefix, prefix_length, &hits);
+    *count = hits.n;
     return CG_OK;
 }

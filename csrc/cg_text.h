@@ -161,6 +161,10 @@ int64_t cg_text_count_lines_threads(const char *text, size_t length, int n_threa
  */
 cg_status cg_text_find_lines(const char *text, size_t length, const char *prefix, size_t prefix_length,
                              int64_t *offsets, int64_t capacity, int64_t *count);
+/* The same over up to n_threads threads for ranges of at least 2 CG_TEXT_BYTES_PER_THREAD (byte ranges, each
+ * listed on its own thread into memory of its own, then joined; one pass if that memory cannot be had). */
+cg_status cg_text_find_lines_threads(const char *text, size_t length, const char *prefix, size_t prefix_length,
+                                     int64_t *offsets, int64_t capacity, int64_t *count, int n_threads);
 
 /*
  * One token -> double, with the grammar above. Returns CG_OK or

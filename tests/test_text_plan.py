@@ -1,5 +1,6 @@
 """The text layer's plan (csrc/cg_text.h: cg_text_plan_lines, cg_text_parse_table_plan, cg_text_parse_table_parts):
-a range cut at line starts into parts whose lines are counted once, in parallel, then parsed one part per thread.
+a range cut at line starts into parts whose lines are counted once, in parallel, then parsed one part per thread;
+and the threaded line search (cg_text_find_lines_threads).
 
 The cuts and counts against a NumPy twin; the parse cut into 1 .. 16 parts (parts smaller than a line, empty parts,
 cuts next to blank lines, errors and nan) against the one-pass parse: the same values bit for bit, the same rows,
@@ -12,6 +13,9 @@ import pytest
 
 from cgbound import _engine
 from cgbound.readers import _text
+
+# csrc/cg_text.h: CG_TEXT_BYTES_PER_THREAD; ranges shorter than two of these are searched on one thread
+BYTES_PER_THREAD = 1 << 21
 
 
 def twin_plan(data, start, stop, parts):
@@ -113,3 +117,39 @@ def test_skipped_blank_lines_shrink_the_tables_in_place():
         for a in table:
             if isinstance(a, np.ndarray):
                 assert a.flags.c_contiguous and a.flags.owndata and a.base is None
+
+
+def twin_find_lines(data, prefix, start, stop):
+    """Line starts in [start, stop) (a line starts at start or after a '\\n') whose bytes up to stop begin with
+    prefix."""
+    text = np.frombuffer(data, np.uint8)[:stop]
+    after = np.flatnonzero(text[start:] == 10) + start + 1
+    starts = np.concatenate([[start] if start < stop else [], after[after < stop]]).astype(np.int64)
+    if prefix:
+        starts = starts[text[starts] == prefix[0]]
+    return [int(s) for s in starts if data.startswith(prefix, s, stop)]
+
+
+@pytest.mark.parametrize("ending", [b"\n", b""])
+def test_threaded_find_lines_equals_one_thread_and_a_twin(ending):
+    """Frame starts right at, before and after each cut (length // parts * k for 2 and 3 parts), a cut inside the
+    prefix, and every line start."""
+    size = 2 * BYTES_PER_THREAD + 123457
+    body = bytearray(b"0.5 1.25 -3e-7\n" * (size // 15))
+    for parts in (2, 3):
+        for k in range(1, parts):
+            cut = len(body) // parts * k
+            for at, text in [(cut - 40, b"ITEM: TIMESTEP\n"), (cut - 7, b"ITEM: TIMESTEP\n"), (cut, b"ITEM: TIM\n"),
+                             (cut + 60, b"# 0.5 1\n")]:
+                body[at:at + len(text)] = text
+                body[at - 1:at] = b"\n"
+    data = bytes(body[:-1]) + ending
+    for start, stop in [(0, len(data)), (1, len(data) - 3)]:
+        for prefix in (b"ITEM: TIMESTEP", b"ITEM: TIM", b"#", b"I", b""):
+            expected = twin_find_lines(data, prefix, start, stop)
+            assert prefix == b"" or len(expected) >= 2
+            for threads in (1, 2, 3):
+                got = _text.find_lines(data, prefix, start, stop, threads=threads)
+                assert got.tolist() == expected, (prefix, start, stop, threads)
+    with pytest.raises(ValueError, match="threads"):
+        _text.find_lines(data, b"#", threads=0)

@@ -158,12 +158,18 @@ def _lines_in(data, start, stop):
     return max(n - 1, 0) if len(view) and view[-1] == 10 else n
 
 
-def find_lines(data, prefix, start=0, stop=None):
-    """Byte offsets (from the start of data, int64) of the lines of data[start:stop] that begin with prefix."""
+def find_lines(data, prefix, start=0, stop=None, threads=None):
+    """Byte offsets (from the start of data, int64) of the lines of data[start:stop] that begin with prefix,
+    searched on up to ``threads`` threads (None: the core's setting) for ranges of 4 MB and more: the first
+    pass over a file's fresh mmap is mostly page faults, which the threads share."""
     if isinstance(prefix, str):
         prefix = prefix.encode()
     stop = _size(data) if stop is None else stop
-    return _engine.text_find_lines(data, start, stop, prefix)
+    if threads is None:
+        threads = _threads.get_num_threads()
+    elif isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"threads: expected a positive number of threads or None, got {threads!r}")
+    return _engine.text_find_lines(data, start, stop, prefix, threads)
 
 
 def count_lines(data, start=0, stop=None, threads=1):

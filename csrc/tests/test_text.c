@@ -91,6 +91,27 @@ int main(void)
             for (size_t len = big - 2; len <= big; ++len)
                 for (int t = 1; t <= 3; ++t)
                     CHECK(cg_text_count_lines_threads(text, len, t) == cg_text_count_lines(text, len));
+            /* the threaded line search: the same offsets (every line start; lines starting "xx\n": few) */
+            const char *prefixes[2] = {"", "x\n"};
+            for (int q = 0; q < 2; ++q) {
+                int64_t n1 = 0, n3 = 0, small = 0;
+                CHECK(cg_text_find_lines(text, big, prefixes[q], strlen(prefixes[q]), NULL, 0, &n1) == CG_OK);
+                int64_t *a = malloc((size_t)(n1 + 1) * sizeof *a), *b = malloc((size_t)(n1 + 1) * sizeof *b);
+                CHECK(a && b && n1 > 0);
+                if (a && b) {
+                    CHECK(cg_text_find_lines(text, big, prefixes[q], strlen(prefixes[q]), a, n1, &n1) == CG_OK);
+                    for (int t = 2; t <= 3; ++t) {
+                        CHECK(cg_text_find_lines_threads(text, big, prefixes[q], strlen(prefixes[q]), b, n1, &n3, t) ==
+                                  CG_OK &&
+                              n3 == n1 && memcmp(a, b, (size_t)n1 * sizeof *a) == 0);
+                        CHECK(cg_text_find_lines_threads(text, big, prefixes[q], strlen(prefixes[q]), b, 1, &small, t) ==
+                                  CG_OK &&
+                              small == n1 && b[0] == a[0]);
+                    }
+                }
+                free(a);
+                free(b);
+            }
             free(text);
         }
     }
