@@ -115,11 +115,11 @@ def write_files(directory, fmt):
 # ---------------------------------------------------------------------------------------------
 # the parsers
 
-def frames_of(kind, mm):
-    """(start, stop, ncols, nrows, int_columns) of every frame's rows."""
+def frames_of(kind, mm, threads=1):
+    """(start, stop, ncols, nrows, int_columns) of every frame's rows (frame starts found on threads)."""
     size = len(mm)
     if kind == "lammps":
-        starts = list(_text.find_lines(mm, b"ITEM: TIMESTEP")) + [size]
+        starts = list(_text.find_lines(mm, b"ITEM: TIMESTEP", threads=threads)) + [size]
         out = []
         for a, b in zip(starts[:-1], starts[1:]):
             head = bytes(mm[a:a + 4096]).split(b"\n")
@@ -137,7 +137,7 @@ def frames_of(kind, mm):
             out.append((end + 1, pos, 14, n, (13,)))
         return out
     # fstat: frames start at a '#' line after rows; the rows follow the 3 header lines
-    heads = list(_text.find_lines(mm, b"#"))
+    heads = list(_text.find_lines(mm, b"#", threads=threads))
     starts = heads[0::3] + [size]
     out = []
     for k, a in enumerate(starts[:-1]):
@@ -159,7 +159,7 @@ def parse_cg_text(path, kind, threads=1):
                                           threads=threads)
                 total, pos = total + len(table.values), table.end
             return total
-        for start, stop, ncols, n, ints in frames_of(kind, mm):
+        for start, stop, ncols, n, ints in frames_of(kind, mm, threads):
             total += len(_text.parse_table(mm, start, stop, ncols, int_columns=ints, nrows=n, threads=threads).values)
         return total
 

@@ -107,10 +107,16 @@ def wrap(positions, periodic, lower, upper):
     return _core.wrap(positions, periodic, lower, upper)
 
 
-def text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1):
+def text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1, parts=0):
     """The C text parser over ``data[start:stop]`` (see csrc/cg_text.h and readers/_text.py), on up to
-    n_threads threads for large ranges."""
-    return _core.text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads)
+    n_threads threads for large ranges (parts > 0: cut into exactly that many parts whatever the size)."""
+    return _core.text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads, parts)
+
+
+def text_plan_lines(data, start, stop, parts):
+    """``data[start:stop]`` cut at line starts into ``parts`` parts, the lines counted once (cg_text_plan_lines):
+    (int64 offsets in data of the parts' starts and the end, int64 lines before each and in all)."""
+    return _core.text_plan_lines(data, start, stop, parts)
 
 
 def fstat_contacts(rows, partners, time, time_tolerance, positions, radii, fixed, periodic, period, rtol):
@@ -121,9 +127,10 @@ def fstat_contacts(rows, partners, time, time_tolerance, positions, radii, fixed
                                 rtol)
 
 
-def text_find_lines(data, start, stop, prefix):
-    """Byte offsets of the lines of ``data[start:stop]`` that start with ``prefix``."""
-    return _core.text_find_lines(data, start, stop, prefix)
+def text_find_lines(data, start, stop, prefix, n_threads=1):
+    """Byte offsets of the lines of ``data[start:stop]`` that start with ``prefix`` (ranges of 4 MB and more
+    searched over up to n_threads threads)."""
+    return _core.text_find_lines(data, start, stop, prefix, n_threads)
 
 
 def text_count_lines(data, start, stop, n_threads=1):

@@ -1087,15 +1087,17 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
     (void)self;
     text_buffer data = {0}, mask = {0};
     Py_ssize_t start, stop, ncols, max_rows;
-    int flags, n_threads = 1;
+    int flags, n_threads = 1, parts = 0;
     PyArrayObject *values = NULL, *ints = NULL;
     PyObject *ret = NULL;
-    if (!PyArg_ParseTuple(args, "O&nnnO&ni|i", convert_text_buffer, &data, &start, &stop, &ncols, convert_text_buffer,
-                          &mask, &max_rows, &flags, &n_threads))
+    if (!PyArg_ParseTuple(args, "O&nnnO&ni|ii", convert_text_buffer, &data, &start, &stop, &ncols,
+                          convert_text_buffer, &mask, &max_rows, &flags, &n_threads, &parts))
         return NULL;
     if (!check_text_range(&data, start, stop)) goto done;
-    if (n_threads < 1) {
-        PyErr_Format(PyExc_ValueError, "n_threads: expected a positive count, got %d", n_threads);
+    if (n_threads < 1 || parts < 0 || parts > CG_TEXT_MAX_THREADS) {
+        PyErr_Format(PyExc_ValueError,
+                     "n_threads, parts: expected a positive count and 0 .. %d parts, got %d, %d",
+                     CG_TEXT_MAX_THREADS, n_threads, parts);
         goto done;
     }
     if (ncols < 1 || mask.view.len != ncols) {
@@ -1108,10 +1110,16 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
     const unsigned char *is_int = (const unsigned char *)mask.view.buf;
     npy_intp n_int = 0;
     for (Py_ssize_t c = 0; c < ncols; ++c) n_int += is_int[c] != 0;
-    if (max_rows < 0) { /* unknown: at most one row per line */
+    flags &= CG_TEXT_SKIP_BLANK | CG_TEXT_STOP_AT_MAX_ROWS;
+    /* parts: 0 from n_threads and the range's size; > 0 exactly that many (tests of small parts) */
+    cg_text_plan plan;
+    int planned = 0;
+    if (max_rows < 0) { /* unknown: at most one row per line; the count is kept to place each part's rows */
         Py_BEGIN_ALLOW_THREADS
-        max_rows = (Py_ssize_t)cg_text_count_lines_threads(text, length, n_threads);
+        cg_text_plan_lines(text, length, parts ? parts : cg_text_plan_parts(length, n_threads), &plan);
         Py_END_ALLOW_THREADS
+        max_rows = (Py_ssize_t)plan.line[plan.parts];
+        planned = 1;
     }
     if (max_rows > 0 && ncols > PY_SSIZE_T_MAX / (Py_ssize_t)sizeof(double) / max_rows) {
         PyErr_Format(PyExc_MemoryError, "a table of %zd x %zd values does not fit in memory", max_rows, ncols);
@@ -1123,10 +1131,16 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
     if (!values || !ints) goto done;
     cg_text_result res;
     cg_status st;
+    const unsigned char *int_columns = n_int ? is_int : NULL;
+    double *vp = (double *)PyArray_DATA(values);
+    int64_t *ip = (int64_t *)PyArray_DATA(ints);
     Py_BEGIN_ALLOW_THREADS
-    st = cg_text_parse_table_threads(text, length, ncols, n_int ? is_int : NULL,
-                                     flags & (CG_TEXT_SKIP_BLANK | CG_TEXT_STOP_AT_MAX_ROWS), max_rows,
-                                     (double *)PyArray_DATA(values), (int64_t *)PyArray_DATA(ints), &res, n_threads);
+    if (planned)
+        st = cg_text_parse_table_plan(text, length, &plan, ncols, int_columns, flags, max_rows, vp, ip, &res);
+    else if (parts)
+        st = cg_text_parse_table_parts(text, length, ncols, int_columns, flags, max_rows, vp, ip, &res, parts);
+    else
+        st = cg_text_parse_table_threads(text, length, ncols, int_columns, flags, max_rows, vp, ip, &res, n_threads);
     Py_END_ALLOW_THREADS
     if (st == CG_ERR_ARGUMENT) {
         PyErr_SetString(PyExc_ValueError, cg_strerror(st));
@@ -1146,16 +1160,56 @@ done:
     return ret;
 }
 
+static PyObject *py_text_plan_lines(PyObject *self, PyObject *args)
+{
+    (void)self;
+    text_buffer data = {0};
+    Py_ssize_t start, stop;
+    int parts;
+    PyObject *ret = NULL;
+    if (!PyArg_ParseTuple(args, "O&nni", convert_text_buffer, &data, &start, &stop, &parts)) return NULL;
+    if (!check_text_range(&data, start, stop)) goto done;
+    if (parts < 1 || parts > CG_TEXT_MAX_THREADS) {
+        PyErr_Format(PyExc_ValueError, "parts: expected 1 .. %d, got %d", CG_TEXT_MAX_THREADS, parts);
+        goto done;
+    }
+    cg_text_plan plan;
+    Py_BEGIN_ALLOW_THREADS
+    cg_text_plan_lines((const char *)data.view.buf + start, (size_t)(stop - start), parts, &plan);
+    Py_END_ALLOW_THREADS
+    const npy_intp n = plan.parts + 1;
+    PyArrayObject *starts = (PyArrayObject *)PyArray_SimpleNew(1, &n, NPY_INT64);
+    PyArrayObject *lines = (PyArrayObject *)PyArray_SimpleNew(1, &n, NPY_INT64);
+    if (starts && lines) {
+        for (npy_intp k = 0; k < n; ++k) {
+            ((int64_t *)PyArray_DATA(starts))[k] = start + plan.start[k];
+            ((int64_t *)PyArray_DATA(lines))[k] = plan.line[k];
+        }
+        ret = Py_BuildValue("OO", starts, lines);
+    }
+    Py_XDECREF(starts);
+    Py_XDECREF(lines);
+done:
+    release_text_buffer(&data);
+    return ret;
+}
+
 static PyObject *py_text_find_lines(PyObject *self, PyObject *args)
 {
     (void)self;
     text_buffer data = {0}, prefix = {0};
     Py_ssize_t start, stop;
+    int n_threads = 1;
     PyArrayObject *offsets = NULL;
     PyObject *ret = NULL;
-    if (!PyArg_ParseTuple(args, "O&nnO&", convert_text_buffer, &data, &start, &stop, convert_text_buffer, &prefix))
+    if (!PyArg_ParseTuple(args, "O&nnO&|i", convert_text_buffer, &data, &start, &stop, convert_text_buffer, &prefix,
+                          &n_threads))
         return NULL;
     if (!check_text_range(&data, start, stop)) goto done;
+    if (n_threads < 1) {
+        PyErr_Format(PyExc_ValueError, "n_threads: expected a positive count, got %d", n_threads);
+        goto done;
+    }
     const char *text = (const char *)data.view.buf + start;
     const size_t length = (size_t)(stop - start);
     int64_t count = 0;
@@ -1165,8 +1219,8 @@ static PyObject *py_text_find_lines(PyObject *self, PyObject *args)
         if (!offsets) goto done;
         int64_t *out = (int64_t *)PyArray_DATA(offsets);
         Py_BEGIN_ALLOW_THREADS
-        cg_text_find_lines(text, length, (const char *)prefix.view.buf, (size_t)prefix.view.len, out, capacity,
-                           &count);
+        cg_text_find_lines_threads(text, length, (const char *)prefix.view.buf, (size_t)prefix.view.len, out,
+                                   capacity, &count, n_threads);
         for (int64_t i = 0; i < count && i < capacity; ++i) out[i] += start;
         Py_END_ALLOW_THREADS
         if (count <= capacity) break;
@@ -1313,14 +1367,19 @@ done:
 
 #define CG_TEXT_METHODS                                                                                             \
     {"text_parse_table", py_text_parse_table, METH_VARARGS,                                                         \
-     "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1) -> (values, ints, nrows, end, "         \
-     "(status, message, line, column, offset, length), (nonfinite, line, column, offset, length))\n\n"             \
+     "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1, parts=0) -> (values, ints, " \
+     "nrows, end, (status, message, line, column, offset, length), (nonfinite, line, column, offset, length))\n\n"  \
      "flags: 1 skip blank lines, 2 stop after max_rows rows (end: offset in data where parsing stopped). "          \
      "Parse data[start:stop] as rows of ncols numbers (cg_text_parse_table); max_rows < 0: one per line at most. "  \
+     "parts > 0: cut into exactly that many parts, one thread each (for tests). "                                  \
      "Errors are returned, not raised: cgbound.readers._text turns them into messages."},                           \
+        {"text_plan_lines", py_text_plan_lines, METH_VARARGS,                                                       \
+         "text_plan_lines(data, start, stop, parts) -> (starts, lines): data[start:stop] cut at line starts into "  \
+         "parts (cg_text_plan_lines): int64 offsets in data of the parts and their end, and the lines before each " \
+         "(the last: all of them)."},                                                                                \
         {"text_find_lines", py_text_find_lines, METH_VARARGS,                                                       \
-         "text_find_lines(data, start, stop, prefix) -> int64 offsets (from the start of data) of the lines of "    \
-         "data[start:stop] that start with prefix."},                                                                \
+         "text_find_lines(data, start, stop, prefix, n_threads=1) -> int64 offsets (from the start of data) of "   \
+         "the lines of data[start:stop] that start with prefix (cg_text_find_lines_threads)."},                      \
         {"text_count_lines", py_text_count_lines, METH_VARARGS,                                                     \
          "text_count_lines(data, start, stop, n_threads=1) -> the lines of data[start:stop] "                      \
          "(cg_text_count_lines_threads): its '\\n' bytes, plus one if it is not empty and does not end with one."},

@@ -906,77 +906,203 @@ static const char *after_lines(const char *p, const char *end, int64_t n)
     return p;
 }
 
-cg_status cg_text_parse_table_threads(const char *text, size_t length, int64_t ncols,
-                                      const unsigned char *int_columns, int flags, int64_t max_rows, double *values,
-                                      int64_t *ints, cg_text_result *result, int n_threads)
-{
-    if (n_threads < 2 || length < 2 * CG_TEXT_BYTES_PER_THREAD || !result || !text || ncols < 1 || max_rows < 0 ||
-        !values)
-        return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
-    int64_t n_int = 0;
-    if (int_columns)
-        for (int64_t c = 0; c < ncols; ++c) n_int += int_columns[c] != 0;
-    if (n_int && !ints) return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+static int64_t count_newlines(const char *text, size_t length);
 
-    /* Parts start at line starts; part k parses into rows from first_line[k] (the lines before it) on,
-       which leaves room for its rows; rows are closed up afterwards where blank lines were skipped. With
-       CG_TEXT_STOP_AT_MAX_ROWS (and no blank lines allowed) every line up to the end is a row or an error,
-       so the table is the first max_rows lines. Any error: the range is parsed again in one pass, so
-       errors are reported exactly as that pass reports them. */
-    if ((flags & CG_TEXT_STOP_AT_MAX_ROWS) && (flags & CG_TEXT_SKIP_BLANK))
-        return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
-    const char *end = (flags & CG_TEXT_STOP_AT_MAX_ROWS) ? after_lines(text, text + length, max_rows) : text + length;
-    const size_t span = (size_t)(end - text);
-    int parts = n_threads < CG_TEXT_MAX_THREADS ? n_threads : CG_TEXT_MAX_THREADS;
-    if ((size_t)parts > span / CG_TEXT_BYTES_PER_THREAD) parts = (int)(span / CG_TEXT_BYTES_PER_THREAD);
-    if (parts < 2) return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
-    const char *start[CG_TEXT_MAX_THREADS + 1];
-    int64_t first_line[CG_TEXT_MAX_THREADS + 1];
-    start[0] = text;
-    first_line[0] = 0;
-    for (int k = 1; k < parts; ++k) {
-        const char *cut = text + span / (size_t)parts * (size_t)k;
-        if (cut < start[k - 1]) cut = start[k - 1];
-        const char *nl = memchr(cut, '\n', (size_t)(end - cut));
-        start[k] = nl ? nl + 1 : end;
-        first_line[k] = first_line[k - 1] + cg_text_count_lines(start[k - 1], (size_t)(start[k] - start[k - 1]));
+/* after_lines over a whole table: '\n' counted 64 KB at a time up to the block that holds the n-th, a memchr
+   per line only in that block (a memchr per line costs a call per ~60-140-byte row, 5-10 times the count) */
+static const char *after_many_lines(const char *p, const char *end, int64_t n)
+{
+    const size_t block = (size_t)1 << 16;
+    while (n > 0 && (size_t)(end - p) > block) {
+        const int64_t c = count_newlines(p, block);
+        if (c >= n) break;
+        n -= c;
+        p += block;
     }
-    start[parts] = end;
+    return after_lines(p, end, n);
+}
+
+int cg_text_plan_parts(size_t length, int n_threads)
+{
+    int parts = n_threads < CG_TEXT_MAX_THREADS ? n_threads : CG_TEXT_MAX_THREADS;
+    if ((size_t)parts > length / CG_TEXT_BYTES_PER_THREAD) parts = (int)(length / CG_TEXT_BYTES_PER_THREAD);
+    return parts < 1 ? 1 : parts;
+}
+
+/* part k starts after the first '\n' at or after byte span / parts * k (or at span), never before part k - 1 */
+static void cut_parts(const char *text, size_t span, int parts, cg_text_plan *plan)
+{
+    plan->parts = parts;
+    plan->start[0] = 0;
+    for (int k = 1; k < parts; ++k) {
+        size_t cut = span / (size_t)parts * (size_t)k;
+        if (cut < (size_t)plan->start[k - 1]) cut = (size_t)plan->start[k - 1];
+        const char *nl = cut < span ? memchr(text + cut, '\n', span - cut) : NULL;
+        plan->start[k] = nl ? (int64_t)(nl + 1 - text) : (int64_t)span;
+    }
+    plan->start[parts] = (int64_t)span;
+}
+
+static int64_t part_lines(const char *text, const cg_text_plan *plan, int k)
+{
+    return cg_text_count_lines(text + plan->start[k], (size_t)(plan->start[k + 1] - plan->start[k]));
+}
+
+static void sum_lines(cg_text_plan *plan, const int64_t *lines)
+{
+    plan->line[0] = 0;
+    for (int k = 0; k < plan->parts; ++k) plan->line[k + 1] = plan->line[k] + lines[k];
+}
+
+cg_status cg_text_plan_lines(const char *text, size_t length, int parts, cg_text_plan *plan)
+{
+    if (!plan || parts < 1 || parts > CG_TEXT_MAX_THREADS || (!text && length)) return CG_ERR_ARGUMENT;
+    cut_parts(text, length, parts, plan);
+    int64_t lines[CG_TEXT_MAX_THREADS];
+#ifdef _OPENMP
+#pragma omp parallel for num_threads(parts) schedule(static, 1) if (parts > 1)
+#endif
+    for (int k = 0; k < parts; ++k) lines[k] = part_lines(text, plan, k);
+    sum_lines(plan, lines);
+    return CG_OK;
+}
+
+/* Part k of the plan parses into rows from plan->line[k] on (the lines before it), which leaves room for its rows;
+   rows are closed up afterwards where blank lines were skipped. count: the plan's lines are not known yet, each
+   part but the last counts its own first (in the same parallel region: no second wake-up of the threads; the
+   plan's line[parts] is then not set). Any error: the
+   range is parsed again in one pass, so errors are reported exactly as that pass reports them. */
+static cg_status parse_parts(const char *text, size_t length, cg_text_plan *plan, int count, int64_t ncols,
+                             const unsigned char *int_columns, int64_t n_int, int flags, int64_t max_rows,
+                             double *values, int64_t *ints, cg_text_result *result)
+{
+    const int parts = plan->parts;
     cg_text_result part[CG_TEXT_MAX_THREADS];
     cg_status status[CG_TEXT_MAX_THREADS];
+    int64_t lines[CG_TEXT_MAX_THREADS];
 #ifdef _OPENMP
-#pragma omp parallel for num_threads(parts) schedule(static, 1)
+#pragma omp parallel num_threads(parts)
 #endif
-    for (int k = 0; k < parts; ++k) {
-        const int64_t room = max_rows > first_line[k] ? max_rows - first_line[k] : 0; /* 0: any row is an error */
-        status[k] = cg_text_parse_table(start[k], (size_t)(start[k + 1] - start[k]), ncols, int_columns,
-                                        flags & ~CG_TEXT_STOP_AT_MAX_ROWS, room,
-                                        room ? values + first_line[k] * ncols : values,
-                                        n_int ? (room ? ints + first_line[k] * n_int : ints) : NULL, &part[k]);
+    {
+        if (count) { /* the last part's lines place no rows: not counted (its thread waits at the barrier) */
+#ifdef _OPENMP
+#pragma omp for schedule(static, 1)
+#endif
+            for (int k = 0; k < parts; ++k) lines[k] = k + 1 < parts ? part_lines(text, plan, k) : 0;
+        }
+#ifdef _OPENMP
+#pragma omp for schedule(static, 1)
+#endif
+        for (int k = 0; k < parts; ++k) {
+            int64_t first = 0;
+            if (count) /* each thread sums the counts itself: no third barrier */
+                for (int j = 0; j < k; ++j) first += lines[j];
+            else
+                first = plan->line[k];
+            const int64_t room = max_rows > first ? max_rows - first : 0; /* 0: any row is an error */
+            status[k] = cg_text_parse_table(text + plan->start[k], (size_t)(plan->start[k + 1] - plan->start[k]),
+                                            ncols, int_columns, flags & ~CG_TEXT_STOP_AT_MAX_ROWS, room,
+                                            room ? values + first * ncols : values,
+                                            n_int ? (room ? ints + first * n_int : ints) : NULL, &part[k]);
+        }
     }
+    if (count) sum_lines(plan, lines); /* line[parts] is wrong (the last part was not counted): unused */
     memset(result, 0, sizeof *result);
     for (int k = 0; k < parts; ++k) {
         if (status[k] != CG_OK)
             return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
-        if (result->nrows != first_line[k] && part[k].nrows) { /* blank lines were skipped before: close up */
-            memmove(values + result->nrows * ncols, values + first_line[k] * ncols,
+        const int64_t first = plan->line[k];
+        if (result->nrows != first && part[k].nrows) { /* blank lines were skipped before: close up */
+            memmove(values + result->nrows * ncols, values + first * ncols,
                     (size_t)(part[k].nrows * ncols) * sizeof *values);
             if (n_int)
-                memmove(ints + result->nrows * n_int, ints + first_line[k] * n_int,
+                memmove(ints + result->nrows * n_int, ints + first * n_int,
                         (size_t)(part[k].nrows * n_int) * sizeof *ints);
         }
         if (part[k].nonfinite) {
             if (result->nonfinite == 0) {
                 result->first_nonfinite = part[k].first_nonfinite;
-                result->first_nonfinite.line += first_line[k];
-                result->first_nonfinite.offset += start[k] - text;
+                result->first_nonfinite.line += first;
+                result->first_nonfinite.offset += plan->start[k];
             }
             result->nonfinite += part[k].nonfinite;
         }
         result->nrows += part[k].nrows;
     }
-    result->end = (int64_t)(end - text);
+    result->end = plan->start[parts];
     return CG_OK;
+}
+
+/* the checks every threaded entry shares: 1 if the range must be parsed in one pass (bad arguments included:
+   cg_text_parse_table reports them); *n_int set otherwise */
+static int one_pass(const char *text, int64_t ncols, const unsigned char *int_columns, int flags, int64_t max_rows,
+                    const double *values, const int64_t *ints, const cg_text_result *result, int64_t *n_int)
+{
+    if (!result || !text || ncols < 1 || max_rows < 0 || !values) return 1;
+    /* with both, every line may be skipped or a row: the table's end is only known by parsing */
+    if ((flags & CG_TEXT_STOP_AT_MAX_ROWS) && (flags & CG_TEXT_SKIP_BLANK)) return 1;
+    /* no row allowed: the first line is already the error (the parts of an empty table would find none) */
+    if ((flags & CG_TEXT_STOP_AT_MAX_ROWS) && max_rows == 0) return 1;
+    *n_int = 0;
+    if (int_columns)
+        for (int64_t c = 0; c < ncols; ++c) *n_int += int_columns[c] != 0;
+    return *n_int && !ints;
+}
+
+/* the table's bytes: with CG_TEXT_STOP_AT_MAX_ROWS (and no blank lines allowed) every line up to the end is a
+   row or an error, so the table is the first max_rows lines */
+static size_t table_span(const char *text, size_t length, int flags, int64_t max_rows)
+{
+    if (!(flags & CG_TEXT_STOP_AT_MAX_ROWS)) return length;
+    return (size_t)(after_many_lines(text, text + length, max_rows) - text);
+}
+
+cg_status cg_text_parse_table_parts(const char *text, size_t length, int64_t ncols, const unsigned char *int_columns,
+                                    int flags, int64_t max_rows, double *values, int64_t *ints,
+                                    cg_text_result *result, int parts)
+{
+    int64_t n_int;
+    if (parts < 2 || one_pass(text, ncols, int_columns, flags, max_rows, values, ints, result, &n_int))
+        return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+    cg_text_plan plan;
+    cut_parts(text, table_span(text, length, flags, max_rows), parts < CG_TEXT_MAX_THREADS ? parts : CG_TEXT_MAX_THREADS,
+              &plan);
+    return parse_parts(text, length, &plan, 1, ncols, int_columns, n_int, flags, max_rows, values, ints, result);
+}
+
+cg_status cg_text_parse_table_threads(const char *text, size_t length, int64_t ncols,
+                                      const unsigned char *int_columns, int flags, int64_t max_rows, double *values,
+                                      int64_t *ints, cg_text_result *result, int n_threads)
+{
+    int64_t n_int;
+    if (n_threads < 2 || length < 2 * CG_TEXT_BYTES_PER_THREAD ||
+        one_pass(text, ncols, int_columns, flags, max_rows, values, ints, result, &n_int))
+        return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+    const size_t span = table_span(text, length, flags, max_rows);
+    const int parts = cg_text_plan_parts(span, n_threads);
+    if (parts < 2) return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+    cg_text_plan plan;
+    cut_parts(text, span, parts, &plan);
+    return parse_parts(text, length, &plan, 1, ncols, int_columns, n_int, flags, max_rows, values, ints, result);
+}
+
+cg_status cg_text_parse_table_plan(const char *text, size_t length, const cg_text_plan *plan, int64_t ncols,
+                                   const unsigned char *int_columns, int flags, int64_t max_rows, double *values,
+                                   int64_t *ints, cg_text_result *result)
+{
+    if (!plan || plan->parts < 1 || plan->parts > CG_TEXT_MAX_THREADS || plan->start[0] != 0 ||
+        plan->start[plan->parts] != (int64_t)length || plan->line[0] != 0)
+        return CG_ERR_ARGUMENT;
+    for (int k = 0; k < plan->parts; ++k)
+        if (plan->start[k + 1] < plan->start[k] || plan->line[k + 1] < plan->line[k]) return CG_ERR_ARGUMENT;
+    int64_t n_int;
+    if (plan->parts < 2 || one_pass(text, ncols, int_columns, flags, max_rows, values, ints, result, &n_int))
+        return cg_text_parse_table(text, length, ncols, int_columns, flags, max_rows, values, ints, result);
+    if (flags & CG_TEXT_STOP_AT_MAX_ROWS) /* the plan covers the range, the table only its first max_rows lines */
+        return cg_text_parse_table_parts(text, length, ncols, int_columns, flags, max_rows, values, ints, result,
+                                         plan->parts);
+    cg_text_plan copy = *plan;
+    return parse_parts(text, length, &copy, 0, ncols, int_columns, n_int, flags, max_rows, values, ints, result);
 }
 
 /* '\n' bytes in a word: a byte b is zero in x = w ^ 0x0a..0a iff the high bit of ~(((x & 0x7f..7f) + 0x7f..7f) | x
@@ -1044,35 +1170,58 @@ int64_t cg_text_count_lines_threads(const char *text, size_t length, int n_threa
     return n + (text[length - 1] != '\n');
 }
 
-cg_status cg_text_find_lines(const char *text, size_t length, const char *prefix, size_t prefix_length,
-                             int64_t *offsets, int64_t capacity, int64_t *count)
+/* where find_lines puts what it finds: offsets[0 .. capacity) and a count beyond it; grow: a part's own list,
+   doubled as needed (failed: no memory) */
+typedef struct line_hits {
+    int64_t *at, n, capacity;
+    int grow, failed;
+} line_hits;
+
+static void add_hit(line_hits *h, int64_t offset)
 {
-    if (!count || capacity < 0 || (capacity > 0 && !offsets) || (!text && length) || (!prefix && prefix_length))
-        return CG_ERR_ARGUMENT;
-    int64_t n = 0;
-    const char *p = text, *end = text + length;
+    if (h->n == h->capacity && h->grow && !h->failed) {
+        const int64_t more = h->capacity ? 2 * h->capacity : 1024;
+        int64_t *at = realloc(h->at, (size_t)more * sizeof *at);
+        if (at) {
+            h->at = at;
+            h->capacity = more;
+        } else {
+            h->failed = 1;
+        }
+    }
+    if (h->n < h->capacity) h->at[h->n] = offset;
+    ++h->n;
+}
+
+/* the lines of [text, text + length) that start in [from, to) with the prefix */
+static void find_lines_in(const char *text, size_t length, size_t from, size_t to, const char *prefix,
+                          size_t prefix_length, line_hits *hits)
+{
+    const char *p = text + from, *stop = text + to, *end = text + length;
     if (prefix_length == 0) {
         /* every line start */
-        while (p < end) {
-            if (n < capacity) offsets[n] = p - text;
-            ++n;
+        if (from > 0 && p[-1] != '\n') { /* inside a line: from the next one */
+            const char *nl = memchr(p, '\n', (size_t)(end - p));
+            if (!nl) return;
+            p = nl + 1;
+        }
+        while (p < stop) {
+            add_hit(hits, p - text);
             const char *nl = memchr(p, '\n', (size_t)(end - p));
             if (!nl) break;
             p = nl + 1;
         }
-        *count = n;
-        return CG_OK;
+        return;
     }
     /* jump between occurrences of the prefix's first byte (rare in numeric
        rows for the prefixes we use: 'I' of ITEM:, '#'), keep those at a line start */
     const char first = prefix[0];
-    while (p < end) {
-        const char *hit = memchr(p, first, (size_t)(end - p));
+    while (p < stop) {
+        const char *hit = memchr(p, first, (size_t)(stop - p));
         if (!hit) break;
         if ((hit == text || hit[-1] == '\n') && (size_t)(end - hit) >= prefix_length &&
             memcmp(hit, prefix, prefix_length) == 0) {
-            if (n < capacity) offsets[n] = hit - text;
-            ++n;
+            add_hit(hits, hit - text);
             const char *nl = memchr(hit, '\n', (size_t)(end - hit));
             if (!nl) break;
             p = nl + 1;
@@ -1080,6 +1229,49 @@ cg_status cg_text_find_lines(const char *text, size_t length, const char *prefix
             p = hit + 1;
         }
     }
-    *count = n;
+}
+
+cg_status cg_text_find_lines(const char *text, size_t length, const char *prefix, size_t prefix_length,
+                             int64_t *offsets, int64_t capacity, int64_t *count)
+{
+    return cg_text_find_lines_threads(text, length, prefix, prefix_length, offsets, capacity, count, 1);
+}
+
+cg_status cg_text_find_lines_threads(const char *text, size_t length, const char *prefix, size_t prefix_length,
+                                     int64_t *offsets, int64_t capacity, int64_t *count, int n_threads)
+{
+    if (!count || capacity < 0 || (capacity > 0 && !offsets) || (!text && length) || (!prefix && prefix_length))
+        return CG_ERR_ARGUMENT;
+    const int parts = n_threads < 2 || length < 2 * CG_TEXT_BYTES_PER_THREAD ? 1 : cg_text_plan_parts(length, n_threads);
+    if (parts > 1) {
+        /* byte ranges (a line belongs to the part it starts in), each listed on its own thread: the first pass
+           over a fresh mapping of a file is mostly page faults, which the threads then share */
+        line_hits part[CG_TEXT_MAX_THREADS];
+        memset(part, 0, sizeof part);
+#ifdef _OPENMP
+#pragma omp parallel for num_threads(parts) schedule(static, 1)
+#endif
+        for (int k = 0; k < parts; ++k) {
+            part[k].grow = 1;
+            find_lines_in(text, length, length / (size_t)parts * (size_t)k,
+                          k + 1 < parts ? length / (size_t)parts * (size_t)(k + 1) : length, prefix, prefix_length,
+                          &part[k]);
+        }
+        int failed = 0;
+        int64_t n = 0;
+        for (int k = 0; k < parts; ++k) {
+            failed |= part[k].failed;
+            for (int64_t j = 0; j < part[k].n && !failed; ++j, ++n)
+                if (n < capacity) offsets[n] = part[k].at[j];
+            free(part[k].at);
+        }
+        if (!failed) {
+            *count = n;
+            return CG_OK;
+        }
+    }
+    line_hits hits = {offsets, 0, capacity, 0, 0}; /* one pass (also when a part's list found no memory) */
+    find_lines_in(text, length, 0, length, prefix, prefix_length, &hits);
+    *count = hits.n;
     return CG_OK;
 }

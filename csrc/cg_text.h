@@ -94,8 +94,10 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
 
 /*
  * cg_text_parse_table over up to n_threads threads (OpenMP; one without it):
- * the range is cut at line starts into parts of at least
- * CG_TEXT_BYTES_PER_THREAD bytes, each part parses into its own rows.
+ * the range (with CG_TEXT_STOP_AT_MAX_ROWS: its first max_rows lines) is
+ * cut at line starts into parts of at least CG_TEXT_BYTES_PER_THREAD bytes
+ * (cg_text_plan_parts); in one parallel region each part counts its lines,
+ * then parses into its own rows (from the lines before it on).
  * Results, errors and result fields are the same as cg_text_parse_table's
  * (on any error the range is parsed again in one pass, which reports it).
  * With both CG_TEXT_SKIP_BLANK and CG_TEXT_STOP_AT_MAX_ROWS it parses in one pass.
@@ -105,6 +107,45 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
 cg_status cg_text_parse_table_threads(const char *text, size_t length, int64_t ncols,
                                       const unsigned char *int_columns, int flags, int64_t max_rows, double *values,
                                       int64_t *ints, cg_text_result *result, int n_threads);
+/* The same with exactly min(parts, CG_TEXT_MAX_THREADS) parts whatever the range's size (parts < 2: one pass),
+ * one thread each: for tests of parts smaller than a line, empty parts, cuts next to errors. */
+cg_status cg_text_parse_table_parts(const char *text, size_t length, int64_t ncols, const unsigned char *int_columns,
+                                    int flags, int64_t max_rows, double *values, int64_t *ints,
+                                    cg_text_result *result, int parts);
+
+/*
+ * A plan: a range cut at line starts into parts, with the lines before each.
+ * Made once (the parts counted in parallel), it sizes a table whose row count
+ * is not declared (line[parts] bounds the rows) and places each part's rows
+ * in cg_text_parse_table_plan, so no line is counted twice.
+ */
+typedef struct cg_text_plan {
+    int parts;                                  /* 1 .. CG_TEXT_MAX_THREADS */
+    int64_t start[CG_TEXT_MAX_THREADS + 1];     /* part k: bytes [start[k], start[k + 1]) of the range; start[0] = 0,
+                                                   start[parts] = length; a part starts after the first '\n' at
+                                                   or after byte length / parts * k (or at length), so parts
+                                                   may be empty or one long line */
+    int64_t line[CG_TEXT_MAX_THREADS + 1];      /* lines before part k (cg_text_count_lines of [0, start[k]));
+                                                   line[parts]: the range's lines */
+} cg_text_plan;
+
+/* How many parts for n_threads threads: min(n_threads, CG_TEXT_MAX_THREADS, length / CG_TEXT_BYTES_PER_THREAD),
+ * at least 1. */
+int cg_text_plan_parts(size_t length, int n_threads);
+
+/* Cut [text, text + length) into parts (1 .. CG_TEXT_MAX_THREADS, else CG_ERR_ARGUMENT) and count each part's
+ * lines, one thread per part. */
+cg_status cg_text_plan_lines(const char *text, size_t length, int parts, cg_text_plan *plan);
+
+/*
+ * cg_text_parse_table with a plan of the same range (from cg_text_plan_lines; CG_ERR_ARGUMENT if it does not
+ * cover [0, length) in order), one thread per part, no line counted again. The same results and errors as
+ * cg_text_parse_table. With CG_TEXT_STOP_AT_MAX_ROWS the table is only the range's first lines: it is cut
+ * again (cg_text_parse_table_parts with plan->parts).
+ */
+cg_status cg_text_parse_table_plan(const char *text, size_t length, const cg_text_plan *plan, int64_t ncols,
+                                   const unsigned char *int_columns, int flags, int64_t max_rows, double *values,
+                                   int64_t *ints, cg_text_result *result);
 
 /* Number of lines in the range: '\n' count, plus one if the range is not
  * empty and does not end with '\n'. An upper bound for the rows it holds. */
@@ -120,6 +161,10 @@ int64_t cg_text_count_lines_threads(const char *text, size_t length, int n_threa
  */
 cg_status cg_text_find_lines(const char *text, size_t length, const char *prefix, size_t prefix_length,
                              int64_t *offsets, int64_t capacity, int64_t *count);
+/* The same over up to n_threads threads for ranges of at least 2 CG_TEXT_BYTES_PER_THREAD (byte ranges, each
+ * listed on its own thread into memory of its own, then joined; one pass if that memory cannot be had). */
+cg_status cg_text_find_lines_threads(const char *text, size_t length, const char *prefix, size_t prefix_length,
+                                     int64_t *offsets, int64_t capacity, int64_t *count, int n_threads);
 
 /*
  * One token -> double, with the grammar above. Returns CG_OK or

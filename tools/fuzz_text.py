@@ -8,7 +8,8 @@ Each case is one of: a batch of random doubles formatted as the engines write th
 (bytes flipped, inserted, deleted or duplicated, lines cut, NaN/text/NUL/non-ASCII injected, CRLF,
 tabs). The twin splits lines with Python and converts tokens with float() (restricted to the
 documented grammar); the parser must give the same values bit for bit, or an error at the same
-line. Prints the cases tried, the tokens compared and the failures (exit status 1 if any).
+line; and (every third case) cut into 2-8 parts, one thread each, the same result as in one pass.
+Prints the cases tried, the tokens compared and the failures (exit status 1 if any).
 """
 import argparse
 import math
@@ -24,9 +25,11 @@ import numpy as np
 
 HERE = pathlib.Path(__file__).resolve().parent
 try:  # an installed (e.g. sanitizer) build first; else the checkout this script sits in
+    from cgbound import _engine
     from cgbound.readers import _text
 except ImportError:
     sys.path.insert(0, str(HERE.parent))
+    from cgbound import _engine
     from cgbound.readers import _text
 
 DUMPS = sorted((HERE.parent / "tests" / "data").glob("*/**/*.dump"))
@@ -75,8 +78,20 @@ def bits(a):
     return np.ascontiguousarray(a, dtype=np.float64).view(np.int64)
 
 
-def check(text, ncols):
-    """Compare parser and twin on one text; returns (tokens compared, failure message or None)."""
+def raw_parse(text, ncols, flags, parts):
+    """The C parser's raw result (cg_text_parse_table_parts): rows bit for bit, count, end, error, nan/inf report."""
+    values, _, nrows, end, error, nonfinite = _engine.text_parse_table(text, 0, len(text), ncols, bytes(ncols), -1,
+                                                                       flags, 1, parts)
+    return bits(values[:nrows]).tobytes(), nrows, end, error, nonfinite
+
+
+def check(text, ncols, parts=1):
+    """Compare parser and twin on one text, and the parse cut into parts (> 1: one thread each) with one pass;
+    returns (tokens compared, failure message or None)."""
+    if parts > 1:
+        for flags in (0, 1):  # blank lines an error, skipped
+            if raw_parse(text, ncols, flags, parts) != raw_parse(text, ncols, flags, 1):
+                return 0, f"cut into {parts} parts (flags {flags}), the result differs from one pass"
     try:
         expected = twin_parse(text, ncols)
     except TwinError as exc:
@@ -188,7 +203,7 @@ def main(argv=None):
     failures = []
     while (cases < args.cases) if args.cases is not None else (time.monotonic() - t0 < args.seconds):
         text, ncols = random_doubles(rng) if rng.random() < 0.5 else mutated_frame(rng, frames)
-        n, failure = check(text, ncols)
+        n, failure = check(text, ncols, parts=1 if cases % 3 else 2 + cases // 3 % 7)
         cases += 1
         tokens += n
         if failure:

@@ -60,6 +60,32 @@ int main(void)
             CHECK(cg_text_find_lines(at, len, "3 ", 2, offsets, 8, &count) == CG_OK);
             CHECK(cg_text_find_lines(at, len, "", 0, offsets, 8, &count) == CG_OK);
             CHECK(cg_text_count_lines(at, len) >= 0);
+            /* cut into 1-4 parts: the plan's counts add up; the parse equals one pass (rows, end, error) */
+            for (int parts = 1; parts <= 4; ++parts) {
+                cg_text_plan plan;
+                CHECK(cg_text_plan_lines(at, len, parts, &plan) == CG_OK && plan.parts == parts &&
+                      plan.line[parts] == cg_text_count_lines(at, len) && plan.start[parts] == (int64_t)len);
+                for (int flags = 0; flags < 4; ++flags)
+                    for (int64_t rows = 1; rows <= 8; rows += 7) {
+                        cg_text_result one, cut;
+                        double v2[16];
+                        int64_t i2[16];
+                        const cg_status a = cg_text_parse_table(at, len, 2, int_cols, flags, rows, values, ints, &one);
+                        const cg_status b =
+                            cg_text_parse_table_parts(at, len, 2, int_cols, flags, rows, v2, i2, &cut, parts);
+                        CHECK(a == b && one.nrows == cut.nrows && one.end == cut.end &&
+                              one.error.line == cut.error.line && one.error.column == cut.error.column &&
+                              one.error.offset == cut.error.offset && one.error.length == cut.error.length &&
+                              one.nonfinite == cut.nonfinite);
+                        CHECK(a != CG_OK || memcmp(values, v2, (size_t)one.nrows * 2 * sizeof *values) == 0);
+                        if (!(flags & CG_TEXT_STOP_AT_MAX_ROWS) && plan.line[parts] <= rows) {
+                            const cg_status c = cg_text_parse_table_plan(at, len, &plan, 2, int_cols, flags, rows, v2,
+                                                                         i2, &cut);
+                            CHECK(a == c && one.nrows == cut.nrows && one.error.line == cut.error.line &&
+                                  one.error.offset == cut.error.offset);
+                        }
+                    }
+            }
             double v;
             cg_text_parse_double(at, len, &v);
         }
@@ -74,6 +100,27 @@ int main(void)
             for (size_t len = big - 2; len <= big; ++len)
                 for (int t = 1; t <= 3; ++t)
                     CHECK(cg_text_count_lines_threads(text, len, t) == cg_text_count_lines(text, len));
+            /* the threaded line search: the same offsets (every line start; lines starting "xx\n": few) */
+            const char *prefixes[2] = {"", "x\n"};
+            for (int q = 0; q < 2; ++q) {
+                int64_t n1 = 0, n3 = 0, small = 0;
+                CHECK(cg_text_find_lines(text, big, prefixes[q], strlen(prefixes[q]), NULL, 0, &n1) == CG_OK);
+                int64_t *a = malloc((size_t)(n1 + 1) * sizeof *a), *b = malloc((size_t)(n1 + 1) * sizeof *b);
+                CHECK(a && b && n1 > 0);
+                if (a && b) {
+                    CHECK(cg_text_find_lines(text, big, prefixes[q], strlen(prefixes[q]), a, n1, &n1) == CG_OK);
+                    for (int t = 2; t <= 3; ++t) {
+                        CHECK(cg_text_find_lines_threads(text, big, prefixes[q], strlen(prefixes[q]), b, n1, &n3, t) ==
+                                  CG_OK &&
+                              n3 == n1 && memcmp(a, b, (size_t)n1 * sizeof *a) == 0);
+                        CHECK(cg_text_find_lines_threads(text, big, prefixes[q], strlen(prefixes[q]), b, 1, &small, t) ==
+                                  CG_OK &&
+                              small == n1 && b[0] == a[0]);
+                    }
+                }
+                free(a);
+                free(b);
+            }
             free(text);
         }
     }
@@ -87,6 +134,18 @@ int main(void)
           res.error.line == 1);
     CHECK(cg_text_parse_table(ok, strlen(ok), 0, NULL, 0, 1, values, NULL, &res) == CG_ERR_ARGUMENT);
     CHECK(strcmp(cg_strerror(CG_ERR_TEXT_NUMBER), "not a number") == 0);
+    /* plans: arguments, and a plan that does not cover the range */
+    cg_text_plan plan;
+    CHECK(cg_text_plan_lines(ok, strlen(ok), 0, &plan) == CG_ERR_ARGUMENT);
+    CHECK(cg_text_plan_lines(ok, strlen(ok), CG_TEXT_MAX_THREADS + 1, &plan) == CG_ERR_ARGUMENT);
+    CHECK(cg_text_plan_lines(NULL, 0, 3, &plan) == CG_OK && plan.line[3] == 0 && plan.start[3] == 0);
+    CHECK(cg_text_plan_lines(ok, strlen(ok), 2, &plan) == CG_OK && plan.start[1] == 27 && plan.line[1] == 1 &&
+          plan.line[2] == 2);
+    CHECK(cg_text_parse_table_plan(ok, strlen(ok) - 1, &plan, 2, NULL, 0, 2, values, NULL, &res) == CG_ERR_ARGUMENT);
+    CHECK(cg_text_parse_table_plan(ok, strlen(ok), &plan, 2, NULL, 0, 2, values, NULL, &res) == CG_OK &&
+          res.nrows == 2 && values[3] == 9007199254740992.0);
+    CHECK(cg_text_plan_parts(0, 4) == 1 && cg_text_plan_parts(5 * CG_TEXT_BYTES_PER_THREAD, 4) == 4 &&
+          cg_text_plan_parts(3 * CG_TEXT_BYTES_PER_THREAD, 4) == 3 && cg_text_plan_parts((size_t)1 << 40, 99) == 16);
     munmap(map, 2 * (size_t)page);
     if (failures) return 1;
     printf("test_text: ok\n");
