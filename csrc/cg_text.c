@@ -503,6 +503,23 @@ static inline uint64_t word_digits(uint64_t v, uint64_t nd, unsigned *k)
     return digits_value(v, *k);
 }
 
+/* a run of digits from p, appended to *man (which may wrap: callers count the digits): at most `words` whole words
+   of 8 digits, then the word that ends the run; NULL if the run is longer. Reads [p, p + 8 * (words + 1)) only */
+QUICK_INLINE const unsigned char *quick_digit_run(const unsigned char *p, uint64_t *man, int words)
+{
+    uint64_t m = *man, w = load8(p), nd = nondigit_bytes(w);
+    for (; !nd; --words) {
+        if (words == 0) return NULL;
+        m = m * 100000000u + digits_value(w, 8);
+        p += 8;
+        w = load8(p);
+        nd = nondigit_bytes(w);
+    }
+    unsigned k;
+    *man = m * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
+    return p + k;
+}
+
 /* the end of quick_double from the byte after the mantissa's digits (at most 19 significant): an exponent of 1
    to 3 digits, the byte after the token (one of after), the value */
 static inline const unsigned char *quick_exponent(const unsigned char *p, const unsigned char *after, uint64_t man,
@@ -535,7 +552,7 @@ QUICK_INLINE const unsigned char *quick_double(const unsigned char *p, int neg, 
                                                 double *value)
 {
     const unsigned char *digits = p;
-    uint64_t w, nd, man;
+    uint64_t nd, man;
     unsigned k;
     if (is_digit(p[0])) {
         if (p[1] == '.') { /* d.ddd: the digit and 7 of the fraction as one word (the '.' replaced) */
@@ -547,18 +564,7 @@ QUICK_INLINE const unsigned char *quick_double(const unsigned char *p, int neg, 
                 p += k;
             } else {
                 man = digits_value(first, 8);
-                p += 8;
-                w = load8(p);
-                nd = nondigit_bytes(w);
-                if (!nd) {
-                    man = man * 100000000u + digits_value(w, 8); /* may wrap: the digits are counted below */
-                    p += 8;
-                    w = load8(p);
-                    nd = nondigit_bytes(w);
-                    if (!nd) return NULL;
-                }
-                man = man * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
-                p += k;
+                if (!(p = quick_digit_run(p + 8, &man, 1))) return NULL;
                 /* p - digits - 1 digits, the leading zeros among them those first starts with (up to 7) */
                 if (p - digits - 1 > 19 &&
                     p - digits - 1 - (int64_t)(__builtin_ctzll((first ^ 0x3030303030303030ULL) | (1ULL << 63)) >> 3) > 19)
@@ -567,39 +573,12 @@ QUICK_INLINE const unsigned char *quick_double(const unsigned char *p, int neg, 
             return quick_exponent(p, after, man, digits + 2 - p, neg, value);
         }
     }
-    w = load8(p);
-    nd = nondigit_bytes(w);
-    if (nd) {
-        man = word_digits(w, nd, &k);
-        p += k;
-    } else { /* 8 integer digits or more */
-        man = digits_value(w, 8);
-        w = load8(p + 8);
-        nd = nondigit_bytes(w);
-        if (!nd) return NULL;
-        man = man * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
-        p += 8 + k;
-    }
+    man = 0;
+    if (!(p = quick_digit_run(p, &man, 1))) return NULL;
     int64_t ndigits = p - digits, exp10 = 0;
     if (*p == '.') {
         const unsigned char *fraction = ++p;
-        w = load8(p);
-        nd = nondigit_bytes(w);
-        if (!nd) {
-            man = man * 100000000u + digits_value(w, 8);
-            p += 8;
-            w = load8(p);
-            nd = nondigit_bytes(w);
-            if (!nd) {
-                man = man * 100000000u + digits_value(w, 8); /* may wrap: the digits are counted below */
-                p += 8;
-                w = load8(p);
-                nd = nondigit_bytes(w);
-                if (!nd) return NULL;
-            }
-        }
-        man = man * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
-        p += k;
+        if (!(p = quick_digit_run(p, &man, 2))) return NULL;
         exp10 = fraction - p;
         ndigits += p - fraction;
     }
@@ -616,20 +595,9 @@ static inline const unsigned char *quick_int(const unsigned char *p, const unsig
 {
     const int neg = *p == '-';
     p += neg;
-    uint64_t w = load8(p), nd = nondigit_bytes(w), x;
-    unsigned k;
-    if (nd) {
-        x = word_digits(w, nd, &k);
-        if (k == 0) return NULL;
-        p += k;
-    } else {
-        x = digits_value(w, 8);
-        w = load8(p + 8);
-        nd = nondigit_bytes(w);
-        if (!nd) return NULL;
-        x = x * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
-        p += 8 + k;
-    }
+    uint64_t x = 0;
+    const unsigned char *digits = p;
+    if (!(p = quick_digit_run(p, &x, 1)) || p == digits) return NULL;
     if (!after[*p]) return NULL;
     *value = neg ? -(int64_t)x : (int64_t)x;
     return p;
