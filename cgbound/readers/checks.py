@@ -50,32 +50,6 @@ def row_norms(vectors):
     return np.sqrt(out, out=out)
 
 
-def particle_forces(snapshot):
-    """``snapshot.particle_forces()``, the same bits, ten times faster: the contact forces on each particle (on i,
-    then minus them on j >= 0) summed by np.bincount per axis, a loop over the contacts in their order, the
-    additions np.add.at makes in the same order (starting from 0); then the body force on flowing particles."""
-    c = snapshot.contacts
-    n, dim = snapshot.n_particles, snapshot.dim
-    f = np.zeros((n, dim))
-    if len(c):
-        m = len(c)
-        pair = c.j >= 0
-        every = bool(pair.all())    # (no walls: the arrays as they are, not selected copies)
-        index = np.concatenate([c.i, c.j if every else c.j[pair]])
-        weights = np.empty(index.shape[0])
-        for a in range(dim):
-            weights[:m] = c.force[:, a]
-            np.negative(c.force[:, a] if every else c.force[pair, a], out=weights[m:])
-            f[:, a] = np.bincount(index, weights=weights, minlength=n)
-    if snapshot.body_force is not None:
-        flow = snapshot.flowing
-        if flow.all():    # (every particle: the same products on all rows, without selecting them)
-            f += snapshot.masses[:, None] * snapshot.body_force
-        else:
-            f[flow] += snapshot.masses[flow, None] * snapshot.body_force[flow]
-    return f
-
-
 def force_balance(total, dumped, contact_forces, checked=None):
     """How well per-particle force sums reproduce the forces an engine wrote.
 

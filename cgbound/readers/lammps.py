@@ -96,7 +96,7 @@ from ..snapshot import Contacts, Snapshot
 from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
 from .checks import (FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, dump_local_header, force_balance,
-                     generic_columns, particle_forces, row_norms)
+                     generic_columns, row_norms)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -192,7 +192,7 @@ class LammpsFrame:
             raise ValueError("force_balance: the atoms dump has no fx fy fz columns")
         snap = self.snapshot
         checked = np.ones(snap.n_particles, bool) if fixed else snap.flowing
-        return force_balance(particle_forces(snap), self.forces, snap.contacts.force, checked)
+        return force_balance(snap.particle_forces(), self.forces, snap.contacts.force, checked)
 
 
 def contact_indices(ids, id1, id2, path, timestep):
