@@ -63,6 +63,15 @@ def _where(name, frame, line):
     return f"{name}{f' ({frame})' if frame else ''}, line {line}"
 
 
+def _thread_count(threads):
+    """threads as the text functions take it: a positive count, or None for the core's setting."""
+    if threads is None:
+        return _threads.get_num_threads()
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"threads: expected a positive number of threads or None, got {threads!r}")
+    return int(threads)
+
+
 def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=None, skip_blank=False,
                 stop_after_rows=False, allow_nonfinite=False, name="<data>", frame=None, first_line=None,
                 column_names=None, threads=None):
@@ -100,10 +109,7 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
     if stop_after_rows and nrows is None:
         raise ValueError("stop_after_rows: needs nrows (the declared row count)")
     flags = (1 if skip_blank else 0) | (2 if stop_after_rows else 0)
-    if threads is None:
-        threads = _threads.get_num_threads()
-    elif isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"threads: expected a positive number of threads or None, got {threads!r}")
+    threads = _thread_count(threads)
 
     values, ints, found, end, error, nonfinite = _engine.text_parse_table(data, start, stop, ncols, bytes(mask),
                                                                            max_rows, flags, threads)
@@ -168,10 +174,7 @@ def find_lines(data, prefix, start=0, stop=None, threads=None):
     if isinstance(prefix, str):
         prefix = prefix.encode()
     stop = _size(data) if stop is None else stop
-    if threads is None:
-        threads = _threads.get_num_threads()
-    elif isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"threads: expected a positive number of threads or None, got {threads!r}")
+    threads = _thread_count(threads)
     return _engine.text_find_lines(data, start, stop, prefix, threads)
 
 
@@ -180,8 +183,7 @@ def count_lines(data, start=0, stop=None, threads=1):
     counted by the C text layer 16 bytes at a time, on up to ``threads`` threads (None: the core's setting)
     for ranges of 4 MB and more; no offsets are kept."""
     stop = _size(data) if stop is None else stop
-    if threads is None:
-        threads = _threads.get_num_threads()
+    threads = _thread_count(threads)
     return _engine.text_count_lines(data, start, stop, threads)
 
 
