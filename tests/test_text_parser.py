@@ -472,6 +472,40 @@ def test_eight_byte_words_at_every_distance_from_the_range_end():
                 _text.parse_table(f"1 {bad}".encode() + b" " * pad, ncols=2)
 
 
+def test_row_path_fractions_of_every_length_against_float():
+    """The row path's fraction (SSE2 on x86-64: the 16 bytes after the '.' checked and converted at once, the
+    next 16 for 17-23 digits): integer parts of 0-3 digits, fractions of 0-25 digits (leading zeros up to 20:
+    8, 16, 17 significant digits and more), exponents; a non-digit byte put at every place of the 16-byte
+    window is refused like float() refuses it. Rows long enough for the row path, values equal float() bit
+    for bit, errors name the line and the column."""
+    rng = random.Random(15)
+    tokens = []
+    for head in ["", "0", "7", "00", "12", "99", "123"]:
+        for n in range(0, 26):
+            for zeros in sorted({0, 1, 2, min(n, 7), min(n, 15), min(n, 16), min(n, 20)}):
+                if zeros > n or (not head and not n):
+                    continue
+                frac = "0" * zeros + "".join(rng.choice("0123456789") for _ in range(n - zeros))
+                exp = rng.choice(["", "", "", "e5", "E-07", "e+300", "e-320", "e0"])
+                tokens.append(rng.choice(["", "", "-", "+"]) + head + "." + frac + exp)
+    tokens += ["0.0", "-0.0", "0.00000000000000000000", "5.", "1.9999999999999999", "9.9999999999999999999",
+               "0.30000000000000004", "0.0099999999999997868", "45.549999999999997", "123.45678901234567",
+               "0.95395734275277411", "0.000000000000000000012345678901234567"]
+    pad = "\n".join(["0 0 0"] * 40) + "\n"
+    rows = "".join(f"{k} {t} 0\n" for k, t in enumerate(tokens))
+    got = _text.parse_table((rows + pad).encode(), ncols=3, int_columns=(0,), allow_nonfinite=True).values
+    np.testing.assert_array_equal(bits(got[:len(tokens), 1]), [float_bits(float(t)) for t in tokens])
+    for t in ["1.2345678901234567", "12.345678901234567", "0.00012345678901234567"]:
+        for at in range(t.index(".") + 1, len(t)):
+            for junk in "x./:\x00\xff-e":
+                bad = t[:at] + junk + t[at + 1:]
+                if python_accepts(bad) is not False:
+                    continue  # still a number (an exponent 'e' before digits): compared above's way
+                text = ("0 0 0\n" + f"1 {bad} 0\n" + pad).encode("latin-1")
+                with pytest.raises(ValueError, match="line 2, column 2: not a number"):
+                    _text.parse_table(text, ncols=3, int_columns=(0,))
+
+
 JUNK = "0123456789+-.eEnaiftyINFAY#_ x\x00\xe9"
 
 
@@ -513,7 +547,8 @@ def test_fuzz_tool_mutated_dumps_and_doubles_agree_with_the_twin():
 
 def test_c_program_page_end_guard_and_valgrind(tmp_path):
     """csrc/tests/test_text.c: every prefix of adversarial texts placed right before an inaccessible
-    page (a read past the range faults), built with -Wall -Wextra -Werror, run plain and under valgrind."""
+    page (a read past the range faults), built with -Wall -Wextra -Werror, run plain and under valgrind; built
+    without the SSE2 row path (-DCG_TEXT_NO_SSE2) and at -O0 too, run plain."""
     import shutil
     import subprocess
     cc = shutil.which("cc") or shutil.which("gcc")
@@ -528,6 +563,13 @@ def test_c_program_page_end_guard_and_valgrind(tmp_path):
     env = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
     run = subprocess.run([str(exe)], capture_output=True, text=True, env=env)
     assert run.returncode == 0 and "test_text: ok" in run.stdout, run.stderr
+    # the portable build (no SSE2 row path, as on other CPUs), at -O0 too
+    for flags in (["-O2", "-DCG_TEXT_NO_SSE2"], ["-O0"]):
+        other = tmp_path / ("test_text" + "".join(flags).replace("-", "_"))
+        subprocess.run([cc, "-std=c11", "-Wall", "-Wextra", "-Werror", *flags, str(root / "tests" / "test_text.c"),
+                        str(root / "cg_text.c"), str(root / "cg_status.c"), "-lm", "-o", str(other)], check=True)
+        run = subprocess.run([str(other)], capture_output=True, text=True, env=env)
+        assert run.returncode == 0 and "test_text: ok" in run.stdout, (flags, run.stderr)
     if shutil.which("valgrind"):
         run = subprocess.run(["valgrind", "-q", "--error-exitcode=1", "--leak-check=full", str(exe)],
                              capture_output=True, text=True, env=env)
