@@ -630,46 +630,53 @@ QUICK_INLINE const unsigned char *sse_fraction(const unsigned char *f, uint64_t 
 }
 #endif
 
+#ifndef CG_TEXT_SSE2_FRACTION
+/* quick_double's d.ddd without SSE2: the digit and 7 of the fraction as one word (the '.' replaced), then a digit
+   run. p: the digit */
+QUICK_INLINE const unsigned char *word_fraction(const unsigned char *p, int neg, const unsigned char *after,
+                                                double *value)
+{
+    const unsigned char *digits = p;
+    uint64_t man;
+    unsigned k;
+    const uint64_t first = (load8(p + 1) & ~(uint64_t)0xFF) | (uint64_t)p[0];
+    const uint64_t nd = nondigit_bytes(first);
+    ++p;
+    if (nd) {
+        man = word_digits(first, nd, &k);
+        p += k;
+    } else {
+        man = digits_value(first, 8);
+        if (!(p = quick_digit_run(p + 8, &man, 1))) return NULL;
+        /* p - digits - 1 digits, the leading zeros among them those first starts with (up to 7) */
+        if (p - digits - 1 > 19 &&
+            p - digits - 1 - (int64_t)(__builtin_ctzll((first ^ 0x3030303030303030ULL) | (1ULL << 63)) >> 3) > 19)
+            return NULL;
+    }
+    return quick_exponent(p, after, man, digits + 2 - p, neg, value);
+}
+#endif
+
 /* [-]?digits[.digits]?([eE][+-]?digits)? followed by a byte of after; returns that byte's address. p: after
    the sign, neg: whether it was '-'; not a digit followed by a byte of after (the row loop takes those). Reads
    [p - 1, p - 1 + QUICK_READ) only: sign 1, integer part <= 16, '.' 1, fraction <= 24, exponent <= 5, the byte
-   after 1 */
+   after 1 (sse_fraction: p + 3 + 30) */
 QUICK_INLINE const unsigned char *quick_double(const unsigned char *p, int neg, const unsigned char *after,
                                                 double *value)
 {
     const unsigned char *digits = p;
-    uint64_t nd, man;
-    unsigned k;
-#ifdef CG_TEXT_SSE2_FRACTION
-    if (is_digit(p[0])) { /* d.ddd and dd.ddd */
+    uint64_t man;
+    if (is_digit(p[0])) {
+#ifdef CG_TEXT_SSE2_FRACTION /* d.ddd and dd.ddd */
         const unsigned char *q = NULL;
         if (p[1] == '.')
             q = sse_fraction(p + 2, (uint64_t)(p[0] - '0'), 1, neg, after, value);
         else if (is_digit(p[1]) && p[2] == '.')
             q = sse_fraction(p + 3, (uint64_t)(p[0] - '0') * 10 + (uint64_t)(p[1] - '0'), 2, neg, after, value);
         if (q) return q;
-    }
-    if (0) {
 #else
-    if (is_digit(p[0])) {
+        if (p[1] == '.') return word_fraction(p, neg, after, value);
 #endif
-        if (p[1] == '.') { /* d.ddd: the digit and 7 of the fraction as one word (the '.' replaced) */
-            const uint64_t first = (load8(p + 1) & ~(uint64_t)0xFF) | (uint64_t)p[0];
-            nd = nondigit_bytes(first);
-            ++p;
-            if (nd) {
-                man = word_digits(first, nd, &k);
-                p += k;
-            } else {
-                man = digits_value(first, 8);
-                if (!(p = quick_digit_run(p + 8, &man, 1))) return NULL;
-                /* p - digits - 1 digits, the leading zeros among them those first starts with (up to 7) */
-                if (p - digits - 1 > 19 &&
-                    p - digits - 1 - (int64_t)(__builtin_ctzll((first ^ 0x3030303030303030ULL) | (1ULL << 63)) >> 3) > 19)
-                    return NULL;
-            }
-            return quick_exponent(p, after, man, digits + 2 - p, neg, value);
-        }
     }
     man = 0;
     if (!(p = quick_digit_run(p, &man, 1))) return NULL;
