@@ -696,17 +696,23 @@ QUICK_INLINE const unsigned char *quick_double(const unsigned char *p, int neg, 
     return quick_exponent(p, after, man, exp10, neg, value);
 }
 
-/* [-]?digits with at most 15 digits followed by a byte of after; reads [p, p + 17] only */
-static inline const unsigned char *quick_int(const unsigned char *p, const unsigned char *after, int64_t *value)
+/* digits (at most 15) followed by a byte of after, negated if neg; reads [p, p + 16] only */
+QUICK_INLINE const unsigned char *quick_uint(const unsigned char *p, int neg, const unsigned char *after,
+                                             int64_t *value)
 {
-    const int neg = *p == '-';
-    p += neg;
     uint64_t x = 0;
     const unsigned char *digits = p;
     if (!(p = quick_digit_run(p, &x, 1)) || p == digits) return NULL;
     if (!after[*p]) return NULL;
     *value = neg ? -(int64_t)x : (int64_t)x;
     return p;
+}
+
+/* [-]?digits with at most 15 digits followed by a byte of after; reads [p, p + 17] only. The sign is a branch
+   (identifiers are not negative: predicted), so the digits' loads do not wait on the first byte */
+static inline const unsigned char *quick_int(const unsigned char *p, const unsigned char *after, int64_t *value)
+{
+    return *p == '-' ? quick_uint(p + 1, 1, after, value) : quick_uint(p, 0, after, value);
 }
 
 /*
@@ -729,26 +735,30 @@ QUICK_INLINE const unsigned char *quick_column(const unsigned char *p, const uns
             vrow[col] = (double)iv;
         }
     } else {
-        const int neg = *p == '-';
-        const unsigned char *s = p + neg;
-        if (is_digit(s[0]) && after[s[1]]) { /* one digit alone: the 0s and 1s of unused columns */
-            if (run[col] && s[1] == ' ' && !neg) {
-                /* n tokens "d " (1 to 4) from one word: the first byte that does not fit ("d" <= 9 or
-                   " " == 0 after the xor) has its high bit set */
-                const uint64_t t = load8(p) ^ 0x2030203020302030ULL;
-                const uint64_t misfit =
-                    (((t & 0x7F7F7F7F7F7F7F7FULL) + 0x7F767F767F767F76ULL) | t) & 0x8080808080808080ULL;
-                unsigned n = misfit ? (unsigned)__builtin_ctzll(misfit) >> 4 : 4;
-                if (n > run[col]) n = run[col];
-                for (unsigned i = 0; i < n; ++i) vrow[col + i] = (double)(p[2 * i] - '0');
-                *c = col + n;
-                return p + 2 * n;
+        if (*p != '-') { /* the sign is a branch: the token's parse then does not wait on its first byte */
+            if (is_digit(p[0]) && after[p[1]]) { /* one digit alone: the 0s and 1s of unused columns */
+                if (run[col] && p[1] == ' ') {
+                    /* n tokens "d " (1 to 4) from one word: the first byte that does not fit ("d" <= 9 or
+                       " " == 0 after the xor) has its high bit set */
+                    const uint64_t t = load8(p) ^ 0x2030203020302030ULL;
+                    const uint64_t misfit =
+                        (((t & 0x7F7F7F7F7F7F7F7FULL) + 0x7F767F767F767F76ULL) | t) & 0x8080808080808080ULL;
+                    unsigned n = misfit ? (unsigned)__builtin_ctzll(misfit) >> 4 : 4;
+                    if (n > run[col]) n = run[col];
+                    for (unsigned i = 0; i < n; ++i) vrow[col + i] = (double)(p[2 * i] - '0');
+                    *c = col + n;
+                    return p + 2 * n;
+                }
+                vrow[col] = (double)(p[0] - '0');
+                q = p + 1;
+            } else {
+                q = quick_double(p, 0, after, &vrow[col]);
             }
-            const double v = (double)(s[0] - '0');
-            vrow[col] = neg ? -v : v;
-            q = s + 1;
+        } else if (is_digit(p[1]) && after[p[2]]) {
+            vrow[col] = -(double)(p[1] - '0');
+            q = p + 2;
         } else {
-            q = quick_double(s, neg, after, &vrow[col]);
+            q = quick_double(p + 1, 1, after, &vrow[col]);
         }
     }
     if (q) {
