@@ -2,7 +2,9 @@
  *
  * Speed: a row that starts ncols * QUICK_READ bytes or more before the range's end is first tried by
  * quick_row (no range check per byte, one-digit tokens and d.ddd mantissas decided early, runs of "0 "
- * four per word); a row it does not take, and every row near the end, goes through the general loop,
+ * four per word; on x86-64 the fractions of d.ddd and dd.ddd converted 16 digits at once in SSE2, see
+ * sse_fraction, and signs taken by a branch so that a token's loads do not wait on its first byte); a row
+ * it does not take, and every row near the end, goes through the general loop,
  * where each token is tried by fast_double / fast_int, which parse the common forms in one pass (digits 8
  * bytes at a time, the last partial word included, no separate scan for the token's end; byte by byte
  * where fewer than 8 bytes of the range remain, so nothing past it is read); everything else (and every
