@@ -1160,10 +1160,10 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
         Py_buffer view;
         if (PyObject_GetBuffer(lease, &view, PyBUF_WRITABLE) < 0) goto done;
         char *mem = (char *)view.buf;
-        const int fits = view.len >= nbytes && ((uintptr_t)mem & 63) == 0;
+        const int fits = view.len >= nbytes && ((uintptr_t)mem & 7) == 0;
         PyBuffer_Release(&view); /* the pointer stays valid: the arrays hold lease, which holds its own export */
         if (!fits) {
-            PyErr_Format(PyExc_ValueError, "out: expected a writable buffer of at least %zd bytes aligned to 64 "
+            PyErr_Format(PyExc_ValueError, "out: expected a writable buffer of at least %zd bytes aligned to 8 "
                          "bytes", nbytes);
             goto done;
         }
@@ -1416,7 +1416,7 @@ done:
      "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1, parts=0, out=None) -> "   \
      "(values, ints, nrows, end, (status, message, line, column, offset, length), (nonfinite, line, column, "      \
      "offset, length))\n\n"                                                                                        \
-     "out: None (new arrays) or a callable out(nbytes) returning a writable buffer (64-byte aligned) of at least "  \
+     "out: None (new arrays) or a callable out(nbytes) returning a writable buffer (8-byte aligned) of at least "   \
      "nbytes bytes: the tables are then views of it (values first, ints from the next 64-byte boundary), their "   \
      "base the object returned. "                                                                                  \
      "flags: 1 skip blank lines, 2 stop after max_rows rows (end: offset in data where parsing stopped). "          \

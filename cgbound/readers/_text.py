@@ -375,20 +375,25 @@ SPARE_TABLES = 2
 
 
 class _SpareTable:
-    """A block of memory (a frame_buffer) for tables, and a weak reference to the memoryview of it that the last
-    tables made from it hold as their base (every array viewing them holds it too): the block is free for new
-    tables once that memoryview is gone."""
+    """A block of memory for tables (a frame_buffer in whole huge pages from 2 MB on, else a NumPy byte array), and
+    a weak reference to the memoryview of it that the last tables made from it hold as their base (every array
+    viewing them holds it too): the block is free for new tables once that memoryview is gone."""
 
     __slots__ = ("buf", "lent")
 
-    def __init__(self, buf):
-        self.buf, self.lent = buf, None
+    def __init__(self, nbytes):
+        nbytes += nbytes >> 4  # room for a larger table than this one (frames of one file differ by some rows)
+        if nbytes < 1 << 21:  # (a huge page zeroed for a small table would cost more than it saves)
+            self.buf = np.empty(nbytes, np.uint8)
+        else:
+            self.buf = frame_buffer(-(-nbytes // (1 << 21)) << 21)
+        self.lent = None
 
     def free(self):
         return self.lent is None or self.lent() is None
 
     def close(self):
-        if self.free():
+        if self.free() and isinstance(self.buf, mmap.mmap):
             _close(self.buf)  # (else arrays still view it: unmapped when they are gone)
 
 
@@ -407,8 +412,8 @@ class _TableLease:
             spare = min(fits, key=lambda s: len(s.buf)) if fits else None
             if spare is not None:
                 _spare_tables.remove(spare)
-        if spare is None:  # room for a larger table than this one, in whole huge pages (as _take_buffer)
-            spare = _SpareTable(frame_buffer(-(-(nbytes + (nbytes >> 4)) // (1 << 21)) << 21))
+        if spare is None:
+            spare = _SpareTable(nbytes)
         self.spare = spare
         view = memoryview(spare.buf)
         spare.lent = weakref.ref(view)
