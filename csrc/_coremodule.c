@@ -1146,7 +1146,8 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
     }
     const npy_intp vshape[2] = {max_rows, ncols}, ishape[2] = {max_rows, n_int};
     /* out(nbytes): memory for both tables (values, then ints from a 64-byte boundary) whose pages were already
-       touched by an earlier frame; asked for here, once the size is known (after the plan's line count) */
+       touched by an earlier frame, or None for new arrays; asked for here, once the size is known (after the
+       plan's line count) */
     const Py_ssize_t vbytes = max_rows * ncols * (Py_ssize_t)sizeof(double);
     const Py_ssize_t ioffset = (vbytes + 63) & ~(Py_ssize_t)63;
     if (out != Py_None && max_rows > 0 && n_int > (PY_SSIZE_T_MAX - ioffset) / 8 / max_rows) {
@@ -1157,6 +1158,8 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
     if (out != Py_None && nbytes > 0) {
         lease = PyObject_CallFunction(out, "n", nbytes);
         if (!lease) goto done;
+    }
+    if (lease && lease != Py_None) {
         Py_buffer view;
         if (PyObject_GetBuffer(lease, &view, PyBUF_WRITABLE) < 0) goto done;
         char *mem = (char *)view.buf;
@@ -1417,8 +1420,8 @@ done:
      "(values, ints, nrows, end, (status, message, line, column, offset, length), (nonfinite, line, column, "      \
      "offset, length))\n\n"                                                                                        \
      "out: None (new arrays) or a callable out(nbytes) returning a writable buffer (8-byte aligned) of at least "   \
-     "nbytes bytes: the tables are then views of it (values first, ints from the next 64-byte boundary), their "   \
-     "base the object returned. "                                                                                  \
+     "nbytes bytes, or None for new arrays: the tables are then views of it (values first, ints from the next "    \
+     "64-byte boundary), their base the object returned. "                                                         \
      "flags: 1 skip blank lines, 2 stop after max_rows rows (end: offset in data where parsing stopped). "          \
      "Parse data[start:stop] as rows of ncols numbers (cg_text_parse_table); max_rows < 0: one per line at most. "  \
      "parts > 0: cut into exactly that many parts, one thread each (for tests). "                                  \

@@ -191,11 +191,14 @@ def _arrays_of(snap):
     return [a for a in arrays if a is not None]
 
 
-def test_a_reused_table_is_the_new_tables_values_and_a_kept_view_is_never_overwritten():
+def test_a_reused_table_is_the_new_tables_values_and_a_kept_view_is_never_overwritten(monkeypatch):
     """parse_table(reuse=True) gives the same bits as new tables (one pass, threads, blank lines skipped, a count
     declared); the memory is lent again once the tables are dropped, and not while a view of them lives."""
     import gc
     from cgbound.readers import _text
+    small = _text.parse_table(b"1 2\n", ncols=2, reuse=True)
+    assert small.values.base is None and small.ints.base is None   # under SPARE_TABLE_MIN: new arrays
+    monkeypatch.setattr(_text, "SPARE_TABLE_MIN", 1)               # (the tables here are small)
 
     class Holder:
         pass
@@ -244,13 +247,14 @@ def test_a_reused_table_is_the_new_tables_values_and_a_kept_view_is_never_overwr
     assert _text._spare_tables == []     # given back with the last holder
 
 
-def test_reader_frames_do_not_view_the_reused_table_and_stay_as_read(tmp_path):
+def test_reader_frames_do_not_view_the_reused_table_and_stay_as_read(tmp_path, monkeypatch):
     """The LAMMPS and MercuryDPM readers parse frame after frame into the same table memory: read frame 2, then
     frames 1 and 0 (no larger: the same memory reused), frame 2's arrays are unchanged, and no array of a frame
     views it."""
     import gc
     import os
     from cgbound.readers import _text
+    monkeypatch.setattr(_text, "SPARE_TABLE_MIN", 1)   # (the tables here are small)
     gc.collect()
     base = os.path.join(os.path.dirname(__file__), "data", "lammps", "hooke3d")
     options = dict(pair_values=("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4"), walls=["w"], fixed_types=[2],

@@ -89,8 +89,8 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
     large range (cut at line starts; the same values and errors for any count); None: the core's setting
     (:func:`cgbound.get_num_threads`). reuse: the tables are views of memory kept from an earlier table (a
     spare table, :func:`hold_spare`) instead of new arrays, whose pages the kernel must fault in and zero (a
-    W1 .fstat frame's table: 80 MB); for callers that take what they keep from the table (copies, gathers)
-    and drop it. Memory is reused only once nothing views it any more, so an array kept from a table is
+    W1 .fstat frame's table: 80 MB), if they take SPARE_TABLE_MIN bytes or more; for callers that take what
+    they keep from the table (copies, gathers) and drop it. Memory is reused only once nothing views it any more, so an array kept from a table is
     never overwritten (a kept view only costs the next table new memory).
 
     Returns a ``Table`` (values, ints).
@@ -313,8 +313,7 @@ def _release_spare():
             _spare_tables.clear()
     if drop is not None:
         _close(drop)
-    for spare in tables:
-        spare.close()
+    del tables  # (the spare tables' memory is freed with the last reference: at once, unless arrays still view it)
 
 
 def _after_fork_in_child():
@@ -372,29 +371,27 @@ def _keep_buffer(buf):
 #: 11 % of a 2-thread .fstat parse); a kept block's were already.
 _spare_tables = []
 SPARE_TABLES = 2
+#: tables smaller than this are new arrays even with reuse: the C library recycles their memory as it is (glibc's
+#: threshold for mapping a block of its own grows, as blocks are freed, up to 32 MB); kept, they would only keep
+#: memory from the arrays made after them (W1's LAMMPS tables, 8-11 MB: 2-4 % slower kept, 1 thread)
+SPARE_TABLE_MIN = 1 << 25
 
 
 class _SpareTable:
-    """A block of memory for tables (a frame_buffer in whole huge pages from 2 MB on, else a NumPy byte array), and
-    a weak reference to the memoryview of it that the last tables made from it hold as their base (every array
-    viewing them holds it too): the block is free for new tables once that memoryview is gone."""
+    """A block of memory for tables (a NumPy byte array: allocated as NumPy allocates the new tables, so that the
+    C library recycles a block of up to 32 MB given back with a reader for the next reader, as it did the tables,
+    and a larger one gets huge pages), and a weak reference to the memoryview of it that the last tables made from
+    it hold as their base (every array viewing them holds it too): the block is free for new tables once that
+    memoryview is gone."""
 
     __slots__ = ("buf", "lent")
 
     def __init__(self, nbytes):
-        nbytes += nbytes >> 4  # room for a larger table than this one (frames of one file differ by some rows)
-        if nbytes < 1 << 21:  # (a huge page zeroed for a small table would cost more than it saves)
-            self.buf = np.empty(nbytes, np.uint8)
-        else:
-            self.buf = frame_buffer(-(-nbytes // (1 << 21)) << 21)
-        self.lent = None
+        # room for a larger table than this one (frames of one file differ by some rows)
+        self.buf, self.lent = np.empty(nbytes + (nbytes >> 4), np.uint8), None
 
     def free(self):
         return self.lent is None or self.lent() is None
-
-    def close(self):
-        if self.free() and isinstance(self.buf, mmap.mmap):
-            _close(self.buf)  # (else arrays still view it: unmapped when they are gone)
 
 
 class _TableLease:
@@ -407,6 +404,8 @@ class _TableLease:
         self.spare = None
 
     def __call__(self, nbytes):
+        if nbytes < SPARE_TABLE_MIN:
+            return None
         with _spare_lock:
             fits = [s for s in _spare_tables if len(s.buf) >= nbytes and s.free()]
             spare = min(fits, key=lambda s: len(s.buf)) if fits else None
@@ -423,16 +422,10 @@ class _TableLease:
         spare, self.spare = self.spare, None
         if spare is None:
             return
-        drop = []
         with _spare_lock:
-            if _spare_holders <= 0 or len(spare.buf) > SPARE_MAX:
-                drop.append(spare)
-            else:
+            if _spare_holders > 0 and len(spare.buf) <= SPARE_MAX:
                 _spare_tables.insert(0, spare)
-                drop.extend(_spare_tables[SPARE_TABLES:])
                 del _spare_tables[SPARE_TABLES:]
-        for s in drop:
-            s.close()
 
 
 @contextlib.contextmanager
