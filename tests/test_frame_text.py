@@ -283,3 +283,27 @@ def test_reader_frames_do_not_view_the_reused_table_and_stay_as_read(tmp_path, m
         del reader, first, snap
         gc.collect()
         assert _text._spare_tables == []
+
+
+def test_the_binding_takes_the_tables_memory_from_out():
+    """text_parse_table's out(nbytes): the tables as views of the buffer it returns (values, then ints from a
+    64-byte boundary), new arrays for None, an error for a buffer too small or not writable."""
+    from cgbound import _engine
+    asked = []
+
+    def out(nbytes):
+        asked.append(nbytes)
+        return block
+
+    block = np.zeros(200, np.uint8)
+    values, ints, found, *_ = _engine.text_parse_table(b"1 2.5\n3 4.5\n", 0, 12, 2, b"\1\0", -1, 0, 1, 0, out)
+    assert asked == [64 + 2 * 8] and found == 2     # values: 2 x 2 doubles, ints from byte 64
+    assert np.shares_memory(values, block) and np.shares_memory(ints, block)
+    assert values.tolist() == [[1.0, 2.5], [3.0, 4.5]] and ints.tolist() == [[1], [3]]
+    assert block[:32].view(np.float64).tolist() == [1.0, 2.5, 3.0, 4.5]
+    assert block[64:80].view(np.int64).tolist() == [1, 3]
+    values, ints, *_ = _engine.text_parse_table(b"1 2.5\n", 0, 6, 2, b"\1\0", -1, 0, 1, 0, lambda n: None)
+    assert values.base is None and values.tolist() == [[1.0, 2.5]]
+    for bad in (np.zeros(10, np.uint8), b"x" * 200):
+        with pytest.raises((ValueError, BufferError, TypeError)):
+            _engine.text_parse_table(b"1 2.5\n", 0, 6, 2, b"\1\0", -1, 0, 1, 0, lambda n: bad)

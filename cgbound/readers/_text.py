@@ -90,8 +90,9 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
     (:func:`cgbound.get_num_threads`). reuse: the tables are views of memory kept from an earlier table (a
     spare table, :func:`hold_spare`) instead of new arrays, whose pages the kernel must fault in and zero (a
     W1 .fstat frame's table: 80 MB), if they take SPARE_TABLE_MIN bytes or more; for callers that take what
-    they keep from the table (copies, gathers) and drop it. Memory is reused only once nothing views it any more, so an array kept from a table is
-    never overwritten (a kept view only costs the next table new memory).
+    they keep from the table (copies, gathers) and drop it. Memory is reused only once nothing views it any
+    more, so an array kept from a table is never overwritten (a kept view only costs the next table new
+    memory).
 
     Returns a ``Table`` (values, ints).
     """
