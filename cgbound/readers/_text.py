@@ -297,7 +297,8 @@ SPARE_MAX = 1 << 29
 
 
 def hold_spare(reader):
-    """Let frame_text keep a spare buffer for as long as ``reader`` lives (readers call it when made)."""
+    """Let frame_text keep a spare buffer, and parse_table(reuse=True) spare tables, for as long as ``reader`` lives
+    (readers call it when made)."""
     global _spare_holders
     with _spare_lock:
         _spare_holders += 1
