@@ -8,7 +8,10 @@ Files (written once into --dir, 2 frames each, from the W1 lattice: 97,336 parti
   w1.data      MercuryDPM .data (14 columns, species an integer)
   w1.fstat     MercuryDPM .fstat (16 columns, each pair on two lines, as MercuryDPM writes it)
 Methods, each over the whole file (both frames), file in the page cache:
-  cg_text      mmap + find_lines (frame starts) + parse_table of every frame's rows, int columns as int64
+  cg_text      mmap + find_lines (frame starts) + parse_table of every frame's rows, int columns as int64, into
+               reused table memory as the readers parse (parse_table(reuse=True): the steady state of a reader,
+               the memory's pages already faulted in by an earlier frame)
+  cg_text new  the same into new tables (each frame's table faulted in and zeroed by the kernel)
   fromstring   what the LAMMPS reader does per frame: readline the rows, b"".join, np.fromstring(sep=" ")
   per-line     what the MercuryDPM reader does: readline, split, float() per word, np.array at the end
   reader       LAMMPS dumps only: the LAMMPS/LIGGGHTS reader's own parsing (readers/_lammps_dump.py):
@@ -16,7 +19,9 @@ Methods, each over the whole file (both frames), file in the page cache:
   reader gz    the same on a gzipped copy (zlib stream into the same parser; with --gzip)
   wc -l        the same bytes through `wc -l` (a lower bound for any line-oriented reader)
 MB/s = file size / median wall time (CPU time printed too). cg_text and reader run on one thread; with
---threads N > 1 also `cg_text Nt` and `reader Nt`: frames of >= 4 MB cut at line starts over N threads.
+--threads N > 1 also `cg_text Nt`, `cg_text new Nt` and `reader Nt`: frames of >= 4 MB cut at line starts over
+N threads. A reader is alive throughout (the spare table and text are kept from run to run, as while a reader
+reads frame after frame).
 """
 import argparse
 import mmap
@@ -147,7 +152,7 @@ def frames_of(kind, mm, threads=1):
     return out
 
 
-def parse_cg_text(path, kind, threads=1):
+def parse_cg_text(path, kind, threads=1, reuse=True):
     with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as mm:
         total = 0
         if kind == "data":  # the scan parses each frame already (as a reader would keep it)
@@ -156,12 +161,18 @@ def parse_cg_text(path, kind, threads=1):
                 end = mm.find(b"\n", pos)
                 n = int(bytes(mm[pos:end]).split()[0])
                 table = _text.parse_table(mm, end + 1, size, 14, int_columns=(13,), nrows=n, stop_after_rows=True,
-                                          threads=threads)
+                                          threads=threads, reuse=reuse)
                 total, pos = total + len(table.values), table.end
+                del table
             return total
         for start, stop, ncols, n, ints in frames_of(kind, mm, threads):
-            total += len(_text.parse_table(mm, start, stop, ncols, int_columns=ints, nrows=n, threads=threads).values)
+            total += len(_text.parse_table(mm, start, stop, ncols, int_columns=ints, nrows=n, threads=threads,
+                                           reuse=reuse).values)
         return total
+
+
+class _Reader:
+    """Stands for a reader that lives through the runs: the spare text and table are kept while it does."""
 
 
 def read_with_reader(path, kind, threads=1):
@@ -240,13 +251,15 @@ def main(argv=None):
     ap.add_argument("--threads", type=int, default=2, help="also time cg_text and the reader on this many threads")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
+    reader = _Reader()
+    _text.hold_spare(reader)
     paths = write_files(args.dir, args.format)
     print(f"# files in {args.dir} (written or reused in {time.perf_counter() - t0:.1f} s); floats as {args.format}")
     print(header(threads=args.threads))
     have_wc = shutil.which("wc") is not None
     print("# MB/s = size / median wall time; MB/s cpu = size / median CPU time (on a loaded machine the CPU time\n"
           "# is the per-core figure); x wc -l = wall time / wc's wall time, cpu x wc = CPU time / wc's CPU time")
-    print(f"{'file':<11} {'MB':>6} {'method':<11} {'median s':>9} {'min s':>8} {'cpu s':>7} {'MB/s':>8} "
+    print(f"{'file':<11} {'MB':>6} {'method':<14} {'median s':>9} {'min s':>8} {'cpu s':>7} {'MB/s':>8} "
           f"{'MB/s cpu':>9} {'x wc -l':>8} {'cpu x wc':>9}")
     kinds = {"atoms.dump": "lammps", "pairs.dump": "lammps", "w1.data": "data", "w1.fstat": "fstat"}
     for name, path in paths.items():
@@ -270,20 +283,23 @@ def main(argv=None):
             if args.gzip:
                 packed = gzipped_copy(path)
                 methods.insert(2, ("reader gz", lambda: read_with_reader(packed, dump_kind), args.repeat))
+        methods.insert(1, ("cg_text new", lambda: parse_cg_text(path, kind, reuse=False), args.repeat))
         if args.threads > 1:
             methods.insert(1, (f"cg_text {args.threads}t", lambda: parse_cg_text(path, kind, args.threads),
                                args.repeat))
+            methods.insert(3, (f"cg_text new {args.threads}t",
+                               lambda: parse_cg_text(path, kind, args.threads, reuse=False), args.repeat))
         if args.skip_slow:
             methods = [m for m in methods if m[0].startswith(("cg_text", "reader"))]
         for label, fn, repeat in methods:
             med, best, cpu = timed(fn, repeat, warmup=0, cpu=True)
-            print(f"{name:<11} {size:6.1f} {label:<11} {med:9.3f} {best:8.3f} {cpu:7.3f} {size / med:8.1f} "
+            print(f"{name:<11} {size:6.1f} {label:<14} {med:9.3f} {best:8.3f} {cpu:7.3f} {size / med:8.1f} "
                   f"{size / cpu:9.1f} {med / wc:8.2f} {cpu / max(wc_cpu, 1e-9):9.2f}")
             if label.startswith("reader"):
                 frames = len(scan_dump(path, "atoms" if name == "atoms.dump" else "local"))
                 print(f"#   {label}: {frames} frames, {med / frames:.3f} s per frame (median wall), "
                       f"{cpu / frames:.3f} s CPU per frame")
-        print(f"{name:<11} {size:6.1f} {'wc -l':<11} {wc:9.3f} {'':>8} {wc_cpu:7.3f} {size / wc:8.1f} "
+        print(f"{name:<11} {size:6.1f} {'wc -l':<14} {wc:9.3f} {'':>8} {wc_cpu:7.3f} {size / wc:8.1f} "
               f"{size / max(wc_cpu, 1e-9):9.1f} {1.0:8.2f} {1.0:9.2f}")
         sys.stdout.flush()
     print(f"# load average at the end: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f}")

@@ -107,10 +107,11 @@ def wrap(positions, periodic, lower, upper):
     return _core.wrap(positions, periodic, lower, upper)
 
 
-def text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1, parts=0):
+def text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1, parts=0, out=None):
     """The C text parser over ``data[start:stop]`` (see csrc/cg_text.h and readers/_text.py), on up to
-    n_threads threads for large ranges (parts > 0: cut into exactly that many parts whatever the size)."""
-    return _core.text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads, parts)
+    n_threads threads for large ranges (parts > 0: cut into exactly that many parts whatever the size). out: None,
+    or ``out(nbytes)`` giving a writable buffer for both tables (they are then views of it) or None (new arrays)."""
+    return _core.text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads, parts, out)
 
 
 def text_plan_lines(data, start, stop, parts):

@@ -1082,17 +1082,36 @@ static int check_text_range(const text_buffer *b, Py_ssize_t start, Py_ssize_t s
     return 1;
 }
 
+/* a C-contiguous (shape[0], shape[1]) array over memory at data, inside the buffer of owner (its base) */
+static PyArrayObject *view_of(PyObject *owner, const npy_intp *shape, int type, void *data)
+{
+    PyArrayObject *arr = (PyArrayObject *)PyArray_New(&PyArray_Type, 2, (npy_intp *)shape, type, NULL, data, 0,
+                                                      NPY_ARRAY_CARRAY, NULL);
+    if (!arr) return NULL;
+    Py_INCREF(owner);
+    if (PyArray_SetBaseObject(arr, owner) < 0) { /* (it took the reference even so) */
+        Py_DECREF(arr);
+        return NULL;
+    }
+    return arr;
+}
+
 static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
 {
     (void)self;
     text_buffer data = {0}, mask = {0};
     Py_ssize_t start, stop, ncols, max_rows;
     int flags, n_threads = 1, parts = 0;
+    PyObject *out = Py_None, *lease = NULL;
     PyArrayObject *values = NULL, *ints = NULL;
     PyObject *ret = NULL;
-    if (!PyArg_ParseTuple(args, "O&nnnO&ni|ii", convert_text_buffer, &data, &start, &stop, &ncols,
-                          convert_text_buffer, &mask, &max_rows, &flags, &n_threads, &parts))
+    if (!PyArg_ParseTuple(args, "O&nnnO&ni|iiO", convert_text_buffer, &data, &start, &stop, &ncols,
+                          convert_text_buffer, &mask, &max_rows, &flags, &n_threads, &parts, &out))
         return NULL;
+    if (out != Py_None && !PyCallable_Check(out)) {
+        PyErr_Format(PyExc_TypeError, "out: expected None or a callable, got %.200s", Py_TYPE(out)->tp_name);
+        goto done;
+    }
     if (!check_text_range(&data, start, stop)) goto done;
     if (n_threads < 1 || parts < 0 || parts > CG_TEXT_MAX_THREADS) {
         PyErr_Format(PyExc_ValueError,
@@ -1126,8 +1145,37 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
         goto done;
     }
     const npy_intp vshape[2] = {max_rows, ncols}, ishape[2] = {max_rows, n_int};
-    values = (PyArrayObject *)PyArray_SimpleNew(2, vshape, NPY_DOUBLE);
-    ints = (PyArrayObject *)PyArray_SimpleNew(2, ishape, NPY_INT64);
+    /* out(nbytes): memory for both tables (values, then ints from a 64-byte boundary) whose pages were already
+       touched by an earlier frame, or None for new arrays; asked for here, once the size is known (after the
+       plan's line count) */
+    const Py_ssize_t vbytes = max_rows * ncols * (Py_ssize_t)sizeof(double);
+    const Py_ssize_t ioffset = (vbytes + 63) & ~(Py_ssize_t)63;
+    if (out != Py_None && max_rows > 0 && n_int > (PY_SSIZE_T_MAX - ioffset) / 8 / max_rows) {
+        PyErr_Format(PyExc_MemoryError, "a table of %zd x %zd values does not fit in memory", max_rows, ncols);
+        goto done;
+    }
+    const Py_ssize_t nbytes = ioffset + max_rows * (Py_ssize_t)n_int * (Py_ssize_t)sizeof(int64_t);
+    if (out != Py_None && nbytes > 0) {
+        lease = PyObject_CallFunction(out, "n", nbytes);
+        if (!lease) goto done;
+    }
+    if (lease && lease != Py_None) {
+        Py_buffer view;
+        if (PyObject_GetBuffer(lease, &view, PyBUF_WRITABLE) < 0) goto done;
+        char *mem = (char *)view.buf;
+        const int fits = view.len >= nbytes && ((uintptr_t)mem & 7) == 0;
+        PyBuffer_Release(&view); /* the pointer stays valid: the arrays hold lease, which holds its own export */
+        if (!fits) {
+            PyErr_Format(PyExc_ValueError, "out: expected a writable buffer of at least %zd bytes aligned to 8 "
+                         "bytes", nbytes);
+            goto done;
+        }
+        values = view_of(lease, vshape, NPY_DOUBLE, mem);
+        ints = values ? view_of(lease, ishape, NPY_INT64, mem + ioffset) : NULL;
+    } else {
+        values = (PyArrayObject *)PyArray_SimpleNew(2, vshape, NPY_DOUBLE);
+        ints = (PyArrayObject *)PyArray_SimpleNew(2, ishape, NPY_INT64);
+    }
     if (!values || !ints) goto done;
     cg_text_result res;
     cg_status st;
@@ -1155,6 +1203,7 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
 done:
     Py_XDECREF(values);
     Py_XDECREF(ints);
+    Py_XDECREF(lease);
     release_text_buffer(&mask);
     release_text_buffer(&data);
     return ret;
@@ -1367,8 +1416,12 @@ done:
 
 #define CG_TEXT_METHODS                                                                                             \
     {"text_parse_table", py_text_parse_table, METH_VARARGS,                                                         \
-     "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1, parts=0) -> (values, ints, " \
-     "nrows, end, (status, message, line, column, offset, length), (nonfinite, line, column, offset, length))\n\n"  \
+     "text_parse_table(data, start, stop, ncols, int_mask, max_rows, flags, n_threads=1, parts=0, out=None) -> "   \
+     "(values, ints, nrows, end, (status, message, line, column, offset, length), (nonfinite, line, column, "      \
+     "offset, length))\n\n"                                                                                        \
+     "out: None (new arrays) or a callable out(nbytes) returning a writable buffer (8-byte aligned) of at least "   \
+     "nbytes bytes, or None for new arrays: the tables are then views of it (values first, ints from the next "    \
+     "64-byte boundary), their base the object returned. "                                                         \
      "flags: 1 skip blank lines, 2 stop after max_rows rows (end: offset in data where parsing stopped). "          \
      "Parse data[start:stop] as rows of ncols numbers (cg_text_parse_table); max_rows < 0: one per line at most. "  \
      "parts > 0: cut into exactly that many parts, one thread each (for tests). "                                  \

@@ -174,3 +174,136 @@ def test_the_spare_is_given_back_when_the_last_reader_is_gone(tmp_path):
     list(MercuryReader(tmp_path / "m.data", tmp_path / "m.fstat", **options))
     gc.collect()
     assert _text._spare == []          # a reader used and dropped in one expression keeps nothing either
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the tables' spare memory (parse_table(reuse=True))
+
+def _spare_arrays():
+    """The spare table blocks of cgbound.readers._text, as uint8 arrays (for np.shares_memory)."""
+    from cgbound.readers import _text
+    return [np.frombuffer(s.buf, np.uint8) for s in _text._spare_tables]
+
+
+def _arrays_of(snap):
+    arrays = [snap.positions, snap.velocities, snap.masses, snap.radii, snap.fixed, snap.species,
+              snap.contacts.i, snap.contacts.j, snap.contacts.force, snap.contacts.point]
+    return [a for a in arrays if a is not None]
+
+
+def test_a_reused_table_is_the_new_tables_values_and_a_kept_view_is_never_overwritten(monkeypatch):
+    """parse_table(reuse=True) gives the same bits as new tables (one pass, threads, blank lines skipped, a count
+    declared); the memory is lent again once the tables are dropped, and not while a view of them lives."""
+    import gc
+    from cgbound.readers import _text
+    small = _text.parse_table(b"1 2\n", ncols=2, reuse=True)
+    assert small.values.base is None and small.ints.base is None   # under SPARE_TABLE_MIN: new arrays
+    monkeypatch.setattr(_text, "SPARE_TABLE_MIN", 1)               # (the tables here are small)
+
+    class Holder:
+        pass
+
+    holder = Holder()
+    _text.hold_spare(holder)
+    rng = np.random.default_rng(3)
+    rows = 120_000     # ~5 MB of text: cut over 2 threads
+    values = rng.normal(size=(rows, 5)) * 10.0 ** rng.integers(-5, 5, size=(rows, 5))
+    ids = rng.integers(-2 ** 40, 2 ** 40, size=rows)
+    text = "".join(f"{i} {a!r} {b!r} {c!r} {d!r} {e!r}\n" for i, (a, b, c, d, e) in zip(ids.tolist(), values.tolist()))
+    data = text.encode()
+    blanks = data.replace(b"\n", b"\n\n", 1000)
+    for threads in (1, 2):
+        for text_, options in ((data, dict(nrows=rows)), (blanks, dict(skip_blank=True)), (data, {})):
+            new = _text.parse_table(text_, ncols=6, int_columns=(0,), threads=threads, **options)
+            got = _text.parse_table(text_, ncols=6, int_columns=(0,), threads=threads, reuse=True, **options)
+            assert got.values.tobytes() == new.values.tobytes() and got.ints.tobytes() == new.ints.tobytes()
+            assert got.end == new.end and got.values.shape == (rows, 6) and got.ints.shape == (rows, 1)
+            assert any(np.shares_memory(got.values, s) for s in _spare_arrays())
+            del got
+    first = _text.parse_table(data, ncols=6, int_columns=(0,), reuse=True)
+    address = first.values.__array_interface__["data"][0]
+    del first
+    again = _text.parse_table(data, ncols=6, int_columns=(0,), reuse=True)
+    assert again.values.__array_interface__["data"][0] == address     # dropped: its memory lent again
+    kept, kept_ids = again.values[:, 1:3], again.ints[:, 0]
+    del again
+    cut = data.index(b"\n") + 1
+    other = data[cut:] + data[:cut]    # the rows rotated: other values in each row
+    later = _text.parse_table(other, ncols=6, int_columns=(0,), reuse=True)
+    assert not np.shares_memory(later.values, kept)                     # a view lives: new memory
+    assert kept.tobytes() == np.ascontiguousarray(new.values[:, 1:3]).tobytes()
+    assert kept_ids.tobytes() == new.ints[:, 0].tobytes()
+    assert later.values[0].tolist() != new.values[0].tolist()
+    assert len(_text._spare_tables) <= _text.SPARE_TABLES
+    # errors are the same with reuse (file, line, token)
+    bad = data[:1000] + b"1 2 x 4 5 6\n" + data[1000:]
+    with pytest.raises(ValueError) as a:
+        _text.parse_table(bad, ncols=6, int_columns=(0,), name="f.dump", frame="timestep 3")
+    with pytest.raises(ValueError) as b:
+        _text.parse_table(bad, ncols=6, int_columns=(0,), name="f.dump", frame="timestep 3", reuse=True)
+    assert str(a.value) == str(b.value) and "f.dump (timestep 3), line" in str(b.value)
+    del a, b, kept, kept_ids, later, holder
+    gc.collect()
+    assert _text._spare_tables == []     # given back with the last holder
+
+
+def test_reader_frames_do_not_view_the_reused_table_and_stay_as_read(tmp_path, monkeypatch):
+    """The LAMMPS and MercuryDPM readers parse frame after frame into the same table memory: read frame 2, then
+    frames 1 and 0 (no larger: the same memory reused), frame 2's arrays are unchanged, and no array of a frame
+    views it."""
+    import gc
+    import os
+    from cgbound.readers import _text
+    monkeypatch.setattr(_text, "SPARE_TABLE_MIN", 1)   # (the tables here are small)
+    gc.collect()
+    base = os.path.join(os.path.dirname(__file__), "data", "lammps", "hooke3d")
+    options = dict(pair_values=("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4"), walls=["w"], fixed_types=[2],
+                   body_force=(0.0, 0.0, -1.0))
+    write_mercury([_lattice(5, 0, 0.0), _lattice(5, 1, 1.0), _lattice(5, 2, 2.0)], tmp_path / "m.data",
+                  tmp_path / "m.fstat")
+    for make in (lambda: LammpsReader(os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump"),
+                                      **options),
+                 lambda: MercuryReader(tmp_path / "m.data", tmp_path / "m.fstat", restart_path=False,
+                                       periodic=(False,) * 3, density=1.0)):
+        _text._spare_tables.clear()
+        reader = make()
+        first = reader[2]
+        copies = [a.copy() for a in _arrays_of(first)]
+        blocks = []
+        for k in (1, 0):
+            reader._cache = None
+            snap = reader[k]
+            assert _text._spare_tables, "a table was parsed into spare memory"
+            blocks.append([s.buf for s in _text._spare_tables])
+            for a in _arrays_of(first) + _arrays_of(snap):
+                assert not any(np.shares_memory(a, s) for s in _spare_arrays())
+        assert all(any(b is c for c in blocks[0]) for b in blocks[1])   # frame 0's tables in frame 1's memory
+        for a, c in zip(_arrays_of(first), copies):
+            assert a.tobytes() == c.tobytes()
+        del reader, first, snap
+        gc.collect()
+        assert _text._spare_tables == []
+
+
+def test_the_binding_takes_the_tables_memory_from_out():
+    """text_parse_table's out(nbytes): the tables as views of the buffer it returns (values, then ints from a
+    64-byte boundary), new arrays for None, an error for a buffer too small or not writable."""
+    from cgbound import _engine
+    asked = []
+
+    def out(nbytes):
+        asked.append(nbytes)
+        return block
+
+    block = np.zeros(200, np.uint8)
+    values, ints, found, *_ = _engine.text_parse_table(b"1 2.5\n3 4.5\n", 0, 12, 2, b"\1\0", -1, 0, 1, 0, out)
+    assert asked == [64 + 2 * 8] and found == 2     # values: 2 x 2 doubles, ints from byte 64
+    assert np.shares_memory(values, block) and np.shares_memory(ints, block)
+    assert values.tolist() == [[1.0, 2.5], [3.0, 4.5]] and ints.tolist() == [[1], [3]]
+    assert block[:32].view(np.float64).tolist() == [1.0, 2.5, 3.0, 4.5]
+    assert block[64:80].view(np.int64).tolist() == [1, 3]
+    values, ints, *_ = _engine.text_parse_table(b"1 2.5\n", 0, 6, 2, b"\1\0", -1, 0, 1, 0, lambda n: None)
+    assert values.base is None and values.tolist() == [[1.0, 2.5]]
+    for bad in (np.zeros(10, np.uint8), b"x" * 200):
+        with pytest.raises((ValueError, BufferError, TypeError)):
+            _engine.text_parse_table(b"1 2.5\n", 0, 6, 2, b"\1\0", -1, 0, 1, 0, lambda n: bad)

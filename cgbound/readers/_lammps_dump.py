@@ -295,9 +295,11 @@ def _read_frame(buf, start, stop, kind, path, line, int_columns, integral_column
         head["data"] = _text_columns(buf, head, end, path, ints)
     else:
         def parse(int_columns):
+            # reuse: the table in memory kept from an earlier frame (not faulted in and zeroed again); the readers
+            # take copies or gathers of its columns, and while anything views it, it is not reused
             table = _text.parse_table(buf, head["rows"], end, len(columns), int_columns=int_columns, nrows=n,
                                       allow_nonfinite=False, name=path, frame=f"timestep {ts}",
-                                      first_line=head["rows_line"], column_names=columns)
+                                      first_line=head["rows_line"], column_names=columns, reuse=True)
             return Table(table.values, columns, table.ints, [columns[k] for k in int_columns])
 
         head["data"] = None

@@ -383,8 +383,9 @@ def read_particles(path, header, n, dim, rows_start, rows_stop):
     return time, lower, upper, values, table.ints[:, 0]
 
 
-def _fstat_rows(path, time, data, size, first_line):
-    """read_fstat_rows of the text data[:size]; line_of reads data when called."""
+def _fstat_rows(path, time, data, size, first_line, reuse=False):
+    """read_fstat_rows of the text data[:size]; line_of reads data when called. reuse: the table in memory kept from
+    an earlier frame (parse_table's reuse), for callers that keep nothing of it."""
     text = _TEXT.search(data, 0, size)
     if not text:
         return None, None, None
@@ -397,7 +398,7 @@ def _fstat_rows(path, time, data, size, first_line):
                          f"'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz', got {width}")
     try:
         table = parse_table(data, 0, size, width, int_columns=(1, 2), skip_blank=True, name=path,
-                            frame=f"t = {time:g}", first_line=first_line)
+                            frame=f"t = {time:g}", first_line=first_line, reuse=reuse)
     except ValueError as exc:
         raise _row_length_error(path, data[:size], first_line, width, what, time, exc) from None
 
@@ -423,6 +424,7 @@ def read_fstat_rows(path, time, rows_start, rows_stop, first_line):
 
 @contextlib.contextmanager
 def fstat_rows(path, time, rows_start, rows_stop, first_line):
-    """:func:`read_fstat_rows` with the frame's text in the reused frame buffer: line_of works inside the block."""
+    """:func:`read_fstat_rows` with the frame's text in the reused frame buffer and the table in reused memory
+    (parse_table's reuse: keep nothing of it, copy what is needed): line_of works inside the block."""
     with frame_range(path, rows_start, rows_stop) as (data, size):
-        yield _fstat_rows(path, time, data, size, first_line)
+        yield _fstat_rows(path, time, data, size, first_line, reuse=True)

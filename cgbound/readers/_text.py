@@ -74,7 +74,7 @@ def _thread_count(threads):
 
 def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=None, skip_blank=False,
                 stop_after_rows=False, allow_nonfinite=False, name="<data>", frame=None, first_line=None,
-                column_names=None, threads=None):
+                column_names=None, threads=None, reuse=False):
     """Parse ``data[start:stop]`` as rows of exactly ``ncols`` whitespace-separated numbers.
 
     int_columns: column indices that must hold integers (exact int64; '1.0', 'nan' or values
@@ -87,7 +87,12 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
     ``start`` in the file, if the caller knows it (otherwise counted, on errors only). column_names:
     the columns' names, quoted beside their numbers in messages. threads: how many threads may parse a
     large range (cut at line starts; the same values and errors for any count); None: the core's setting
-    (:func:`cgbound.get_num_threads`).
+    (:func:`cgbound.get_num_threads`). reuse: the tables are views of memory kept from an earlier table (a
+    spare table, :func:`hold_spare`) instead of new arrays, whose pages the kernel must fault in and zero (a
+    W1 .fstat frame's table: 80 MB), if they take SPARE_TABLE_MIN bytes or more; for callers that take what
+    they keep from the table (copies, gathers) and drop it. Memory is reused only once nothing views it any
+    more, so an array kept from a table is never overwritten (a kept view only costs the next table new
+    memory).
 
     Returns a ``Table`` (values, ints).
     """
@@ -111,8 +116,13 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
     flags = (1 if skip_blank else 0) | (2 if stop_after_rows else 0)
     threads = _thread_count(threads)
 
-    values, ints, found, end, error, nonfinite = _engine.text_parse_table(data, start, stop, ncols, bytes(mask),
-                                                                           max_rows, flags, threads)
+    lease = _TableLease() if reuse else None
+    try:
+        values, ints, found, end, error, nonfinite = _engine.text_parse_table(data, start, stop, ncols, bytes(mask),
+                                                                               max_rows, flags, threads, 0, lease)
+    finally:
+        if lease is not None:
+            lease.give_back()
     status, message, line, column, offset, length = error
 
     def column_label(column):
@@ -146,7 +156,10 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
         raise ValueError(f"{_where(name, frame, line_number(line))}, {column_label(column)}: non-finite value "
                          f"{_quote(raw)} ({count} nan/inf values in the table); expected finite numbers")
     if found < len(values):  # blank lines were skipped: the tables shrunk in place (a copy of a 70 MB frame: 20+ ms)
-        values, ints = _shrunk(values, found), _shrunk(ints, found)
+        if values.base is not None:  # views of a spare table: their first rows
+            values, ints = values[:found], ints[:found]
+        else:
+            values, ints = _shrunk(values, found), _shrunk(ints, found)
     return Table(values, ints, end)
 
 
@@ -284,7 +297,8 @@ SPARE_MAX = 1 << 29
 
 
 def hold_spare(reader):
-    """Let frame_text keep a spare buffer for as long as ``reader`` lives (readers call it when made)."""
+    """Let frame_text keep a spare buffer, and parse_table(reuse=True) spare tables, for as long as ``reader`` lives
+    (readers call it when made)."""
     global _spare_holders
     with _spare_lock:
         _spare_holders += 1
@@ -296,8 +310,12 @@ def _release_spare():
     with _spare_lock:
         _spare_holders -= 1
         drop = _spare.pop() if _spare and _spare_holders <= 0 else None
+        tables = _spare_tables[:] if _spare_holders <= 0 else []
+        if tables:
+            _spare_tables.clear()
     if drop is not None:
         _close(drop)
+    del tables  # (the spare tables' memory is freed with the last reference: at once, unless arrays still view it)
 
 
 def _after_fork_in_child():
@@ -306,6 +324,7 @@ def _after_fork_in_child():
     global _spare_lock
     _spare_lock = threading.Lock()
     _spare.clear()
+    _spare_tables.clear()
 
 
 if hasattr(os, "register_at_fork"):
@@ -345,6 +364,70 @@ def _keep_buffer(buf):
             _spare.append(buf)
     if drop is not None:
         _close(drop)
+
+
+#: the memory kept for parse_table(reuse=True)'s tables, most recently used first: at most SPARE_TABLES blocks (a
+#: LAMMPS frame parses an atoms table, then a pairs table while the atoms table is still in use) of at most
+#: SPARE_MAX bytes each, kept only while a reader that reads frames is alive (:func:`hold_spare`), as the text's
+#: spare. A new table's pages are faulted in and zeroed by the kernel as the parser first writes them (``perf``:
+#: 11 % of a 2-thread .fstat parse); a kept block's were already.
+_spare_tables = []
+SPARE_TABLES = 2
+#: tables smaller than this are new arrays even with reuse: the C library recycles their memory as it is (glibc's
+#: threshold for mapping a block of its own grows, as blocks are freed, up to 32 MB); kept, they would only keep
+#: memory from the arrays made after them (W1's LAMMPS tables, 8-11 MB: 2-4 % slower kept, 1 thread)
+SPARE_TABLE_MIN = 1 << 25
+
+
+class _SpareTable:
+    """A block of memory for tables (a NumPy byte array: allocated as NumPy allocates the new tables, so that the
+    C library recycles a block of up to 32 MB given back with a reader for the next reader, as it did the tables,
+    and a larger one gets huge pages), and a weak reference to the memoryview of it that the last tables made from
+    it hold as their base (every array viewing them holds it too): the block is free for new tables once that
+    memoryview is gone."""
+
+    __slots__ = ("buf", "lent")
+
+    def __init__(self, nbytes):
+        # room for a larger table than this one (frames of one file differ by some rows)
+        self.buf, self.lent = np.empty(nbytes + (nbytes >> 4), np.uint8), None
+
+    def free(self):
+        return self.lent is None or self.lent() is None
+
+
+class _TableLease:
+    """parse_table's out= callable: memory of at least nbytes for a table, from a free spare block or new; give_back
+    keeps the block as a spare for later tables (it is only lent again once the tables made now are gone)."""
+
+    __slots__ = ("spare",)
+
+    def __init__(self):
+        self.spare = None
+
+    def __call__(self, nbytes):
+        if nbytes < SPARE_TABLE_MIN:
+            return None
+        with _spare_lock:
+            fits = [s for s in _spare_tables if len(s.buf) >= nbytes and s.free()]
+            spare = min(fits, key=lambda s: len(s.buf)) if fits else None
+            if spare is not None:
+                _spare_tables.remove(spare)
+        if spare is None:
+            spare = _SpareTable(nbytes)
+        self.spare = spare
+        view = memoryview(spare.buf)
+        spare.lent = weakref.ref(view)
+        return view
+
+    def give_back(self):
+        spare, self.spare = self.spare, None
+        if spare is None:
+            return
+        with _spare_lock:
+            if _spare_holders > 0 and len(spare.buf) <= SPARE_MAX:
+                _spare_tables.insert(0, spare)
+                del _spare_tables[SPARE_TABLES:]
 
 
 @contextlib.contextmanager
