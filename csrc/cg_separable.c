@@ -547,6 +547,8 @@ INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double
     const vwd ilv = SPLAT(inv_L2), Lv = SPLAT(L), i4 = SPLAT(inv4w2), isw = SPLAT(inv_sqrt2w);
     const vwd ex = SPLAT(e[0]), ey = SPLAT(e[1]), ez = SPLAT(e[2]);
     vwd xe[3 * CUT_ILP], E[3 * CUT_ILP], xc[2 * CUT_ILP], C[2 * CUT_ILP], t0s[CUT_ILP], span[CUT_ILP];
+    vwd xa[CUT_ILP], EA[CUT_ILP];
+    vwl straddle[CUT_ILP];
 #pragma GCC unroll 8
     for (int h = 0; h < nv; ++h) {
         const cg_index at = i + (cg_index)h * VW;
@@ -572,18 +574,45 @@ INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double
         memcpy(b->a2 + at, &a2, sizeof a2);
         memcpy(b->t0 + at, &t0s[h], sizeof t0s[h]);
         memcpy(b->span + at, &sp, sizeof sp);
-        xe[3 * h] = -(a2 + t0 * t0) * i4;
-        xe[3 * h + 1] = -(a2 + t1 * t1) * i4;
-        xe[3 * h + 2] = -a2 * i4;
+        xe[2 * h] = -(a2 + t0 * t0) * i4;
+        xe[2 * h + 1] = -(a2 + t1 * t1) * i4;
+        xa[h] = -a2 * i4;
         xc[2 * h] = SELECT(t0 < zero, -t0, t0) * isw;
         xc[2 * h + 1] = SELECT(t1 < zero, -t1, t1) * isw;
+        straddle[h] = (t0s[h] < zero) & (t0s[h] + sp > zero);
     }
-    exp_erfcx_lanes(3 * nv, xe, E, 2 * nv, xc, C);
+    /* the foot's exponential A is used only where the ends straddle the foot (6 % of W1's cut
+       nodes at 3 w, in a third of the vectors): none where no lane straddles, and one vector
+       for two whose straddling lanes differ (each lane's exponent as its own vector's) */
+    if (nv == 2) {
+        const uint64_t sa = mask_bits(straddle[0]), sb = mask_bits(straddle[1]);
+        if (!(sa | sb)) {
+            exp_erfcx_lanes(4, xe, E, 4, xc, C);
+            EA[0] = EA[1] = zero;
+        } else if (!(sa & sb)) {
+            xe[4] = SELECT(straddle[0], xa[0], xa[1]);
+            exp_erfcx_lanes(5, xe, E, 4, xc, C);
+            EA[0] = EA[1] = E[4];
+        } else {
+            xe[4] = xa[0];
+            xe[5] = xa[1];
+            exp_erfcx_lanes(6, xe, E, 4, xc, C);
+            EA[0] = E[4];
+            EA[1] = E[5];
+        }
+    } else if (!mask_bits(straddle[0])) {
+        exp_erfcx_lanes(2, xe, E, 2, xc, C);
+        EA[0] = zero;
+    } else {
+        xe[2] = xa[0];
+        exp_erfcx_lanes(3, xe, E, 2, xc, C);
+        EA[0] = E[2];
+    }
 #pragma GCC unroll 8
     for (int h = 0; h < nv; ++h) {
         const cg_index at = i + (cg_index)h * VW;
         vwd C0 = C[2 * h], C1 = C[2 * h + 1];
-        const vwd E0 = E[3 * h], E1 = E[3 * h + 1], EA = E[3 * h + 2];
+        const vwd E0 = E[2 * h], E1 = E[2 * h + 1];
         if (may_exceed) {
             /* the long series where an argument exceeds the short one's range */
             const vwd limit = SPLAT(ERFCX_SHORT_MAX), x0 = xc[2 * h], x1 = xc[2 * h + 1];
@@ -596,13 +625,11 @@ INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double
                 C1 = SELECT(f1, l1, C1);
             }
         }
-        const vwd T0 = (E0 * C0) * E0, T1 = (E1 * C1) * E1, twoA = SPLAT(2.0) * EA * EA;
-        const vwd s1u = t0s[h] + span[h];
-        const vwl straddle = (t0s[h] < zero) & (s1u > zero);
+        const vwd T0 = (E0 * C0) * E0, T1 = (E1 * C1) * E1, twoA = SPLAT(2.0) * EA[h] * EA[h];
         const vwl first = T0 > T1;
         const vwd diff = SELECT(first, T0 - T1, T1 - T0), larger = SELECT(first, T0, T1);
-        const vwd v = SELECT(straddle, (twoA - T0) - T1, diff);
-        const vwd largest = SELECT(straddle, twoA, larger);
+        const vwd v = SELECT(straddle[h], (twoA - T0) - T1, diff);
+        const vwd largest = SELECT(straddle[h], twoA, larger);
         const vwd value = v * SPLAT(factor);
         memcpy(b->value + at, &value, sizeof value);
         const vwl s = (span[h] > zero) & ~(SPLAT(16.0) * v >= largest);
