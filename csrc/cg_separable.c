@@ -448,24 +448,6 @@ typedef uint64_t vwu __attribute__((vector_size(8 * VW)));
 /* lanes of a where m is set, else of b (m: all ones or zero per lane) */
 #define SELECT(m, a, b) ((vwd)(((vwl)(a) & (m)) | ((vwl)(b) & ~(m))))
 
-/* cg_exp_in_place's operations on VW lanes in registers (the same bits) for
-   x0 <= 0 or NaN (the callers' exponents are minus sums of squares times a
-   positive constant), where its clamp to 0 from above changes nothing */
-INLINE void exp_lanes(vwd x0, vwd *out)
-{
-    const vwd log2e = SPLAT(1.4426950408889634), shifter = SPLAT(0x1.8p52);
-    const vwd ln2_hi = SPLAT(6.93147180369123816490e-01), ln2_lo = SPLAT(1.90821492927058770002e-10);
-    const vwl below = x0 < SPLAT(-708.0);
-    const vwd v = SELECT(below, SPLAT(-708.0), x0);
-    const vwd shifted = v * log2e + shifter; /* k in the low bits of the mantissa */
-    const vwd kd = shifted - shifter;
-    const vwd r = (v - kd * ln2_hi) - kd * ln2_lo;
-    vwd p = SPLAT(1.0 / 6227020800.0);
-    CG_EXP_TAYLOR13(p, r);
-    const vwu bits = ((vwu)shifted - UINT64_C(0x4338000000000000) + 1023) << 52; /* 2^k */
-    *out = (vwd)((vwl)(p * (vwd)bits) & ~below);
-}
-
 INLINE uint64_t mask_bits(vwl m); /* below */
 
 /* sqrt of each lane (a loop the compiler turns into one vector square root) */
@@ -476,74 +458,184 @@ INLINE void sqrt_lanes(vwd x, vwd *out)
     *out = r;
 }
 
-/* The closed form on VW lanes of a batch (i a multiple of VW), in registers:
+/* CG_EXP_TAYLOR13's coefficients in the order its steps add them (the same constants) */
+static const double EXP_TAYLOR_STEPS[13] = {
+    1.0 / 479001600.0, 1.0 / 39916800.0, 1.0 / 3628800.0, 1.0 / 362880.0, 1.0 / 40320.0, 1.0 / 5040.0, 1.0 / 720.0,
+    1.0 / 120.0,       1.0 / 24.0,       1.0 / 6.0,       0.5,           1.0,           1.0,
+};
+
+/* at most this many vectors of lanes per call of cut_lanes_fused (see there) */
+#define CUT_ILP 2
+
+/* x stays a value in a register where it stands (no instruction, so no bit changes): GCC's
+   expansion to RTL otherwise regroups single-use results into one expression per chain (TER),
+   which puts interleaved chains back one after the other. The AVX-512 build only: in the
+   narrow file's baseline clone a 32-byte vector has no register. */
+#if defined(CG_SEPARABLE_WIDE) && defined(__GNUC__) && !defined(__clang__)
+#define IN_REGISTER(x) __asm__("" : "+v"(x))
+#else
+#define IN_REGISTER(x) ((void)0)
+#endif
+
+/* exp of ne vectors xe (cg_exp_in_place's operations, the same bits, for x <= 0 or NaN: the
+   callers' exponents are minus sums of squares times a positive constant, where its clamp to 0
+   from above changes nothing) and erfcx_short of nc vectors xc (ne <= 3 CUT_ILP, nc <= 2 CUT_ILP,
+   constants after inlining), the same operations per lane, their Horner steps interleaved: each
+   chain waits for its previous step's result (the steps' latency, not the units' throughput,
+   bounds one chain), so side by side they are in flight together; the exponentials' 13 steps
+   run beside the last 13 of erfcx's 18 */
+INLINE void exp_erfcx_lanes(int ne, const vwd *xe, vwd *oe, int nc, const vwd *xc, vwd *oc)
+{
+    const vwd log2e = SPLAT(1.4426950408889634), shifter = SPLAT(0x1.8p52);
+    const vwd ln2_hi = SPLAT(6.93147180369123816490e-01), ln2_lo = SPLAT(1.90821492927058770002e-10);
+    vwl below[3 * CUT_ILP];
+    vwd shifted[3 * CUT_ILP], r[3 * CUT_ILP], pe[3 * CUT_ILP], v[2 * CUT_ILP], pc[2 * CUT_ILP];
+#pragma GCC unroll 8
+    for (int k = 0; k < nc; ++k) {
+        v[k] = (SPLAT(3.0) * xc[k] - SPLAT(4.0)) / (xc[k] + SPLAT(4.0));
+        pc[k] = SPLAT(ERFCX_SHORT_POLY[ERFCX_SHORT_TERMS - 1]);
+    }
+#pragma GCC unroll 8
+    for (int k = 0; k < ne; ++k) {
+        below[k] = xe[k] < SPLAT(-708.0);
+        const vwd x = SELECT(below[k], SPLAT(-708.0), xe[k]);
+        shifted[k] = x * log2e + shifter; /* k in the low bits of the mantissa */
+        const vwd kd = shifted[k] - shifter;
+        r[k] = (x - kd * ln2_hi) - kd * ln2_lo;
+        pe[k] = SPLAT(1.0 / 6227020800.0);
+    }
+#pragma GCC unroll 32
+    for (int j = ERFCX_SHORT_TERMS - 2; j >= 0; --j) {
+#pragma GCC unroll 8
+        for (int k = 0; k < nc; ++k) {
+            pc[k] = pc[k] * v[k] + ERFCX_SHORT_POLY[j];
+            IN_REGISTER(pc[k]);
+        }
+        if (j < 13)
+#pragma GCC unroll 8
+            for (int k = 0; k < ne; ++k) {
+                pe[k] = pe[k] * r[k] + EXP_TAYLOR_STEPS[12 - j];
+                IN_REGISTER(pe[k]);
+            }
+    }
+#pragma GCC unroll 8
+    for (int k = 0; k < nc; ++k) oc[k] = pc[k];
+#pragma GCC unroll 8
+    for (int k = 0; k < ne; ++k) {
+        const vwu bits = ((vwu)shifted[k] - UINT64_C(0x4338000000000000) + 1023) << 52; /* 2^k */
+        oe[k] = (vwd)((vwl)(pe[k] * (vwd)bits) & ~below[k]);
+    }
+}
+
+/* The closed form on nv <= CUT_ILP vectors of lanes of a batch from i (a
+   multiple of VW), in registers, side by side (exp_erfcx_lanes):
    the part [t0, t1] of the segment inside each node's ball (s0 - u and span
    in units of the segment, kept with a^2 for the fallback), the exponentials
    at the two ends and the foot (of half the exponents: exp(x / 2)^2 reaches
    the subnormal values down to exp(-1416) where the exponential stops at
    exp(-708): far nodes, cutoffs beyond 37 w), erfcx of the ends' |x|, and
    value = factor * (|T0 - T1| or, where the ends straddle the foot, 2A - T0 -
-   T1), T = E erfcx; *is_short: the lanes where a term exceeds 16 times the
-   value (short intervals, for the fallback; through a pointer, as
-   chebyshev_series' result) */
-INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, const double *e, double L2, double R2, double w,
-                            double factor, int may_exceed, vwl *is_short)
+   T1), T = E erfcx; is_short: the lanes where a term exceeds 16 times the
+   value (short intervals, for the fallback), written to b->arg + 5 CUT_BATCH;
+   their OR into *shorts (through a pointer, as chebyshev_series' result) */
+INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double *e, double L2, double R2, double w,
+                            double factor, int may_exceed, vwl *shorts)
 {
     const double inv_L2 = 1.0 / L2, L = sqrt(L2), inv4w2 = 0.25 / (w * w);
     const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w);
     const vwd zero = {0.0}, one = SPLAT(1.0);
     const vwd ilv = SPLAT(inv_L2), Lv = SPLAT(L), i4 = SPLAT(inv4w2), isw = SPLAT(inv_sqrt2w);
     const vwd ex = SPLAT(e[0]), ey = SPLAT(e[1]), ez = SPLAT(e[2]);
-    vwd q0, q1, q2;
-    memcpy(&q0, b->q[0] + i, sizeof q0);
-    memcpy(&q1, b->q[1] + i, sizeof q1);
-    memcpy(&q2, b->q[2] + i, sizeof q2);
-    const vwd u = (q0 * ex + q1 * ey + q2 * ez) * ilv;
-    const vwd d0 = q0 - u * ex, d1 = q1 - u * ey, d2 = q2 - u * ez;
-    const vwd a2 = d0 * d0 + d1 * d1 + d2 * d2;
-    vwd b2 = SPLAT(R2) - a2;
-    b2 = SELECT(b2 > zero, b2, zero);
-    vwd half;
-    sqrt_lanes(b2 * ilv, &half);
-    vwd s0 = u - half, s1 = u + half;
-    s0 = SELECT(s0 > zero, s0, zero);
-    s1 = SELECT(s1 < one, s1, one);
-    vwd span = s1 - s0;
-    span = SELECT(span > zero, span, zero);
-    const vwd t0 = (s0 - u) * Lv, t1 = t0 + span * Lv;
-    const vwd t0s = s0 - u;
-    memcpy(b->a2 + i, &a2, sizeof a2);
-    memcpy(b->t0 + i, &t0s, sizeof t0s);
-    memcpy(b->span + i, &span, sizeof span);
-    vwd E0, E1, EA, C0, C1;
-    exp_lanes(-(a2 + t0 * t0) * i4, &E0);
-    exp_lanes(-(a2 + t1 * t1) * i4, &E1);
-    exp_lanes(-a2 * i4, &EA);
-    const vwd x0 = SELECT(t0 < zero, -t0, t0) * isw, x1 = SELECT(t1 < zero, -t1, t1) * isw;
-    erfcx_short(x0, &C0);
-    erfcx_short(x1, &C1);
-    if (may_exceed) {
-        /* the long series where an argument exceeds the short one's range */
-        const vwd limit = SPLAT(ERFCX_SHORT_MAX);
-        const vwl f0 = x0 > limit, f1 = x1 > limit;
-        if (mask_bits(f0 | f1)) {
-            vwd l0, l1;
-            erfcx_long(x0, &l0);
-            erfcx_long(x1, &l1);
-            C0 = SELECT(f0, l0, C0);
-            C1 = SELECT(f1, l1, C1);
-        }
+    vwd xe[3 * CUT_ILP], E[3 * CUT_ILP], xc[2 * CUT_ILP], C[2 * CUT_ILP], t0s[CUT_ILP], span[CUT_ILP];
+    vwd xa[CUT_ILP], EA[CUT_ILP];
+    vwl straddle[CUT_ILP];
+#pragma GCC unroll 8
+    for (int h = 0; h < nv; ++h) {
+        const cg_index at = i + (cg_index)h * VW;
+        vwd q0, q1, q2;
+        memcpy(&q0, b->q[0] + at, sizeof q0);
+        memcpy(&q1, b->q[1] + at, sizeof q1);
+        memcpy(&q2, b->q[2] + at, sizeof q2);
+        const vwd u = (q0 * ex + q1 * ey + q2 * ez) * ilv;
+        const vwd d0 = q0 - u * ex, d1 = q1 - u * ey, d2 = q2 - u * ez;
+        const vwd a2 = d0 * d0 + d1 * d1 + d2 * d2;
+        vwd b2 = SPLAT(R2) - a2;
+        b2 = SELECT(b2 > zero, b2, zero);
+        vwd half;
+        sqrt_lanes(b2 * ilv, &half);
+        vwd s0 = u - half, s1 = u + half;
+        s0 = SELECT(s0 > zero, s0, zero);
+        s1 = SELECT(s1 < one, s1, one);
+        vwd sp = s1 - s0;
+        sp = SELECT(sp > zero, sp, zero);
+        const vwd t0 = (s0 - u) * Lv, t1 = t0 + sp * Lv;
+        t0s[h] = s0 - u;
+        span[h] = sp;
+        memcpy(b->a2 + at, &a2, sizeof a2);
+        memcpy(b->t0 + at, &t0s[h], sizeof t0s[h]);
+        memcpy(b->span + at, &sp, sizeof sp);
+        xe[2 * h] = -(a2 + t0 * t0) * i4;
+        xe[2 * h + 1] = -(a2 + t1 * t1) * i4;
+        xa[h] = -a2 * i4;
+        xc[2 * h] = SELECT(t0 < zero, -t0, t0) * isw;
+        xc[2 * h + 1] = SELECT(t1 < zero, -t1, t1) * isw;
+        straddle[h] = (t0s[h] < zero) & (t0s[h] + sp > zero);
     }
-    const vwd T0 = (E0 * C0) * E0, T1 = (E1 * C1) * E1, twoA = SPLAT(2.0) * EA * EA;
-    const vwd s1u = t0s + span;
-    const vwl straddle = (t0s < zero) & (s1u > zero);
-    const vwl first = T0 > T1;
-    const vwd diff = SELECT(first, T0 - T1, T1 - T0), larger = SELECT(first, T0, T1);
-    const vwd v = SELECT(straddle, (twoA - T0) - T1, diff);
-    const vwd largest = SELECT(straddle, twoA, larger);
-    const vwd value = v * SPLAT(factor);
-    memcpy(b->value + i, &value, sizeof value);
-    *is_short = (span > zero) & ~(SPLAT(16.0) * v >= largest);
+    /* the foot's exponential A is used only where the ends straddle the foot (6 % of W1's cut
+       nodes at 3 w, in a third of the vectors): none where no lane straddles, and one vector
+       for two whose straddling lanes differ (each lane's exponent as its own vector's) */
+    if (nv == 2) {
+        const uint64_t sa = mask_bits(straddle[0]), sb = mask_bits(straddle[1]);
+        if (!(sa | sb)) {
+            exp_erfcx_lanes(4, xe, E, 4, xc, C);
+            EA[0] = EA[1] = zero;
+        } else if (!(sa & sb)) {
+            xe[4] = SELECT(straddle[0], xa[0], xa[1]);
+            exp_erfcx_lanes(5, xe, E, 4, xc, C);
+            EA[0] = EA[1] = E[4];
+        } else {
+            xe[4] = xa[0];
+            xe[5] = xa[1];
+            exp_erfcx_lanes(6, xe, E, 4, xc, C);
+            EA[0] = E[4];
+            EA[1] = E[5];
+        }
+    } else if (!mask_bits(straddle[0])) {
+        exp_erfcx_lanes(2, xe, E, 2, xc, C);
+        EA[0] = zero;
+    } else {
+        xe[2] = xa[0];
+        exp_erfcx_lanes(3, xe, E, 2, xc, C);
+        EA[0] = E[2];
+    }
+#pragma GCC unroll 8
+    for (int h = 0; h < nv; ++h) {
+        const cg_index at = i + (cg_index)h * VW;
+        vwd C0 = C[2 * h], C1 = C[2 * h + 1];
+        const vwd E0 = E[2 * h], E1 = E[2 * h + 1];
+        if (may_exceed) {
+            /* the long series where an argument exceeds the short one's range */
+            const vwd limit = SPLAT(ERFCX_SHORT_MAX), x0 = xc[2 * h], x1 = xc[2 * h + 1];
+            const vwl f0 = x0 > limit, f1 = x1 > limit;
+            if (mask_bits(f0 | f1)) {
+                vwd l0, l1;
+                erfcx_long(x0, &l0);
+                erfcx_long(x1, &l1);
+                C0 = SELECT(f0, l0, C0);
+                C1 = SELECT(f1, l1, C1);
+            }
+        }
+        const vwd T0 = (E0 * C0) * E0, T1 = (E1 * C1) * E1, twoA = SPLAT(2.0) * EA[h] * EA[h];
+        const vwl first = T0 > T1;
+        const vwd diff = SELECT(first, T0 - T1, T1 - T0), larger = SELECT(first, T0, T1);
+        const vwd v = SELECT(straddle[h], (twoA - T0) - T1, diff);
+        const vwd largest = SELECT(straddle[h], twoA, larger);
+        const vwd value = v * SPLAT(factor);
+        memcpy(b->value + at, &value, sizeof value);
+        const vwl s = (span[h] > zero) & ~(SPLAT(16.0) * v >= largest);
+        memcpy(b->arg + 5 * CUT_BATCH + at, &s, sizeof s); /* all ones (a NaN) or +0 */
+        *shorts |= s;
+    }
 }
 #else
 /* (cg_profile.c's gauss_cut_lanes_body and gauss_cut_values_body are this and
@@ -649,12 +741,10 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
     for (int k = 0; k < VW - 1; ++k) /* (not a loop to n_padded: that becomes calls of memset) */
         if (n + k < n_padded) b->q[0][n + k] = b->q[1][n + k] = b->q[2][n + k] = 0.0;
     vwl shorts = {0};
-    for (cg_index i = 0; i < n_padded; i += VW) {
-        vwl s;
-        cut_lanes_fused(b, i, e, L2, R2, w, factor, may_exceed, &s);
-        memcpy(is_short + i, &s, sizeof s); /* all ones (a NaN) or +0 */
-        shorts |= s;
-    }
+    cg_index i = 0;
+    for (; i + CUT_ILP * VW <= n_padded; i += CUT_ILP * VW)
+        cut_lanes_fused(b, i, CUT_ILP, e, L2, R2, w, factor, may_exceed, &shorts);
+    for (; i < n_padded; i += VW) cut_lanes_fused(b, i, 1, e, L2, R2, w, factor, may_exceed, &shorts);
     const int any_short = mask_bits(shorts) != 0;
 #else
     double *const e0 = b->arg, *const e1 = e0 + CUT_BATCH, *const ea = e1 + CUT_BATCH;
