@@ -1374,10 +1374,29 @@ tables_done:;
             /* segment_distance2's operations on (x, y[j], 0) and (ex, ey, 0), less
                the terms that are +0 (they change no sum or product here) */
             const double xq = cslot[0][i], xe = xq * e2d[0];
+            plane_bits = 0;
+#if ROW_MASKS_AVX512
+            /* the same operations, straight into mask registers (t: 0 without a length, then
+               clamped to [0, 1] as +0 and 1) */
+            const __mmask8 has_length = inv_L2_2d > 0.0 ? 0xFF : 0;
+            const __m512d xv = _mm512_set1_pd(xq), xev = _mm512_set1_pd(xe), exv = _mm512_set1_pd(e2d[0]);
+            const __m512d eyv = _mm512_set1_pd(e2d[1]), il = _mm512_set1_pd(inv_L2_2d);
+            const __m512d Rm = _mm512_set1_pd(R2_margin), zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
+            for (cg_index jw = 0; jw < n1; jw += VW) {
+                const __m512d y = _mm512_loadu_pd(cslot[1] + jw); /* (as below: reads past the plane's y) */
+                __m512d t = _mm512_mul_pd(_mm512_add_pd(xev, _mm512_mul_pd(y, eyv)), il);
+                t = _mm512_maskz_mov_pd(has_length, t);
+                t = _mm512_mask_mov_pd(t, _mm512_cmp_pd_mask(t, zero, _CMP_LT_OQ), zero);
+                t = _mm512_mask_mov_pd(t, _mm512_cmp_pd_mask(t, one, _CMP_GT_OQ), one);
+                const __m512d d0 = _mm512_sub_pd(xv, _mm512_mul_pd(t, exv));
+                const __m512d d1 = _mm512_sub_pd(y, _mm512_mul_pd(t, eyv));
+                const __m512d dd = _mm512_add_pd(_mm512_mul_pd(d0, d0), _mm512_mul_pd(d1, d1));
+                plane_bits |= (uint64_t)_mm512_cmp_pd_mask(dd, Rm, _CMP_LT_OQ) << jw;
+            }
+#else
             const vwd xv = SPLAT(xq), xev = SPLAT(xe), exv = SPLAT(e2d[0]), eyv = SPLAT(e2d[1]);
             const vwd il = SPLAT(inv_L2_2d), Rm = SPLAT(R2_margin), zero = {0.0}, one = SPLAT(1.0);
             const vwl has_length = SPLAT(inv_L2_2d) > zero;
-            plane_bits = 0;
             for (cg_index jw = 0; jw < n1; jw += VW) {
                 vwd y; /* reads up to VW - 1 past the plane's y (into cslot[2]; those bits are dropped) */
                 memcpy(&y, cslot[1] + jw, sizeof y);
@@ -1390,6 +1409,7 @@ tables_done:;
                 const vwd d0 = xv - t * exv, d1 = y - t * eyv;
                 plane_bits |= mask_bits((vwl)(d0 * d0 + d1 * d1 < Rm)) << jw;
             }
+#endif
             plane_bits &= n1 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n1) - 1;
         }
 #endif
