@@ -1471,11 +1471,12 @@ tables_done:;
                                                                         R2v, _CMP_LT_OQ);
                             const __mmask8 bc = (__mmask8)(_mm512_cmp_pd_mask(sa, Rmv, _CMP_LT_OQ) |
                                                            _mm512_cmp_pd_mask(sb, Rmv, _CMP_LT_OQ) | cyl);
-                            const __mmask8 bn = _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(p, lov, _CMP_GE_OQ), p,
-                                                                        hiv, _CMP_LE_OQ);
                             in_bits |= (uint64_t)bi << kw;
                             cand_bits |= (uint64_t)bc << kw;
-                            near_bits |= (uint64_t)bn << kw;
+                            if (far_check) /* (per object: predicted) */
+                                near_bits |= (uint64_t)_mm512_mask_cmp_pd_mask(
+                                                 _mm512_cmp_pd_mask(p, lov, _CMP_GE_OQ), p, hiv, _CMP_LE_OQ)
+                                             << kw;
                         }
                     }
 #else
