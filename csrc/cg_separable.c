@@ -954,6 +954,7 @@ INLINE void inside_row(double *restrict row, cg_index a, cg_index b, int G, cons
    steps (lane extracts one by one cost more than the rest of a row); in the
    AVX-512 build one test into a mask register */
 #if VW == 8 && defined(CG_SEPARABLE_WIDE) && defined(__GNUC__) && !defined(__clang__)
+#define ROW_MASKS_AVX512 1 /* the exact form's row tests by AVX-512 intrinsics, into mask registers */
 INLINE uint64_t mask_bits(vwl m) { return (uint64_t)_mm512_test_epi64_mask((__m512i)m, (__m512i)m); }
 #else
 INLINE uint64_t mask_bits(vwl m)
@@ -985,6 +986,10 @@ INLINE uint64_t mask_bits(vwl m)
 }
 #endif
 
+#ifndef ROW_MASKS_AVX512
+#define ROW_MASKS_AVX512 0
+#endif
+
 /* three masks' lanes as bits (mask_bits of each): in the 4-wide build one
    horizontal OR for all three (the lanes of each in their own 4 bits) */
 INLINE void mask_bits3(vwl a, vwl b, vwl c, uint64_t *ba, uint64_t *bb, uint64_t *bc)
@@ -1009,6 +1014,9 @@ INLINE void mask_bits3(vwl a, vwl b, vwl c, uint64_t *ba, uint64_t *bb, uint64_t
     *bc = mask_bits(c);
 #endif
 }
+
+/* the bits from the lowest to the highest set bit of x (0 for 0), without branches */
+INLINE uint64_t bit_span(uint64_t x) { return (x | (0 - x)) & (~UINT64_C(0) >> __builtin_clzll(x | 1)); }
 
 INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index stride_j, cg_index n0, cg_index n1,
                          cg_index n2, int G, double *const (*d2)[3], double *const (*ex)[3], const double *gw,
@@ -1456,10 +1464,29 @@ tables_done:;
             /* segment_distance2's operations on (x, y[j], 0) and (ex, ey, 0), less
                the terms that are +0 (they change no sum or product here) */
             const double xq = cslot[0][i], xe = xq * e2d[0];
+            plane_bits = 0;
+#if ROW_MASKS_AVX512
+            /* the same operations, straight into mask registers (t: 0 without a length, then
+               clamped to [0, 1] as +0 and 1) */
+            const __mmask8 has_length = inv_L2_2d > 0.0 ? 0xFF : 0;
+            const __m512d xv = _mm512_set1_pd(xq), xev = _mm512_set1_pd(xe), exv = _mm512_set1_pd(e2d[0]);
+            const __m512d eyv = _mm512_set1_pd(e2d[1]), il = _mm512_set1_pd(inv_L2_2d);
+            const __m512d Rm = _mm512_set1_pd(R2_margin), zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
+            for (cg_index jw = 0; jw < n1; jw += VW) {
+                const __m512d y = _mm512_loadu_pd(cslot[1] + jw); /* (as below: reads past the plane's y) */
+                __m512d t = _mm512_mul_pd(_mm512_add_pd(xev, _mm512_mul_pd(y, eyv)), il);
+                t = _mm512_maskz_mov_pd(has_length, t);
+                t = _mm512_mask_mov_pd(t, _mm512_cmp_pd_mask(t, zero, _CMP_LT_OQ), zero);
+                t = _mm512_mask_mov_pd(t, _mm512_cmp_pd_mask(t, one, _CMP_GT_OQ), one);
+                const __m512d d0 = _mm512_sub_pd(xv, _mm512_mul_pd(t, exv));
+                const __m512d d1 = _mm512_sub_pd(y, _mm512_mul_pd(t, eyv));
+                const __m512d dd = _mm512_add_pd(_mm512_mul_pd(d0, d0), _mm512_mul_pd(d1, d1));
+                plane_bits |= (uint64_t)_mm512_cmp_pd_mask(dd, Rm, _CMP_LT_OQ) << jw;
+            }
+#else
             const vwd xv = SPLAT(xq), xev = SPLAT(xe), exv = SPLAT(e2d[0]), eyv = SPLAT(e2d[1]);
             const vwd il = SPLAT(inv_L2_2d), Rm = SPLAT(R2_margin), zero = {0.0}, one = SPLAT(1.0);
             const vwl has_length = SPLAT(inv_L2_2d) > zero;
-            plane_bits = 0;
             for (cg_index jw = 0; jw < n1; jw += VW) {
                 vwd y; /* reads up to VW - 1 past the plane's y (into cslot[2]; those bits are dropped) */
                 memcpy(&y, cslot[1] + jw, sizeof y);
@@ -1472,6 +1499,7 @@ tables_done:;
                 const vwd d0 = xv - t * exv, d1 = y - t * eyv;
                 plane_bits |= mask_bits((vwl)(d0 * d0 + d1 * d1 < Rm)) << jw;
             }
+#endif
             plane_bits &= n1 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n1) - 1;
         }
 #endif
@@ -1512,6 +1540,36 @@ tables_done:;
                     uint64_t in_bits = 0, cand_bits = 0, near_bits = 0;
                     const double xq = x_i, yq = cslot[1][j];
                     const double pxy = px_i + yq * es[1];
+#if ROW_MASKS_AVX512
+                    {
+                        /* the same tests straight into mask registers */
+                        const __m512d a01v = _mm512_set1_pd(a01), b01v = _mm512_set1_pd(b01);
+                        const __m512d R2v = _mm512_set1_pd(R2), Rmv = _mm512_set1_pd(R2_margin);
+                        const __m512d Rcv = _mm512_set1_pd(R2_cyl), pxyv = _mm512_set1_pd(pxy);
+                        const __m512d ilv = _mm512_set1_pd(inv_L2), L2v = _mm512_set1_pd(L2);
+                        const __m512d zero = _mm512_setzero_pd(), lov = _mm512_set1_pd(far_lo);
+                        const __m512d hiv = _mm512_set1_pd(far_hi);
+                        for (cg_index kw = 0; kw < n2; kw += VW) {
+                            const __m512d sa = _mm512_add_pd(a01v, _mm512_loadu_pd(za + kw));
+                            const __m512d sb = _mm512_add_pd(b01v, _mm512_loadu_pd(zb + kw));
+                            const __m512d p = _mm512_add_pd(pxyv, _mm512_loadu_pd(pz + kw));
+                            const __m512d d = _mm512_sub_pd(sa, _mm512_mul_pd(_mm512_mul_pd(p, p), ilv));
+                            __mmask8 cyl = _mm512_cmp_pd_mask(p, zero, _CMP_GE_OQ);
+                            cyl = _mm512_mask_cmp_pd_mask(cyl, p, L2v, _CMP_LE_OQ);
+                            cyl = _mm512_mask_cmp_pd_mask(cyl, d, Rcv, _CMP_LT_OQ);
+                            const __mmask8 bi = _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(sa, R2v, _CMP_LT_OQ), sb,
+                                                                        R2v, _CMP_LT_OQ);
+                            const __mmask8 bc = (__mmask8)(_mm512_cmp_pd_mask(sa, Rmv, _CMP_LT_OQ) |
+                                                           _mm512_cmp_pd_mask(sb, Rmv, _CMP_LT_OQ) | cyl);
+                            in_bits |= (uint64_t)bi << kw;
+                            cand_bits |= (uint64_t)bc << kw;
+                            if (far_check) /* (per object: predicted) */
+                                near_bits |= (uint64_t)_mm512_mask_cmp_pd_mask(
+                                                 _mm512_cmp_pd_mask(p, lov, _CMP_GE_OQ), p, hiv, _CMP_LE_OQ)
+                                             << kw;
+                        }
+                    }
+#else
                     {
                         const vwd a01v = SPLAT(a01), b01v = SPLAT(b01), R2v = SPLAT(R2), Rmv = SPLAT(R2_margin);
                         const vwd Rcv = SPLAT(R2_cyl), pxyv = SPLAT(pxy), ilv = SPLAT(inv_L2), L2v = SPLAT(L2);
@@ -1531,24 +1589,12 @@ tables_done:;
                             near_bits |= bn << kw;
                         }
                     }
-                    in_bits &= valid;
-                    if (far_check && in_bits) {
-                        /* of the rule's nodes, those at most FAR_BEYOND_END w beyond the ends: as the
-                           walks, the first and last near node of [first, last] inside */
-                        const int fa = __builtin_ctzll(in_bits), fb = 63 - __builtin_clzll(in_bits);
-                        const uint64_t span_ab = (fb == 63 ? ~UINT64_C(0) : (UINT64_C(1) << (fb + 1)) - 1) &
-                                                 ~((UINT64_C(1) << fa) - 1);
-                        near_bits &= span_ab;
-                        in_bits = 0;
-                        if (near_bits) {
-                            const int na = __builtin_ctzll(near_bits), nb = 63 - __builtin_clzll(near_bits);
-                            in_bits = (nb == 63 ? ~UINT64_C(0) : (UINT64_C(1) << (nb + 1)) - 1) &
-                                      ~((UINT64_C(1) << na) - 1);
-                        }
-                    } else if (in_bits) {
-                        const int fa = __builtin_ctzll(in_bits), fb = 63 - __builtin_clzll(in_bits);
-                        in_bits = (fb == 63 ? ~UINT64_C(0) : (UINT64_C(1) << (fb + 1)) - 1) & ~((UINT64_C(1) << fa) - 1);
-                    }
+#endif
+                    /* the rule's interval: [first, last] of its nodes inside, and of those (far_check)
+                       [first, last] of the near ones, as the walks below (bit_span: no branches on
+                       the bits) */
+                    in_bits = bit_span(in_bits & valid);
+                    if (far_check) in_bits = bit_span(near_bits & in_bits);
                     if (in_bits) {
                         k0 = __builtin_ctzll(in_bits);
                         k1 = 64 - __builtin_clzll(in_bits);
