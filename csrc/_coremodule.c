@@ -1096,13 +1096,27 @@ static PyArrayObject *view_of(PyObject *owner, const npy_intp *shape, int type, 
     return arr;
 }
 
+/* The export of out()'s buffer, held for as long as tables view it: a capsule (not itself a buffer, so every view
+   of the tables leads back to it) that releases the export when the last view is gone. While it lives, the
+   exporter can neither move its memory (a bytearray's resize, an mmap's close) nor be released (a memoryview). */
+#define TABLE_EXPORT "cgbound.text_table_export"
+
+static void release_table_export(PyObject *capsule)
+{
+    Py_buffer *view = (Py_buffer *)PyCapsule_GetPointer(capsule, TABLE_EXPORT);
+    if (view) {
+        PyBuffer_Release(view);
+        PyMem_Free(view);
+    }
+}
+
 static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
 {
     (void)self;
     text_buffer data = {0}, mask = {0};
     Py_ssize_t start, stop, ncols, max_rows;
     int flags, n_threads = 1, parts = 0;
-    PyObject *out = Py_None, *lease = NULL;
+    PyObject *out = Py_None, *lease = NULL, *export = NULL;
     PyArrayObject *values = NULL, *ints = NULL;
     PyObject *ret = NULL;
     if (!PyArg_ParseTuple(args, "O&nnnO&ni|iiO", convert_text_buffer, &data, &start, &stop, &ncols,
@@ -1145,33 +1159,49 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
         goto done;
     }
     const npy_intp vshape[2] = {max_rows, ncols}, ishape[2] = {max_rows, n_int};
-    /* out(nbytes): memory for both tables (values, then ints from a 64-byte boundary) whose pages were already
+    /* out(nbytes): memory for both tables (values, then ints from a 64-byte offset) whose pages were already
        touched by an earlier frame, or None for new arrays; asked for here, once the size is known (after the
-       plan's line count) */
-    const Py_ssize_t vbytes = max_rows * ncols * (Py_ssize_t)sizeof(double);
-    const Py_ssize_t ioffset = (vbytes + 63) & ~(Py_ssize_t)63;
-    if (out != Py_None && max_rows > 0 && n_int > (PY_SSIZE_T_MAX - ioffset) / 8 / max_rows) {
-        PyErr_Format(PyExc_MemoryError, "a table of %zd x %zd values does not fit in memory", max_rows, ncols);
-        goto done;
-    }
-    const Py_ssize_t nbytes = ioffset + max_rows * (Py_ssize_t)n_int * (Py_ssize_t)sizeof(int64_t);
-    if (out != Py_None && nbytes > 0) {
+       plan's line count). vbytes fits (checked above); ioffset and nbytes are checked here */
+    Py_ssize_t nbytes = 0, ioffset = 0;
+    if (out != Py_None && max_rows > 0) {
+        const Py_ssize_t vbytes = max_rows * ncols * (Py_ssize_t)sizeof(double);
+        if (vbytes > PY_SSIZE_T_MAX - 63 ||
+            n_int > (PY_SSIZE_T_MAX - ((vbytes + 63) & ~(Py_ssize_t)63)) / (Py_ssize_t)sizeof(int64_t) / max_rows) {
+            PyErr_Format(PyExc_MemoryError, "a table of %zd x %zd values does not fit in memory", max_rows, ncols);
+            goto done;
+        }
+        ioffset = (vbytes + 63) & ~(Py_ssize_t)63;
+        nbytes = ioffset + max_rows * (Py_ssize_t)n_int * (Py_ssize_t)sizeof(int64_t);
         lease = PyObject_CallFunction(out, "n", nbytes);
         if (!lease) goto done;
     }
     if (lease && lease != Py_None) {
-        Py_buffer view;
-        if (PyObject_GetBuffer(lease, &view, PyBUF_WRITABLE) < 0) goto done;
-        char *mem = (char *)view.buf;
-        const int fits = view.len >= nbytes && ((uintptr_t)mem & 7) == 0;
-        PyBuffer_Release(&view); /* the pointer stays valid: the arrays hold lease, which holds its own export */
-        if (!fits) {
-            PyErr_Format(PyExc_ValueError, "out: expected a writable buffer of at least %zd bytes aligned to 8 "
-                         "bytes", nbytes);
+        Py_buffer *view = (Py_buffer *)PyMem_Malloc(sizeof *view);
+        if (!view) {
+            PyErr_NoMemory();
             goto done;
         }
-        values = view_of(lease, vshape, NPY_DOUBLE, mem);
-        ints = values ? view_of(lease, ishape, NPY_INT64, mem + ioffset) : NULL;
+        if (PyObject_GetBuffer(lease, view, PyBUF_WRITABLE) < 0) {
+            PyMem_Free(view);
+            PyErr_Clear();
+            PyErr_Format(PyExc_TypeError, "out: expected it to return None or a writable contiguous buffer, got %.200s",
+                         Py_TYPE(lease)->tp_name);
+            goto done;
+        }
+        export = PyCapsule_New(view, TABLE_EXPORT, release_table_export);
+        if (!export) {
+            PyBuffer_Release(view);
+            PyMem_Free(view);
+            goto done;
+        }
+        char *mem = (char *)view->buf;
+        if (view->len < nbytes || ((uintptr_t)mem & 7) != 0) {
+            PyErr_Format(PyExc_ValueError, "out: expected a buffer of at least %zd bytes aligned to 8 bytes, got %zd "
+                         "bytes at an address %d mod 8", nbytes, view->len, (int)((uintptr_t)mem & 7));
+            goto done;
+        }
+        values = view_of(export, vshape, NPY_DOUBLE, mem);
+        ints = values ? view_of(export, ishape, NPY_INT64, mem + ioffset) : NULL;
     } else {
         values = (PyArrayObject *)PyArray_SimpleNew(2, vshape, NPY_DOUBLE);
         ints = (PyArrayObject *)PyArray_SimpleNew(2, ishape, NPY_INT64);
@@ -1203,6 +1233,7 @@ static PyObject *py_text_parse_table(PyObject *self, PyObject *args)
 done:
     Py_XDECREF(values);
     Py_XDECREF(ints);
+    Py_XDECREF(export);
     Py_XDECREF(lease);
     release_text_buffer(&mask);
     release_text_buffer(&data);
