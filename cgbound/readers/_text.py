@@ -89,7 +89,7 @@ def parse_table(data, start=0, stop=None, ncols=None, *, int_columns=(), nrows=N
     large range (cut at line starts; the same values and errors for any count); None: the core's setting
     (:func:`cgbound.get_num_threads`). reuse: the tables are views of memory kept from an earlier table (a
     spare table, :func:`hold_spare`) instead of new arrays, whose pages the kernel must fault in and zero (a
-    W1 .fstat frame's table: 80 MB), if they take SPARE_TABLE_MIN bytes or more; for callers that take what
+    W1 .fstat frame's values and ints: 80 MB), if they take SPARE_TABLE_MIN bytes or more; for callers that take what
     they keep from the table (copies, gathers) and drop it. Memory is reused only once nothing views it any
     more, so an array kept from a table is never overwritten (a kept view only costs the next table new
     memory).
@@ -291,7 +291,9 @@ def frame_buffer(size):
 #: frames is alive (:func:`hold_spare`): memory grows by one frame's text while files are open, and is given back
 #: when the last of their readers is gone.
 _spare = []
-_spare_lock = threading.Lock()
+#: reentrant: a reader's finalizer (_release_spare) may run inside a locked block on the same thread, when an
+#: allocation there starts the cyclic garbage collector and it frees a reader held in a cycle
+_spare_lock = threading.RLock()
 _spare_holders = 0
 SPARE_MAX = 1 << 29
 
@@ -322,7 +324,7 @@ def _after_fork_in_child():
     """A child process starts without the parent's spare (its pages would be copied on the first write) and with a
     new lock (a thread of the parent may have held the old one at the fork)."""
     global _spare_lock
-    _spare_lock = threading.Lock()
+    _spare_lock = threading.RLock()
     _spare.clear()
     _spare_tables.clear()
 
@@ -382,9 +384,9 @@ SPARE_TABLE_MIN = 1 << 25
 class _SpareTable:
     """A block of memory for tables (a NumPy byte array: allocated as NumPy allocates the new tables, so that the
     C library recycles a block of up to 32 MB given back with a reader for the next reader, as it did the tables,
-    and a larger one gets huge pages), and a weak reference to the memoryview of it that the last tables made from
-    it hold as their base (every array viewing them holds it too): the block is free for new tables once that
-    memoryview is gone."""
+    and a larger one gets huge pages), and a weak reference to the memoryview of it lent to the last tables made
+    from it: the binding holds an export of that memoryview for as long as any array views those tables (their
+    base, which is not itself a buffer), so the block is free for new tables once that memoryview is gone."""
 
     __slots__ = ("buf", "lent")
 
@@ -409,9 +411,11 @@ class _TableLease:
         if nbytes < SPARE_TABLE_MIN:
             return None
         with _spare_lock:
-            fits = [s for s in _spare_tables if len(s.buf) >= nbytes and s.free()]
-            spare = min(fits, key=lambda s: len(s.buf)) if fits else None
-            if spare is not None:
+            spare = None  # the smallest free block that fits
+            for s in _spare_tables:
+                if len(s.buf) >= nbytes and s.free() and (spare is None or len(s.buf) < len(spare.buf)):
+                    spare = s
+            if spare is not None and spare in _spare_tables:  # (a finalizer run meanwhile may have emptied the list)
                 _spare_tables.remove(spare)
         if spare is None:
             spare = _SpareTable(nbytes)
