@@ -316,6 +316,7 @@ def _read_frame(buf, start, stop, kind, path, line, int_columns, integral_column
             except ValueError:
                 pass
         if head["data"] is None:
+            table = None  # (the first try's table no longer holds the spare memory the parse below may reuse)
             try:
                 head["data"] = parse(ints)
             except ValueError as exc:
