@@ -304,6 +304,84 @@ def test_the_binding_takes_the_tables_memory_from_out():
     assert block[64:80].view(np.int64).tolist() == [1, 3]
     values, ints, *_ = _engine.text_parse_table(b"1 2.5\n", 0, 6, 2, b"\1\0", -1, 0, 1, 0, lambda n: None)
     assert values.base is None and values.tolist() == [[1.0, 2.5]]
-    for bad in (np.zeros(10, np.uint8), b"x" * 200):
-        with pytest.raises((ValueError, BufferError, TypeError)):
-            _engine.text_parse_table(b"1 2.5\n", 0, 6, 2, b"\1\0", -1, 0, 1, 0, lambda n: bad)
+    for bad, kind, says in ((np.zeros(10, np.uint8), ValueError, "at least 72 bytes aligned to 8 bytes, got 10 bytes"),
+                            (np.zeros(200, np.uint8)[1:], ValueError, "mod 8"),
+                            (b"x" * 200, TypeError, "writable contiguous buffer, got bytes"),
+                            (np.zeros(400, np.uint8)[::2], TypeError, "got numpy.ndarray")):
+        with pytest.raises(kind, match="^out: expected") as info:
+            _engine.text_parse_table(b"1 2.5\n", 0, 6, 2, b"\1\0", -1, 0, 1, 0, lambda n, bad=bad: bad)
+        assert says in str(info.value)
+
+    def failing(nbytes):
+        raise RuntimeError("no memory for you")
+    with pytest.raises(RuntimeError, match="no memory for you"):
+        _engine.text_parse_table(b"1 2.5\n", 0, 6, 2, b"\1\0", -1, 0, 1, 0, failing)
+
+
+def test_the_tables_hold_the_export_of_outs_buffer():
+    """While the tables live, out()'s buffer can neither move (a bytearray's resize) nor be released (a
+    memoryview), and their base is not a buffer that views could be made of behind the lending's back."""
+    import gc
+    from cgbound import _engine
+    grown = bytearray(200)
+    values, ints, *_ = _engine.text_parse_table(b"1 2.5\n3 4.5\n", 0, 12, 2, b"\1\0", -1, 0, 1, 0, lambda n: grown)
+    with pytest.raises(BufferError):
+        grown.extend(bytes(10_000_000))
+    assert values.tolist() == [[1.0, 2.5], [3.0, 4.5]] and ints.tolist() == [[1], [3]]
+    with pytest.raises(TypeError):
+        memoryview(values.base)
+    kept = values[1:]
+    del values, ints
+    gc.collect()
+    with pytest.raises(BufferError):            # a view of the tables still holds the export
+        grown.extend(b"x")
+    assert kept.tolist() == [[3.0, 4.5]]
+    del kept
+    gc.collect()
+    grown.extend(b"x")                          # the last view gone: the export with it
+    lent = memoryview(bytearray(200))
+    tables = _engine.text_parse_table(b"1 2.5\n", 0, 6, 2, b"\1\0", -1, 0, 1, 0, lambda n: lent)
+    with pytest.raises(BufferError):
+        lent.release()
+    del tables
+    gc.collect()
+    lent.release()
+
+
+def test_a_reader_freed_by_the_collector_during_a_lease_does_not_hang(monkeypatch):
+    """A reader in a reference cycle is freed by the cyclic collector, which may run at any allocation, also inside
+    the spare's locked blocks: its finalizer (_release_spare) takes the same lock on the same thread."""
+    import gc
+    from cgbound.readers import _text
+    monkeypatch.setattr(_text, "SPARE_TABLE_MIN", 1)
+
+    class Holder:
+        pass
+
+    keep = Holder()
+    _text.hold_spare(keep)
+    data = b"".join(b"%d 1.5 2.5\n" % k for k in range(2000))
+    done = []
+
+    def work():
+        thresholds = gc.get_threshold()
+        gc.set_threshold(1)
+        try:
+            for _ in range(300):
+                cycle = Holder()
+                cycle.self = cycle
+                _text.hold_spare(cycle)
+                del cycle                       # freed by the collector only
+                table = _text.parse_table(data, ncols=3, int_columns=(0,), reuse=True)
+                assert table.ints[-1, 0] == 1999
+                del table
+        finally:
+            gc.set_threshold(*thresholds)
+        done.append(True)
+
+    worker = threading.Thread(target=work, daemon=True)
+    worker.start()
+    worker.join(120)
+    assert done, "the lease and a finalizer deadlocked on the spare's lock"
+    del keep
+    gc.collect()
