@@ -38,7 +38,7 @@
 #include <math.h>
 #include <stdint.h>
 #if defined(CG_SEPARABLE_WIDE) && defined(__GNUC__) && !defined(__clang__)
-#include <immintrin.h> /* the AVX-512 build's mask test (mask_bits) */
+#include <immintrin.h> /* the AVX-512 build's mask tests (mask_bits, the rows' and planes' masks) */
 #endif
 #include <stdlib.h>
 #include <string.h>
@@ -458,7 +458,9 @@ INLINE void sqrt_lanes(vwd x, vwd *out)
     *out = r;
 }
 
-/* CG_EXP_TAYLOR13's coefficients in the order its steps add them (the same constants) */
+/* CG_EXP_TAYLOR13's coefficients in the order its steps add them (the same constants; a drift between the two
+   fails tests/test_profile_rows.py::test_gaussian_segments, which compares cg_profile.c's exponentials, by
+   cg_exp_in_place, with these bit for bit) */
 static const double EXP_TAYLOR_STEPS[13] = {
     1.0 / 479001600.0, 1.0 / 39916800.0, 1.0 / 3628800.0, 1.0 / 362880.0, 1.0 / 40320.0, 1.0 / 5040.0, 1.0 / 720.0,
     1.0 / 120.0,       1.0 / 24.0,       1.0 / 6.0,       0.5,           1.0,           1.0,

@@ -21,7 +21,8 @@
 /* p <- exp(r) for |r| <= 0.347, p holding 1/13! on entry: the Taylor polynomial
    of degree 13 in Horner form (r and p scalars or GCC vectors of doubles;
    cg_separable.c's exp_erfcx_lanes takes the same steps from its table
-   EXP_TAYLOR_STEPS, the same bits: change both) */
+   EXP_TAYLOR_STEPS, the same bits: change both; tests/test_profile_rows.py::test_gaussian_segments fails if
+   they differ) */
 #define CG_EXP_TAYLOR13(p, r)                                                  \
     do {                                                                       \
         p = p * (r) + 1.0 / 479001600.0;                                       \

@@ -124,6 +124,53 @@ int main(void)
             free(text);
         }
     }
+    /* the row path's values (this build's: SSE2 or 8-byte word fractions) against strtod and the one-token
+       parser, on rows of the usual shape far from the range's end: mantissas of 1 to 23 digits, 0. and dd.
+       integer parts, leading zeros, exponents */
+    {
+        enum { ROWS = 4000 };
+        char *text = malloc((size_t)ROWS * 64), token[ROWS][48];
+        double *got = malloc((size_t)ROWS * 2 * sizeof *got);
+        int64_t *ids = malloc((size_t)ROWS * sizeof *ids);
+        CHECK(text && got && ids);
+        if (text && got && ids) {
+            size_t n = 0;
+            uint64_t state = 88172645463325252ULL;
+            for (int r = 0; r < ROWS; ++r) {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                const double x = (double)(state >> 11) / 9007199254740992.0; /* [0, 1) */
+                const int digits = 1 + (int)(state % 23), shape = (int)((state >> 5) % 5);
+                const char *sign = (state >> 9) & 1 ? "-" : "";
+                switch (shape) {
+                case 0: snprintf(token[r], sizeof token[r], "%s%.*f", sign, digits, x); break;        /* 0.ddd */
+                case 1: snprintf(token[r], sizeof token[r], "%s%.*f", sign, digits, 1.0 + 8.0 * x); break; /* d.ddd */
+                case 2: snprintf(token[r], sizeof token[r], "%s%.*f", sign, digits, 10.0 + 89.0 * x); break;
+                case 3: snprintf(token[r], sizeof token[r], "%s%.*e", sign, digits - 1, x * 1e-300); break;
+                default: snprintf(token[r], sizeof token[r], "%s%.*f", sign, digits, x * 1e-6); break; /* 0.000ddd */
+                }
+                n += (size_t)sprintf(text + n, "%d %s\n", r, token[r]);
+            }
+            const unsigned char first_int[2] = {1, 0};
+            cg_text_result res;
+            CHECK(cg_text_parse_table(text, n, 2, first_int, 0, ROWS, got, ids, &res) == CG_OK && res.nrows == ROWS);
+            int wrong = 0;
+            for (int r = 0; r < ROWS && res.nrows == ROWS; ++r) {
+                double one = 0.0;
+                const double c = strtod(token[r], NULL);
+                const int same = cg_text_parse_double(token[r], strlen(token[r]), &one) == CG_OK &&
+                                 memcmp(&got[2 * r + 1], &c, sizeof c) == 0 && memcmp(&one, &c, sizeof c) == 0 &&
+                                 ids[r] == r;
+                if (!same && wrong++ < 5) fprintf(stderr, "row %d: '%s' gave %.17g, strtod %.17g\n", r, token[r],
+                                                  got[2 * r + 1], c);
+            }
+            CHECK(wrong == 0);
+        }
+        free(text);
+        free(got);
+        free(ids);
+    }
     /* values */
     const char *ok = "4.9406564584124654e-324 -0\n0.1 9007199254740993\n";
     cg_text_result res;
