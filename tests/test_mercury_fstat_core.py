@@ -125,9 +125,10 @@ def frame_args(path, snap, rtol=1e-9):
     """The core's arguments for the snapshot written with write_mercury and read back (tmp files)."""
     data, fstat = str(path / "f.data"), str(path / "f.fstat")
     write_mercury([snap], data, fstat)
-    from cgbound.readers._mercury_files import read_fstat_rows, scan_fstat
+    from cgbound.readers._mercury_files import fstat_rows, scan_fstat
     fr = scan_fstat(fstat)[0]
-    rows, ints, _ = read_fstat_rows(fstat, fr[2], fr[4], fr[5], fr[6])
+    with fstat_rows(fstat, fr[2], fr[4], fr[5], fr[6]) as (rows, ints, _):
+        rows, ints = rows.copy(), ints.copy()   # (the table is in reused memory)
     return [rows, ints, fr[2], 1e-9 * max(1.0, abs(fr[2])), np.ascontiguousarray(snap.positions), snap.radii,
             snap.fixed, snap.box.periodic, [float(x) for x in snap.box.lengths], rtol]
 

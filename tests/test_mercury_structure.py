@@ -10,7 +10,7 @@ import pytest
 
 import cgbound as cg
 from cgbound.readers import HDF5Snapshots, open_dataset, write_snapshots
-from cgbound.readers._mercury_files import read_fstat_rows, read_particles, scan_data, scan_fstat
+from cgbound.readers._mercury_files import fstat_rows, read_particles, scan_data, scan_fstat
 from cgbound.readers.mercury import MercuryReader
 from test_mercury_reader import DATA3, FSTAT3, RESTART3
 
@@ -52,14 +52,14 @@ def test_fstat_frames_equal_loadtxt_bit_for_bit(stem):
     for k, (offset, lineno, time, marker, start, stop, first) in enumerate(frames):
         end = frames[k + 1][1] - 1 if k + 1 < len(frames) else len(lines)
         body = [line for line in lines[first - 1:end] if line.strip()]
-        rows, ints, line_of = read_fstat_rows(stem + ".fstat", time, start, stop, first)
-        if not body:
-            assert rows is None
-            continue
-        expected = loadtxt(body, 16)
-        assert rows.tobytes() == expected.tobytes()
-        assert ints.dtype == np.int64 and np.array_equal(ints, expected[:, 1:3])
-        assert lines[line_of(len(body) - 1) - 1] == body[-1]
+        with fstat_rows(stem + ".fstat", time, start, stop, first) as (rows, ints, line_of):
+            if not body:
+                assert rows is None
+                continue
+            expected = loadtxt(body, 16)
+            assert rows.tobytes() == expected.tobytes()
+            assert ints.dtype == np.int64 and np.array_equal(ints, expected[:, 1:3])
+            assert lines[line_of(len(body) - 1) - 1] == body[-1]
         total += len(body)
     assert total == len([line for line in lines if line.strip() and not line.startswith(b"#")])
 

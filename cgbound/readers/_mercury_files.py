@@ -15,10 +15,9 @@ import re
 import numpy as np
 
 from ._text import count_lines, find_lines, frame_text, gzip_checkpoints, iter_chunks, parse_table
-from ._text import read_range as _read_text_range
 from .files import is_gzip
 
-__all__ = ["DATA_COLUMNS", "FSTAT_COLUMNS", "LINE_TIME_RTOL", "fstat_rows", "read_fstat_rows", "read_particles",
+__all__ = ["DATA_COLUMNS", "FSTAT_COLUMNS", "LINE_TIME_RTOL", "fstat_rows", "read_particles",
            "read_restart", "scan_data", "scan_fstat"]
 
 DATA_COLUMNS = {3: 14, 2: 8}
@@ -123,19 +122,12 @@ def _changed(path, start, stop, got):
                       f"frame was expected up to byte {stop}); open the reader again")
 
 
-def read_range(path, start, stop):
-    """Bytes [start, stop) of the file (decompressed if gzip, from the scan's checkpoint before start); a ValueError
-    naming the file if it ends before stop (cut since it was scanned: an .fstat frame would lose contacts)."""
-    data = _read_text_range(path, start, stop, _gzip_checkpoints_of(path) if is_gzip(path) else None)
-    if len(data) != max(stop - start, 0):
-        raise _changed(path, start, stop, len(data))
-    return data
-
-
 @contextlib.contextmanager
 def frame_range(path, start, stop):
-    """:func:`read_range` as ``(data, size)`` in the reused frame buffer (:func:`._text.frame_text`): the text is
-    ``data[:size]`` (data may be longer), valid inside the block."""
+    """Bytes [start, stop) of the file (decompressed if gzip, from the scan's checkpoint before start) as ``(data,
+    size)`` in the reused frame buffer (:func:`._text.frame_text`): the text is ``data[:size]`` (data may be
+    longer), valid inside the block; a ValueError naming the file if it ends before stop (cut since it was scanned:
+    an .fstat frame would lose contacts)."""
     compressed = is_gzip(path)
     with frame_text(path, start, stop, _gzip_checkpoints_of(path) if compressed else None, compressed) as (data, got):
         if got != max(stop - start, 0):
@@ -383,9 +375,20 @@ def read_particles(path, header, n, dim, rows_start, rows_stop):
     return time, lower, upper, values, table.ints[:, 0]
 
 
-def _fstat_rows(path, time, data, size, first_line, reuse=False):
-    """read_fstat_rows of the text data[:size]; line_of reads data when called. reuse: the table in memory kept from
-    an earlier frame (parse_table's reuse), for callers that keep nothing of it."""
+@contextlib.contextmanager
+def fstat_rows(path, time, rows_start, rows_stop, first_line):
+    """The interaction lines of a .fstat frame: an (M, W) table (W >= FSTAT_COLUMNS: extra trailing columns are
+    kept, the C pass of the contacts skips them), the (M, 2) int64 indices i, j, and a function giving the 1-based
+    line number of row k, valid inside the block; None, None, None if M = 0. The lines' times are checked against
+    the frame's (within LINE_TIME_RTOL) by the caller, with the contacts (csrc/cg_fstat.h). The frame's text is in
+    the reused frame buffer and the table in reused memory (parse_table's reuse: keep nothing of it, copy what is
+    needed)."""
+    with frame_range(path, rows_start, rows_stop) as (data, size):
+        yield _fstat_rows(path, time, data, size, first_line)
+
+
+def _fstat_rows(path, time, data, size, first_line):
+    """fstat_rows of the text data[:size]; line_of reads data when called."""
     text = _TEXT.search(data, 0, size)
     if not text:
         return None, None, None
@@ -398,7 +401,7 @@ def _fstat_rows(path, time, data, size, first_line, reuse=False):
                          f"'time i j cx cy cz delta deltat fn ft nx ny nz tx ty tz', got {width}")
     try:
         table = parse_table(data, 0, size, width, int_columns=(1, 2), skip_blank=True, name=path,
-                            frame=f"t = {time:g}", first_line=first_line, reuse=reuse)
+                            frame=f"t = {time:g}", first_line=first_line, reuse=True)
     except ValueError as exc:
         raise _row_length_error(path, data[:size], first_line, width, what, time, exc) from None
 
@@ -410,21 +413,3 @@ def _fstat_rows(path, time, data, size, first_line, reuse=False):
         return numbered[k]
 
     return table.values, table.ints, line_of
-
-
-def read_fstat_rows(path, time, rows_start, rows_stop, first_line):
-    """The interaction lines of a .fstat frame: an (M, W) table (W >= FSTAT_COLUMNS: extra trailing columns are
-    kept, the C pass of the contacts skips them), the (M, 2) int64 indices i, j, and a function giving the 1-based
-    line number of row k; None, None, None if M = 0. The lines' times are checked against the frame's (within
-    LINE_TIME_RTOL) by the caller, with the contacts (csrc/cg_fstat.h). The text is kept for line numbers as long
-    as the function is (:func:`fstat_rows` reuses it instead)."""
-    data = read_range(path, rows_start, rows_stop)
-    return _fstat_rows(path, time, data, len(data), first_line)
-
-
-@contextlib.contextmanager
-def fstat_rows(path, time, rows_start, rows_stop, first_line):
-    """:func:`read_fstat_rows` with the frame's text in the reused frame buffer and the table in reused memory
-    (parse_table's reuse: keep nothing of it, copy what is needed): line_of works inside the block."""
-    with frame_range(path, rows_start, rows_stop) as (data, size):
-        yield _fstat_rows(path, time, data, size, first_line, reuse=True)
