@@ -485,7 +485,7 @@ class LammpsReader(FrameReader):
         types = column(tab.integers("type")) if "type" in tab else np.ones(n, np.int64)
         vel = cols(("vx", "vy", "vz"), "velocities") if "vx" in tab else None
         forces = cols(("fx", "fy", "fz"), "forces") if "fx" in tab else None
-        masses = column(tab["mass"]) if "mass" in tab else self._masses(tab, order, types)
+        masses = self._masses(tab, column, types)
         if "radius" in tab:
             radii = column(tab["radius"])
         elif "diameter" in tab:
@@ -517,9 +517,10 @@ class LammpsReader(FrameReader):
         """A new (n, D) array of the columns ``names`` (one per LAMMPS axis) at ``rows`` (None: all), cgbound axes."""
         return table_columns(tab, [names[a] for a in self._axes()], rows)
 
-    def _masses(self, tab, order, types):
+    def _masses(self, tab, column, types):
+        """The masses in ID order: the mass column (``column`` takes a column to that order), else by type."""
         if "mass" in tab:
-            return tab["mass"][order]
+            return column(tab["mass"])
         if self.masses_by_type is not None:
             try:
                 return np.array([self.masses_by_type[int(t)] for t in types], float)
