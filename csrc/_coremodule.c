@@ -1452,7 +1452,7 @@ done:
      "offset, length))\n\n"                                                                                        \
      "out: None (new arrays) or a callable out(nbytes) returning a writable buffer (8-byte aligned) of at least "   \
      "nbytes bytes, or None for new arrays: the tables are then views of it (values first, ints from the next "    \
-     "64-byte boundary), their base the object returned. "                                                         \
+     "64-byte offset), their base a capsule holding the buffer's export while any view lives. "                                                         \
      "flags: 1 skip blank lines, 2 stop after max_rows rows (end: offset in data where parsing stopped). "          \
      "Parse data[start:stop] as rows of ncols numbers (cg_text_parse_table); max_rows < 0: one per line at most. "  \
      "parts > 0: cut into exactly that many parts, one thread each (for tests). "                                  \
