@@ -257,6 +257,35 @@ def test_round_trip(reader3, tmp_path):
     np.testing.assert_array_equal(back.frame(1).wall_index, reader3.frame(1).wall_index)
 
 
+def test_frames_written_again_at_one_time_pair_in_file_order(tmp_path):
+    """A run restarted and appended writes frames of one time twice: the second .data frame takes the second .fstat
+    frame of that time (its own contacts, and its own errors), not the first one again."""
+    pos = np.array([[0.5, 0.5, 0.5], [1.45, 0.5, 0.5], [0.5, 1.45, 0.5]])
+    box = cg.Box([0, 0, 0], [3, 3, 3])
+
+    def snap(j, f):
+        return cg.Snapshot(pos, np.zeros((3, 3)), np.ones(3), box=box, radii=np.full(3, 0.5), time=1.0,
+                           contacts=cg.Contacts([0], [j], [f], [0.5 * (pos[0] + pos[j])]))
+
+    first, again = snap(1, [-2.0, 0.0, 0.0]), snap(2, [0.0, -3.0, 0.0])
+    write_mercury([first, again], tmp_path / "r.data", tmp_path / "r.fstat")
+    back = MercuryReader(tmp_path / "r.data", tmp_path / "r.fstat", restart_path=False, density=1.0,
+                         periodic=(False,) * 3)
+    for got, written in zip(back, (first, again)):
+        a, b = contact_dict(got), contact_dict(written)
+        assert set(a) == set(b)
+        for k in a:
+            np.testing.assert_allclose(a[k][0], b[k][0], rtol=1e-14, atol=1e-14)
+    lines = (tmp_path / "r.fstat").read_text().splitlines()
+    lines[-1] = lines[-1].replace(lines[-1].split()[4], "1.2.3", 1)    # damage the second frame's cy
+    (tmp_path / "r.fstat").write_text("\n".join(lines) + "\n")
+    back = MercuryReader(tmp_path / "r.data", tmp_path / "r.fstat", restart_path=False, density=1.0,
+                         periodic=(False,) * 3)
+    back[0]
+    with pytest.raises(ValueError, match=f"r.fstat \\(t = 1\\), line {len(lines)}, column 5: not a number: '1.2.3'"):
+        back[1]
+
+
 def test_round_trip_random_2d(tmp_path):
     rng = np.random.default_rng(3)
     n = 12

@@ -105,7 +105,8 @@ Unverified / not supported
 * Restart parsing is key-based (``density``, ``invMass``, ``particleDimensions``, ``normal`` of
   ``PeriodicBoundary``); other restart content (walls, insertion boundaries) is ignored.
 * Frames are matched by time: a ``.data`` frame without an ``.fstat`` frame of the same time
-  (within 1e-9 relative) raises; unmatched ``.fstat`` frames are ignored.
+  (within 1e-9 relative) raises; unmatched ``.fstat`` frames are ignored. Frames of one time written
+  more than once (a run restarted and appended) pair in file order.
 """
 from dataclasses import dataclass
 import math
@@ -267,10 +268,15 @@ class MercuryReader(FrameReader):
             return [(*p, None) for p in particles]
         fst = scan_fstat(self.fstat_path)
         times = np.array([f[2] for f in fst])
+        used = np.zeros(len(fst), bool)
         out, missing = [], []
         for p, (_, _, _, t, *_) in zip(particles, data_frames):
-            k = int(np.argmin(np.abs(times - t)))
-            if abs(times[k] - t) <= 1e-9 * max(1.0, abs(t)):
+            # the first .fstat frame of this time not taken by an earlier .data frame: frames written again at the
+            # same time (a run restarted and appended) pair in file order, not all with the first of them
+            same = np.flatnonzero((np.abs(times - t) <= 1e-9 * max(1.0, abs(t))) & ~used)
+            if same.size:
+                k = int(same[0])
+                used[k] = True
                 f = fst[k]
                 out.append((*p, (f[2], f[4], f[5], f[6], f[1])))
                 continue
