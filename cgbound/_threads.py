@@ -13,6 +13,8 @@ import contextvars
 from . import _engine
 from ._validate import integer
 
+#: the most threads a count may ask for (the core takes a C int; thousands of threads help no machine this runs on)
+MAX_THREADS = 4096
 _default = None                                   # set_num_threads
 _override = contextvars.ContextVar("cgbound_threads", default=None)   # threads(n), per thread / task
 
@@ -24,8 +26,8 @@ def _check(n, name="n"):
         count = integer(n, name)
     except TypeError:
         raise TypeError(f"{name}: expected a positive int number of threads or None, got {n!r}") from None
-    if count < 1:
-        raise ValueError(f"{name}: expected a positive number of threads or None, got {n!r}")
+    if count < 1 or count > MAX_THREADS:
+        raise ValueError(f"{name}: expected a positive number of threads (at most {MAX_THREADS}) or None, got {n!r}")
     return count
 
 

@@ -65,7 +65,7 @@ def test_set_get_and_context_manager():
 
 
 @pytest.mark.parametrize("bad,error", [(0, ValueError), (-1, ValueError), (1.5, TypeError), ("2", TypeError),
-                                       (True, TypeError)])
+                                       (True, TypeError), (4097, ValueError), (10 ** 30, ValueError)])
 def test_bad_thread_counts_are_refused(bad, error):
     with pytest.raises(error, match="n: expected"):
         cg.set_num_threads(bad)

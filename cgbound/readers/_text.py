@@ -67,8 +67,10 @@ def _thread_count(threads):
     """threads as the text functions take it: a positive count, or None for the core's setting."""
     if threads is None:
         return _threads.get_num_threads()
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"threads: expected a positive number of threads or None, got {threads!r}")
+    if (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1
+            or threads > _threads.MAX_THREADS):
+        raise ValueError(f"threads: expected a positive number of threads (at most {_threads.MAX_THREADS}) or None, "
+                         f"got {threads!r}")
     return int(threads)
 
 
