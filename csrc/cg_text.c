@@ -121,13 +121,10 @@ static inline int eisel_lemire(uint64_t man, int exp10, int neg, double *out)
     ret_exp2 -= 1 ^ msb;
     if (x_lo == 0 && (x_hi & 0x1FF) == 0 && (ret_man & 3) == 1) return 0; /* halfway: ambiguous */
     ret_man += ret_man & 1;
-    ret_man >>= 1;
-    if (ret_man >> 53) {
-        ret_man >>= 1;
-        ret_exp2 += 1;
-    }
-    if (ret_exp2 - 1 >= 0x7FF - 1) return 0; /* subnormal, zero or overflow */
-    uint64_t bits = ret_exp2 << 52 | (ret_man & 0x000FFFFFFFFFFFFFULL);
+    ret_man >>= 1; /* 2^52 .. 2^53: 2^53 when the rounding carried into the next binade */
+    if (ret_exp2 + (ret_man >> 53) - 1 >= 0x7FF - 1) return 0; /* subnormal, zero or overflow */
+    /* the hidden bit adds 1 to the exponent field (2 when the rounding carried: the mantissa field is then 0) */
+    uint64_t bits = ((ret_exp2 - 1) << 52) + ret_man;
     if (neg) bits |= 0x8000000000000000ULL;
     memcpy(out, &bits, sizeof bits);
     return 1;
@@ -591,8 +588,8 @@ static const uint64_t pow10_frac[24] = {1ULL,
 static const unsigned char keep_first[32] = {0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF,
                                              0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF};
 
-/* the value of the first n (0..16) bytes of t, digit values (0..9) */
-static inline uint64_t sse_digits_value(__m128i t, unsigned n)
+/* the value of the first n (0..16) bytes of t, digit values (0..9), times 10^(16 - n) */
+static inline uint64_t sse_digits_scaled(__m128i t, unsigned n)
 {
     const __m128i d = _mm_and_si128(t, _mm_loadu_si128((const __m128i *)(const void *)(keep_first + 16 - n)));
     /* 16-bit lanes, little-endian: the low byte is the earlier (higher) digit */
@@ -601,8 +598,13 @@ static inline uint64_t sse_digits_value(__m128i t, unsigned n)
     const __m128i quads = _mm_madd_epi16(pairs, _mm_set1_epi32(0x00010064));                       /* x100 + x1 */
     const __m128i octs = _mm_madd_epi16(_mm_packs_epi32(quads, quads), _mm_set1_epi32(0x00012710)); /* x10^4 + x1 */
     const uint64_t two = (uint64_t)_mm_cvtsi128_si64(octs);
-    const uint64_t x = (two & 0xFFFFFFFFu) * 100000000u + (two >> 32); /* the n digits times 10^(16 - n) */
-    return (x >> (16 - n)) * inv5_pow[16 - n];
+    return (two & 0xFFFFFFFFu) * 100000000u + (two >> 32);
+}
+
+/* the value of the first n (0..16) bytes of t, digit values (0..9) */
+static inline uint64_t sse_digits_value(__m128i t, unsigned n)
+{
+    return (sse_digits_scaled(t, n) >> (16 - n)) * inv5_pow[16 - n];
 }
 
 /* the fraction from f (after the '.') of a float whose integer part ip has nip digits (1 or 2): like quick_double
@@ -617,8 +619,22 @@ QUICK_INLINE const unsigned char *sse_fraction(const unsigned char *f, uint64_t 
     unsigned n = nd0 ? leading_digits(nd0) : 8 + (nd1 ? leading_digits(nd1) : 8);
     if (n == 0) return NULL;
     const unsigned char *e = f + n;
-    if (n < 16 || !is_digit(*e)) /* the usual: up to 16 fraction digits */
-        return quick_exponent(e, after, ip * pow10_frac[n] + sse_digits_value(t, n), -(int64_t)n, neg, value);
+    if (n < 16 || !is_digit(*e)) { /* the usual: up to 16 fraction digits */
+        const uint64_t x = sse_digits_scaled(t, n);
+#if FLT_EVAL_METHOD == 0
+        if (after[*e]) {
+            const uint64_t man = ip * 10000000000000000ULL + x;
+            if (man <= (1ULL << 53)) {
+                const double v = (double)man / 1e16;
+                *value = neg ? -v : v;
+                return e;
+            }
+            if (eisel_lemire(man, -16, neg, value)) return e;
+        }
+#endif
+        return quick_exponent(e, after, ip * pow10_frac[n] + ((x >> (16 - n)) * inv5_pow[16 - n]), -(int64_t)n,
+                              neg, value);
+    }
     /* 17 to 23 (%.17g writes 17 to 19 below 1): their number from the next word, the value as the first 16
        times 10^(n - 16) plus that word's. After a zero integer part the fraction's leading zeros are
        not significant digits: with at most 19 significant ones the value is below 10^19, exact in 64 bits */

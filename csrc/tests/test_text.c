@@ -141,14 +141,24 @@ int main(void)
                 state ^= state >> 7;
                 state ^= state << 17;
                 const double x = (double)(state >> 11) / 9007199254740992.0; /* [0, 1) */
-                const int digits = 1 + (int)(state % 23), shape = (int)((state >> 5) % 5);
+                const int digits = 1 + (int)(state % 23);
+                int shape = (int)((state >> 5) % 5);
                 const char *sign = (state >> 9) & 1 ? "-" : "";
+                /* the first rows: rounding carried into the next binade (a power of two), exact binary values */
+                static const char *fixed[] = {"1.9999999999999999", "-7.9999999999999999", "0.99999999999999999",
+                                              "63.999999999999999", "3.9999999999999999e-05", "1.5", "-0.5",
+                                              "0.0", "45.049999999999997", "0.25e1"};
+                if (r < (int)(sizeof fixed / sizeof *fixed)) {
+                    snprintf(token[r], sizeof token[r], "%s", fixed[r]);
+                    shape = -1;
+                }
                 switch (shape) {
                 case 0: snprintf(token[r], sizeof token[r], "%s%.*f", sign, digits, x); break;        /* 0.ddd */
                 case 1: snprintf(token[r], sizeof token[r], "%s%.*f", sign, digits, 1.0 + 8.0 * x); break; /* d.ddd */
                 case 2: snprintf(token[r], sizeof token[r], "%s%.*f", sign, digits, 10.0 + 89.0 * x); break;
                 case 3: snprintf(token[r], sizeof token[r], "%s%.*e", sign, digits - 1, x * 1e-300); break;
-                default: snprintf(token[r], sizeof token[r], "%s%.*f", sign, digits, x * 1e-6); break; /* 0.000ddd */
+                case 4: snprintf(token[r], sizeof token[r], "%s%.*f", sign, digits, x * 1e-6); break; /* 0.000ddd */
+                default: break;
                 }
                 n += (size_t)sprintf(text + n, "%d %s\n", r, token[r]);
             }
