@@ -100,7 +100,12 @@ static inline int leading_zeros(uint64_t x)
  * exact path. This is the formulation of Go's strconv (eisel_lemire.go), with
  * the table rounded down.
  */
-static inline int eisel_lemire(uint64_t man, int exp10, int neg, double *out)
+#if defined(__GNUC__)
+#define CG_NOINLINE __attribute__((noinline))
+#else
+#define CG_NOINLINE
+#endif
+static CG_NOINLINE int eisel_lemire_full(uint64_t man, int exp10, int neg, double *out)
 {
     const uint64_t *pow = cg_pow10_128[exp10 - CG_POW10_MIN_EXP10];
     int clz = leading_zeros(man);
@@ -124,6 +129,26 @@ static inline int eisel_lemire(uint64_t man, int exp10, int neg, double *out)
     ret_man >>= 1; /* 2^52 .. 2^53: 2^53 when the rounding carried into the next binade */
     if (ret_exp2 + (ret_man >> 53) - 1 >= 0x7FF - 1) return 0; /* subnormal, zero or overflow */
     /* the hidden bit adds 1 to the exponent field (2 when the rounding carried: the mantissa field is then 0) */
+    uint64_t bits = ((ret_exp2 - 1) << 52) + ret_man;
+    if (neg) bits |= 0x8000000000000000ULL;
+    memcpy(out, &bits, sizeof bits);
+    return 1;
+}
+
+/* eisel_lemire_full where the first product decides (all but about 1 in 500 mantissas): inlined, with nothing of
+   the widening kept live (no spills in the row path), which eisel_lemire_full redoes from the start */
+static inline int eisel_lemire(uint64_t man, int exp10, int neg, double *out)
+{
+    const uint64_t *pow = cg_pow10_128[exp10 - CG_POW10_MIN_EXP10];
+    const int clz = leading_zeros(man);
+    uint64_t x_lo, x_hi = mul128(man << clz, pow[1], &x_lo);
+    if ((x_hi & 0x1FF) == 0x1FF || x_lo == 0) return eisel_lemire_full(man, exp10, neg, out);
+    const uint64_t msb = x_hi >> 63;
+    uint64_t ret_man = x_hi >> (msb + 9);
+    const uint64_t ret_exp2 = (uint64_t)(((217706 * exp10) >> 16) + 64 + 1023) - (uint64_t)clz - (1 ^ msb);
+    ret_man += ret_man & 1;
+    ret_man >>= 1;
+    if (ret_exp2 + (ret_man >> 53) - 1 >= 0x7FF - 1) return 0;
     uint64_t bits = ((ret_exp2 - 1) << 52) + ret_man;
     if (neg) bits |= 0x8000000000000000ULL;
     memcpy(out, &bits, sizeof bits);
@@ -762,8 +787,21 @@ QUICK_INLINE const unsigned char *quick_column(const unsigned char *p, const uns
                     const uint64_t misfit =
                         (((t & 0x7F7F7F7F7F7F7F7FULL) + 0x7F767F767F767F76ULL) | t) & 0x8080808080808080ULL;
                     unsigned n = misfit ? (unsigned)__builtin_ctzll(misfit) >> 4 : 4;
-                    if (n > run[col]) n = run[col];
-                    for (unsigned i = 0; i < n; ++i) vrow[col + i] = (double)(p[2 * i] - '0');
+                    if (run[col] == 4) {
+                        /* four values stored whatever n: the columns after the n tokens are stored again when
+                           they are parsed (run[col] == 4: all four in this row). t's 16-bit lanes are the four
+                           digits while n is 4 (a ' ' is 0 after the xor) */
+#ifdef CG_TEXT_SSE2_FRACTION
+                        const __m128i d = _mm_unpacklo_epi16(_mm_cvtsi64_si128((long long)t), _mm_setzero_si128());
+                        _mm_storeu_pd(vrow + col, _mm_cvtepi32_pd(d));
+                        _mm_storeu_pd(vrow + col + 2, _mm_cvtepi32_pd(_mm_unpackhi_epi64(d, d)));
+#else
+                        for (unsigned i = 0; i < 4; ++i) vrow[col + i] = (double)((t >> 16 * i) & 0xFFFF);
+#endif
+                    } else {
+                        if (n > run[col]) n = run[col];
+                        for (unsigned i = 0; i < n; ++i) vrow[col + i] = (double)(p[2 * i] - '0');
+                    }
                     *c = col + n;
                     return p + 2 * n;
                 }

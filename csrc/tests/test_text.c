@@ -181,6 +181,32 @@ int main(void)
         free(got);
         free(ids);
     }
+    /* rows of 9 columns, most of them one-digit tokens (the row path takes up to 4 "d " at once), against strtod */
+    {
+        enum { ROWS = 500, COLS = 9 };
+        static const char *pick[] = {"0", "1", "9", "-1", "0.5", "12", "-3.25", "7", "0"};
+        char *text = malloc((size_t)ROWS * COLS * 8), *token[ROWS * COLS];
+        double *got = malloc((size_t)ROWS * COLS * sizeof *got);
+        CHECK(text && got);
+        if (text && got) {
+            size_t n = 0;
+            uint64_t state = 0x9E3779B97F4A7C15ULL;
+            for (int k = 0; k < ROWS * COLS; ++k) {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                token[k] = (char *)pick[(state >> 20) % 9];
+                n += (size_t)sprintf(text + n, "%s%c", token[k], k % COLS == COLS - 1 ? '\n' : ' ');
+            }
+            cg_text_result res;
+            CHECK(cg_text_parse_table(text, n, COLS, NULL, 0, ROWS, got, NULL, &res) == CG_OK && res.nrows == ROWS);
+            int wrong = 0;
+            for (int k = 0; k < ROWS * COLS && res.nrows == ROWS; ++k) wrong += got[k] != strtod(token[k], NULL);
+            CHECK(wrong == 0);
+        }
+        free(text);
+        free(got);
+    }
     /* values */
     const char *ok = "4.9406564584124654e-324 -0\n0.1 9007199254740993\n";
     cg_text_result res;
