@@ -665,12 +665,16 @@ QUICK_INLINE const unsigned char *sse_fraction(const unsigned char *f, uint64_t 
        not significant digits: with at most 19 significant ones the value is below 10^19, exact in 64 bits */
     const uint64_t w2 = load8(f + 16), nd2 = nondigit_bytes(w2);
     n = 16 + (nd2 ? leading_digits(nd2) : 8);
-    const unsigned zeros =
-        ip ? 0 : (unsigned)__builtin_ctz(~(unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(t, _mm_setzero_si128())));
-    if (n > 23 || (ip ? nip + n : n - zeros) > 19) return NULL;
-    const uint64_t frac = sse_digits_value(t, 16) * pow10_frac[n - 16] + digits_value(w2, n - 16);
+    if (n > (ip ? 19 - nip : 19)) { /* the leading zeros counted only when they matter */
+        const unsigned zeros = (unsigned)__builtin_ctz(~(unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(t, _mm_setzero_si128())));
+        if (ip || n > 23 || n - zeros > 19) return NULL;
+    }
+    const uint64_t man = ip * pow10_frac[n] + sse_digits_scaled(t, 16) * pow10_frac[n - 16] + digits_value(w2, n - 16);
     e = f + n;
-    return quick_exponent(e, after, ip * pow10_frac[n] + frac, -(int64_t)n, neg, value);
+#if FLT_EVAL_METHOD == 0
+    if (after[*e] && man != 0 && eisel_lemire(man, -(int)n, neg, value)) return e;
+#endif
+    return quick_exponent(e, after, man, -(int64_t)n, neg, value);
 }
 #endif
 
