@@ -655,6 +655,9 @@ QUICK_INLINE const unsigned char *sse_fraction(const unsigned char *f, uint64_t 
                 return e;
             }
             if (eisel_lemire(man, -16, neg, value)) return e;
+        } else if ((*e | 0x20) == 'e') { /* an exponent: the same value, its exponent added to -16 */
+            const unsigned char *q = quick_exponent(e, after, ip * 10000000000000000ULL + x, -16, neg, value);
+            if (q) return q;
         }
 #endif
         return quick_exponent(e, after, ip * pow10_frac[n] + ((x >> (16 - n)) * inv5_pow[16 - n]), -(int64_t)n,
@@ -666,7 +669,8 @@ QUICK_INLINE const unsigned char *sse_fraction(const unsigned char *f, uint64_t 
     const uint64_t w2 = load8(f + 16), nd2 = nondigit_bytes(w2);
     n = 16 + (nd2 ? leading_digits(nd2) : 8);
     if (n > (ip ? 19 - nip : 19)) { /* the leading zeros counted only when they matter */
-        const unsigned zeros = (unsigned)__builtin_ctz(~(unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(t, _mm_setzero_si128())));
+        const unsigned zeros =
+            (unsigned)__builtin_ctz(~(unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(t, _mm_setzero_si128())));
         if (ip || n > 23 || n - zeros > 19) return NULL;
     }
     const uint64_t man = ip * pow10_frac[n] + sse_digits_scaled(t, 16) * pow10_frac[n - 16] + digits_value(w2, n - 16);
