@@ -532,6 +532,11 @@ static inline uint64_t word_digits(uint64_t v, uint64_t nd, unsigned *k)
 QUICK_INLINE const unsigned char *quick_digit_run(const unsigned char *p, uint64_t *man, int words)
 {
     uint64_t m = *man, w = load8(p), nd = nondigit_bytes(w);
+    unsigned k;
+    if (nd) { /* the run ends in its first word (peeled: with *man 0 no multiplication) */
+        *man = m * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
+        return p + k;
+    }
     for (; !nd; --words) {
         if (words == 0) return NULL;
         m = m * 100000000u + digits_value(w, 8);
@@ -539,7 +544,6 @@ QUICK_INLINE const unsigned char *quick_digit_run(const unsigned char *p, uint64
         w = load8(p);
         nd = nondigit_bytes(w);
     }
-    unsigned k;
     *man = m * pow10_u64[leading_digits(nd)] + word_digits(w, nd, &k);
     return p + k;
 }
@@ -774,7 +778,7 @@ static inline const unsigned char *quick_int(const unsigned char *p, const unsig
  */
 QUICK_INLINE const unsigned char *quick_column(const unsigned char *p, const unsigned char *end, int64_t *c,
                                                 int64_t ncols, const unsigned char *kinds, const unsigned char *run,
-                                                double *vrow, int64_t **irow, const unsigned char *after)
+                                                double *vrow, int64_t *irow, const unsigned char *after)
 {
     const int64_t col = *c;
     const unsigned char *q;
@@ -782,7 +786,7 @@ QUICK_INLINE const unsigned char *quick_column(const unsigned char *p, const uns
         int64_t iv;
         q = quick_int(p, after, &iv);
         if (q) {
-            *(*irow)++ = iv;
+            irow[kinds[col] - 1] = iv; /* not a pointer advanced per column: a chain through memory */
             vrow[col] = (double)iv;
         }
     } else {
@@ -836,8 +840,8 @@ QUICK_INLINE const unsigned char *quick_column(const unsigned char *p, const uns
 }
 
 /*
- * One row from p (a line start with at least ncols * QUICK_READ bytes to end): ncols tokens (kinds[c]: 1
- * for an integer column) separated by runs of separators, the line ended by '\n' (trailing separators
+ * One row from p (a line start with at least ncols * QUICK_READ bytes to end): ncols tokens (kinds[c]: 0
+ * for a float column, 1 + the column's place in irow for an integer one) separated by runs of separators, the line ended by '\n' (trailing separators
  * allowed). run[c]: how many float columns from c on may be taken as a block of one-digit tokens each
  * followed by ' ' (not the last column). Returns the start of the next line with vrow and irow filled, or
  * NULL (see above; the row may be partly written).
@@ -849,9 +853,9 @@ static const unsigned char *quick_row(const unsigned char *p, const unsigned cha
     const int64_t last = ncols - 1;
     int64_t c = 0;
     while (c < last)
-        if (!(p = quick_column(p, end, &c, ncols, kinds, run, vrow, &irow, after_mid))) return NULL;
+        if (!(p = quick_column(p, end, &c, ncols, kinds, run, vrow, irow, after_mid))) return NULL;
     while (c == last)
-        if (!(p = quick_column(p, end, &c, ncols, kinds, run, vrow, &irow, after_last))) return NULL;
+        if (!(p = quick_column(p, end, &c, ncols, kinds, run, vrow, irow, after_last))) return NULL;
     if (p[-1] == '\n') return p;
     --p; /* trailing separators */
     while (p < end && byte_class[*p] == SPACE) ++p;
@@ -936,15 +940,16 @@ cg_status cg_text_parse_table(const char *text, size_t length, int64_t ncols, co
     const unsigned char *base = (const unsigned char *)text, *p = base, *end = base + length;
     int64_t line = 0, row = 0;
 #ifdef CG_TEXT_SWAR
-    /* the row path (quick_row) for tables of up to 256 columns, on lines with ncols * QUICK_READ bytes or more
+    /* the row path (quick_row) for tables of up to 255 columns, on lines with ncols * QUICK_READ bytes or more
        to the end */
-    unsigned char kinds[256], run[256];
-    const int quick = ncols <= 256 && length > (size_t)ncols * QUICK_READ;
-    if (quick)
-        for (int64_t c = ncols - 1; c >= 0; --c) {
-            kinds[c] = int_columns && int_columns[c];
+    unsigned char kinds[255], run[255];
+    const int quick = ncols <= 255 && length > (size_t)ncols * QUICK_READ;
+    if (quick) {
+        for (int64_t c = 0, slot = 0; c < ncols; ++c) /* an integer column's place in its row of ints, plus 1 */
+            kinds[c] = int_columns && int_columns[c] ? (unsigned char)++slot : 0;
+        for (int64_t c = ncols - 1; c >= 0; --c)
             run[c] = c == ncols - 1 || kinds[c] ? 0 : (unsigned char)(run[c + 1] < 4 ? run[c + 1] + 1 : 4);
-        }
+    }
     const unsigned char *quick_end = quick ? end - ncols * QUICK_READ : base; /* the last line start taken */
 #endif
     while (p < end) {

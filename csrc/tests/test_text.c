@@ -181,14 +181,17 @@ int main(void)
         free(got);
         free(ids);
     }
-    /* rows of 9 columns, most of them one-digit tokens (the row path takes up to 4 "d " at once), against strtod */
+    /* rows of 9 columns, most of them one-digit tokens (the row path takes up to 4 "d " at once), against strtod;
+       columns 0 and 4 integers (each to its place in the row of ints) */
     {
         enum { ROWS = 500, COLS = 9 };
         static const char *pick[] = {"0", "1", "9", "-1", "0.5", "12", "-3.25", "7", "0"};
+        static const unsigned char int9[COLS] = {1, 0, 0, 0, 1, 0, 0, 0, 0};
         char *text = malloc((size_t)ROWS * COLS * 8), *token[ROWS * COLS];
         double *got = malloc((size_t)ROWS * COLS * sizeof *got);
-        CHECK(text && got);
-        if (text && got) {
+        int64_t *got_ints = malloc((size_t)ROWS * 2 * sizeof *got_ints);
+        CHECK(text && got && got_ints);
+        if (text && got && got_ints) {
             size_t n = 0;
             uint64_t state = 0x9E3779B97F4A7C15ULL;
             for (int k = 0; k < ROWS * COLS; ++k) {
@@ -196,6 +199,7 @@ int main(void)
                 state ^= state >> 7;
                 state ^= state << 17;
                 token[k] = (char *)pick[(state >> 20) % 9];
+                if (int9[k % COLS] && strchr(token[k], '.')) token[k] = (char *)(k % 2 ? "-1234" : "56");
                 n += (size_t)sprintf(text + n, "%s%c", token[k], k % COLS == COLS - 1 ? '\n' : ' ');
             }
             cg_text_result res;
@@ -203,9 +207,16 @@ int main(void)
             int wrong = 0;
             for (int k = 0; k < ROWS * COLS && res.nrows == ROWS; ++k) wrong += got[k] != strtod(token[k], NULL);
             CHECK(wrong == 0);
+            CHECK(cg_text_parse_table(text, n, COLS, int9, 0, ROWS, got, got_ints, &res) == CG_OK &&
+                  res.nrows == ROWS);
+            for (int k = 0; k < ROWS * COLS && res.nrows == ROWS; ++k)
+                wrong += got[k] != strtod(token[k], NULL) ||
+                         (int9[k % COLS] && got_ints[k / COLS * 2 + (k % COLS > 0)] != strtoll(token[k], NULL, 10));
+            CHECK(wrong == 0);
         }
         free(text);
         free(got);
+        free(got_ints);
     }
     /* values */
     const char *ok = "4.9406564584124654e-324 -0\n0.1 9007199254740993\n";
