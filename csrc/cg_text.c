@@ -791,7 +791,8 @@ QUICK_INLINE const unsigned char *quick_column(const unsigned char *p, const uns
         }
     } else {
         if (*p != '-') { /* the sign is a branch: the token's parse then does not wait on its first byte */
-            if (is_digit(p[0]) && after[p[1]]) { /* one digit alone: the 0s and 1s of unused columns */
+            /* one digit alone: the 0s and 1s of unused columns (d.ddd, the usual float, tested first: one compare) */
+            if (p[1] != '.' && is_digit(p[0]) && after[p[1]]) {
                 if (run[col] && p[1] == ' ') {
                     /* n tokens "d " (1 to 4) from one word: the first byte that does not fit ("d" <= 9 or
                        " " == 0 after the xor) has its high bit set */
@@ -822,7 +823,7 @@ QUICK_INLINE const unsigned char *quick_column(const unsigned char *p, const uns
             } else {
                 q = quick_double(p, 0, after, &vrow[col]);
             }
-        } else if (is_digit(p[1]) && after[p[2]]) {
+        } else if (p[2] != '.' && is_digit(p[1]) && after[p[2]]) {
             vrow[col] = -(double)(p[1] - '0');
             q = p + 2;
         } else {
