@@ -660,7 +660,17 @@ QUICK_INLINE const unsigned char *sse_fraction(const unsigned char *f, uint64_t 
             }
             if (eisel_lemire(man, -16, neg, value)) return e;
         } else if ((*e | 0x20) == 'e') { /* an exponent: the same value, its exponent added to -16 */
-            const unsigned char *q = quick_exponent(e, after, ip * 10000000000000000ULL + x, -16, neg, value);
+            const uint64_t man = ip * 10000000000000000ULL + x;
+            /* two digits with a sign, as %g and %e write most of them: decided here (no Clinger: a mantissa of 17
+               digits is above 2^53, and a failure falls back to quick_exponent) */
+            const unsigned char *s = e + 1;
+            const int eneg = *s == '-';
+            s += eneg | (*s == '+');
+            const unsigned d0 = (unsigned)(s[0] - '0'), d1 = (unsigned)(s[1] - '0');
+            if (d0 < 10 && d1 < 10 && after[s[2]] && man != 0 &&
+                eisel_lemire(man, -16 + (eneg ? -(int)(d0 * 10 + d1) : (int)(d0 * 10 + d1)), neg, value))
+                return s + 2;
+            const unsigned char *q = quick_exponent(e, after, man, -16, neg, value);
             if (q) return q;
         }
 #endif

@@ -147,7 +147,8 @@ int main(void)
                 /* the first rows: rounding carried into the next binade (a power of two), exact binary values */
                 static const char *fixed[] = {"1.9999999999999999", "-7.9999999999999999", "0.99999999999999999",
                                               "63.999999999999999", "3.9999999999999999e-05", "1.5", "-0.5",
-                                              "0.0", "45.049999999999997", "0.25e1"};
+                                              "0.0", "45.049999999999997", "0.25e1", "4.46e-05", "1.5e+01",
+                                              "-9.8765432109876543e-99", "0.0e-05", "1.2345e5", "7.0000000000000001e+22"};
                 if (r < (int)(sizeof fixed / sizeof *fixed)) {
                     snprintf(token[r], sizeof token[r], "%s", fixed[r]);
                     shape = -1;
