@@ -580,8 +580,11 @@ static inline const unsigned char *quick_exponent(const unsigned char *p, const 
  * and a word load and three integer operations take less time than a vector load, compares and a movemask:
  * 12 % less CPU time on the W1 files) are paired by a 16-bit multiply, then two pmaddwd, about 20 instructions
  * instead of two or three 8-byte word conversions (80 or more). The bytes after the n digits are zeroed, so the
- * register gives F * 10^(16 - n); F follows exactly as (x >> (16 - n)) * (5^(16 - n))^-1 mod 2^64 (x is a
- * multiple of 2^(16-n) * 5^(16-n); 5 is odd, so invertible). The loads are at fixed offsets from the token.
+ * register gives x = F * 10^(16 - n): the value is (ip * 10^16 + x) * 10^-16 whatever n, Eisel-Lemire's
+ * exponent a constant (its table row and binary exponent folded). Where that does not decide (exact binary
+ * values such as 0.5 or 1.5; halfway cases), F follows exactly as (x >> (16 - n)) * (5^(16 - n))^-1 mod 2^64 (x
+ * is a multiple of 2^(16-n) * 5^(16-n); 5 is odd, so invertible) for Clinger's path. The loads are at fixed
+ * offsets from the token.
  */
 static const uint64_t inv5_pow[17] = {
     0x0000000000000001ULL, 0xCCCCCCCCCCCCCCCDULL, 0x8F5C28F5C28F5C29ULL, 0x1CAC083126E978D5ULL, 0xD288CE703AFB7E91ULL,
