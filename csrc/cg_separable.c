@@ -9,7 +9,10 @@
  * multiply-add per node and value. The cutoff ball is applied node by node
  * with the same squared distance as the node-by-node path (cg_scatter.c): the
  * nodes inside are an interval of each row (the squared distance is convex
- * along it), found by walking from the previous row's ends.
+ * along it), found by walking from the previous row's ends. A point's values
+ * go through visit_point: the same stencil, tables and sums, without the set-up
+ * for rules and capsules; with one value (a density) each row's nodes inside
+ * the ball come from one vector compare, no walk (rows_of_point).
  *
  * Segments with an n-point Gauss-Legendre rule are n points with weights
  * w_g: the same outer products, one table set per point (one pass per point
