@@ -9,7 +9,10 @@
  * multiply-add per node and value. The cutoff ball is applied node by node
  * with the same squared distance as the node-by-node path (cg_scatter.c): the
  * nodes inside are an interval of each row (the squared distance is convex
- * along it), found by walking from the previous row's ends.
+ * along it), found by walking from the previous row's ends. A point's values
+ * go through visit_point: the same stencil, tables and sums, without the set-up
+ * for rules and capsules; with one value (a density) each row's nodes inside
+ * the ball come from one vector compare, no walk (rows_of_point).
  *
  * Segments with an n-point Gauss-Legendre rule are n points with weights
  * w_g: the same outer products, one table set per point (one pass per point
@@ -1085,6 +1088,63 @@ INLINE void rows_of_rule(double *restrict out, cg_index stride_i, cg_index strid
                              pending_k1 - pending_k0, v, nv, pick);
     }
 }
+
+/* a point's stencils longer than this along an axis go to the general visit (visit_point's tables are on the stack) */
+#define POINT_ROW_MAX 64
+
+/* rows_of_one_point in MODE_VALUE for one value v0 (not picked), n2 <= POINT_ROW_MAX: the same
+   nodes, terms and sums, with no walk and no call or branch per node. A row's nodes inside the
+   ball are a mask, VW nodes at a time (lanes past n2 masked off: the z tables are read up to
+   VW - 1 past their ends, values not used); they are an interval (dz falls, then rises). The
+   AVX-512 build adds them by masked loads and stores (the nodes outside are not touched); the
+   4-wide one, the row's interval from the mask's bits. */
+INLINE void rows_of_point(double *restrict out, cg_index stride_i, cg_index stride_j, cg_index n0, cg_index n1,
+                          cg_index n2, const double *restrict dx, const double *restrict dy,
+                          const double *restrict dz, const double *restrict gx, const double *restrict gy,
+                          const double *restrict gz, double c, double R2, double v0)
+{
+    const cg_index jm = argmin(dy, n1), km = argmin(dz, n2); /* the nodes of least squared distance */
+    const double dz_min = dz[km];
+    const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
+#if ROW_MASKS_AVX512
+    const __m512d R2v = _mm512_set1_pd(R2), vv = _mm512_set1_pd(v0);
+#else
+    const vwd R2v = SPLAT(R2);
+#endif
+    for (cg_index i = 0; i < n0; ++i) {
+        const double si = dx[i];
+        cg_index j0, j1;
+        if (!plane_rows(si, dy, n1, jm, dz_min, R2, &j0, &j1)) continue;
+        const double ci = c * gx[i];
+        for (cg_index j = j0; j < j1; ++j) {
+            const double s01 = si + dy[j], cij = ci * gy[j];
+            double *restrict orow = out + i * stride_i + j * stride_j; /* node k = 0 of the row */
+#if ROW_MASKS_AVX512
+            const __m512d sv = _mm512_set1_pd(s01), cv = _mm512_set1_pd(cij);
+            for (cg_index kw = 0; kw < n2; kw += VW) {
+                const __mmask8 m = _mm512_cmp_pd_mask(_mm512_add_pd(sv, _mm512_loadu_pd(dz + kw)), R2v, _CMP_LT_OQ) &
+                                   (__mmask8)(valid >> kw);
+                if (!m) continue;
+                double *o = orow + kw;
+                const __m512d t = _mm512_mul_pd(_mm512_mul_pd(cv, _mm512_loadu_pd(gz + kw)), vv);
+                _mm512_mask_storeu_pd(o, m, _mm512_add_pd(_mm512_maskz_loadu_pd(m, o), t));
+            }
+#else
+            const vwd sv = SPLAT(s01);
+            uint64_t bits = 0;
+            for (cg_index kw = 0; kw < n2; kw += VW) {
+                vwd dzk;
+                memcpy(&dzk, dz + kw, sizeof dzk);
+                bits |= mask_bits((vwl)(sv + dzk < R2v)) << kw;
+            }
+            bits &= valid;
+            if (!bits) continue;
+            const cg_index a = __builtin_ctzll(bits), b = 64 - __builtin_clzll(bits);
+            for (cg_index k = a; k < b; ++k) orow[k] += (cij * gz[k]) * v0;
+#endif
+        }
+    }
+}
 #endif
 
 /* Two builds of the visit below: cg_separable_wide.c compiles this file again
@@ -1178,6 +1238,80 @@ HOT_CLONES static void packed_tables(double *restrict packed, size_t at[3], doub
     if (!moves2) memcpy(fz, pz, (size_t)n2 * sizeof(double));
 }
 
+#ifdef HAVE_V4D
+/* A point in MODE_VALUE: the general visit's stencil, tables and sums (below: the same operations, so
+   the same bits) without its set-up for rules, capsules and scratch memory (the tables are on the
+   stack); one value's rows by rows_of_point, more values' by rows_of_one_point. Returns 1 when done,
+   0 to leave the point to the general visit (sparse values, which it picks; stencils longer than
+   POINT_ROW_MAX along an axis). A function of its own (not inlined into the visit, whose register
+   allocation is tuned for the segments). */
+#if defined(__GNUC__)
+__attribute__((noinline))
+#endif
+HOT_CLONES static int visit_point(const job *jb, double *out, cg_index obj, const double *x)
+{
+    const cg_target *t = jb->target;
+    const cg_kernel *kn = jb->kernel;
+    const int nr = t->n_resolved, pad = 3 - nr, nv = jb->n_values;
+    const double R = kn->radius, R2 = R * R, w = kn->width, inv2w2 = 0.5 / (w * w), c = kn->prefactor;
+    const double *values = jb->values + obj * nv;
+    picked pick = {PLAIN + nv, {0, 0, 0}, {0.0, 0.0, 0.0}};
+    if (isfinite(4.0 * c) && pick_values(values, nv, &pick) == 0) return 1; /* every value is +-0 */
+    if (pick.kind <= PICK_MAX) return 0;
+    cg_index first[3] = {0, 0, 0}, count[3] = {1, 1, 1}, stride[3] = {0, 0, 0};
+    cg_index st = 1;
+    for (int a = nr - 1; a >= 0; --a) {
+        const int s = a + pad;
+        const double c0 = t->coords[a][0], h = jb->spacing[a];
+        const cg_index n = t->shape[a];
+        stride[s] = st;
+        st *= n;
+        const double lo = x[a] - R, hi = x[a] + R;
+        if (hi < jb->lo[a] || lo > jb->hi[a]) return 1;
+        if (n == 1 || h == 0.0) { first[s] = 0; count[s] = n; continue; }
+        double f = floor((lo - c0) / h), l = ceil((hi - c0) / h);
+        if (f < 0.0) f = 0.0;
+        if (l > (double)(n - 1)) l = (double)(n - 1);
+        if (f > l) return 1;
+        first[s] = (cg_index)f;
+        count[s] = (cg_index)l - (cg_index)f + 1;
+        if (count[s] > POINT_ROW_MAX) return 0;
+    }
+    const cg_index n0 = count[0], n1 = count[1], n2 = count[2], n_all = n0 + n1 + n2;
+    /* per slot the squared distances (node - x)^2 and their exponentials, one call for all;
+       rows_of_point reads up to VW - 1 past the last table */
+    double d2[3 * POINT_ROW_MAX + EXP_PAD], ex[3 * POINT_ROW_MAX + EXP_PAD];
+    double *ds[3] = {d2, d2 + n0, d2 + n0 + n1};
+    for (int s = 0; s < 3; ++s) {
+        if (s < pad) {
+            ds[s][0] = 0.0;
+            continue;
+        }
+        const double *restrict cs = t->coords[s - pad] + first[s];
+        double *restrict dst = ds[s];
+        const double xs = x[s - pad];
+        for (cg_index k = 0; k < count[s]; ++k) {
+            const double q = cs[k] - xs;
+            dst[k] = q * q;
+        }
+    }
+    const cg_index n_padded = (n_all + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
+    for (cg_index m = 0; m < n_all; ++m) ex[m] = -d2[m] * inv2w2;
+    for (int m = 0; m < EXP_PAD; ++m) d2[n_all + m] = ex[n_all + m] = 0.0;
+    cg_exp_in_place(ex, n_padded);
+    const cg_index node0 = first[0] * stride[0] + first[1] * stride[1] + first[2] * stride[2];
+    double *const o = out + node0 * nv;
+    const cg_index si = stride[0] * nv, sj = stride[1] * nv;
+    const double *gx = ex, *gy = ex + n0, *gz = ex + n0 + n1;
+    if (nv == 1)
+        rows_of_point(o, si, sj, n0, n1, n2, ds[0], ds[1], ds[2], gx, gy, gz, c, R2, values[0]);
+    else /* (the walks of rows_of_one_point: rows_of_point with 13 values took 15 % more on W1) */
+        rows_of_one_point(jb, out, obj, node0, stride[0], stride[1], n0, n1, n2, ds[0], ds[1], ds[2], gx, gy, gz, c,
+                          R2, values, nv, &pick);
+    return 1;
+}
+#endif
+
 #ifndef CG_SEPARABLE_WIDE
 static
 #endif
@@ -1189,6 +1323,9 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     const cg_kernel *kn = jb->kernel;
     const int nr = t->n_resolved, pad = 3 - nr;
     const double R = kn->radius, R2 = R * R, w = kn->width, inv2w2 = 0.5 / (w * w);
+#ifdef HAVE_V4D
+    if (!jb->is_segment && jb->mode == MODE_VALUE && visit_point(jb, out, obj, x)) return 1;
+#endif
 
     /* the rule: G points on the object with weights (times the prefactor) */
     double gx[CG_MAX_LINE_POINTS], gw[CG_MAX_LINE_POINTS];
