@@ -633,12 +633,6 @@ static inline uint64_t sse_digits_scaled(__m128i t, unsigned n)
     return (two & 0xFFFFFFFFu) * 100000000u + (two >> 32);
 }
 
-/* the value of the first n (0..16) bytes of t, digit values (0..9) */
-static inline uint64_t sse_digits_value(__m128i t, unsigned n)
-{
-    return (sse_digits_scaled(t, n) >> (16 - n)) * inv5_pow[16 - n];
-}
-
 /* the fraction from f (after the '.') of a float whose integer part ip has nip digits (1 or 2): like quick_double
    (the value and the byte after the token), or NULL to let its general code decide (no fraction digit, more
    than 19 significant digits, or an ending quick_exponent refuses). Reads [f, f + 30) at most */

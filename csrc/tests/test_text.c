@@ -149,7 +149,10 @@ int main(void)
                                               "63.999999999999999", "3.9999999999999999e-05", "1.5", "-0.5",
                                               "0.0", "45.049999999999997", "0.25e1", "4.46e-05", "1.5e+01",
                                               "-9.8765432109876543e-99", "0.0e-05", "1.2345e5", "7.0000000000000001e+22",
-                                              "1.2345678901234567e+13"};
+                                              "1.2345678901234567e+13", "9.007199254740993e+15",
+                                              "9.007199254740995e+15", "1.8014398509481986e+16", "1.5E15", "1.5e05",
+                                              "1.5e-5", "1.5e-055", "0.00000000000000000012345e-05", "00.5",
+                                              "0.123456789012345678901234", "-0.0", "05.25e-01"};
                 if (r < (int)(sizeof fixed / sizeof *fixed)) {
                     snprintf(token[r], sizeof token[r], "%s", fixed[r]);
                     shape = -1;
@@ -214,6 +217,42 @@ int main(void)
             for (int k = 0; k < ROWS * COLS && res.nrows == ROWS; ++k)
                 wrong += got[k] != strtod(token[k], NULL) ||
                          (int9[k % COLS] && got_ints[k / COLS * 2 + (k % COLS > 0)] != strtoll(token[k], NULL, 10));
+            CHECK(wrong == 0);
+        }
+        free(text);
+        free(got);
+        free(got_ints);
+    }
+    /* 11 columns, integers at 0 and 6: four float columns on each side (the row path's blocks of four one-digit
+       tokens beside integer columns); STOP_AT_MAX_ROWS with 40 lines after the table, into arrays of exactly the
+       table's size, so that its last row is also taken by the row path (valgrind and ASan see any write past) */
+    {
+        enum { ROWS = 300, TABLE = ROWS - 40, COLS = 11 };
+        static const char *pick[] = {"0", "1", "9", "-1", "0.5", "3", "-3.25", "7", "0", "2.5e-03"};
+        static const unsigned char int11[COLS] = {1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0};
+        char *text = malloc((size_t)ROWS * COLS * 8), *token[ROWS * COLS];
+        double *got = malloc((size_t)TABLE * COLS * sizeof *got);
+        int64_t *got_ints = malloc((size_t)TABLE * 2 * sizeof *got_ints);
+        CHECK(text && got && got_ints);
+        if (text && got && got_ints) {
+            size_t n = 0;
+            uint64_t state = 0x2545F4914F6CDD1DULL;
+            for (int k = 0; k < ROWS * COLS; ++k) {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                token[k] = (char *)pick[(state >> 20) % 10];
+                if (int11[k % COLS] && strpbrk(token[k], ".e")) token[k] = (char *)(k % 2 ? "-42" : "8");
+                n += (size_t)sprintf(text + n, "%s%c", token[k], k % COLS == COLS - 1 ? '\n' : ' ');
+            }
+            cg_text_result res;
+            CHECK(cg_text_parse_table(text, n, COLS, int11, CG_TEXT_STOP_AT_MAX_ROWS, TABLE, got, got_ints, &res) ==
+                      CG_OK &&
+                  res.nrows == TABLE);
+            int wrong = 0;
+            for (int k = 0; k < TABLE * COLS && res.nrows == TABLE; ++k)
+                wrong += got[k] != strtod(token[k], NULL) ||
+                         (int11[k % COLS] && got_ints[k / COLS * 2 + (k % COLS > 0)] != strtoll(token[k], NULL, 10));
             CHECK(wrong == 0);
         }
         free(text);
