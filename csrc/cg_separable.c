@@ -1238,6 +1238,28 @@ HOT_CLONES static void packed_tables(double *restrict packed, size_t at[3], doub
     if (!moves2) memcpy(fz, pz, (size_t)n2 * sizeof(double));
 }
 
+/* the nodes along resolved axis a (slot s) within [lo, hi]: first[s], count[s]; 0 when none (the object
+   carries nothing to the grid), 1 otherwise. An axis of one node (or of zero spacing) takes all its nodes. */
+INLINE int slot_range(const job *jb, int a, int s, double lo, double hi, cg_index *first, cg_index *count)
+{
+    const cg_target *t = jb->target;
+    const double c0 = t->coords[a][0], h = jb->spacing[a];
+    const cg_index n = t->shape[a];
+    if (hi < jb->lo[a] || lo > jb->hi[a]) return 0;
+    if (n == 1 || h == 0.0) {
+        first[s] = 0;
+        count[s] = n;
+        return 1;
+    }
+    double f = floor((lo - c0) / h), l = ceil((hi - c0) / h);
+    if (f < 0.0) f = 0.0;
+    if (l > (double)(n - 1)) l = (double)(n - 1);
+    if (f > l) return 0;
+    first[s] = (cg_index)f;
+    count[s] = (cg_index)l - (cg_index)f + 1;
+    return 1;
+}
+
 #ifdef HAVE_V4D
 /* A point in MODE_VALUE: the general visit's stencil, tables and sums (below: the same operations, so
    the same bits) without its set-up for rules, capsules and scratch memory (the tables are on the
@@ -1262,19 +1284,9 @@ HOT_CLONES static int visit_point(const job *jb, double *out, cg_index obj, cons
     cg_index st = 1;
     for (int a = nr - 1; a >= 0; --a) {
         const int s = a + pad;
-        const double c0 = t->coords[a][0], h = jb->spacing[a];
-        const cg_index n = t->shape[a];
         stride[s] = st;
-        st *= n;
-        const double lo = x[a] - R, hi = x[a] + R;
-        if (hi < jb->lo[a] || lo > jb->hi[a]) return 1;
-        if (n == 1 || h == 0.0) { first[s] = 0; count[s] = n; continue; }
-        double f = floor((lo - c0) / h), l = ceil((hi - c0) / h);
-        if (f < 0.0) f = 0.0;
-        if (l > (double)(n - 1)) l = (double)(n - 1);
-        if (f > l) return 1;
-        first[s] = (cg_index)f;
-        count[s] = (cg_index)l - (cg_index)f + 1;
+        st *= t->shape[a];
+        if (!slot_range(jb, a, s, x[a] - R, x[a] + R, first, count)) return 1;
         if (count[s] > POINT_ROW_MAX) return 0;
     }
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2], n_all = n0 + n1 + n2;
@@ -1363,22 +1375,13 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     cg_index st = 1;
     for (int a = nr - 1; a >= 0; --a) {
         const int s = a + pad;
-        const double c0 = t->coords[a][0], h = jb->spacing[a];
-        const cg_index n = t->shape[a];
         stride[s] = st;
-        st *= n;
+        st *= t->shape[a];
         xs[s] = x[a];
         es[s] = e ? e[a] : 0.0;
         const double end = x[a] + es[s]; /* (libm's fmin and fmax are calls) */
         const double lo = (end < x[a] ? end : x[a]) - R, hi = (end > x[a] ? end : x[a]) + R;
-        if (hi < jb->lo[a] || lo > jb->hi[a]) return 1;
-        if (n == 1 || h == 0.0) { first[s] = 0; count[s] = n; continue; }
-        double f = floor((lo - c0) / h), l = ceil((hi - c0) / h);
-        if (f < 0.0) f = 0.0;
-        if (l > (double)(n - 1)) l = (double)(n - 1);
-        if (f > l) return 1;
-        first[s] = (cg_index)f;
-        count[s] = (cg_index)l - (cg_index)f + 1;
+        if (!slot_range(jb, a, s, lo, hi, first, count)) return 1;
     }
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
     const size_t per_table_f = (size_t)(n0 + n1 + n2); /* hybrid: the factorised weights (below) */
