@@ -19,6 +19,52 @@ static int failures = 0;
         }                                                                     \
     } while (0)
 
+/* rows x cols tokens drawn from pick (xorshift from state; in an integer column of ints a token with '.' or 'e'
+   becomes int_tokens[k % 2]), parsed as a table of its first `table` rows (with flags) into arrays of exactly that
+   size: every value against strtod, every integer against strtoll; also_as_floats: the same text parsed first
+   with no integer column */
+static void short_token_rows(int rows, int table, int cols, const unsigned char *ints, int flags, int also_as_floats,
+                             const char *const *pick, int npick, const char *const *int_tokens, uint64_t state)
+{
+    int n_int = 0, slot[256];
+    for (int c = 0; c < cols; ++c) slot[c] = ints && ints[c] ? n_int++ : -1;
+    char *text = malloc((size_t)rows * (size_t)cols * 8);
+    const char **token = malloc((size_t)rows * (size_t)cols * sizeof *token);
+    double *got = malloc((size_t)table * (size_t)cols * sizeof *got);
+    int64_t *got_ints = n_int ? malloc((size_t)table * (size_t)n_int * sizeof *got_ints) : NULL;
+    CHECK(text && token && got && (got_ints || !n_int));
+    if (text && token && got && (got_ints || !n_int)) {
+        size_t n = 0;
+        for (int k = 0; k < rows * cols; ++k) {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            token[k] = pick[(state >> 20) % (uint64_t)npick];
+            if (slot[k % cols] >= 0 && strpbrk(token[k], ".e")) token[k] = int_tokens[k % 2];
+            n += (size_t)sprintf(text + n, "%s%c", token[k], k % cols == cols - 1 ? '\n' : ' ');
+        }
+        cg_text_result res;
+        int wrong = 0;
+        if (also_as_floats) {
+            CHECK(cg_text_parse_table(text, n, cols, NULL, flags, table, got, NULL, &res) == CG_OK &&
+                  res.nrows == table);
+            for (int k = 0; k < table * cols && res.nrows == table; ++k) wrong += got[k] != strtod(token[k], NULL);
+            CHECK(wrong == 0);
+        }
+        CHECK(cg_text_parse_table(text, n, cols, ints, flags, table, got, got_ints, &res) == CG_OK &&
+              res.nrows == table);
+        for (int k = 0; k < table * cols && res.nrows == table; ++k)
+            wrong += got[k] != strtod(token[k], NULL) ||
+                     (slot[k % cols] >= 0 &&
+                      got_ints[k / cols * n_int + slot[k % cols]] != strtoll(token[k], NULL, 10));
+        CHECK(wrong == 0);
+    }
+    free(text);
+    free(token);
+    free(got);
+    free(got_ints);
+}
+
 int main(void)
 {
     const long page = sysconf(_SC_PAGESIZE);
@@ -189,75 +235,19 @@ int main(void)
     /* rows of 9 columns, most of them one-digit tokens (the row path takes up to 4 "d " at once), against strtod;
        columns 0 and 4 integers (each to its place in the row of ints) */
     {
-        enum { ROWS = 500, COLS = 9 };
         static const char *pick[] = {"0", "1", "9", "-1", "0.5", "12", "-3.25", "7", "0"};
-        static const unsigned char int9[COLS] = {1, 0, 0, 0, 1, 0, 0, 0, 0};
-        char *text = malloc((size_t)ROWS * COLS * 8), *token[ROWS * COLS];
-        double *got = malloc((size_t)ROWS * COLS * sizeof *got);
-        int64_t *got_ints = malloc((size_t)ROWS * 2 * sizeof *got_ints);
-        CHECK(text && got && got_ints);
-        if (text && got && got_ints) {
-            size_t n = 0;
-            uint64_t state = 0x9E3779B97F4A7C15ULL;
-            for (int k = 0; k < ROWS * COLS; ++k) {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                token[k] = (char *)pick[(state >> 20) % 9];
-                if (int9[k % COLS] && strchr(token[k], '.')) token[k] = (char *)(k % 2 ? "-1234" : "56");
-                n += (size_t)sprintf(text + n, "%s%c", token[k], k % COLS == COLS - 1 ? '\n' : ' ');
-            }
-            cg_text_result res;
-            CHECK(cg_text_parse_table(text, n, COLS, NULL, 0, ROWS, got, NULL, &res) == CG_OK && res.nrows == ROWS);
-            int wrong = 0;
-            for (int k = 0; k < ROWS * COLS && res.nrows == ROWS; ++k) wrong += got[k] != strtod(token[k], NULL);
-            CHECK(wrong == 0);
-            CHECK(cg_text_parse_table(text, n, COLS, int9, 0, ROWS, got, got_ints, &res) == CG_OK &&
-                  res.nrows == ROWS);
-            for (int k = 0; k < ROWS * COLS && res.nrows == ROWS; ++k)
-                wrong += got[k] != strtod(token[k], NULL) ||
-                         (int9[k % COLS] && got_ints[k / COLS * 2 + (k % COLS > 0)] != strtoll(token[k], NULL, 10));
-            CHECK(wrong == 0);
-        }
-        free(text);
-        free(got);
-        free(got_ints);
+        static const unsigned char int9[9] = {1, 0, 0, 0, 1, 0, 0, 0, 0};
+        static const char *int_tokens[2] = {"56", "-1234"};
+        short_token_rows(500, 500, 9, int9, 0, 1, pick, 9, int_tokens, 0x9E3779B97F4A7C15ULL);
     }
     /* 11 columns, integers at 0 and 6: four float columns on each side (the row path's blocks of four one-digit
        tokens beside integer columns); STOP_AT_MAX_ROWS with 40 lines after the table, into arrays of exactly the
        table's size, so that its last row is also taken by the row path (valgrind and ASan see any write past) */
     {
-        enum { ROWS = 300, TABLE = ROWS - 40, COLS = 11 };
         static const char *pick[] = {"0", "1", "9", "-1", "0.5", "3", "-3.25", "7", "0", "2.5e-03"};
-        static const unsigned char int11[COLS] = {1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0};
-        char *text = malloc((size_t)ROWS * COLS * 8), *token[ROWS * COLS];
-        double *got = malloc((size_t)TABLE * COLS * sizeof *got);
-        int64_t *got_ints = malloc((size_t)TABLE * 2 * sizeof *got_ints);
-        CHECK(text && got && got_ints);
-        if (text && got && got_ints) {
-            size_t n = 0;
-            uint64_t state = 0x2545F4914F6CDD1DULL;
-            for (int k = 0; k < ROWS * COLS; ++k) {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                token[k] = (char *)pick[(state >> 20) % 10];
-                if (int11[k % COLS] && strpbrk(token[k], ".e")) token[k] = (char *)(k % 2 ? "-42" : "8");
-                n += (size_t)sprintf(text + n, "%s%c", token[k], k % COLS == COLS - 1 ? '\n' : ' ');
-            }
-            cg_text_result res;
-            CHECK(cg_text_parse_table(text, n, COLS, int11, CG_TEXT_STOP_AT_MAX_ROWS, TABLE, got, got_ints, &res) ==
-                      CG_OK &&
-                  res.nrows == TABLE);
-            int wrong = 0;
-            for (int k = 0; k < TABLE * COLS && res.nrows == TABLE; ++k)
-                wrong += got[k] != strtod(token[k], NULL) ||
-                         (int11[k % COLS] && got_ints[k / COLS * 2 + (k % COLS > 0)] != strtoll(token[k], NULL, 10));
-            CHECK(wrong == 0);
-        }
-        free(text);
-        free(got);
-        free(got_ints);
+        static const unsigned char int11[11] = {1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0};
+        static const char *int_tokens[2] = {"8", "-42"};
+        short_token_rows(300, 260, 11, int11, CG_TEXT_STOP_AT_MAX_ROWS, 0, pick, 10, int_tokens, 0x2545F4914F6CDD1DULL);
     }
     /* values */
     const char *ok = "4.9406564584124654e-324 -0\n0.1 9007199254740993\n";
