@@ -26,7 +26,7 @@ def test_project_lammps_scripts(name, style, dim, gravity, branch):
     cols = s.pair_columns("pairs.dump")
     # these scripts write "index c_pp[*] c_pl[*]" with pair/local "dist fx fy fz p1 ..."
     assert cols == {"id1": "c_pp[1]", "id2": "c_pp[2]", "force": ("c_pl[2]", "c_pl[3]", "c_pl[4]"),
-                    "tangential": ("c_pl[5]", "c_pl[6]", "c_pl[7]"), "branch": branch}
+                    "tangential": ("c_pl[5]", "c_pl[6]", "c_pl[7]"), "branch": branch, "dist": "c_pl[1]"}
     atoms = s.dump_for("atoms.dump")
     assert atoms.names[:3] == ("id", "type", "x") and atoms.names[-8:] == tuple(f"f_w[{k}]" for k in range(1, 9))
 
@@ -80,9 +80,16 @@ def check_reordered(directory):
     snap = good[0]
     assert snap.fixed.sum() == 25 and len(snap.contacts) > 0
     # the columns (and the chute gravity) read from the script balance the dumped forces to round-off;
-    # the reader's default column order does not
+    # the reader's default column order is refused: its 'dist' (a force component) is not the distance the
+    # positions give, nor do its forces balance
     assert good.force_mismatch(0) < 1e-12
-    assert default.force_mismatch(0) > 0.1
+    with pytest.raises(ValueError, match=r"atoms\.3000\.dump: timestep 3000: .* contacts have a distance "
+                                         r"\('dist', column c_pl\[1\]\).*pair_values=\('dist'"):
+        default.force_mismatch(0)
+    cols = dict(default.pair_columns, dist=None)     # without its 'dist', the balance says it
+    unchecked = LammpsReader(default.atoms_path, default.pairs_path, pair_columns=cols, fixed_types=s.fixed_types,
+                             body_force=s.gravity, check_forces=False)
+    assert unchecked.force_mismatch(0) > 0.1
 
 
 def test_reordered_pair_dump_committed():
@@ -126,7 +133,7 @@ def test_substitution_and_gravity_styles(tmp_path):
     assert np.allclose(s.gravity, 6 * np.array([np.sin(np.pi / 2), 0, np.cos(np.pi / 2)]), atol=1e-14)
     cols = s.pair_columns("pair_7.dump")
     assert cols == {"id1": "c_pp[1]", "id2": "c_pp[2]", "force": ("c_c_x[5]", "c_c_x[6]", "c_c_x[7]"),
-                    "tangential": ("c_c_x[1]", "c_c_x[2]", "c_c_x[3]"), "branch": None}
+                    "tangential": ("c_c_x[1]", "c_c_x[2]", "c_c_x[3]"), "branch": None, "dist": None}
     s = read_input(p, {"x": 9})
     assert s.dump_for("pair_9.dump").file == "pair_9.dump"
     # quotes stop substitution (and comments), as in LAMMPS

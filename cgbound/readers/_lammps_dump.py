@@ -324,6 +324,7 @@ def _read_frame(buf, start, stop, kind, path, line, int_columns, integral_column
     for name in integral_columns:
         if name in head["data"] and name not in head["data"].integer_columns:
             head["data"].integer_columns[name] = _whole_numbers(head["data"][name], name, head, path)
+    head["first_line"] = head["rows_line"]     # (the 1-based line of the first row: errors name a row's line)
     del head["rows"], head["rows_line"]  # offsets in buf are not part of the frame's description
     return head
 

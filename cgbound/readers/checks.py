@@ -12,6 +12,13 @@ from .files import open_input
 #: 1e-3 to 1e-1; a wrong column order, pair style or missing body force order 1.
 FORCE_BALANCE_TOLERANCE = 1e-9
 
+#: Contact geometry the engine wrote (LAMMPS' ``dist`` and branch vector, LIGGGHTS' particle positions and
+#: overlap) must agree with the dumped positions to this fraction of (the value + the largest coordinate): a
+#: coordinate written with ``%g`` (6 digits) is off by 5e-6 of its size, so the distance between two by at most
+#: 2 sqrt(3) 5e-6 = 1.7e-5 of the largest coordinate (``%.17g``: 1e-16). Positions that are not positions
+#: (labels swapped, columns shifted) miss by the size of the distance itself.
+GEOMETRY_TOLERANCE = 1e-4
+
 _GENERIC = re.compile(r"^c_[A-Za-z0-9_]+\[\d+\]$")
 
 
@@ -94,3 +101,29 @@ def check_selects(selected, name, flag, path, where, present):
     if not np.any(selected):
         raise ValueError(f"{name}: selects no particle in {path} at {where} (present: {present}); "
                          f"check {flag}")
+
+
+def contact_geometry_error(atoms_path, pairs_path, timestep, bad, score, what, detail, pair_line, atom_ids,
+                           atom_lines, hints=()):
+    """The error for contacts whose geometry the dumped positions do not give (nothing is raised here).
+
+    ``bad``: (M,) bools of the contacts refused; ``score``: (M,) how far each is beyond its tolerance (the worst,
+    largest, is shown); ``what``: what the refused contacts do ("have a 'dist' that ..."); ``detail(k)``: the
+    numbers of contact k; ``pair_line(k)``, ``atom_ids(k)`` (two IDs) and ``atom_lines(k)`` (their lines in the
+    atoms dump, or None): where contact k is; ``hints``: other likely causes, as text naming the reader's option.
+    """
+    rows = np.flatnonzero(bad)
+    k = int(rows[np.argmax(score[rows])])
+    a, b = atom_ids(k)
+    lines = atom_lines(k)
+    at = f" (the atoms dump's lines {lines[0]} and {lines[1]})" if lines is not None else ""
+    causes = ("the atoms dump's position columns are not the positions: its 'ITEM: ATOMS' labels swapped (e.g. "
+              "'x y z' with 'vx vy vz') or the columns shifted against their labels, by an edit, a merge or a "
+              "converter")
+    causes = "; ".join([causes, *hints, "the two dumps are not of the same run"])
+    return ValueError(
+        f"{atoms_path}: timestep {timestep}: the positions do not fit the contacts of {pairs_path}: {rows.size} of "
+        f"{bad.size} contacts {what}. The worst: atoms {a} and {b}{at}, the contact dump's line {pair_line(k)}: "
+        f"{detail(k)}. Likely causes: {causes}. Fix: read the dumps as LAMMPS/LIGGGHTS wrote them, with the positions "
+        f"under their own labels (x y z, xu yu zu or xs ys zs); write floats with 'dump_modify ... format float "
+        f"%.17g' (few digits also blur this comparison)")

@@ -95,8 +95,8 @@ from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
-from .checks import (FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, dump_local_header, force_balance,
-                     generic_columns, row_norms)
+from .checks import (FORCE_BALANCE_TOLERANCE, GEOMETRY_TOLERANCE, check_force_balance, compute_columns,
+                     contact_geometry_error, dump_local_header, force_balance, generic_columns, row_norms)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -115,7 +115,7 @@ def pair_local_columns(pair_compute="pl", pair_values=DEFAULT_PAIR_VALUES, prope
 
     ``pair_values`` and ``property_values`` are the keywords given to ``compute pair/local`` and
     ``compute property/local``, in order. Returns a dict with keys ``id1``, ``id2``, ``force``
-    (3 names), ``tangential`` (3 names or None) and ``branch`` (3 names or None).
+    (3 names), ``tangential`` (3 names or None), ``branch`` (3 names or None) and ``dist`` (a name or None).
     """
     if pair_style not in PAIR_STYLES:
         raise ValueError(f"pair_style: expected one of {PAIR_STYLES}, got {pair_style!r}")
@@ -131,7 +131,8 @@ def pair_local_columns(pair_compute="pl", pair_values=DEFAULT_PAIR_VALUES, prope
     out = {"id1": col(property_compute, qv, "patom1", "property_values"),
            "id2": col(property_compute, qv, "patom2", "property_values"),
            "force": tuple(col(pair_compute, pv, k, "pair_values") for k in ("fx", "fy", "fz")),
-           "tangential": None, "branch": None}
+           "tangential": None, "branch": None,
+           "dist": col(pair_compute, pv, "dist", "pair_values") if "dist" in pv else None}
     if pair_style in ("gran", "granular"):
         out["tangential"] = tuple(col(pair_compute, pv, k, "pair_values") for k in ("p1", "p2", "p3"))
     if pair_style == "granular" and all(k in pv for k in ("p10", "p11", "p12")):
@@ -282,12 +283,12 @@ class LammpsReader(FrameReader):
         body force, walls or fixed particles, a frame dumped during a run). Default True.
     """
 
-    def __init__(self, atoms, pairs=None, *, pair_style="gran", pair_compute="pl", pair_values=None,
+    def __init__(self, atoms, pairs=None, *, pair_style=None, pair_compute="pl", pair_values=None,
                  property_compute="pp", property_values=("patom1", "patom2"), pair_columns=None,
                  walls=(), fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=3,
                  dt=None, wrap=True, drop_inactive=True, input=None, variables=None, check_forces=True, units=None):
         self.units = units
-        self.input_script = None
+        self.input_script = script = None
         if input is not None:
             from .lammps_input import read_input
             script = self.input_script = read_input(input, variables)
@@ -303,6 +304,9 @@ class LammpsReader(FrameReader):
                 walls = script.walls
         if dimension not in (2, 3):
             raise ValueError(f"dimension: expected 2 or 3, got {dimension!r}")
+        self.contact_reach = _contact_reach(pair_style, script)
+        if pair_style is None:
+            pair_style = "gran"
         if pair_style not in PAIR_STYLES:
             raise ValueError(f"pair_style: expected one of {PAIR_STYLES}, got {pair_style!r}")
         self.atoms_path = os.path.abspath(os.fspath(atoms))
@@ -392,9 +396,10 @@ class LammpsReader(FrameReader):
         fr = self._atoms_dump.read(atoms_offset)
         box = self._box(fr, timestep)
         atoms = self._atoms(fr["data"], box, timestep)
+        atoms = atoms._replace(first_line=fr.get("first_line"))
         parts = []
         if pairs_offset is not None:
-            parts.append(self._pair_contacts(pairs_offset, timestep, atoms.ids, atoms.positions, atoms.radii, box))
+            parts.append(self._pair_contacts(pairs_offset, timestep, atoms, box))
         parts += [self._wall_contacts(fr["data"], atoms, wall, box) for wall in self.walls]
         contacts, contact_ids, overlap = _joined_contacts(parts, self.dimension)
         safe_masses = np.where(atoms.fixed & ~(atoms.masses > 0), 1.0, atoms.masses)
@@ -480,6 +485,10 @@ class LammpsReader(FrameReader):
                 break
         else:
             raise ValueError(f"{path}: no position columns (x y z, xu yu zu, xs ys zs or xsu ysu zsu)")
+        # the size of the coordinates as written (before wrapping): how far their last digits reach
+        extent = max(float(np.max(np.abs(box.lower))), float(np.max(np.abs(box.upper))))
+        if n:
+            extent = max(extent, float(pos.max()), -float(pos.min()))
         if self.wrap and any(box.periodic):    # (wrapping moves coordinates along periodic axes only)
             pos = box.wrap(pos)
         types = column(tab.integers("type")) if "type" in tab else np.ones(n, np.int64)
@@ -498,7 +507,8 @@ class LammpsReader(FrameReader):
         # that makes cgbound's (axis 0, axis 1, normal) right-handed
         spin = self._pseudo_vectors(tab, ("omegax", "omegay", "omegaz"), order, "angular velocities")
         torques = self._pseudo_vectors(tab, ("tqx", "tqy", "tqz"), order, "torques")
-        return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed, spin, torques, positions_parsed)
+        return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed, spin, torques, positions_parsed,
+                      extent)
 
     def _pseudo_vectors(self, tab, names, order, what):
         """(n, 3) in 3D, the z column (n,) in 2D; None if the dump has none of the columns."""
@@ -551,20 +561,22 @@ class LammpsReader(FrameReader):
         wall_j = np.full(k.shape, -1, np.int64)
         return k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), np.full(k.shape, np.nan)
 
-    def _pair_contacts(self, offset, timestep, ids, pos, radii, box):
+    def _pair_contacts(self, offset, timestep, atoms, box):
         """The contacts of the pairs dump's frame at ``offset``: (i, j, force, point, contact IDs, overlap)."""
         fr = self._pairs_dump.read(offset, ("index",), self._pair_id_columns())
         if fr["n"] == 0:
             dim = self.dimension
             return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)),
                     np.zeros((0, 2), np.int64), np.zeros(0))
-        return self._pairs_from_table(fr["data"], fr["n"], timestep, ids, pos, radii, box)
+        where = _Where(timestep, fr.get("first_line"), atoms)
+        return self._pairs_from_table(fr["data"], fr["n"], timestep, atoms.ids, atoms.positions, atoms.radii, box,
+                                      where)
 
     def _pair_id_columns(self):
         """The contact dump's atom-ID columns: whole numbers (in the dump's float format), read as int64."""
         return (self.pair_columns["id1"], self.pair_columns["id2"])
 
-    def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
+    def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box, where=None):
         path = self.pairs_path
         names = self.pair_columns
         needed = [names["id1"], names["id2"], *names["force"]]
@@ -584,18 +596,22 @@ class LammpsReader(FrameReader):
             force += self._vectors(tab, names["tangential"])
         # np.take: a gather along axis 0, 5-7 times faster than pos[i] on (N, D) arrays (the same values)
         pos_i = np.take(pos, i, axis=0)
+        separation = np.take(pos, j, axis=0)
+        np.subtract(pos_i, separation, out=separation)   # (in place: a new array's pages cost the kernel's zeroing)
+        if any(box.periodic):   # (the minimum image changes components along periodic axes only)
+            separation = box.minimum_image(separation)
         if names.get("branch"):
             branch = self._vectors(tab, names["branch"])
         else:
-            branch = np.take(pos, j, axis=0)
-            np.subtract(pos_i, branch, out=branch)   # (in place: a new array's pages cost the kernel's zeroing)
-            if any(box.periodic):   # (the minimum image changes components along periodic axes only)
-                branch = box.minimum_image(branch)
+            branch = separation
         dist = row_norms(branch)
         if radii is None:
             raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or 'diameter' column")
         radii_i = np.take(radii, i)
-        overlap = radii_i + np.take(radii, j) - dist
+        radii_sum = radii_i + np.take(radii, j)
+        if where is not None:
+            self._check_pair_geometry(tab, where, i, j, id1, id2, separation, dist, branch, radii_sum, force)
+        overlap = radii_sum - dist
         kept = None
         if self.drop_inactive:
             keep = overlap > 0
@@ -618,6 +634,104 @@ class LammpsReader(FrameReader):
         contact_ids = np.empty((len(i), 2), np.int64)
         contact_ids[:, 0], contact_ids[:, 1] = (id1, id2) if kept is None else (id1[kept], id2[kept])
         return i, j, force, point, contact_ids, overlap
+
+
+    def _check_pair_geometry(self, tab, where, i, j, id1, id2, separation, dist, branch, radii_sum, force):
+        """Refuse a frame whose positions do not give its contacts' geometry (see the module docstring): the
+        branch vector (pair granular's p10-p12) or the ``dist`` the contact dump holds against the minimum-image
+        ``separation`` of the positions; without either, that a contact force acts only where the particles touch
+        (repulsive styles) or within 2 (r_i + r_j) (any granular model)."""
+        names, extent, tol = self.pair_columns, where.atoms.extent, GEOMETRY_TOLERANCE
+        hints = [self._balance_hints()[0]]    # (a 'dist' or branch read from another column)
+        if names.get("branch"):
+            err = row_norms(branch - separation)
+            slack = tol * (dist + extent)
+            cols = names["branch"]
+            what = f"have a branch vector x_i - x_j (columns {' '.join(cols)}) that their positions do not give"
+
+            def detail(k):
+                return (f"the contact dump's branch vector is ({', '.join(f'{v:.9g}' for v in branch[k])}), the "
+                        f"positions give ({', '.join(f'{v:.9g}' for v in separation[k])})")
+        elif names.get("dist") and names["dist"] in tab:
+            written = tab[names["dist"]]
+            err = np.abs(written - dist)
+            slack = tol * (np.abs(written) + extent)
+            what = f"have a distance ('dist', column {names['dist']}) that their positions do not give"
+
+            def detail(k):
+                return (f"'dist' is {written[k]:.9g} in the contact dump, the positions are {dist[k]:.9g} apart "
+                        f"(r_i + r_j = {radii_sum[k]:.6g})")
+        elif self.contact_reach is not None:
+            hint = ("the pair style pulls beyond contact (pair granular with jkr): say so with pair_style='granular' "
+                    "(--pair-style granular), or give the input script (--input)")
+            self._check_reach(where, i, j, id1, id2, dist, radii_sum, force, hint)
+            return
+        else:
+            return
+        self._refuse_geometry(where, i, j, id1, id2, err, slack, what, detail, hints)
+
+    def _check_reach(self, where, i, j, id1, id2, dist, radii_sum, force, hint):
+        """Refuse contacts that carry a force with their particles further apart than ``contact_reach`` (r_i + r_j)."""
+        reach, tol = self.contact_reach, GEOMETRY_TOLERANCE
+        active = force[:, 0] != 0
+        for a in range(1, force.shape[1]):
+            active |= force[:, a] != 0
+        err = np.where(active, dist - reach * radii_sum, -np.inf)
+        slack = tol * (radii_sum + where.atoms.extent)
+        hints = ["the radius (diameter) column is not the radii"]
+        if reach == 1:
+            what = ("carry a force while their particles do not touch (|x_i - x_j| > r_i + r_j), which a repulsive "
+                    "granular model cannot")
+            hints.append(hint)
+        else:
+            what = (f"carry a force with their particles apart by more than {reach:g} (r_i + r_j), which no "
+                    "granular contact model, cohesive or not, can")
+
+        def detail(k):
+            return (f"their centres are {dist[k]:.9g} apart, {dist[k] / radii_sum[k]:.6g} times r_i + r_j "
+                    f"({radii_sum[k]:.6g})")
+
+        self._refuse_geometry(where, i, j, id1, id2, err, slack, what, detail, hints)
+
+    def _refuse_geometry(self, where, i, j, id1, id2, err, slack, what, detail, hints):
+        """Raise (contact_geometry_error) when any contact's ``err`` exceeds its ``slack``."""
+        bad = err > slack
+        if not bad.any():
+            return
+        atoms = where.atoms
+
+        def atom_lines(k):
+            if atoms.first_line is None:
+                return None
+            return atoms.first_line + int(atoms.order[i[k]]), atoms.first_line + int(atoms.order[j[k]])
+
+        raise contact_geometry_error(
+            self.atoms_path, self.pairs_path, where.timestep, bad, err / np.maximum(slack, 1e-300), what, detail,
+            lambda k: "?" if where.pairs_line is None else where.pairs_line + k,
+            lambda k: (int(id1[k]), int(id2[k])), atom_lines, hints)
+
+
+def _contact_reach(pair_style, script):
+    """How far apart, in units of r_i + r_j, two particles that exert a contact force on each other can be: 1 for
+    the repulsive granular models, 2 where cohesion is possible or not known (a bound no granular contact model
+    reaches: JKR's pull-off distance and a liquid bridge's rupture distance are fractions of a radius), None (no
+    bound) for other pair styles. ``pair_style``: the reader's argument (None: not given); ``script``: the
+    InputScript or None."""
+    known = script is not None and bool(script.pair_command)
+    family = pair_style if pair_style is not None else (script.pair_style if known else "gran")
+    if family not in ("gran", "granular"):
+        return None
+    if known and script.pair_style == family and script.cohesive is not None:
+        return 2.0 if script.cohesive else 1.0
+    # named only by the family: "gran" is LAMMPS' gran/* styles (repulsive), "granular" may be jkr
+    return 1.0 if family == "gran" else 2.0
+
+
+class _Where(NamedTuple):
+    """Where a contact frame is: its timestep, the contact dump's line of its first row, the frame's atoms."""
+    timestep: int
+    pairs_line: object
+    atoms: object
 
 
 def table_columns(tab, names, rows=None):
@@ -649,6 +763,8 @@ class _Atoms(NamedTuple):
     angular_velocities: object = None
     torques: object = None
     positions_parsed: bool = False   # the positions as the dump has them (not scaled): finite, the parser says
+    extent: float = 0.0              # the largest coordinate magnitude as written (and the box bounds')
+    first_line: object = None        # the atoms dump's line of the frame's first row (None: not known)
 
 
 def _joined_contacts(parts, dim):

@@ -18,7 +18,11 @@ an :class:`InputScript`:
   fix covers them, when every integrator acts on a type-defined group);
 * ``gravity``: the ``fix gravity`` acceleration vector (magnitude times the unit direction of its
   ``vector``, ``chute`` or ``spherical`` style, as LAMMPS computes it), or None;
-* ``pair_style`` (``"gran"``, ``"granular"`` or ``"total"``: the LAMMPS reader's names) and ``dimension``.
+* ``pair_style`` (``"gran"``, ``"granular"`` or ``"total"``: the LAMMPS reader's names) and ``dimension``;
+  ``pair_command`` (the words of the last ``pair_style`` line) and ``cohesive``: whether the contact model
+  can pull beyond contact (True: LAMMPS ``granular`` with a ``jkr`` ``pair_coeff``, LIGGGHTS
+  ``gran ... cohesion ...``; False: LAMMPS ``gran/*``, ``granular`` without ``jkr``, LIGGGHTS ``gran`` without
+  ``cohesion``; None: not a granular style, or none given).
 
 The script is read in order, once: ``label``/``jump``/``next`` loops are not followed (a dump defined
 inside a loop is seen once). Constructs that would change what the dumps mean and cannot be
@@ -118,6 +122,8 @@ class InputScript:
     dimension: int = 3
     units: str = None              # the ``units`` command's style (lj, si, real, ...), None without one
     pair_style: str = None
+    pair_command: tuple = ()       # the words of the pair_style line ("gran/hooke/history", "2000.0", ...)
+    pair_coeffs: list = field(default_factory=list)   # the words of each pair_coeff line
     computes: dict = field(default_factory=dict)
     dumps: list = field(default_factory=list)
     walls: tuple = ()
@@ -126,6 +132,22 @@ class InputScript:
     gravity_group: str = None
     variables: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
+
+    @property
+    def cohesive(self):
+        """Whether the granular contact model can pull beyond contact (a force with the particles apart):
+        True, False, or None when the style is not granular (or no pair_style was given)."""
+        if not self.pair_command or self.pair_style not in ("gran", "granular"):
+            return None
+        style, args = self.pair_command[0], self.pair_command[1:]
+        if style == "granular":
+            # LAMMPS pair granular: the normal model is a pair_coeff keyword; only jkr acts beyond contact
+            # (its pull-off distance); hooke, hertz, hertz/material and dmt act only when overlapping
+            return any("jkr" in words for words in self.pair_coeffs)
+        if style == "gran" or "model" in args:
+            # LIGGGHTS "pair_style gran model hertz tangential history [cohesion sjkr|easo/capillary/viscous ...]"
+            return "cohesion" in args
+        return False    # LAMMPS gran/hooke, gran/hooke/history, gran/hertz/history: repulsive contact forces
 
     def dump_for(self, path):
         """The dump that wrote ``path`` (matched by file name; ``*`` and ``%`` in the dump's name match
@@ -156,7 +178,7 @@ class InputScript:
     def pair_columns(self, path):
         """Column names of the pair dump ``path`` for :class:`~cgbound.readers.lammps.LammpsReader`'s
         ``pair_columns=``: keys ``id1``, ``id2``, ``force`` (3 names), ``tangential`` (3 or None),
-        ``branch`` (3 or None)."""
+        ``branch`` (3 or None), ``dist`` (or None)."""
         dump = self.dump_for(path)
         by_meaning = {}
         for name, meaning in zip(dump.names, dump.meanings):
@@ -177,7 +199,7 @@ class InputScript:
             return hits[0][0]
 
         out = {"id1": one("patom1"), "id2": one("patom2"), "force": tuple(one(k) for k in ("fx", "fy", "fz")),
-               "tangential": None, "branch": None}
+               "tangential": None, "branch": None, "dist": one("dist", False)}
         if self.pair_style in ("gran", "granular"):
             out["tangential"] = tuple(one(k) for k in ("p1", "p2", "p3"))
         if self.pair_style == "granular" and all(one(k, False) for k in ("p10", "p11", "p12")):
@@ -350,6 +372,10 @@ class _Parser:
             style = w[1]
             self.result.pair_style = ("granular" if style == "granular" else
                                       "gran" if style.startswith("gran") else "total")
+            self.result.pair_command = tuple(w[1:])
+            self.result.pair_coeffs = []
+        elif cmd == "pair_coeff":
+            self.result.pair_coeffs.append(tuple(w[1:]))
         elif cmd == "group":
             self.group(w)
         elif cmd == "compute":

@@ -67,7 +67,7 @@ import os
 import numpy as np
 
 from .._validate import integer
-from .checks import compute_columns, dump_local_header, row_norms
+from .checks import GEOMETRY_TOLERANCE, compute_columns, dump_local_header, row_norms
 from .lammps import LammpsReader, contact_indices
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns"]
@@ -165,11 +165,15 @@ class LiggghtsReader(LammpsReader):
                          fixed_ids=fixed_ids, body_force=body_force, masses=masses, dimension=dimension,
                          dt=dt, wrap=wrap, drop_inactive=False, input=input, variables=variables,
                          check_forces=check_forces, units=units)
+        # without 'pos' or 'delta' in the contact dump: a force between particles apart by more than this many
+        # r_i + r_j is refused (1: the script's model has no cohesion; 2 where it may have: no model reaches that)
+        script = self.input_script
+        self.contact_reach = 1.0 if script is not None and script.cohesive is False else 2.0
 
     def _pair_id_columns(self):
         return self.pair_columns["id"][:2]
 
-    def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
+    def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box, where=None):
         path = self.pairs_path
         names = self.pair_columns
         needed = [c for cols in names.values() for c in cols]
@@ -206,5 +210,48 @@ class LiggghtsReader(LammpsReader):
             overlap = np.take(radii, i) + np.take(radii, j) - dist
         else:
             overlap = np.full(m, np.nan)
+        if where is not None:
+            self._check_geometry(tab, where, i, j, id1, id2, pos_i, pos, dist, radii, overlap, force, box)
         contact_ids = np.stack([id1, id2], axis=1)
         return i, j, force, point, contact_ids, overlap
+
+    def _check_geometry(self, tab, where, i, j, id1, id2, pos_i, pos, dist, radii, overlap, force, box):
+        """Refuse a frame whose positions do not give its contacts' geometry: the positions compute pair/gran/local
+        wrote (``pos``), else its overlap (``delta``), else the reach of a contact force (see LammpsReader)."""
+        names, tol = self.pair_columns, GEOMETRY_TOLERANCE
+        hints = ["the contact dump's columns are not what pair_values says (--pair-values): check the keywords "
+                 "of the 'compute pair/gran/local' line"]
+        if "pos" in names:
+            written_i = self._vectors(tab, names["pos"][:3])
+            written_j = self._vectors(tab, names["pos"][3:6])
+            pos_j = np.take(pos, j, axis=0)
+            # minimum image: the dump's j may be a periodic image (a ghost), and its i unwrapped by a step
+            err = np.maximum(row_norms(box.minimum_image(written_i - pos_i)),
+                             row_norms(box.minimum_image(written_j - pos_j)))
+            slack = np.full(err.shape, tol * where.atoms.extent)
+            what = f"have positions (pair/gran/local 'pos', columns {' '.join(names['pos'])}) other than the atoms dump's"
+
+            def detail(k):
+                show = ", ".join
+                return (f"x_i ({show(f'{v:.9g}' for v in written_i[k])}) and x_j "
+                        f"({show(f'{v:.9g}' for v in written_j[k])}) in the contact dump, ({show(f'{v:.9g}' for v in pos_i[k])}) "
+                        f"and ({show(f'{v:.9g}' for v in pos_j[k])}) in the atoms dump")
+        elif "delta" in names and radii is not None:
+            radii_sum = np.take(radii, i) + np.take(radii, j)
+            err = np.abs(overlap - (radii_sum - dist))
+            slack = tol * (radii_sum + where.atoms.extent)
+            what = (f"have an overlap (pair/gran/local 'delta', column {names['delta'][0]}) that their positions and "
+                    "radii do not give")
+            hints.append("the radius (diameter) column is not the radii")
+
+            def detail(k):
+                return (f"'delta' is {overlap[k]:.9g} in the contact dump, r_i + r_j - |x_i - x_j| = "
+                        f"{radii_sum[k]:.9g} - {dist[k]:.9g} = {radii_sum[k] - dist[k]:.9g}")
+        elif radii is not None:
+            radii_sum = np.take(radii, i) + np.take(radii, j)
+            hint = ("the contact model pulls beyond contact (cohesion): give the input script (--input)")
+            self._check_reach(where, i, j, id1, id2, dist, radii_sum, force, hint)
+            return
+        else:
+            return
+        self._refuse_geometry(where, i, j, id1, id2, err, slack, what, detail, hints)
