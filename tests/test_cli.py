@@ -154,12 +154,13 @@ def test_no_check_forces_reads_a_dump_written_during_a_run(tmp_path, capsys):
 
 
 def test_a_wrong_pair_values_order_fails_loudly_not_silently(tmp_path, capsys):
-    # the genuine dump read with the keywords in another order: the force balance says so (the CLI exited
-    # 0 with wrong physics before)
+    # the genuine dump read with the keywords in another order: its 'dist' column (read from a tangential
+    # force) is not the distance between the positions, and the error says so (the CLI exited 0 with wrong
+    # physics before; then the force balance refused it, which still would without the 'dist')
     status, err = run_error(["run", ATOMS, "--pairs", PAIRS, "--pair-values", "fx,fy,fz,p1,p2,p3,p4,dist",
                              "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1", "--grid", "1,1,10",
                              "--average", "x,y", "--fields", "stress", "-o", str(tmp_path / "o.npz"), "-q"], capsys)
-    assert status == 1 and "do not reproduce the dumped per-particle forces" in err and "--pair-values" in err
+    assert status == 1 and "contacts have a distance ('dist', column c_pl[8])" in err and "--pair-values" in err
     assert not (tmp_path / "o.npz").exists()
 
 
