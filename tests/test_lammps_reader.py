@@ -348,10 +348,14 @@ def test_a_wrong_column_order_fails_the_force_balance(lammps_dir, tmp_path):
     # frame read says so (the CLI exited 0 with a wrong IFD integral before this check)
     base = os.path.join(lammps_dir, "hooke3d")
     wrong = reader(lammps_dir, "hooke3d", pair_values=("fx", "fy", "fz", "p1", "p2", "p3", "p4", "dist"))
+    # its 'dist' is a tangential force: not the distance between the positions; without it, the balance
+    no_dist = reader(lammps_dir, "hooke3d", pair_columns=dict(wrong.pair_columns, dist=None))
     for k in range(len(wrong)):
         if len(reader(lammps_dir, "hooke3d")[k].contacts):
-            with pytest.raises(ValueError, match="pair_values=.*--pair-values"):
+            with pytest.raises(ValueError, match=r"have a distance \('dist'.*pair_values=.*--pair-values"):
                 wrong[k]
+            with pytest.raises(ValueError, match="do not reproduce the dumped per-particle forces.*--pair-values"):
+                no_dist[k]
     assert os.path.exists(os.path.join(base, "pairs.dump"))
 
 
