@@ -95,8 +95,8 @@ from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
-from .checks import (FORCE_BALANCE_TOLERANCE, GEOMETRY_TOLERANCE, check_force_balance, compute_columns,
-                     contact_geometry_error, dump_local_header, force_balance, generic_columns, row_norms)
+from .checks import (FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, contact_geometry_error,
+                     dump_local_header, force_balance, generic_columns, geometry_misfits, row_norms)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -602,6 +602,13 @@ class LammpsReader(FrameReader):
             separation = box.minimum_image(separation)
         if names.get("branch"):
             branch = self._vectors(tab, names["branch"])
+            # pair granular writes zeros (force and branch) for a pair it finds not touching (JKR beyond its
+            # pull-off distance): the branch of those rows is the positions' separation
+            unset = branch[:, 0] == 0
+            for a in range(1, branch.shape[1]):
+                unset &= branch[:, a] == 0
+            if unset.any():
+                branch[unset] = separation[unset]
         else:
             branch = separation
         dist = row_norms(branch)
@@ -641,11 +648,11 @@ class LammpsReader(FrameReader):
         branch vector (pair granular's p10-p12) or the ``dist`` the contact dump holds against the minimum-image
         ``separation`` of the positions; without either, that a contact force acts only where the particles touch
         (repulsive styles) or within 2 (r_i + r_j) (any granular model)."""
-        names, extent, tol = self.pair_columns, where.atoms.extent, GEOMETRY_TOLERANCE
+        names, extent = self.pair_columns, where.atoms.extent
         hints = [self._balance_hints()[0]]    # (a 'dist' or branch read from another column)
         if names.get("branch"):
             err = row_norms(branch - separation)
-            slack = tol * (dist + extent)
+            scale = dist + extent
             cols = names["branch"]
             what = f"have a branch vector x_i - x_j (columns {' '.join(cols)}) that their positions do not give"
 
@@ -655,7 +662,7 @@ class LammpsReader(FrameReader):
         elif names.get("dist") and names["dist"] in tab:
             written = tab[names["dist"]]
             err = np.abs(written - dist)
-            slack = tol * (np.abs(written) + extent)
+            scale = np.abs(written) + extent
             what = f"have a distance ('dist', column {names['dist']}) that their positions do not give"
 
             def detail(k):
@@ -668,16 +675,16 @@ class LammpsReader(FrameReader):
             return
         else:
             return
-        self._refuse_geometry(where, i, j, id1, id2, err, slack, what, detail, hints)
+        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints)
 
     def _check_reach(self, where, i, j, id1, id2, dist, radii_sum, force, hint):
         """Refuse contacts that carry a force with their particles further apart than ``contact_reach`` (r_i + r_j)."""
-        reach, tol = self.contact_reach, GEOMETRY_TOLERANCE
+        reach = self.contact_reach
         active = force[:, 0] != 0
         for a in range(1, force.shape[1]):
             active |= force[:, a] != 0
         err = np.where(active, dist - reach * radii_sum, -np.inf)
-        slack = tol * (radii_sum + where.atoms.extent)
+        scale = radii_sum + where.atoms.extent
         hints = ["the radius (diameter) column is not the radii"]
         if reach == 1:
             what = ("carry a force while their particles do not touch (|x_i - x_j| > r_i + r_j), which a repulsive "
@@ -691,13 +698,14 @@ class LammpsReader(FrameReader):
             return (f"their centres are {dist[k]:.9g} apart, {dist[k] / radii_sum[k]:.6g} times r_i + r_j "
                     f"({radii_sum[k]:.6g})")
 
-        self._refuse_geometry(where, i, j, id1, id2, err, slack, what, detail, hints)
+        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, active)
 
-    def _refuse_geometry(self, where, i, j, id1, id2, err, slack, what, detail, hints):
-        """Raise (contact_geometry_error) when any contact's ``err`` exceeds its ``slack``."""
-        bad = err > slack
-        if not bad.any():
+    def _refuse_geometry(self, where, i, j, id1, id2, err, scale, what, detail, hints, checked=None):
+        """Raise (contact_geometry_error) for the contacts :func:`geometry_misfits` refuses."""
+        found = geometry_misfits(err, scale, checked)
+        if found is None:
             return
+        bad, tol = found
         atoms = where.atoms
 
         def atom_lines(k):
@@ -706,9 +714,10 @@ class LammpsReader(FrameReader):
             return atoms.first_line + int(atoms.order[i[k]]), atoms.first_line + int(atoms.order[j[k]])
 
         raise contact_geometry_error(
-            self.atoms_path, self.pairs_path, where.timestep, bad, err / np.maximum(slack, 1e-300), what, detail,
+            self.atoms_path, self.pairs_path, where.timestep, bad, err / np.maximum(tol * scale, 1e-300), what,
+            lambda k: f"{detail(k)} (tolerance {tol * scale[k]:.2g})",
             lambda k: "?" if where.pairs_line is None else where.pairs_line + k,
-            lambda k: (int(id1[k]), int(id2[k])), atom_lines, hints)
+            lambda k: (int(id1[k]), int(id2[k])), atom_lines, hints, checked)
 
 
 def _contact_reach(pair_style, script):

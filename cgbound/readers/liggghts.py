@@ -67,7 +67,7 @@ import os
 import numpy as np
 
 from .._validate import integer
-from .checks import GEOMETRY_TOLERANCE, compute_columns, dump_local_header, row_norms
+from .checks import compute_columns, dump_local_header, row_norms
 from .lammps import LammpsReader, contact_indices
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns"]
@@ -218,7 +218,7 @@ class LiggghtsReader(LammpsReader):
     def _check_geometry(self, tab, where, i, j, id1, id2, pos_i, pos, dist, radii, overlap, force, box):
         """Refuse a frame whose positions do not give its contacts' geometry: the positions compute pair/gran/local
         wrote (``pos``), else its overlap (``delta``), else the reach of a contact force (see LammpsReader)."""
-        names, tol = self.pair_columns, GEOMETRY_TOLERANCE
+        names, extent = self.pair_columns, where.atoms.extent
         hints = ["the contact dump's columns are not what pair_values says (--pair-values): check the keywords "
                  "of the 'compute pair/gran/local' line"]
         if "pos" in names:
@@ -228,7 +228,7 @@ class LiggghtsReader(LammpsReader):
             # minimum image: the dump's j may be a periodic image (a ghost), and its i unwrapped by a step
             err = np.maximum(row_norms(box.minimum_image(written_i - pos_i)),
                              row_norms(box.minimum_image(written_j - pos_j)))
-            slack = np.full(err.shape, tol * where.atoms.extent)
+            scale = np.full(err.shape, extent)
             what = f"have positions (pair/gran/local 'pos', columns {' '.join(names['pos'])}) other than the atoms dump's"
 
             def detail(k):
@@ -239,7 +239,7 @@ class LiggghtsReader(LammpsReader):
         elif "delta" in names and radii is not None:
             radii_sum = np.take(radii, i) + np.take(radii, j)
             err = np.abs(overlap - (radii_sum - dist))
-            slack = tol * (radii_sum + where.atoms.extent)
+            scale = radii_sum + extent
             what = (f"have an overlap (pair/gran/local 'delta', column {names['delta'][0]}) that their positions and "
                     "radii do not give")
             hints.append("the radius (diameter) column is not the radii")
@@ -254,4 +254,4 @@ class LiggghtsReader(LammpsReader):
             return
         else:
             return
-        self._refuse_geometry(where, i, j, id1, id2, err, slack, what, detail, hints)
+        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints)
