@@ -699,9 +699,19 @@ class LammpsReader(FrameReader):
                     f"({radii_sum[k]:.6g})")
 
         self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, active)
+        # nor can most contacts overlap by more than half of r_i + r_j (a centre inside the other sphere; genuine
+        # frames reach 0.17, JKR and liquid bridges included): positions that are small numbers (forces, velocities)
+        # put the particles of every contact nearly on top of each other
+        deep = active & (dist < 0.5 * radii_sum)
+        if 2 * int(np.count_nonzero(deep)) > int(np.count_nonzero(active)):
+            what = ("carry a force with their centres closer than (r_i + r_j) / 2, an overlap of more than half the "
+                    "radii's sum, which a granular simulation does not reach on most of its contacts")
+            self._refuse_geometry(where, i, j, id1, id2, np.where(deep, 1.0, -1.0), np.ones(deep.shape),
+                                  what, detail, hints[:1], active, tolerance=False)
 
-    def _refuse_geometry(self, where, i, j, id1, id2, err, scale, what, detail, hints, checked=None):
-        """Raise (contact_geometry_error) for the contacts :func:`geometry_misfits` refuses."""
+    def _refuse_geometry(self, where, i, j, id1, id2, err, scale, what, detail, hints, checked=None, tolerance=True):
+        """Raise (contact_geometry_error) for the contacts :func:`geometry_misfits` refuses (``tolerance``: show
+        each one's tolerance)."""
         found = geometry_misfits(err, scale, checked)
         if found is None:
             return
@@ -715,7 +725,7 @@ class LammpsReader(FrameReader):
 
         raise contact_geometry_error(
             self.atoms_path, self.pairs_path, where.timestep, bad, err / np.maximum(tol * scale, 1e-300), what,
-            lambda k: f"{detail(k)} (tolerance {tol * scale[k]:.2g})",
+            (lambda k: f"{detail(k)} (tolerance {tol * scale[k]:.2g})") if tolerance else detail,
             lambda k: "?" if where.pairs_line is None else where.pairs_line + k,
             lambda k: (int(id1[k]), int(id2[k])), atom_lines, hints, checked)
 
