@@ -225,3 +225,22 @@ def test_a_loop_variable_without_its_count_is_an_error_naming_the_line(tmp_path)
     script.write_text("units lj\nvariable k loop\n")
     with pytest.raises(ValueError, match=r"in\.cut: line 2: variable k loop: expected 'N' or 'N1 N2'"):
         read_input(script)
+
+
+@pytest.mark.parametrize("lines,cohesive", [
+    ("pair_style gran/hooke/history 1 NULL 1 NULL 0.5 1\npair_coeff * *", False),
+    ("pair_style granular\npair_coeff * * hertz/material 1e4 0.5 0.3 tangential mindlin NULL 1.0 0.5", False),
+    ("pair_style granular\npair_coeff 1 1 hertz 1e4 0.5\npair_coeff 1 2 jkr 1e4 0.5 0.3 50.0 tangential mindlin NULL 1 0.5",
+     True),
+    ("pair_style gran model hertz tangential history cohesion sjkr\npair_coeff * *", True),
+    ("pair_style gran model hertz tangential history\npair_coeff * *", False),
+    ("pair_style lj/cut 2.5\npair_coeff * * 1 1", None),
+    # a later pair_style replaces the earlier one and its coefficients
+    ("pair_style granular\npair_coeff * * jkr 1e4 0.5 0.3 50.0\npair_style gran/hertz/history 1 NULL 1 NULL 0.5 1\n"
+     "pair_coeff * *", False),
+])
+def test_cohesion_of_the_pair_style(tmp_path, lines, cohesive):
+    s = read_input(script(tmp_path, "dimension 3\ncreate_box 2 box\n" + lines + "\n"))
+    assert s.cohesive is cohesive
+    last = [line for line in lines.split("\n") if line.startswith("pair_style")][-1]
+    assert s.pair_command == tuple(last.split()[1:])

@@ -1,0 +1,178 @@
+"""The LAMMPS and LIGGGHTS readers refuse a frame whose positions do not give its contacts' geometry.
+
+An atoms dump whose ``ITEM: ATOMS`` labels lie (``x y z`` swapped with ``vx vy vz``, or shifted by a column)
+balances its forces (the balance does not involve positions) and used to give wrong fields silently. The
+copies here are made from genuine dumps (tests/data) by relabelling the header only; the genuine dumps,
+cohesive ones included (tests/data/lammps/in.jkr3d, tests/data/liggghts/in.easo), are accepted.
+"""
+import os
+import re
+
+import numpy as np
+import pytest
+
+from cgbound.cli import main
+from cgbound.readers import LammpsReader
+from cgbound.readers.lammps_input import read_input
+from cgbound.readers.liggghts import LiggghtsReader
+
+DATA = os.path.join(os.path.dirname(__file__), "data")
+LAMMPS = os.path.join(DATA, "lammps")
+LIGGGHTS = os.path.join(DATA, "liggghts")
+
+#: header relabellings: positions and velocities swapped; forces as positions; the position labels one column late
+RELABEL = {"swap_v": {"x": "vx", "y": "vy", "z": "vz", "vx": "x", "vy": "y", "vz": "z"},
+           "swap_f": {"x": "fx", "y": "fy", "z": "fz", "fx": "x", "fy": "y", "fz": "z"},
+           "shift": {"x": "vx", "y": "x", "z": "y", "vx": "z"}}
+
+
+def relabelled(src, dst, kind):
+    """A copy of the dump ``src`` whose ITEM: ATOMS headers name the columns as ``RELABEL[kind]`` says (the data
+    as written)."""
+    mapping = RELABEL[kind]
+    with open(src) as fh, open(dst, "w") as out:
+        for line in fh:
+            if line.startswith("ITEM: ATOMS"):
+                line = "ITEM: ATOMS " + " ".join(mapping.get(c, c) for c in line.split()[2:]) + "\n"
+            out.write(line)
+    return str(dst)
+
+
+def lammps(atoms, case, **options):
+    directory = os.path.join(LAMMPS, case)
+    options.setdefault("input", os.path.join(LAMMPS, f"in.{case}"))
+    return LammpsReader(atoms or os.path.join(directory, "atoms.dump"), os.path.join(directory, "pairs.dump"),
+                        **options)
+
+
+def read_all(reader):
+    return [reader.frame(k) for k in range(len(reader))]
+
+
+# ---- LAMMPS ---------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("case,kind,columns,what", [
+    ("hooke3d", "swap_v", {}, r"have a distance \('dist', column c_pl\[1\]\)"),
+    ("granular3d", "shift", {}, r"have a branch vector x_i - x_j \(columns c_pl\[14\] c_pl\[15\] c_pl\[16\]\)"),
+    # without 'dist': gran/hooke/history pulls nowhere beyond contact
+    ("hooke3d", "swap_f", {"dist": None}, r"carry a force while their particles do not touch"),
+])
+def test_relabelled_positions_are_refused(tmp_path, case, kind, columns, what):
+    bad = relabelled(os.path.join(LAMMPS, case, "atoms.dump"), tmp_path / "atoms.dump", kind)
+    script = read_input(os.path.join(LAMMPS, f"in.{case}"))
+    cols = dict(script.pair_columns("pairs.dump"), **columns)
+    reader = lammps(bad, case, pair_columns=cols)
+    good = lammps(None, case, pair_columns=cols)
+    for k in range(len(reader)):
+        assert len(good.frame(k).snapshot.contacts)       # (the genuine frame is read)
+        with pytest.raises(ValueError) as info:
+            reader.frame(k)
+        message = str(info.value)
+        assert message.startswith(f"{bad}: timestep {good.timesteps[k]}: the positions do not fit the contacts of")
+        assert re.search(what, message), message
+        assert "the contact dump's line" in message and "the atoms dump's lines" in message
+        assert "labels swapped" in message and "Fix:" in message
+
+
+def test_genuine_cohesive_frames_with_zero_rows_are_read():
+    # pair granular jkr, pair/local without 'cutoff radius': LAMMPS writes zeros (force and branch) for the pairs it
+    # finds not touching; the reader once called those 'two atoms at the same position'
+    reader = lammps(None, "jkr3d", check_forces=False)
+    assert reader.contact_reach == 2.0             # the script's jkr: cohesive
+    frames = read_all(reader)
+    assert sum(len(f.snapshot.contacts) for f in frames) > 100
+    from cgbound.readers._lammps_dump import scan_dump
+    pairs = scan_dump(os.path.join(LAMMPS, "jkr3d", "pairs.dump"), "local")
+    table = pairs.read(pairs.frames[-1][0])["data"]
+    branch = np.stack([table[f"c_pl[{k}]"] for k in (14, 15, 16)], axis=1)
+    assert np.all(branch == 0, axis=1).any()
+    # without the branch and 'dist', the reach of a cohesive model (2 (r_i + r_j)): accepted, and relabelled refused
+    cols = dict(reader.pair_columns, branch=None, dist=None)
+    assert len(read_all(lammps(None, "jkr3d", check_forces=False, pair_columns=cols))) == 3
+
+
+def test_relabelled_cohesive_frames_are_refused(tmp_path):
+    bad = relabelled(os.path.join(LAMMPS, "jkr3d", "atoms.dump"), tmp_path / "atoms.dump", "swap_v")
+    with pytest.raises(ValueError, match=r"timestep 1500: .* have a branch vector"):
+        read_all(lammps(bad, "jkr3d", check_forces=False))
+    cols = dict(read_input(os.path.join(LAMMPS, "in.jkr3d")).pair_columns("pairs.dump"), branch=None, dist=None)
+    with pytest.raises(ValueError, match=r"timestep 1500: .* apart by more than 2 \(r_i \+ r_j\)"):
+        read_all(lammps(bad, "jkr3d", check_forces=False, pair_columns=cols))
+
+
+def test_contact_reach_from_the_pair_style():
+    assert lammps(None, "hooke3d").contact_reach == 1.0                 # gran/hooke/history
+    assert lammps(None, "granular3d").contact_reach == 1.0              # granular hertz: not cohesive
+    plain = dict(input=None, pair_values=("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4"))
+    assert lammps(None, "hooke3d", **plain).contact_reach == 1.0        # the default: LAMMPS' gran/* styles
+    assert lammps(None, "hooke3d", pair_style="granular", **plain).contact_reach == 2.0   # may be jkr
+    assert lammps(None, "hooke3d", pair_style="total", **plain).contact_reach is None
+
+
+# ---- LIGGGHTS ------------------------------------------------------------------------------------
+
+def liggghts(atoms, directory=LIGGGHTS, pairs=None, **options):
+    return LiggghtsReader(atoms or os.path.join(directory, "atoms.dump"), pairs or os.path.join(directory, "pairs.dump"),
+                          **options)
+
+
+SETTLE = dict(input=os.path.join(LIGGGHTS, "in.settle"))
+
+
+@pytest.mark.parametrize("keep,kind,what", [
+    (("pos", "id", "force", "torque", "delta", "contactPoint"), "swap_v", r"have positions \(pair/gran/local 'pos'"),
+    (("id", "force", "delta"), "shift", r"have an overlap \(pair/gran/local 'delta', column c_pgl\[16\]\)"),
+    (("id", "force"), "swap_v", r"carry a force while their particles do not touch"),
+    # forces (1e-5 N) as positions (radii 5e-4 m): every contact's centres nearly on top of each other
+    (("id", "force"), "swap_f", r"88 of 88 contacts carry a force with their centres closer than \(r_i \+ r_j\) / 2"),
+])
+def test_liggghts_relabelled_positions_are_refused(tmp_path, keep, kind, what):
+    bad = relabelled(os.path.join(LIGGGHTS, "atoms.dump"), tmp_path / "atoms.dump", kind)
+    full = liggghts(None, **SETTLE).pair_columns
+    cols = {k: v for k, v in full.items() if k in keep}
+    assert len(read_all(liggghts(None, pair_columns=cols, **SETTLE))) == 3
+    reader = liggghts(bad, pair_columns=cols, check_forces=False, **SETTLE)
+    with pytest.raises(ValueError, match=r"atoms\.dump: timestep \d+: the positions do not fit the contacts of .*"
+                                         + what):
+        read_all(reader)
+
+
+def test_liggghts_liquid_bridges_pull_beyond_contact_and_are_read():
+    directory = os.path.join(LIGGGHTS, "easo")
+    script = os.path.join(LIGGGHTS, "in.easo")
+    reader = liggghts(None, directory, input=script, check_forces=False)
+    assert reader.contact_reach == 2.0       # cohesion easo/capillary/viscous
+    frames = read_all(reader)
+    # forces between particles apart: a genuine cohesive frame the reach check must (and does) accept
+    stretched = 0
+    for f in frames:
+        c, s = f.snapshot.contacts, f.snapshot
+        pairs = c.j >= 0
+        i, j = c.i[pairs], c.j[pairs]
+        dist = np.linalg.norm(s.box.minimum_image(s.positions[i] - s.positions[j]), axis=1)
+        stretched += int(np.sum((dist > s.radii[i] + s.radii[j]) & np.any(c.force[pairs] != 0, axis=1)))
+    assert stretched > 0
+    cols = {k: v for k, v in reader.pair_columns.items() if k in ("id", "force")}
+    assert len(read_all(liggghts(None, directory, input=script, pair_columns=cols, check_forces=False))) == 3
+
+
+def test_liggghts_cohesion_read_from_the_script():
+    assert liggghts(None, **SETTLE).contact_reach == 1.0
+    values = ("pos", "id", "force", "torque", "delta", "contactPoint")
+    assert liggghts(None, pair_values=values).contact_reach == 2.0      # no script: cohesion not known
+
+
+# ---- command line ----------------------------------------------------------------------------------
+
+def test_cli_refuses_relabelled_positions(tmp_path, capsys):
+    bad = relabelled(os.path.join(LAMMPS, "hooke3d", "atoms.dump"), tmp_path / "atoms.dump", "swap_v")
+    out = tmp_path / "o.h5"
+    args = ["run", bad, "--pairs", os.path.join(LAMMPS, "hooke3d", "pairs.dump"), "--input",
+            os.path.join(LAMMPS, "in.hooke3d"), "--grid", "4,4,4", "-o", str(out), "-q"]
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"cgbound: error: {bad}: timestep 4500: the positions do not fit the contacts of")
+    assert "labels swapped" in err and "Traceback" not in err
+    assert not out.exists()
+    args[1] = os.path.join(LAMMPS, "hooke3d", "atoms.dump")
+    assert main(args) == 0
