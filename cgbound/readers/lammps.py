@@ -32,6 +32,29 @@ Three kinds of LAMMPS output are combined, frame by frame (matched by TIMESTEP):
   contact per particle and fix, so a particle touching two walls of one fix cannot be represented
   by this output.
 
+Checks
+------
+Every frame read is checked (a ValueError names the atoms dump, the timestep, the atom and the contact
+dump's line, the likely causes and the fix):
+
+* the force balance (``check_forces``, below);
+* the contact geometry: the dumped positions must give each contact's geometry as LAMMPS wrote it. With
+  ``dist`` among the pair/local values (or ``pair granular``'s branch vector ``p10 p11 p12``), the distance
+  (vector) between the two positions (minimum image) must agree to ``GEOMETRY_TOLERANCE`` (1e-3) of (the
+  distance + the largest coordinate) for every contact and to 1e-4 for at least half of them (a ``%g`` dump
+  is off by 1.7e-5 of the largest coordinate; a deforming box leaves the ghost atoms pair/local uses one step
+  stale, 3.6e-5 of the extent measured). Without either, a contact with a force must not join particles further
+  apart than r_i + r_j for a repulsive model (``gran/*``; ``granular`` without ``jkr``, known from ``input``),
+  or 2 (r_i + r_j) where cohesion is possible or not known (``pair_style="granular"``), and most contacts must
+  not overlap by more than half of r_i + r_j. Positions that are not positions (the ``ITEM: ATOMS`` labels
+  ``x y z`` and ``vx vy vz`` swapped, or shifted by a column: the force balance does not see it) miss by the
+  size of the distance; so does a ``dist`` read from another column (``pair_values`` in the wrong order).
+  ``pair granular`` writes zeros (force and branch) for a pair it finds not touching (JKR beyond pull-off,
+  pairs listed without ``cutoff radius``): those rows take the positions' separation. Measured on genuine
+  output (``%g`` and ``%.17g``; gran/hooke, gran/hertz/history, granular hertz/material, dmt and jkr,
+  periodic and deforming boxes, walls): errors at most 3% of the tolerance; forces only within 1.000005
+  (r_i + r_j) for the repulsive styles.
+
 Writing consistent dumps
 ------------------------
 LAMMPS evaluates ``compute pair/local`` when the dump is written, at the END of a step, with
@@ -237,7 +260,10 @@ class LammpsReader(FrameReader):
         ``dump local`` of ``compute property/local patom1 patom2`` and ``compute pair/local``.
     pair_style : "gran", "granular" or "total"
         "gran" (``pair gran/*``) and "granular" (pair granular): force = fx fy fz + p1 p2 p3.
-        "total": fx fy fz is the whole force (non-granular pair styles).
+        "total": fx fy fz is the whole force (non-granular pair styles). Default: the input script's, else
+        "gran". It also bounds how far apart two particles with a contact force may be (``contact_reach``,
+        in r_i + r_j): 1 for "gran" (repulsive), 2 for "granular" (may be cohesive: JKR) unless the input
+        script's ``pair_coeff`` lines have no ``jkr``, none for "total".
     pair_compute, pair_values, property_compute, property_values :
         IDs and keywords of the two computes, used to name the columns (see :func:`pair_local_columns`).
         ``pair_values`` (the keywords of ``compute pair/local`` in order, e.g. ``("dist", "fx", "fy",

@@ -30,6 +30,15 @@ The values verified against the per-particle forces and positions:
   to particle i). Without ``contactPoint`` the reader rebuilds it the same way;
 - ``delta`` is ``R_i + R_j - |x_i - x_j|``.
 
+Checks
+------
+As for :class:`~cgbound.readers.LammpsReader` (the force balance and the contact geometry), the geometry
+from this compute's values: ``pos`` (x_i and x_j, against the atoms dump's positions, minimum image), else
+``delta`` (against r_i + r_j - |x_i - x_j|), else the reach of a contact force: r_i + r_j when the input
+script's ``pair_style gran`` has no ``cohesion`` model, else 2 (r_i + r_j) (cohesion possible or not known:
+liquid bridges pull beyond contact, 1.0066 (r_i + r_j) measured on tests/data/liggghts/in.easo), and
+most contacts not overlapping by more than half of r_i + r_j.
+
 Writing consistent dumps
 ------------------------
 As in LAMMPS, frames dumped during a ``run`` do not balance: compute pair/gran/local re-evaluates
