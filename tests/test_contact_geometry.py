@@ -176,3 +176,19 @@ def test_cli_refuses_relabelled_positions(tmp_path, capsys):
     assert not out.exists()
     args[1] = os.path.join(LAMMPS, "hooke3d", "atoms.dump")
     assert main(args) == 0
+
+
+def test_wall_contacts_of_relabelled_positions_are_refused(tmp_path):
+    # the atoms dump alone (no contact dump): its wall contacts (fix wall/gran ... contacts, a point on the wall)
+    # must lie within a radius of the particle's centre for in.hooke3d's repulsive wall
+    bad = relabelled(os.path.join(LAMMPS, "hooke3d", "atoms.dump"), tmp_path / "atoms.dump", "swap_v")
+    script = os.path.join(LAMMPS, "in.hooke3d")
+    with pytest.warns(UserWarning, match="no contact dump"):
+        good = LammpsReader(os.path.join(LAMMPS, "hooke3d", "atoms.dump"), input=script)
+    assert good.wall_reach == 1.0 and sum(int(np.sum(f.snapshot.contacts.j < 0)) for f in read_all(good)) > 0
+    with pytest.warns(UserWarning, match="no contact dump"):
+        reader = LammpsReader(bad, input=script)
+    with pytest.raises(ValueError, match=r"atoms\.dump: timestep 4500: the positions do not fit the wall contacts of "
+                                         r"fix w: \d+ of \d+ contacts have their contact point \(f_w\[5\.\.7\]\) "
+                                         r"further than the radius .*The worst: atom \d+ \(the atoms dump's line \d+\)"):
+        reader.frame(0)

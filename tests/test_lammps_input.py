@@ -244,3 +244,14 @@ def test_cohesion_of_the_pair_style(tmp_path, lines, cohesive):
     assert s.cohesive is cohesive
     last = [line for line in lines.split("\n") if line.startswith("pair_style")][-1]
     assert s.pair_command == tuple(last.split()[1:])
+
+
+def test_wall_reach_of_the_wall_fixes(tmp_path):
+    s = read_input(script(tmp_path, HEAD + "group flow type 1\n"
+                          "fix a flow wall/gran hooke/history 1 NULL 1 NULL 0.5 1 zplane 0 NULL contacts\n"
+                          "fix b flow wall/gran granular jkr 1e4 0.5 0.3 50 tangential mindlin NULL 1 0.5 zplane 0 NULL "
+                          "contacts\n"))
+    assert s.walls == ("a", "b")
+    assert s.wall_reach(("a",)) == 1.0          # repulsive
+    assert s.wall_reach(("a", "b")) == 2.0      # jkr pulls beyond contact
+    assert s.wall_reach(("c",)) == 2.0          # not in the script: not known

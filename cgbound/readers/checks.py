@@ -123,29 +123,24 @@ def geometry_misfits(err, scale, checked=None):
     return None
 
 
-def contact_geometry_error(atoms_path, pairs_path, timestep, bad, score, what, detail, pair_line, atom_ids,
-                           atom_lines, hints=(), checked=None):
+def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detail, location, hints=(), checked=None):
     """The error for contacts whose geometry the dumped positions do not give (nothing is raised here).
 
-    ``bad``: (M,) bools of the contacts refused; ``score``: (M,) how far each is beyond its tolerance (the worst,
-    largest, is shown); ``what``: what the refused contacts do ("have a 'dist' that ..."); ``detail(k)``: the
-    numbers of contact k; ``pair_line(k)``, ``atom_ids(k)`` (two IDs) and ``atom_lines(k)`` (their lines in the
-    atoms dump, or None): where contact k is; ``hints``: other likely causes, as text naming the reader's option;
-    ``checked``: bools of the contacts checked (default all).
+    ``source``: the contacts' origin ("the contacts of PAIRS"); ``bad``: (M,) bools of the contacts refused;
+    ``score``: (M,) how far each is beyond its tolerance (the worst, largest, is shown); ``what``: what the refused
+    contacts do ("have a 'dist' that ..."); ``detail(k)``: the numbers of contact k; ``location(k)``: where it is
+    (its atoms, their lines); ``hints``: other likely causes, as text naming the reader's option; ``checked``:
+    bools of the contacts checked (default all).
     """
     rows = np.flatnonzero(bad)
     total = bad.size if checked is None else int(np.count_nonzero(checked))
     k = int(rows[np.argmax(score[rows])])
-    a, b = atom_ids(k)
-    lines = atom_lines(k)
-    at = f" (the atoms dump's lines {lines[0]} and {lines[1]})" if lines is not None else ""
     causes = ("the atoms dump's position columns are not the positions: its 'ITEM: ATOMS' labels swapped (e.g. "
               "'x y z' with 'vx vy vz') or the columns shifted against their labels, by an edit, a merge or a "
               "converter")
-    causes = "; ".join([causes, *hints, "the two dumps are not of the same run"])
+    causes = "; ".join([causes, *hints])
     return ValueError(
-        f"{atoms_path}: timestep {timestep}: the positions do not fit the contacts of {pairs_path}: {rows.size} of "
-        f"{total} contacts {what}. The worst: atoms {a} and {b}{at}, the contact dump's line {pair_line(k)}: "
-        f"{detail(k)}. Likely causes: {causes}. Fix: read the dumps as LAMMPS/LIGGGHTS wrote them, with the positions "
+        f"{atoms_path}: timestep {timestep}: the positions do not fit {source}: {rows.size} of {total} contacts "
+        f"{what}. The worst: {location(k)}: {detail(k)}. Likely causes: {causes}. Fix: read the dumps as LAMMPS/LIGGGHTS wrote them, with the positions "
         f"under their own labels (x y z, xu yu zu or xs ys zs); write floats with 'dump_modify ... format float "
         f"%.17g' (few digits also blur this comparison)")

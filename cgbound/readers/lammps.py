@@ -53,7 +53,11 @@ dump's line, the likely causes and the fix):
   pairs listed without ``cutoff radius``): those rows take the positions' separation. Measured on genuine
   output (``%g`` and ``%.17g``; gran/hooke, gran/hertz/history, granular hertz/material, dmt and jkr,
   periodic and deforming boxes, walls): errors at most 3% of the tolerance; forces only within 1.000005
-  (r_i + r_j) for the repulsive styles.
+  (r_i + r_j) for the repulsive styles;
+* wall contacts (``walls``): the contact point ``f_ID[5..7]`` (on the wall) must lie within a radius of the
+  particle's centre (1.00003 radii measured, the silo's cylinder included) when the input script gives the wall
+  a repulsive model, within 2 radii otherwise (``jkr``, or no script), to the same tolerance. This also checks
+  an atoms dump read without a contact dump.
 
 Writing consistent dumps
 ------------------------
@@ -352,6 +356,7 @@ class LammpsReader(FrameReader):
         if isinstance(walls, str):
             walls = [walls]
         self.walls = tuple(str(w) for w in walls)
+        self.wall_reach = script.wall_reach(self.walls) if script is not None else 2.0
         self.fixed_types = tuple(index_array(list(fixed_types), "fixed_types").tolist())
         self.fixed_ids = np.unique(index_array(list(fixed_ids), "fixed_ids"))
         self.body_force = self._check_body_force(body_force, dimension, "LAMMPS")
@@ -422,7 +427,7 @@ class LammpsReader(FrameReader):
         fr = self._atoms_dump.read(atoms_offset)
         box = self._box(fr, timestep)
         atoms = self._atoms(fr["data"], box, timestep)
-        atoms = atoms._replace(first_line=fr.get("first_line"))
+        atoms = atoms._replace(first_line=fr.get("first_line"), timestep=timestep)
         parts = []
         if pairs_offset is not None:
             parts.append(self._pair_contacts(pairs_offset, timestep, atoms, box))
@@ -582,10 +587,44 @@ class LammpsReader(FrameReader):
         k = np.flatnonzero(tab[names[0]][order] != 0)
         force = self._vectors(tab, names[1:4], order[k])
         point = self._vectors(tab, names[4:7], order[k])
+        if atoms.radii is not None and k.size:
+            self._check_wall_geometry(wall, atoms, k, point, box)
         if self.wrap and any(box.periodic):
             point = box.wrap(point)
         wall_j = np.full(k.shape, -1, np.int64)
         return k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), np.full(k.shape, np.nan)
+
+    def _check_wall_geometry(self, wall, atoms, k, point, box):
+        """Refuse wall contacts whose contact point (on the wall) is further from the particle's centre than
+        ``wall_reach`` radii (the module docstring): positions that are not positions miss the wall's points."""
+        reach = self.wall_reach
+        radii = np.take(atoms.radii, k)
+        dist = row_norms(box.minimum_image(np.take(atoms.positions, k, axis=0) - point))
+        found = geometry_misfits(dist - reach * radii, radii + atoms.extent)
+        if found is None:
+            return
+        bad, tol = found
+        line = "" if atoms.first_line is None else " (the atoms dump's line {})"
+        hints = ["the radius (diameter) column is not the radii"]
+        if reach == 1:
+            what = (f"have their contact point (f_{wall}[5..7]) further than the radius from the particle's centre, "
+                    "which a repulsive wall model cannot")
+            hints.append(f"the wall model pulls beyond contact (fix {wall} wall/gran granular ... jkr): give the input "
+                         "script (--input)")
+        else:
+            what = (f"have their contact point (f_{wall}[5..7]) further than {reach:g} radii from the particle's "
+                    "centre, which no wall model can")
+
+        def location(j):
+            return f"atom {int(atoms.ids[k[j]])}" + line.format(atoms.first_line + int(atoms.order[k[j]]))
+
+        def detail(j):
+            return (f"the contact point is {dist[j]:.9g} from the centre, {dist[j] / radii[j]:.6g} radii (r = "
+                    f"{radii[j]:.6g}; tolerance {tol * (radii[j] + atoms.extent):.2g})")
+
+        raise contact_geometry_error(self.atoms_path, f"the wall contacts of fix {wall}", atoms.timestep, bad,
+                                     (dist - reach * radii) / (tol * (radii + atoms.extent)), what, detail, location,
+                                     hints)
 
     def _pair_contacts(self, offset, timestep, atoms, box):
         """The contacts of the pairs dump's frame at ``offset``: (i, j, force, point, contact IDs, overlap)."""
@@ -744,16 +783,18 @@ class LammpsReader(FrameReader):
         bad, tol = found
         atoms = where.atoms
 
-        def atom_lines(k):
-            if atoms.first_line is None:
-                return None
-            return atoms.first_line + int(atoms.order[i[k]]), atoms.first_line + int(atoms.order[j[k]])
+        def location(k):
+            text = f"atoms {int(id1[k])} and {int(id2[k])}"
+            if atoms.first_line is not None:
+                text += (f" (the atoms dump's lines {atoms.first_line + int(atoms.order[i[k]])} and "
+                         f"{atoms.first_line + int(atoms.order[j[k]])})")
+            return text + ("" if where.pairs_line is None else f", the contact dump's line {where.pairs_line + k}")
 
         raise contact_geometry_error(
-            self.atoms_path, self.pairs_path, where.timestep, bad, err / np.maximum(tol * scale, 1e-300), what,
-            (lambda k: f"{detail(k)} (tolerance {tol * scale[k]:.2g})") if tolerance else detail,
-            lambda k: "?" if where.pairs_line is None else where.pairs_line + k,
-            lambda k: (int(id1[k]), int(id2[k])), atom_lines, hints, checked)
+            self.atoms_path, f"the contacts of {self.pairs_path}", where.timestep, bad,
+            err / np.maximum(tol * scale, 1e-300), what,
+            (lambda k: f"{detail(k)} (tolerance {tol * scale[k]:.2g})") if tolerance else detail, location,
+            [*hints, "the two dumps are not of the same run"], checked)
 
 
 def _contact_reach(pair_style, script):
@@ -810,6 +851,7 @@ class _Atoms(NamedTuple):
     positions_parsed: bool = False   # the positions as the dump has them (not scaled): finite, the parser says
     extent: float = 0.0              # the largest coordinate magnitude as written (and the box bounds')
     first_line: object = None        # the atoms dump's line of the frame's first row (None: not known)
+    timestep: object = None
 
 
 def _joined_contacts(parts, dim):

@@ -127,6 +127,7 @@ class InputScript:
     computes: dict = field(default_factory=dict)
     dumps: list = field(default_factory=list)
     walls: tuple = ()
+    wall_models: dict = field(default_factory=dict)   # wall fix ID -> the words after its style ("hooke", ...)
     fixed_types: tuple = ()
     gravity: np.ndarray = None
     gravity_group: str = None
@@ -148,6 +149,14 @@ class InputScript:
             # LIGGGHTS "pair_style gran model hertz tangential history [cohesion sjkr|easo/capillary/viscous ...]"
             return "cohesion" in args
         return False    # LAMMPS gran/hooke, gran/hooke/history, gran/hertz/history: repulsive contact forces
+
+    def wall_reach(self, walls):
+        """How far from a particle's centre, in radii, the contact point of a wall contact of the fixes ``walls``
+        can be: 1 when the script defines each of them with a repulsive model (``hooke``, ``hooke/history``,
+        ``hertz/history``, ``granular`` without ``jkr``), else 2 (a model that may pull beyond contact, or a wall
+        the script does not define)."""
+        models = [self.wall_models.get(w) for w in walls]
+        return 1.0 if all(m is not None and "jkr" not in m for m in models) else 2.0
 
     def dump_for(self, path):
         """The dump that wrote ``path`` (matched by file name; ``*`` and ``%`` in the dump's name match
@@ -570,6 +579,7 @@ class _Parser:
         if style in _WALL_FIXES:
             if "contacts" in args:
                 self.walls[fid] = self.where
+                self.result.wall_models[fid] = tuple(args)
         elif style == "freeze":
             self.frozen_groups.append(group)
         elif style == "setforce":
