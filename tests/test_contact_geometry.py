@@ -1,9 +1,11 @@
-"""The LAMMPS and LIGGGHTS readers refuse a frame whose positions do not give its contacts' geometry.
+"""The LAMMPS and LIGGGHTS readers refuse a frame whose positions are not positions.
 
 An atoms dump whose ``ITEM: ATOMS`` labels lie (``x y z`` swapped with ``vx vy vz``, or shifted by a column)
 balances its forces (the balance does not involve positions) and used to give wrong fields silently. The
-copies here are made from genuine dumps (tests/data) by relabelling the header only; the genuine dumps,
-cohesive ones included (tests/data/lammps/in.jkr3d, tests/data/liggghts/in.easo), are accepted.
+copies here are made from genuine dumps (tests/data) by relabelling the header only, and refused by the box
+check or the contact geometry check, whichever sees it first; each geometry path is tested on copies whose
+positions stay in the box (each row given the next row's position); the genuine dumps, cohesive ones
+included (tests/data/lammps/in.jkr3d, tests/data/liggghts/in.easo), are accepted.
 """
 import os
 import re
@@ -38,6 +40,31 @@ def relabelled(src, dst, kind):
     return str(dst)
 
 
+def misaligned(src, dst):
+    """A copy of the dump ``src`` whose position columns are one row off (row k holds row k+1's x y z, the last
+    the first's): positions in the box, of the wrong atoms (as a merge of two differently sorted dumps gives)."""
+    with open(src) as fh:
+        lines = fh.readlines()
+    k = 0
+    while k < len(lines):
+        if lines[k].startswith("ITEM: NUMBER OF ATOMS"):
+            n = int(lines[k + 1])
+        if lines[k].startswith("ITEM: ATOMS"):
+            names = lines[k].split()[2:]
+            at = [names.index(c) for c in ("x", "y", "z")]
+            rows = [line.split() for line in lines[k + 1:k + 1 + n]]
+            for r in range(n):
+                new = list(rows[r])
+                for c in at:
+                    new[c] = rows[(r + 1) % n][c]
+                lines[k + 1 + r] = " ".join(new) + "\n"
+            k += n
+        k += 1
+    with open(dst, "w") as out:
+        out.writelines(lines)
+    return str(dst)
+
+
 def lammps(atoms, case, **options):
     directory = os.path.join(LAMMPS, case)
     options.setdefault("input", os.path.join(LAMMPS, f"in.{case}"))
@@ -51,14 +78,34 @@ def read_all(reader):
 
 # ---- LAMMPS ---------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("case,kind,columns,what", [
-    ("hooke3d", "swap_v", {}, r"have a distance \('dist', column c_pl\[1\]\)"),
-    ("granular3d", "shift", {}, r"have a branch vector x_i - x_j \(columns c_pl\[14\] c_pl\[15\] c_pl\[16\]\)"),
-    # without 'dist': gran/hooke/history pulls nowhere beyond contact
-    ("hooke3d", "swap_f", {"dist": None}, r"carry a force while their particles do not touch"),
-])
-def test_relabelled_positions_are_refused(tmp_path, case, kind, columns, what):
+@pytest.mark.parametrize("case,kind", [("hooke3d", "swap_v"), ("granular3d", "shift"), ("jkr3d", "swap_f")])
+def test_relabelled_positions_are_refused(tmp_path, case, kind):
     bad = relabelled(os.path.join(LAMMPS, case, "atoms.dump"), tmp_path / "atoms.dump", kind)
+    good, reader = lammps(None, case, check_forces=False), lammps(bad, case, check_forces=False)
+    refused = 0
+    for k in range(len(reader)):
+        frame = good.frame(k)
+        try:
+            reader.frame(k)
+        except ValueError as exc:
+            refused += 1
+            message = str(exc)
+            assert message.startswith(f"{bad}: timestep {good.timesteps[k]}: ")
+            assert "outside the box" in message or "the positions do not fit" in message
+            assert "labels swapped" in message and "Fix:" in message
+        else:     # (a frame without contacts whose positions stay in the box: jkr3d's first, forces 0 as positions)
+            assert len(frame.snapshot.contacts) == 0
+    assert refused >= 2
+
+
+@pytest.mark.parametrize("case,columns,what", [
+    ("hooke3d", {}, r"have a distance \('dist', column c_pl\[1\]\)"),
+    ("granular3d", {}, r"have a branch vector x_i - x_j \(columns c_pl\[14\] c_pl\[15\] c_pl\[16\]\)"),
+    # without 'dist': gran/hooke/history pulls nowhere beyond contact
+    ("hooke3d", {"dist": None}, r"carry a force while their particles do not touch"),
+])
+def test_misplaced_positions_are_refused_by_the_contacts(tmp_path, case, columns, what):
+    bad = misaligned(os.path.join(LAMMPS, case, "atoms.dump"), tmp_path / "atoms.dump")
     script = read_input(os.path.join(LAMMPS, f"in.{case}"))
     cols = dict(script.pair_columns("pairs.dump"), **columns)
     reader = lammps(bad, case, pair_columns=cols)
@@ -72,6 +119,16 @@ def test_relabelled_positions_are_refused(tmp_path, case, kind, columns, what):
         assert re.search(what, message), message
         assert "the contact dump's line" in message and "the atoms dump's lines" in message
         assert "labels swapped" in message and "Fix:" in message
+
+
+def test_positions_outside_the_box_are_refused(tmp_path):
+    # forces as positions: in hooke3d's first frame some lie boxes away (the atoms dump alone: no contacts needed)
+    bad = relabelled(os.path.join(LAMMPS, "hooke3d", "atoms.dump"), tmp_path / "atoms.dump", "swap_f")
+    with pytest.raises(ValueError, match=r"atoms\.dump: timestep 4500: atom \d+ \(line \d+\) has [xyz] = -?[0-9.]+, "
+                                         r"outside the box \[0, (6|10)\] along that (non-)?periodic axis by [0-9.]+ box "
+                                         r"lengths .*labels swapped"):
+        LammpsReader(bad).frame(0)
+    assert len(read_all(LammpsReader(os.path.join(LAMMPS, "hooke3d", "atoms.dump")))) == 3
 
 
 def test_genuine_cohesive_frames_with_zero_rows_are_read():
@@ -91,8 +148,8 @@ def test_genuine_cohesive_frames_with_zero_rows_are_read():
     assert len(read_all(lammps(None, "jkr3d", check_forces=False, pair_columns=cols))) == 3
 
 
-def test_relabelled_cohesive_frames_are_refused(tmp_path):
-    bad = relabelled(os.path.join(LAMMPS, "jkr3d", "atoms.dump"), tmp_path / "atoms.dump", "swap_v")
+def test_misplaced_cohesive_frames_are_refused(tmp_path):
+    bad = misaligned(os.path.join(LAMMPS, "jkr3d", "atoms.dump"), tmp_path / "atoms.dump")
     with pytest.raises(ValueError, match=r"timestep 1500: .* have a branch vector"):
         read_all(lammps(bad, "jkr3d", check_forces=False))
     cols = dict(read_input(os.path.join(LAMMPS, "in.jkr3d")).pair_columns("pairs.dump"), branch=None, dist=None)
@@ -120,14 +177,15 @@ SETTLE = dict(input=os.path.join(LIGGGHTS, "in.settle"))
 
 
 @pytest.mark.parametrize("keep,kind,what", [
-    (("pos", "id", "force", "torque", "delta", "contactPoint"), "swap_v", r"have positions \(pair/gran/local 'pos'"),
-    (("id", "force", "delta"), "shift", r"have an overlap \(pair/gran/local 'delta', column c_pgl\[16\]\)"),
-    (("id", "force"), "swap_v", r"carry a force while their particles do not touch"),
-    # forces (1e-5 N) as positions (radii 5e-4 m): every contact's centres nearly on top of each other
+    (("pos", "id", "force", "torque", "delta", "contactPoint"), "rows", r"have positions \(pair/gran/local 'pos'"),
+    (("id", "force", "delta"), "rows", r"have an overlap \(pair/gran/local 'delta', column c_pgl\[16\]\)"),
+    (("id", "force"), "rows", r"carry a force while their particles do not touch"),
+    # forces (1e-5 N) as positions (radii 5e-4 m), in the box: every contact's centres nearly on top of each other
     (("id", "force"), "swap_f", r"88 of 88 contacts carry a force with their centres closer than \(r_i \+ r_j\) / 2"),
 ])
-def test_liggghts_relabelled_positions_are_refused(tmp_path, keep, kind, what):
-    bad = relabelled(os.path.join(LIGGGHTS, "atoms.dump"), tmp_path / "atoms.dump", kind)
+def test_liggghts_misplaced_positions_are_refused(tmp_path, keep, kind, what):
+    src = os.path.join(LIGGGHTS, "atoms.dump")
+    bad = misaligned(src, tmp_path / "atoms.dump") if kind == "rows" else relabelled(src, tmp_path / "atoms.dump", kind)
     full = liggghts(None, **SETTLE).pair_columns
     cols = {k: v for k, v in full.items() if k in keep}
     assert len(read_all(liggghts(None, pair_columns=cols, **SETTLE))) == 3

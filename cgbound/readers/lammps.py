@@ -38,6 +38,10 @@ Every frame read is checked (a ValueError names the atoms dump, the timestep, th
 dump's line, the likely causes and the fix):
 
 * the force balance (``check_forces``, below);
+* the box: wrapped (``x y z``) and scaled (``xs ys zs``) positions must lie in the frame's box to
+  ``BOX_SLACK`` box lengths (0.25 along a non-periodic axis, 0.5 along a periodic one; LAMMPS lets an atom
+  stray only until it re-neighbours: 0.0075 at most in genuine dumps of 14 scenes). Unwrapped positions are
+  not checked. This needs no contacts: it also checks an atoms dump read alone;
 * the contact geometry: the dumped positions must give each contact's geometry as LAMMPS wrote it. With
   ``dist`` among the pair/local values (or ``pair granular``'s branch vector ``p10 p11 p12``), the distance
   (vector) between the two positions (minimum image) must agree to ``GEOMETRY_TOLERANCE`` (1e-3) of (the
@@ -131,6 +135,12 @@ PAIR_STYLES = ("gran", "granular", "total")
 
 DEFAULT_PAIR_VALUES = ("dist", "fx", "fy", "fz", "p1", "p2", "p3", "p4")
 DEFAULT_GRANULAR_VALUES = ("dist", "fx", "fy", "fz") + tuple(f"p{k}" for k in range(1, 13))
+
+#: how far outside its box (in box lengths) a wrapped or scaled position may lie, along a non-periodic and a
+#: periodic axis. LAMMPS remaps atoms into a periodic box, and loses those that left a fixed one, only when it
+#: re-neighbours (every skin/2 of motion at most with the default check): genuine dumps of 14 scenes stray
+#: 0.0075 at most. Positions that are velocities or forces (labels swapped) often lie boxes away.
+BOX_SLACK = {False: 0.25, True: 0.5}
 
 _POSITION_COLUMNS = (("x", "y", "z", False, False), ("xu", "yu", "zu", False, True),
                      ("xs", "ys", "zs", True, False), ("xsu", "ysu", "zsu", True, True))
@@ -428,6 +438,8 @@ class LammpsReader(FrameReader):
         box = self._box(fr, timestep)
         atoms = self._atoms(fr["data"], box, timestep)
         atoms = atoms._replace(first_line=fr.get("first_line"), timestep=timestep)
+        if atoms.span is not None:
+            self._check_in_box(fr["data"], atoms, box, timestep)
         parts = []
         if pairs_offset is not None:
             parts.append(self._pair_contacts(pairs_offset, timestep, atoms, box))
@@ -516,10 +528,13 @@ class LammpsReader(FrameReader):
                 break
         else:
             raise ValueError(f"{path}: no position columns (x y z, xu yu zu, xs ys zs or xsu ysu zsu)")
-        # the size of the coordinates as written (before wrapping): how far their last digits reach
+        # the size of the coordinates as written (before wrapping): how far their last digits reach; and their
+        # range, which the box must hold (not for unwrapped positions)
         extent = max(float(np.max(np.abs(box.lower))), float(np.max(np.abs(box.upper))))
+        span = None
         if n:
-            extent = max(extent, float(pos.max()), -float(pos.min()))
+            span = (pos.min(axis=0), pos.max(axis=0), xn, scaled) if not unwrapped else None
+            extent = max(extent, float(np.max(pos)), -float(np.min(pos)))
         if self.wrap and any(box.periodic):    # (wrapping moves coordinates along periodic axes only)
             pos = box.wrap(pos)
         types = column(tab.integers("type")) if "type" in tab else np.ones(n, np.int64)
@@ -539,7 +554,33 @@ class LammpsReader(FrameReader):
         spin = self._pseudo_vectors(tab, ("omegax", "omegay", "omegaz"), order, "angular velocities")
         torques = self._pseudo_vectors(tab, ("tqx", "tqy", "tqz"), order, "torques")
         return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed, spin, torques, positions_parsed,
-                      extent)
+                      extent, span=span)
+
+    def _check_in_box(self, tab, atoms, box, timestep):
+        """Refuse positions (wrapped or scaled, not unwrapped) outside the box by more than BOX_SLACK box lengths
+        (see the module docstring): LAMMPS lets an atom stray out of its box only until it next re-neighbours."""
+        lowest, highest, xn, scaled = atoms.span
+        length = box.upper - box.lower
+        out = np.maximum(box.lower - lowest, highest - box.upper) / length
+        allowed = np.array([BOX_SLACK[p] for p in box.periodic])
+        if not np.any(out > allowed):
+            return
+        axis = int(np.argmax(out - allowed))
+        name = {"x": ("x", "y", "z"), "xs": ("xs", "ys", "zs")}[xn][self._axes()[axis]]
+        written = tab[name]
+        value = box.lower[axis] + written * length[axis] if scaled else written
+        row = int(np.argmax(np.maximum(box.lower[axis] - value, value - box.upper[axis])))
+        atom = int(tab.integers("id")[row])
+        line = "" if atoms.first_line is None else f" (line {atoms.first_line + row})"
+        kind = "periodic" if box.periodic[axis] else "non-periodic"
+        raise ValueError(
+            f"{self.atoms_path}: timestep {timestep}: atom {atom}{line} has {name} = {written[row]:.9g}, outside the "
+            f"box [{box.lower[axis]:.9g}, {box.upper[axis]:.9g}] along that {kind} axis by {out[axis]:.3g} box "
+            f"lengths (genuine dumps: 0.0075 at most, as LAMMPS lets an atom stray only until it re-neighbours; "
+            f"refused beyond {allowed[axis]:g}). Likely causes: the atoms dump's position columns are not the "
+            f"positions: its 'ITEM: ATOMS' labels swapped (e.g. '{name}' with 'v{name[0]}') or shifted against the "
+            f"columns, by an edit, a merge or a converter; or the BOX BOUNDS are not this frame's. Fix: read the "
+            f"dump as LAMMPS wrote it, with the positions under their own labels")
 
     def _pseudo_vectors(self, tab, names, order, what):
         """(n, 3) in 3D, the z column (n,) in 2D; None if the dump has none of the columns."""
@@ -852,6 +893,7 @@ class _Atoms(NamedTuple):
     extent: float = 0.0              # the largest coordinate magnitude as written (and the box bounds')
     first_line: object = None        # the atoms dump's line of the frame's first row (None: not known)
     timestep: object = None
+    span: object = None              # (lowest, highest coordinate per axis, the x column's name, scaled) or None
 
 
 def _joined_contacts(parts, dim):
