@@ -647,7 +647,7 @@ class LammpsReader(FrameReader):
         found = geometry_misfits(dist - reach * radii, radii + atoms.extent)
         if found is None:
             return
-        bad, tol = found
+        bad, tol, ratio = found
         line = "" if atoms.first_line is None else " (the atoms dump's line {})"
         hints = ["the radius (diameter) column is not the radii"]
         if reach == 1:
@@ -667,7 +667,7 @@ class LammpsReader(FrameReader):
                     f"{radii[j]:.6g}; tolerance {tol * (radii[j] + atoms.extent):.2g})")
 
         raise contact_geometry_error(self.atoms_path, f"the wall contacts of fix {wall}", atoms.timestep, bad,
-                                     (dist - reach * radii) / (tol * (radii + atoms.extent)), what, detail, location,
+                                     ratio / tol, what, detail, location,
                                      hints)
 
     def _pair_contacts(self, offset, timestep, atoms, box):
@@ -770,8 +770,11 @@ class LammpsReader(FrameReader):
                         f"positions give ({', '.join(f'{v:.9g}' for v in separation[k])})")
         elif names.get("dist") and names["dist"] in tab:
             written = tab[names["dist"]]
-            err = np.abs(written - dist)
-            scale = np.abs(written) + extent
+            # (in place: new arrays' pages cost the kernel's zeroing)
+            err = np.subtract(written, dist)
+            np.abs(err, out=err)
+            scale = np.abs(written)
+            scale += extent
             what = f"have a distance ('dist', column {names['dist']}) that their positions do not give"
 
             def detail(k):
@@ -824,7 +827,7 @@ class LammpsReader(FrameReader):
         found = geometry_misfits(err, scale, checked)
         if found is None:
             return
-        bad, tol = found
+        bad, tol, ratio = found
         atoms = where.atoms
 
         def location(k):
@@ -836,7 +839,7 @@ class LammpsReader(FrameReader):
 
         raise contact_geometry_error(
             self.atoms_path, f"the contacts of {self.pairs_path}", where.timestep, bad,
-            err / np.maximum(tol * scale, 1e-300), what,
+            ratio / tol, what,
             (lambda k: f"{detail(k)} (tolerance {tol * scale[k]:.2g})") if tolerance else detail, location,
             [*hints, "the two dumps are not of the same run"], checked)
 
