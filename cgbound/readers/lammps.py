@@ -346,7 +346,7 @@ class LammpsReader(FrameReader):
             raise ValueError(f"dimension: expected 2 or 3, got {dimension!r}")
         self.contact_reach = _contact_reach(pair_style, script)
         if pair_style is None:
-            pair_style = "gran"
+            pair_style = script.pair_style if script is not None and script.pair_style else "gran"
         if pair_style not in PAIR_STYLES:
             raise ValueError(f"pair_style: expected one of {PAIR_STYLES}, got {pair_style!r}")
         self.atoms_path = os.path.abspath(os.fspath(atoms))
