@@ -74,7 +74,9 @@ def add_parser(sub):
     g.add_argument("--pairs", metavar="PATH", help="the contact dump local (LAMMPS, LIGGGHTS) or the .fstat file "
                                                    "(MercuryDPM); a pattern for per-frame files")
     g.add_argument("--pair-style", choices=["gran", "granular", "total"],
-                   help="lammps: pair style family that wrote the contact dump (default gran)")
+                   help="lammps: pair style family that wrote the contact dump (default: the --input script's, "
+                        "else gran); it also bounds how far apart two particles with a contact force may be (gran: "
+                        "touching; granular: may be cohesive)")
     g.add_argument("--pair-compute", metavar="ID", help="lammps/liggghts: the ID of compute pair/local "
                                                         "(default pl) or pair/gran/local (default pgl)")
     g.add_argument("--pair-values", metavar="LIST",
