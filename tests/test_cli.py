@@ -406,3 +406,23 @@ def test_stat_output_is_mercurycg_format_and_its_kernel_is_checked_before_work(t
     expected = cg.CoarseGrain(frames, cg.Grid(frames[0].box, (1, 1, 20), average=("x", "y")),
                               cg.Lucy(1.0, averaged_axes="lower-dimensional"), fields=("density",)).run().results
     np.testing.assert_allclose(stat.columns["Density"].ravel(), expected.density.ravel(), rtol=5e-6)
+
+
+def test_run_refuses_an_output_that_is_an_input_file_or_cannot_be_written_before_work(tmp_path, capsys):
+    # `cgbound run snap.h5 -o snap.h5` replaced the snapshots by the fields; a directory, a link loop or a link into
+    # a missing directory failed only after the work
+    snaps = tmp_path / "snap.h5"
+    cg.readers.write_snapshots(snaps, [random_snapshot(0, dim=3)])
+    before = snaps.read_bytes()
+    os.symlink("snap.h5", tmp_path / "link.h5")
+    os.mkdir(tmp_path / "dir.h5")
+    os.symlink("loop2.h5", tmp_path / "loop1.h5")
+    os.symlink("loop1.h5", tmp_path / "loop2.h5")
+    os.symlink(os.path.join("missing", "x.h5"), tmp_path / "dangling.h5")
+    for target, expected in (("snap.h5", "is the input file"), ("link.h5", "is the input file"),
+                             ("dir.h5", "is a directory"), ("loop1.h5", "cannot be followed"),
+                             ("dangling.h5", "does not exist")):
+        status, err = run_error(["run", str(snaps), "--grid", "1,1,4", "--average", "x,y", "-q",
+                                 "-o", str(tmp_path / target)], capsys)
+        assert status == 2 and err.startswith("cgbound: error: --output: ") and expected in err, (target, err)
+    assert snaps.read_bytes() == before

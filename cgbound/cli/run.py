@@ -12,7 +12,8 @@ import numpy as np
 
 from .errors import UsageError, as_usage
 from .figures import check_matplotlib, figure_format, save_figure
-from .values import existing_file, integers, numbers, output_directory_exists, positive_number, split_list, type_masses
+from .values import (existing_file, integers, numbers, output_directory_exists, output_not_input, positive_number,
+                     split_list, type_masses)
 
 KERNELS = ("gaussian", "lucy", "heaviside")
 OUTPUTS = (".h5", ".hdf5", ".npz", ".vtk", ".stat")
@@ -327,6 +328,17 @@ def reader_options(args, fmt, paths):
     return options
 
 
+def read_files(paths, contacts, restart, script):
+    """Every file the run reads (the files of a directory of exports, the files a --pairs pattern names)."""
+    import glob
+    out = []
+    for p in paths:
+        out.extend(os.path.join(p, name) for name in sorted(os.listdir(p))) if os.path.isdir(p) else out.append(p)
+    for item in [contacts] if isinstance(contacts, str) else (contacts or []):
+        out.extend(glob.glob(item) or [item])
+    return out + [p for p in (restart, script) if p]
+
+
 def open_data(args):
     """The dataset as one frame sequence, with every reader flag checked against the format."""
     from ..readers import open_dataset
@@ -334,6 +346,7 @@ def open_data(args):
     fmt = data_format(args, paths)
     check_flags_apply(args, fmt)
     if fmt == "mdanalysis":
+        output_not_input(args.output, paths, "--output")
         with as_usage("PATH"):
             return open_dataset(tuple(paths) if len(paths) > 1 else paths[0], format=fmt), fmt, paths
     options = reader_options(args, fmt, paths)
@@ -347,6 +360,7 @@ def open_data(args):
             print(f"cgbound: fixed particles, densities and periodic axes from {os.path.basename(restart)}",
                   file=sys.stderr)
         options["restart_path"] = restart
+    output_not_input(args.output, read_files(paths, contacts, options.get("restart_path"), args.input), "--output")
     with as_usage("PATH"):
         try:
             data = open_dataset(paths, format=fmt, **options)

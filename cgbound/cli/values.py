@@ -89,7 +89,37 @@ def existing_file(path, flag):
 
 
 def output_directory_exists(path, flag):
-    directory = os.path.dirname(os.path.abspath(path))
+    """A file to write: not a directory, and a symlink only if it leads to a file name in an existing directory
+    (the writers replace the file a link points to), so that nothing is computed for a write that must fail."""
+    if os.path.isdir(path):
+        raise UsageError(flag, f"{path!r} is a directory; expected a file name")
+    target = path
+    if os.path.islink(path):
+        try:
+            os.stat(path)
+        except FileNotFoundError:
+            pass                  # a dangling link: the file it names is created (its directory is checked below)
+        except OSError as exc:    # a loop of links
+            raise UsageError(flag, f"{path!r} is a symlink that cannot be followed ({exc.strerror}); expected a "
+                                   f"file name") from None
+        target = os.path.realpath(path)
+    directory = os.path.dirname(os.path.abspath(target))
     if not os.path.isdir(directory):
-        raise UsageError(flag, f"directory {directory!r} does not exist")
+        via = f" (the target of the symlink {path!r})" if target != path else ""
+        raise UsageError(flag, f"directory {directory!r}{via} does not exist")
+    return path
+
+
+def output_not_input(path, inputs, flag):
+    """Refuse an output that is one of the input files (or a link to one): the write would replace the data."""
+    if not os.path.exists(path):
+        return path
+    for item in inputs:
+        try:
+            same = os.path.samefile(path, item)
+        except OSError:
+            continue
+        if same:
+            raise UsageError(flag, f"{path!r} is the input file {item!r}: writing the fields there would replace the "
+                                   f"data; choose another output file")
     return path
