@@ -333,11 +333,11 @@ def test_contact_fields_without_a_contact_file_warn(tmp_path, capsys):
 
 def test_mercury_companion_files_are_used_and_announced(tmp_path, capsys):
     # two frames with the same fixed particles (fixed particles stay fixed; --fixed-ids is one list)
+    # (radii that reach the random contact points: the reader refuses a contact point outside its particles)
     first = random_snapshot(0, dim=3, n_wall=0)
     second = random_snapshot(1, dim=3, n_wall=0)
-    second = cg.Snapshot(second.positions, second.velocities, second.masses, box=second.box,
-                         contacts=second.contacts, fixed=first.fixed, radii=second.radii, time=1.0)
-    snaps = [first, second]
+    snaps = [cg.Snapshot(s.positions, s.velocities, s.masses, box=s.box, contacts=s.contacts, fixed=first.fixed,
+                         radii=np.full(len(s.masses), 5.0), time=t) for t, s in enumerate((first, second))]
     from cgbound.readers import write_mercury
     write_mercury(snaps, tmp_path / "m.data", tmp_path / "m.fstat")
     out = tmp_path / "o.npz"

@@ -110,3 +110,52 @@ def test_a_fixed_predicate_that_selects_nothing_is_an_error():
                            fixed=lambda radius, species: species == 3)
     with pytest.raises(ValueError, match="fixed: selects no particle of the frame at t = 0"):
         frames[0]
+
+
+def fstat_with(tmp_path, edit):
+    """The genuine .data and an .fstat whose lines (a list of strings) ``edit`` changed; the reader of both."""
+    lines = open(STEM + ".fstat").read().split("\n")
+    edit(lines)
+    (tmp_path / "c.fstat").write_text("\n".join(lines))
+    return MercuryReader(STEM + ".data", tmp_path / "c.fstat", restart_path=STEM + ".restart", body_force=(0, 0, -1))
+
+
+def first_line(lines, time, test):
+    """The index of the first interaction line of the frame at ``time`` whose words pass ``test``."""
+    return next(k for k, line in enumerate(lines) if line.split()[:1] == [time] and test(line.split()))
+
+
+@pytest.mark.parametrize("column, side", [(1, "particle"), (2, "partner")])
+def test_a_contact_line_naming_a_particle_away_from_its_contact_point_is_refused(tmp_path, column, side):
+    # a contact with a fixed base particle is listed once, so no pairing check sees an index changed (a damaged line,
+    # or an .fstat of another run with the same times): it was read as a force on (or from) another particle
+    at = {}
+
+    def edit(lines):
+        k = at["k"] = first_line(lines, "20", lambda w: 0 <= int(w[2]) < 210 <= int(w[1]))
+        words = lines[k].split()
+        words[column] = str(int(words[column]) + 1)
+        lines[k] = " ".join(words)
+
+    frames = fstat_with(tmp_path, edit)
+    with pytest.raises(ValueError, match=rf"c.fstat:{at['k'] + 1}: the contact point .* from the centre of {side} "
+                                         r".* not a contact of that particle"):
+        frames[8]
+    frames[7]   # the other frames read
+
+
+def test_an_fstat_frame_of_another_time_is_refused_by_its_contact_points_not_its_pairing(tmp_path):
+    # the lines of t = 20 labelled t = 17.5 (their particles exist in that frame): the pairing found two lines of a
+    # pair "inconsistent" (their orientations flip at the wrong positions), a message about a damaged listing
+    def edit(lines):
+        frames = [k for k, line in enumerate(lines) if line.startswith("# ") and len(line.split()) == 3]
+        head = {lines[k].split()[1]: k for k in frames}
+        a, b = head["17.5"], head["20"]
+        stop = frames[frames.index(b) + 1]
+        moved = [" ".join(["17.5"] + line.split()[1:]) for line in lines[b + 3:stop]
+                 if max(int(line.split()[1]), int(line.split()[2])) < 1018]
+        lines[a + 3:b] = moved
+
+    with pytest.raises(ValueError, match=r"c.fstat:\d+: the contact point .* not a contact of that particle, so the "
+                                         r".fstat frame does not belong to this .data frame"):
+        fstat_with(tmp_path, edit)[7]

@@ -91,7 +91,10 @@ second C pass (``csrc/cg_fstat.h``; its NumPy twin is ``oracle_fstat_contacts`` 
 with the file, the frame's time and the line: a ``.data`` frame with fewer particle lines than its header
 declares, a particle line with a value more or less than the frame's first (the columns would shift), a
 ``.fstat`` block of ``#`` lines that is not 3 per frame (a header line lost, or a blank line inserted), an
-interaction line whose time is not its frame's, a last ``.fstat`` frame cut off after its header while
+interaction line whose time is not its frame's, an interaction line whose contact point lies outside the sphere
+(radius plus |overlap|, 1 % and the file's rounding of slack) of its particle or partner particle in the ``.data``
+frame (an ``.fstat`` of another run or frame, or a damaged index: a contact with a fixed particle or a wall is
+listed once, so no pairing check would see it), a last ``.fstat`` frame cut off after its header while
 earlier frames have contacts, a ``.restart`` without a complete ``Particles N`` section, empty or
 whitespace-only files, nan/inf, non-numbers and bytes that are not text.
 
@@ -120,6 +123,7 @@ from .. import _engine
 from .._validate import finite_number, index_array, integer
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
+from .checks import row_squares
 from ._mercury_files import LINE_TIME_RTOL, fstat_rows, read_particles, read_restart, scan_data, scan_fstat
 from ._mercury_write import write_mercury
 from .files import CompanionFileWarning, companion
@@ -405,10 +409,49 @@ class MercuryReader(FrameReader):
             problem, detail, found = _engine.fstat_contacts(
                 rows, ints, time, LINE_TIME_RTOL * max(1.0, abs(time)), pos, radii, fixed, box.periodic,
                 [float(x) for x in box.lengths], self.rtol)
+            if problem not in (0, _FSTAT_TIME, _FSTAT_PARTICLE, _FSTAT_GHOST):
+                # every index is a particle's: a line whose point is not at its particles explains a pairing that
+                # fails (lines of another run) better than the pairing's own message
+                self._check_reach(rows, ints, line_of, time, pos, radii, box)
             if problem:
                 raise self._fstat_problem(problem, detail, rows, ints, line_of, time, pos.shape[0])
+            self._check_reach(rows, ints, line_of, time, pos, radii, box)
         i, j, wall_index, force, point, overlap = found
         return Contacts.from_reader(i, j, force, point, parsed=("contacts.point",)), wall_index, overlap
+
+    #: how far a contact point may lie outside a particle's sphere (r + |delta|, delta the overlap: a cohesive
+    #: contact's delta is negative) before the line is refused: a fraction of the reach, plus a fraction of the
+    #: box's coordinates for the .fstat's rounding (10 significant digits; 6 in files of older versions)
+    REACH_RTOL, REACH_COORDINATE_RTOL = 1e-2, 1e-5
+
+    def _check_reach(self, rows, ints, line_of, time, pos, radii, box):
+        """Refuse a line whose contact point lies outside particle i's (or the partner particle j's) sphere in the
+        .data frame: such a line is not a contact of that particle, so the .fstat is from another run (or another
+        frame of the same time), or its indices are damaged. The other checks miss it when the partner is fixed
+        or a wall (those contacts are listed once)."""
+        d = self.dim
+        point = rows[:, 3:3 + d]
+        delta = np.abs(rows[:, 6])
+        slack = self.REACH_COORDINATE_RTOL * float(np.max(np.abs(np.concatenate([box.lower, box.upper]))))
+        for column, side in ((0, "particle"), (1, "partner")):
+            k = ints[:, column]
+            lines = np.flatnonzero(k >= 0) if column else np.arange(k.size)
+            if not lines.size:
+                continue
+            k = k[lines]
+            arm = box.minimum_image(pos[k] - point[lines])
+            reach = (radii[k] + delta[lines]) * (1 + self.REACH_RTOL) + slack
+            far = np.flatnonzero(row_squares(arm) > reach * reach)
+            if far.size:
+                m = int(far[0])
+                row = int(lines[m])
+                raise ValueError(
+                    f"{self.fstat_path}:{line_of(row)}: the contact point {point[row].tolist()} lies "
+                    f"{math.sqrt(float(row_squares(arm[m:m + 1])[0])):.4g} from the centre of {side} {int(k[m])} "
+                    f"(radius {radii[k[m]]:g}, overlap {rows[row, 6]:g}) in the frame at t = {time:g} of "
+                    f"{self.data_path}: the line is not a contact of that particle, so the .fstat frame does not "
+                    f"belong to this .data frame (files of different runs, or of a run restarted and appended to "
+                    f"one file, or damaged indices); use the .data and .fstat that one run wrote")
 
     def _fstat_problem(self, problem, detail, rows, ints, line_of, time, n):
         """The ValueError for a problem cg_fstat_contacts found (its codes: csrc/cg_fstat.h)."""
