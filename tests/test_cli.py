@@ -426,3 +426,15 @@ def test_run_refuses_an_output_that_is_an_input_file_or_cannot_be_written_before
                                  "-o", str(tmp_path / target)], capsys)
         assert status == 2 and err.startswith("cgbound: error: --output: ") and expected in err, (target, err)
     assert snaps.read_bytes() == before
+
+
+def test_a_data_mass_that_is_not_positive_is_the_datas_error_not_the_masses_flags(tmp_path, capsys):
+    path = tmp_path / "s.h5"
+    cg.readers.write_snapshots(path, [random_snapshot(0, dim=3)])
+    with h5py.File(path, "r+") as f:
+        masses = f["frames/000000/masses"][()]
+        masses[~f["frames/000000/fixed"][()]] = 0.0
+        del f["frames/000000/masses"]
+        f["frames/000000/masses"] = masses
+    status, err = run_error(["run", str(path), "-q", "-o", str(tmp_path / "o.h5")], capsys)
+    assert status == 1 and "--masses" not in err and "s.h5: frame 000000" in err, err

@@ -159,3 +159,19 @@ def test_an_fstat_frame_of_another_time_is_refused_by_its_contact_points_not_its
     with pytest.raises(ValueError, match=r"c.fstat:\d+: the contact point .* not a contact of that particle, so the "
                                          r".fstat frame does not belong to this .data frame"):
         fstat_with(tmp_path, edit)[7]
+
+
+@pytest.mark.parametrize("radius", ["0", "-0.5"])
+def test_a_flowing_particle_without_a_positive_radius_is_refused_naming_its_line(tmp_path, radius, capsys):
+    # its mass (density x volume) was refused as "--masses: expected positive masses ... at index 499" (exit 2, a
+    # flag not given, no file or line)
+    for suffix in (".fstat", ".restart"):
+        shutil.copy(STEM + suffix, tmp_path / ("c" + suffix))
+    lines = open(STEM + ".data").read().split("\n")
+    words = lines[500].split()
+    words[6] = radius
+    lines[500] = " ".join(words)
+    (tmp_path / "c.data").write_text("\n".join(lines))
+    status = main(["run", str(tmp_path / "c.data"), "--gravity", "0,0,-1", "-q", "-o", str(tmp_path / "o.h5")])
+    err = capsys.readouterr().err
+    assert status == 1 and f"c.data:501: particle 499 of the frame at t = 0 has radius {radius}" in err, err

@@ -434,7 +434,7 @@ def run(args):
     data, fmt, paths = open_data(args)
     if args.units is not None:
         data.units = args.units
-    with as_usage():                 # the reader checks the first frame: a selection of nothing names its flag
+    with as_usage(args=args):        # the reader checks the first frame: a selection of nothing names its flag
         first = data[0]
     with as_usage("--fields"):
         check_units_fields(first.units, args.fields)

@@ -302,6 +302,7 @@ class MercuryReader(FrameReader):
         pos, vel, radii, species = self._particle_columns(table, species, data_line)
         box = Box(np.minimum(lower, upper), np.maximum(lower, upper), self.periodic)
         fixed = self._fixed(radii, species, n, pos, time)
+        self._check_radii(radii, fixed, data_line, time)
         masses = self._masses(radii, species, fixed)
         if fstat is not None:
             contacts, wall_index, overlap = self._contacts(fstat, pos, radii, box, fixed)
@@ -382,6 +383,16 @@ class MercuryReader(FrameReader):
                                  f"deleted or reordered?); pass fixed= instead")
         return fixed
 
+
+    def _check_radii(self, radii, fixed, data_line, time):
+        """A flowing particle's mass is density x volume: a radius that is not positive is a damaged line (or a
+        column shifted by a driver's own output), refused here by its line rather than as a mass."""
+        bad = np.flatnonzero(~fixed & ~(radii > 0))
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(f"{self.data_path}:{data_line + 1 + k}: particle {k} of the frame at t = {time:g} has "
+                             f"radius {radii[k]:g}; a flowing particle needs a positive radius (its mass is density x "
+                             f"volume): a damaged line, or a .data file of another layout")
 
     def _masses(self, radii, species, fixed):
         dens = self.density
