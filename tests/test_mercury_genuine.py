@@ -175,3 +175,35 @@ def test_a_flowing_particle_without_a_positive_radius_is_refused_naming_its_line
     status = main(["run", str(tmp_path / "c.data"), "--gravity", "0,0,-1", "-q", "-o", str(tmp_path / "o.h5")])
     err = capsys.readouterr().err
     assert status == 1 and f"c.data:501: particle 499 of the frame at t = 0 has radius {radius}" in err, err
+
+
+def per_frame_files(tmp_path, count=3):
+    """MercuryDPM's MULTIPLE_FILES layout of the genuine run's first frames: c.data.000k and c.fstat.000k."""
+    data = open(STEM + ".data").read().split("\n")
+    heads = [k for k, line in enumerate(data) if len(line.split()) == 8][:count + 1]
+    fstat = open(STEM + ".fstat").read().split("\n")
+    marks = [k for k, line in enumerate(fstat) if line.startswith("# ") and len(line.split()) == 3][:count + 1]
+    for k in range(count):
+        (tmp_path / f"c.data.{k:04d}").write_text("\n".join(data[heads[k]:heads[k + 1]]) + "\n")
+        (tmp_path / f"c.fstat.{k:04d}").write_text("\n".join(fstat[marks[k]:marks[k + 1]]) + "\n")
+    shutil.copy(STEM + ".restart", tmp_path / "c.restart")
+    return ["run", str(tmp_path / "c.data.*"), "--restart", str(tmp_path / "c.restart"), "--gravity", "0,0,-1",
+            "--grid", "1,1,4", "--average", "x,y", "-q", "-o", str(tmp_path / "o.h5")]
+
+
+def test_per_frame_files_missing_a_contact_file_or_out_of_time_order_are_refused(tmp_path, capsys):
+    args = per_frame_files(tmp_path)
+    assert main(args) == 0
+    capsys.readouterr()
+    # a frame's .fstat lost: every frame was read without contacts (a warning per file, exit 0)
+    os.rename(tmp_path / "c.fstat.0001", tmp_path / "lost")
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "--pairs: 1 of the 3 .data files have no .fstat beside them (c.data.0001)" in err, err
+    os.rename(tmp_path / "lost", tmp_path / "c.fstat.0001")
+    # names whose numbers do not give the time order (the frames were coarse-grained in the names' order)
+    for suffix in ("data", "fstat"):
+        os.rename(tmp_path / f"c.{suffix}.0000", tmp_path / f"c.{suffix}.0007")
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "PATH: the frames of c.data.0007 (first time 0) do not come after those of c.data.0002 (last time 5)" in err

@@ -270,6 +270,13 @@ def contact_files(args, paths, fmt):
     if fmt == "mercury":
         from ..readers.files import companion
         found = [companion(p, ".data", ".fstat") for p in paths]
+        if any(found) and not all(found):
+            # some frames without their contacts would be coarse-grained as if no particle touched
+            lost = [os.path.basename(p) for p, f in zip(paths, found) if f is None]
+            raise UsageError("--pairs", f"{len(lost)} of the {len(paths)} .data files have no .fstat beside them "
+                                        f"({', '.join(lost[:3])}{' ...' if len(lost) > 3 else ''}) while the others "
+                                        f"have: a contact file is missing; restore it, or name the .data files that "
+                                        f"have one")
         if all(found):
             print(f"cgbound: contacts from {', '.join(os.path.basename(f) for f in found[:3])}"
                   f"{' ...' if len(found) > 3 else ''}", file=sys.stderr)

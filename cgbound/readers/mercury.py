@@ -289,6 +289,11 @@ class MercuryReader(FrameReader):
             raise ValueError(f"{self.fstat_path}: no .fstat frame for time(s) {missing[:10]} of {self.data_path}")
         return out
 
+    @property
+    def frame_times(self):
+        """The frames' times as their headers give them (no frame is read)."""
+        return [header[1] for header, *_ in self._frames]
+
     def _describe(self):
         return [file_name(self.data_path), file_name(self.fstat_path)], [f"{self.dim}D"]
 
