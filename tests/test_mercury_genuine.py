@@ -207,3 +207,12 @@ def test_per_frame_files_missing_a_contact_file_or_out_of_time_order_are_refused
     assert main(args) == 2
     err = capsys.readouterr().err
     assert "PATH: the frames of c.data.0007 (first time 0) do not come after those of c.data.0002 (last time 5)" in err
+
+
+def test_fixed_ids_beyond_the_frame_name_the_flag(tmp_path, capsys):
+    # an IndexError ("fixed: indices must lie in [0, 960)", exit 1) that named neither the flag nor the frame
+    status = main(["run", STEM + ".data", "--fixed-ids", "0,5000", "--gravity", "0,0,-1", "-q", "-o",
+                   str(tmp_path / "o.h5")])
+    err = capsys.readouterr().err
+    assert status == 2 and "--fixed-ids: particle indices must lie in [0, 960) (the frame at t = 0 has 960 " \
+                           "particles), got [5000]" in err, err

@@ -337,7 +337,7 @@ class MercuryReader(FrameReader):
     def _fixed(self, radii, species, n, positions, time):
         f = self.fixed
         if f is not None:
-            out = self._fixed_given(f, radii, species, n)
+            out = self._fixed_given(f, radii, species, n, time)
             if not out.any():
                 raise ValueError(f"fixed: selects no particle of the frame at t = {time:g} of {self.data_path} "
                                  f"({n} particles); check the predicate or the indices")
@@ -347,7 +347,7 @@ class MercuryReader(FrameReader):
         return self._fixed_from_restart(n, positions, time)
 
     @staticmethod
-    def _fixed_given(f, radii, species, n):
+    def _fixed_given(f, radii, species, n, time=0.0):
         """The fixed flags of ``fixed=``: a callable of (radius, species), N bools, or indices."""
         if callable(f):
             out = np.asarray(f(radii, species), dtype=bool)
@@ -360,8 +360,10 @@ class MercuryReader(FrameReader):
             return f.copy()
         out = np.zeros(n, bool)
         idx = index_array(f.ravel(), "fixed")
-        if np.any((idx < 0) | (idx >= n)):
-            raise IndexError(f"fixed: indices must lie in [0, {n})")
+        outside = idx[(idx < 0) | (idx >= n)]
+        if outside.size:   # a ValueError, so that the command line names --fixed-ids
+            raise ValueError(f"fixed: particle indices must lie in [0, {n}) (the frame at t = {time:g} has {n} "
+                             f"particles), got {outside[:5].tolist()}; indices are the .data rows, from 0")
         out[idx] = True
         return out
 
