@@ -438,3 +438,15 @@ def test_a_data_mass_that_is_not_positive_is_the_datas_error_not_the_masses_flag
         f["frames/000000/masses"] = masses
     status, err = run_error(["run", str(path), "-q", "-o", str(tmp_path / "o.h5")], capsys)
     assert status == 1 and "--masses" not in err and "s.h5: frame 000000" in err, err
+
+
+def test_a_grid_no_particle_reaches_is_said(tmp_path, capsys):
+    # a --lower/--upper outside the data wrote zero fields (velocity NaN) with exit 0 and no word
+    snaps = tmp_path / "snap.h5"
+    cg.readers.write_snapshots(snaps, [random_snapshot(0, dim=3)])
+    args = ["run", str(snaps), "--grid", "2,2,2", "-q", "-o", str(tmp_path / "o.h5")]
+    assert main(args + ["--lower", "100,100,100", "--upper", "200,200,200"]) == 0
+    err = capsys.readouterr().err
+    assert "cgbound: warning: the density is zero at every node of every frame: no particle came within" in err, err
+    assert main(args) == 0
+    assert "warning" not in capsys.readouterr().err

@@ -427,6 +427,20 @@ def make_kernel(args):
         return Heaviside(args.cutoff if args.cutoff is not None else args.width, averaged_axes=args.averaged_kernel)
 
 
+def warn_if_no_particle_reached(args, out):
+    """Say so when the density is zero at every node of every frame: no particle came within the kernel's reach of
+    the grid (a --lower/--upper outside the data, or a --species absent), so every field is zero (velocity NaN)."""
+    for name in ("density", "number_density"):
+        if name in args.fields:
+            if not np.any(np.asarray(out[name])):
+                import warnings
+                warnings.warn(f"the {name.replace('_', ' ')} is zero at every node of every frame: no particle came "
+                              f"within the kernel's cutoff of the grid, so every field is zero (velocity NaN); "
+                              f"check --lower and --upper against the data's box {out.box.lower.tolist()} .. "
+                              f"{out.box.upper.tolist()}", stacklevel=2)
+            return
+
+
 def check_figure(args, grid):
     if args.figure and len(grid.resolved) not in (1, 2):
         raise UsageError("--figure", f"a figure shows profiles (one resolved axis) or maps (two); the grid "
@@ -456,6 +470,7 @@ def run(args):
     analysis.run(args.start, args.stop, args.step, verbose=not args.quiet)
     elapsed = time.perf_counter() - start
     out = analysis.results
+    warn_if_no_particle_reached(args, out)
     ext = os.path.splitext(args.output)[1].lower()
     if ext in (".h5", ".hdf5"):
         out.to_hdf5(args.output, provenance={"input": ", ".join(os.path.abspath(p) for p in paths),
