@@ -450,3 +450,16 @@ def test_a_grid_no_particle_reaches_is_said(tmp_path, capsys):
     assert "cgbound: warning: the density is zero at every node of every frame: no particle came within" in err, err
     assert main(args) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+def test_the_default_width_is_refused_on_particles_far_from_unit_size(tmp_path, capsys):
+    # LIGGGHTS grains of 0.9 mm in SI: the default width 0.25 (for d ~ 1) smoothed the 12 mm column into one
+    # uniform density of 2.2 kg/m^3 (the packing's is ~1500), exit 0
+    data = os.path.join(os.path.dirname(__file__), "data", "liggghts")
+    args = ["run", os.path.join(data, "atoms.dump"), "--format", "liggghts", "--pairs", os.path.join(data, "pairs.dump"),
+            "--input", os.path.join(data, "in.settle"), "--grid", "1,1,10", "--average", "x,y", "--stop", "1", "-q",
+            "-o", str(tmp_path / "o.h5")]
+    status, err = run_error(args, capsys)
+    assert status == 2 and err.startswith("cgbound: error: --width: not given, and the default 0.25 is 272 times the "
+                                          "particles' median diameter d = 0.000918"), err
+    assert main(args + ["--width", "0.00025"]) == 0

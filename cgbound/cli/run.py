@@ -107,7 +107,8 @@ def add_parser(sub):
                         "units command, else '(simulation units)'")
     k = r.add_argument_group("kernel and grid")
     k.add_argument("--kernel", choices=KERNELS, default="gaussian", help="coarse-graining kernel (default gaussian)")
-    k.add_argument("--width", default="0.25", help="Gaussian width w, also the default scale of the others (default 0.25)")
+    k.add_argument("--width", help="Gaussian width w, also the default scale of the others (default 0.25, for "
+                                   "particles of diameter about 1; refused for particles far larger or smaller)")
     k.add_argument("--cutoff", default=None, help="support radius (Gaussian default 5 w; Lucy 3 w; Heaviside w)")
     k.add_argument("--normalize", choices=["full", "truncated"], default="full", help="Gaussian normalisation (default full)")
     k.add_argument("--grid", default="20,20,20", help="nodes per axis, e.g. 1,1,400 (averaged axes take 1; default 20,20,20)")
@@ -162,7 +163,8 @@ def check(args):
     for name in args.fields:
         if name not in FIELDS:
             raise UsageError("--fields", f"unknown field {name!r}; expected some of {', '.join(FIELDS)}")
-    args.width = positive_number(args.width, "--width")
+    args.width_given = args.width is not None
+    args.width = positive_number(args.width if args.width_given else DEFAULT_WIDTH, "--width")
     args.cutoff = None if args.cutoff is None else positive_number(args.cutoff, "--cutoff")
     args.grid = integers(args.grid, "--grid", positive=True, allow_x=True)
     args.average = tuple(split_list(args.average))
@@ -441,6 +443,32 @@ def warn_if_no_particle_reached(args, out):
             return
 
 
+#: --width when neither it nor --cutoff is given: a quarter of a unit diameter (the paper's d/4)
+DEFAULT_WIDTH = "0.25"
+#: the default width is refused when it is this many times larger, or smaller, than the particles' median diameter
+DEFAULT_WIDTH_RANGE = (0.01, 10.0)
+
+
+def check_default_width(args, first):
+    """The default width assumes particles of diameter about 1: on data in other units (SI grains of a millimetre)
+    it smooths over the whole system, or resolves nothing, and the fields are meaningless though finite. Refuse it
+    before the work when the first frame's radii say so."""
+    if args.width_given or args.cutoff is not None or first.radii is None:
+        return
+    flowing = first.radii[~first.fixed] if np.any(~first.fixed) else first.radii
+    diameter = 2.0 * float(np.median(flowing)) if flowing.size else 0.0
+    if not diameter > 0:
+        return
+    ratio = args.width / diameter
+    if DEFAULT_WIDTH_RANGE[0] <= ratio <= DEFAULT_WIDTH_RANGE[1]:
+        return
+    raise UsageError("--width", f"not given, and the default {args.width:g} is {ratio:.3g} times the particles' "
+                                f"median diameter d = {diameter:.3g} (the data's units): the fields would be "
+                                f"{'smoothed over the whole system' if ratio > 1 else 'spikes at the particles'}; "
+                                f"give --width (or --cutoff) in the data's units, e.g. --width {diameter / 4:.3g} "
+                                f"(d/4)")
+
+
 def check_figure(args, grid):
     if args.figure and len(grid.resolved) not in (1, 2):
         raise UsageError("--figure", f"a figure shows profiles (one resolved axis) or maps (two); the grid "
@@ -461,6 +489,7 @@ def run(args):
         check_units_fields(first.units, args.fields)
     grid = make_grid(args, first)
     kernel = make_kernel(args)
+    check_default_width(args, first)
     check_figure(args, grid)
     with as_usage("--fields"):
         analysis = CoarseGrain(data, grid, kernel, fields=args.fields, convention=args.convention,
