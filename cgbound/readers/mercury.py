@@ -221,7 +221,23 @@ class MercuryReader(FrameReader):
         if self.rtol < 0:
             raise ValueError(f"rtol: expected a non-negative number, got {rtol!r}")
         self._frames = self._match(data_frames)
+        self._warn_repeated_times(data_frames)
         self._cache = None
+
+    def _warn_repeated_times(self, data_frames):
+        """A time written twice (a run restarted and appended to its files writes the restart's frames again) is
+        read twice: a time average counts it twice. Allowed, but not silently."""
+        seen = {}
+        for f in data_frames:
+            seen.setdefault(f[3], []).append(f[1])
+        repeated = [(t, lines) for t, lines in seen.items() if len(lines) > 1]
+        if repeated:
+            t, lines = repeated[0]
+            more = f" (and {len(repeated) - 1} more time(s))" if len(repeated) > 1 else ""
+            warnings.warn(f"{self.data_path}: the frame at t = {t:g} is written {len(lines)} times (lines "
+                          f"{', '.join(map(str, lines))}){more}, as by a run restarted and appended to its files; "
+                          f"each copy is read, so a time average counts it {len(lines)} times: select the frames "
+                          f"(start/stop/step, --start/--stop/--step) to count each time once", stacklevel=3)
 
     # ------------------------------------------------------------------------------------------
     @staticmethod
