@@ -95,7 +95,9 @@ interaction line whose time is not its frame's, an interaction line whose contac
 (radius plus |overlap|, 1 % and the file's rounding of slack) of its particle or partner particle in the ``.data``
 frame (an ``.fstat`` of another run or frame, or a damaged index: a contact with a fixed particle or a wall is
 listed once, so no pairing check would see it), a last ``.fstat`` frame cut off after its header while
-earlier frames have contacts, a ``.restart`` without a complete ``Particles N`` section, empty or
+earlier frames have contacts, a ``.data`` or ``.fstat`` whose last line has no newline (cut while written or
+copied: a cut inside the last number keeps the line's length), a ``.restart`` without a complete ``Particles N``
+section, a flowing particle whose radius is not positive, empty or
 whitespace-only files, nan/inf, non-numbers and bytes that are not text.
 
 Unverified / not supported
@@ -109,7 +111,8 @@ Unverified / not supported
   ``PeriodicBoundary``); other restart content (walls, insertion boundaries) is ignored.
 * Frames are matched by time: a ``.data`` frame without an ``.fstat`` frame of the same time
   (within 1e-9 relative) raises; unmatched ``.fstat`` frames are ignored. Frames of one time written
-  more than once (a run restarted and appended) pair in file order.
+  more than once (a run restarted and appended) pair in file order, with a warning (a time average counts
+  each copy).
 """
 from dataclasses import dataclass
 import math
