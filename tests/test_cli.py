@@ -463,3 +463,15 @@ def test_the_default_width_is_refused_on_particles_far_from_unit_size(tmp_path, 
     assert status == 2 and err.startswith("cgbound: error: --width: not given, and the default 0.25 is 272 times the "
                                           "particles' median diameter d = 0.000918"), err
     assert main(args + ["--width", "0.00025"]) == 0
+
+
+def test_a_2d_lammps_run_read_as_3d_is_refused_naming_dimension(tmp_path, capsys):
+    # without --dimension 2 (even with the script's 'dimension 2' as --input) the discs were coarse-grained in 3-D:
+    # per volume through z = 0, with a "profile" along z, exit 0
+    data = os.path.join(os.path.dirname(__file__), "data", "lammps")
+    args = ["run", os.path.join(data, "hooke2d", "atoms.dump"), "--pairs", os.path.join(data, "hooke2d", "pairs.dump"),
+            "--input", os.path.join(data, "in.hooke2d"), "--stop", "1", "-q", "-o", str(tmp_path / "o.h5")]
+    status, err = run_error(args + ["--grid", "1,1,10", "--average", "x,y"], capsys)
+    assert status == 2 and err.startswith("cgbound: error: --dimension: not given, so the data are read as 3-D, but "
+                                          "every particle of the first frame has z = 0 and vz = 0"), err
+    assert main(args + ["--dimension", "2", "--grid", "1,10", "--average", "x"]) == 0

@@ -449,6 +449,19 @@ DEFAULT_WIDTH = "0.25"
 DEFAULT_WIDTH_RANGE = (0.01, 10.0)
 
 
+def check_flat_3d(args, fmt, first):
+    """A LAMMPS/LIGGGHTS dump of a 2-D run (``dimension 2``) read without --dimension 2 is 3-D data with every z and
+    vz 0: its fields would be per volume through the plane z = 0 and its profiles along z meaningless. Refuse it."""
+    if fmt not in ("lammps", "liggghts") or args.dimension is not None or first.dim != 3 or first.n_particles < 2:
+        return
+    z = first.positions[:, 2]
+    flat = np.all(z == z[0]) and (first.velocities is None or not np.any(first.velocities[:, 2]))
+    if flat:
+        raise UsageError("--dimension", f"not given, so the data are read as 3-D, but every particle of the first "
+                                        f"frame has z = {z[0]:g} and vz = 0: a 2-D run (LAMMPS 'dimension 2')? Pass "
+                                        f"--dimension 2 (the fields are then per unit area of the run's plane)")
+
+
 def check_default_width(args, first):
     """The default width assumes particles of diameter about 1: on data in other units (SI grains of a millimetre)
     it smooths over the whole system, or resolves nothing, and the fields are meaningless though finite. Refuse it
@@ -485,6 +498,7 @@ def run(args):
         data.units = args.units
     with as_usage(args=args):        # the reader checks the first frame: a selection of nothing names its flag
         first = data[0]
+    check_flat_3d(args, fmt, first)
     with as_usage("--fields"):
         check_units_fields(first.units, args.fields)
     grid = make_grid(args, first)
