@@ -475,3 +475,13 @@ def test_a_2d_lammps_run_read_as_3d_is_refused_naming_dimension(tmp_path, capsys
     assert status == 2 and err.startswith("cgbound: error: --dimension: not given, so the data are read as 3-D, but "
                                           "every particle of the first frame has z = 0 and vz = 0"), err
     assert main(args + ["--dimension", "2", "--grid", "1,10", "--average", "x"]) == 0
+
+
+@pytest.mark.parametrize("time_average", ["none", "0.5"])
+def test_a_vtk_output_of_many_results_is_refused_before_work(tmp_path, capsys, time_average):
+    # the VTK writer took frame 0 only: "2 frames -> ... wrote t.vtk" with the other frames dropped
+    snaps = tmp_path / "snap.h5"
+    cg.readers.write_snapshots(snaps, [random_snapshot(k, dim=3) for k in range(2)])
+    status, err = run_error(["run", str(snaps), "--grid", "2,2,2", "--time-average", time_average, "-q",
+                             "-o", str(tmp_path / "t.vtk")], capsys)
+    assert status == 2 and "--output: a .vtk file holds one result" in err and not (tmp_path / "t.vtk").exists()

@@ -177,6 +177,10 @@ def check(args):
         if not (np.isfinite(width) and width > 0):
             raise UsageError("--time-average", f"expected mean, none or a positive time width, got {args.time_average!r}")
         args.time_average = width
+    if ext == ".vtk" and args.time_average != "mean":
+        # (the VTK writer takes one frame: the others were computed and dropped)
+        raise UsageError("--output", f"a .vtk file holds one result, but --time-average {args.time_average} gives "
+                                     f"one per frame (or output time): write .h5 or .npz, or use --time-average mean")
     if args.step == 0:
         raise UsageError("--step", "expected a non-zero integer")
     args.lower = None if args.lower is None else numbers(args.lower, "--lower", allow_empty=True)
