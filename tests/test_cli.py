@@ -485,3 +485,21 @@ def test_a_vtk_output_of_many_results_is_refused_before_work(tmp_path, capsys, t
     status, err = run_error(["run", str(snaps), "--grid", "2,2,2", "--time-average", time_average, "-q",
                              "-o", str(tmp_path / "t.vtk")], capsys)
     assert status == 2 and "--output: a .vtk file holds one result" in err and not (tmp_path / "t.vtk").exists()
+
+
+def test_an_existing_output_is_replaced_only_when_cgbound_wrote_it_as_a_result(tmp_path, capsys):
+    # any existing file with the extension was replaced: another snapshot file, another program's HDF5 or .npz
+    snaps = tmp_path / "snap.h5"
+    cg.readers.write_snapshots(snaps, [random_snapshot(0, dim=3)])
+    shutil.copy(snaps, tmp_path / "other.h5")
+    np.savez(tmp_path / "mine.npz", x=np.arange(3))
+    with h5py.File(tmp_path / "foreign.h5", "w") as f:
+        f["data"] = np.arange(3)
+    args = ["run", str(snaps), "--grid", "1,1,4", "--average", "x,y", "-q", "-o"]
+    for name in ("other.h5", "mine.npz", "foreign.h5"):
+        before = (tmp_path / name).read_bytes()
+        status, err = run_error(args + [str(tmp_path / name)], capsys)
+        assert status == 2 and "--output: " in err and "exists and is not a result file cgbound wrote" in err, err
+        assert (tmp_path / name).read_bytes() == before
+    for name in ("r.h5", "r.npz", "r.vtk"):       # a result of an earlier run is replaced
+        assert main(args + [str(tmp_path / name)]) == 0 and main(args + [str(tmp_path / name)]) == 0

@@ -13,7 +13,7 @@ import numpy as np
 from .errors import UsageError, as_usage
 from .figures import check_matplotlib, figure_format, save_figure
 from .values import (existing_file, integers, numbers, output_directory_exists, output_not_input, positive_number,
-                     split_list, type_masses)
+                     replaceable_output, split_list, type_masses)
 
 KERNELS = ("gaussian", "lucy", "heaviside")
 OUTPUTS = (".h5", ".hdf5", ".npz", ".vtk", ".stat")
@@ -360,6 +360,7 @@ def open_data(args):
     check_flags_apply(args, fmt)
     if fmt == "mdanalysis":
         output_not_input(args.output, paths, "--output")
+        replaceable_output(args.output, "--output")
         with as_usage("PATH"):
             return open_dataset(tuple(paths) if len(paths) > 1 else paths[0], format=fmt), fmt, paths
     options = reader_options(args, fmt, paths)
@@ -374,6 +375,7 @@ def open_data(args):
                   file=sys.stderr)
         options["restart_path"] = restart
     output_not_input(args.output, read_files(paths, contacts, options.get("restart_path"), args.input), "--output")
+    replaceable_output(args.output, "--output")
     with as_usage("PATH"):
         try:
             data = open_dataset(paths, format=fmt, **options)

@@ -123,3 +123,42 @@ def output_not_input(path, inputs, flag):
             raise UsageError(flag, f"{path!r} is the input file {item!r}: writing the fields there would replace the "
                                    f"data; choose another output file")
     return path
+
+
+def _cgbound_output(path, ext):
+    """Whether the existing file ``path`` is one cgbound wrote as a result (so replacing it loses nothing that
+    cannot be computed again): an HDF5 file with a ``cgbound-...`` format attribute other than the snapshots',
+    an .npz with cgbound's metadata, a VTK file with cgbound's header line, a MercuryCG-format .stat."""
+    try:
+        if os.path.getsize(path) == 0:
+            return True
+        if ext in (".h5", ".hdf5"):
+            import h5py
+            with h5py.File(path, "r") as f:
+                fmt = f.attrs.get("format", "")
+            fmt = fmt.decode(errors="replace") if isinstance(fmt, bytes) else str(fmt)
+            return fmt.startswith("cgbound-") and fmt != "cgbound-snapshots"
+        if ext == ".npz":
+            import numpy as np
+            with np.load(path, allow_pickle=False) as data:
+                return "metadata" in data.files and "cgbound_version" in str(data["metadata"])
+        with open(path, "rb") as fh:
+            head = fh.read(512)
+        if ext == ".vtk":
+            lines = head.split(b"\n")
+            return len(lines) > 1 and lines[1].startswith(b"cgbound fields")
+        return head.startswith(b"CG<")      # .stat: MercuryCG's layout (cgbound's or MercuryCG's own result)
+    except Exception:   # unreadable as its extension says: not a cgbound result
+        return False
+
+
+def replaceable_output(path, flag):
+    """An existing output file is replaced only when cgbound wrote it as a result: anything else (a snapshot file,
+    another program's data that happens to have the extension) would be destroyed, so it is refused."""
+    if not os.path.isfile(path):
+        return path
+    ext = os.path.splitext(path)[1].lower()
+    if not _cgbound_output(path, ext):
+        raise UsageError(flag, f"{path!r} exists and is not a result file cgbound wrote (writing would replace its "
+                               f"data); choose another output file, or move that one away first")
+    return path
