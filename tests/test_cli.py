@@ -503,3 +503,5 @@ def test_an_existing_output_is_replaced_only_when_cgbound_wrote_it_as_a_result(t
         assert (tmp_path / name).read_bytes() == before
     for name in ("r.h5", "r.npz", "r.vtk"):       # a result of an earlier run is replaced
         assert main(args + [str(tmp_path / name)]) == 0 and main(args + [str(tmp_path / name)]) == 0
+    status, err = run_error(["demo", "-q", "--output", str(snaps)], capsys)   # the demo's output as well
+    assert status == 2 and "exists and is not a result file cgbound wrote" in err
