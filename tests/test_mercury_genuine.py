@@ -216,3 +216,16 @@ def test_fixed_ids_beyond_the_frame_name_the_flag(tmp_path, capsys):
     err = capsys.readouterr().err
     assert status == 2 and "--fixed-ids: particle indices must lie in [0, 960) (the frame at t = 0 has 960 " \
                            "particles), got [5000]" in err, err
+
+
+def test_contacts_across_a_face_not_known_periodic_say_so():
+    # without the .restart (its PeriodicBoundary lines) the chute's x and y were not periodic: a contact across a face
+    # was "listed inconsistently" (the orientation flips at a box length), or with a fixed particle read wrong, silently
+    frames = MercuryReader(STEM + ".data", STEM + ".fstat", restart_path=False, density=6 / np.pi,
+                           fixed=np.arange(210), body_force=(0, 0, -1))
+    with pytest.raises(ValueError, match=r"ChutePeriodicDemo.fstat:8: the contact point lies a box length from particle "
+                                         r"564 along x .* a contact across a periodic face, but x is not periodic here"):
+        frames[1]
+    frames = MercuryReader(STEM + ".data", STEM + ".fstat", restart_path=False, density=6 / np.pi,
+                           fixed=np.arange(210), body_force=(0, 0, -1), periodic=(True, True, False))
+    assert len(frames[1].contacts) == 90

@@ -482,6 +482,7 @@ class MercuryReader(FrameReader):
             if far.size:
                 m = int(far[0])
                 row = int(lines[m])
+                self._check_periodic_reach(arm[m], reach[m], box, row, line_of, side, int(k[m]), time)
                 raise ValueError(
                     f"{self.fstat_path}:{line_of(row)}: the contact point {point[row].tolist()} lies "
                     f"{math.sqrt(float(row_squares(arm[m:m + 1])[0])):.4g} from the centre of {side} {int(k[m])} "
@@ -489,6 +490,22 @@ class MercuryReader(FrameReader):
                     f"{self.data_path}: the line is not a contact of that particle, so the .fstat frame does not "
                     f"belong to this .data frame (files of different runs, or of a run restarted and appended to "
                     f"one file, or damaged indices); use the .data and .fstat that one run wrote")
+
+    def _check_periodic_reach(self, arm, reach, box, row, line_of, side, k, time):
+        """The cause of a far contact point when it is a contact across a face of an axis not known as periodic
+        (no .restart, or periodic= without that axis): the point is at a box length from the particle."""
+        lengths = np.asarray(box.lengths, float)
+        wrapped = [a for a in range(self.dim) if not box.periodic[a] and abs(arm[a]) > 0.5 * lengths[a]]
+        if not wrapped:
+            return
+        image = arm.copy()
+        image[wrapped] -= lengths[wrapped] * np.round(image[wrapped] / lengths[wrapped])
+        if float(np.sqrt(np.sum(image * image))) <= reach:
+            names = ", ".join(box.axis_names[a] for a in wrapped)
+            raise ValueError(f"{self.fstat_path}:{line_of(row)}: the contact point lies a box length from {side} {k} "
+                             f"along {names} in the frame at t = {time:g}: a contact across a periodic face, but "
+                             f"{names} is not periodic here (periodic = {box.periodic}); pass restart_path= (its "
+                             f"PeriodicBoundary lines; --restart) or periodic=")
 
     def _fstat_problem(self, problem, detail, rows, ints, line_of, time, n):
         """The ValueError for a problem cg_fstat_contacts found (its codes: csrc/cg_fstat.h)."""
