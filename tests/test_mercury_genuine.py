@@ -15,7 +15,7 @@ STEM = os.path.join(HERE, "ChutePeriodicDemo")
 
 
 def reader(restart=STEM + ".restart", **options):
-    return MercuryReader(STEM + ".data", STEM + ".fstat", restart_path=restart, body_force=(0, 0, -1), **options)
+    return MercuryReader(STEM + ".data", STEM + ".fstat", restart_path=restart, **options)
 
 
 def test_fixed_base_particles_found_in_every_frame_while_particles_are_inserted():
@@ -51,7 +51,7 @@ def test_domain_averages_agree_with_mercurycg_to_its_printed_digits():
 
 def test_cli_uses_the_companion_files_and_reproduces_mercurycg_density(tmp_path, capsys):
     out = tmp_path / "o.npz"
-    assert main(["run", STEM + ".data", "--gravity", "0,0,-1", "--kernel", "lucy", "--cutoff", "1", "--grid", "1",
+    assert main(["run", STEM + ".data", "--kernel", "lucy", "--cutoff", "1", "--grid", "1",
                  "--average", "x,y,z", "--fields", "density", "--time-average", "none", "--start", "6", "-o",
                  str(out), "-q"]) == 0
     err = capsys.readouterr().err
@@ -117,7 +117,7 @@ def fstat_with(tmp_path, edit):
     lines = open(STEM + ".fstat").read().split("\n")
     edit(lines)
     (tmp_path / "c.fstat").write_text("\n".join(lines))
-    return MercuryReader(STEM + ".data", tmp_path / "c.fstat", restart_path=STEM + ".restart", body_force=(0, 0, -1))
+    return MercuryReader(STEM + ".data", tmp_path / "c.fstat", restart_path=STEM + ".restart")
 
 
 def first_line(lines, time, test):
@@ -172,7 +172,7 @@ def test_a_flowing_particle_without_a_positive_radius_is_refused_naming_its_line
     words[6] = radius
     lines[500] = " ".join(words)
     (tmp_path / "c.data").write_text("\n".join(lines))
-    status = main(["run", str(tmp_path / "c.data"), "--gravity", "0,0,-1", "-q", "-o", str(tmp_path / "o.h5")])
+    status = main(["run", str(tmp_path / "c.data"), "-q", "-o", str(tmp_path / "o.h5")])
     err = capsys.readouterr().err
     assert status == 1 and f"c.data:501: particle 499 of the frame at t = 0 has radius {radius}" in err, err
 
@@ -187,7 +187,7 @@ def per_frame_files(tmp_path, count=3):
         (tmp_path / f"c.data.{k:04d}").write_text("\n".join(data[heads[k]:heads[k + 1]]) + "\n")
         (tmp_path / f"c.fstat.{k:04d}").write_text("\n".join(fstat[marks[k]:marks[k + 1]]) + "\n")
     shutil.copy(STEM + ".restart", tmp_path / "c.restart")
-    return ["run", str(tmp_path / "c.data.*"), "--restart", str(tmp_path / "c.restart"), "--gravity", "0,0,-1",
+    return ["run", str(tmp_path / "c.data.*"), "--restart", str(tmp_path / "c.restart"),
             "--grid", "1,1,4", "--average", "x,y", "-q", "-o", str(tmp_path / "o.h5")]
 
 
@@ -211,7 +211,7 @@ def test_per_frame_files_missing_a_contact_file_or_out_of_time_order_are_refused
 
 def test_fixed_ids_beyond_the_frame_name_the_flag(tmp_path, capsys):
     # an IndexError ("fixed: indices must lie in [0, 960)", exit 1) that named neither the flag nor the frame
-    status = main(["run", STEM + ".data", "--fixed-ids", "0,5000", "--gravity", "0,0,-1", "-q", "-o",
+    status = main(["run", STEM + ".data", "--fixed-ids", "0,5000", "-q", "-o",
                    str(tmp_path / "o.h5")])
     err = capsys.readouterr().err
     assert status == 2 and "--fixed-ids: particle indices must lie in [0, 960) (the frame at t = 0 has 960 " \
@@ -222,10 +222,34 @@ def test_contacts_across_a_face_not_known_periodic_say_so():
     # without the .restart (its PeriodicBoundary lines) the chute's x and y were not periodic: a contact across a face
     # was "listed inconsistently" (the orientation flips at a box length), or with a fixed particle read wrong, silently
     frames = MercuryReader(STEM + ".data", STEM + ".fstat", restart_path=False, density=6 / np.pi,
-                           fixed=np.arange(210), body_force=(0, 0, -1))
+                           fixed=np.arange(210))
     with pytest.raises(ValueError, match=r"ChutePeriodicDemo.fstat:8: the contact point lies a box length from particle "
                                          r"564 along x .* a contact across a periodic face, but x is not periodic here"):
         frames[1]
     frames = MercuryReader(STEM + ".data", STEM + ".fstat", restart_path=False, density=6 / np.pi,
-                           fixed=np.arange(210), body_force=(0, 0, -1), periodic=(True, True, False))
+                           fixed=np.arange(210), periodic=(True, True, False))
     assert len(frames[1].contacts) == 90
+
+
+def test_the_body_force_is_the_restarts_tilted_gravity_and_a_contradicting_one_is_refused(tmp_path, capsys):
+    # the chute's gravity is (sin 24, 0, -cos 24) (Chute::setChuteAngle); --gravity 0,0,-1 (the examples') was taken
+    # silently, so every momentum balance missed g_x = 0.41 and 9 % of g_z
+    frames = reader()
+    g = frames[0].body_force[0]
+    np.testing.assert_allclose(g, [np.sin(np.radians(24)), 0, -np.cos(np.radians(24))], rtol=1e-12, atol=1e-15)
+    # the flow is near steady late in the run: the contacts carry the weight of the tilted gravity, per unit mass
+    carried = []
+    for k in range(4, len(frames)):
+        snap = frames[k]
+        c, flowing = snap.contacts, ~snap.fixed
+        total = np.zeros_like(snap.positions)
+        np.add.at(total, c.i, c.force)
+        np.add.at(total, c.j[c.j >= 0], -c.force[c.j >= 0])
+        carried.append(total[flowing].sum(axis=0) / snap.masses[flowing].sum())
+    np.testing.assert_allclose(np.mean(carried, axis=0), -g, atol=0.05)
+    with pytest.raises(ValueError, match=r"body_force: \[0.0, 0.0, -1.0\] is not the gravity the run used, "
+                                         r"\[0.4067366430758, 0.0, -0.913545457642601\]"):
+        reader(body_force=(0, 0, -1))
+    assert np.array_equal(reader(body_force=(0.40674, 0, -0.91355))[0].body_force[0], g)
+    status = main(["run", STEM + ".data", "--gravity", "0,0,-1", "-q", "-o", str(tmp_path / "o.h5")])
+    assert status == 2 and "--gravity: [0.0, 0.0, -1.0] is not the gravity the run used" in capsys.readouterr().err

@@ -41,16 +41,15 @@ examples, one per format:
   LIGGGHTS (compute pair/gran/local with ID pgl2):
     cgbound run atoms.dump --format liggghts --pairs pairs.dump --pair-compute pgl2 --fixed-types 2 \\
         --gravity 0,0,-9.81 --grid 20,20,40 -o fields.h5
-  MercuryDPM (name.fstat and name.restart next to name.data are used when present):
-    cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1.5 --grid 1,1,100 --average x,y \\
-        -o chute.h5
+  MercuryDPM (name.fstat and name.restart next to name.data are used when present; gravity from the .restart):
+    cgbound run chute.data --kernel lucy --cutoff 1.5 --grid 1,1,100 --average x,y -o chute.h5
   LAMMPS read with its input script (columns, frozen types, walls and gravity from the script):
     cgbound run atoms.dump --pairs pairs.dump --input in.chute --var angle=26 --grid 1,1,200 --average x,y \\
         -o profile.h5
   Yade (a directory of exports written by cgbound.readers.yade_export inside Yade):
     cgbound run yade_frames/ --grid 1,1,50 --average x,y --fields density,stress -o yade.h5
   MercuryCG's .stat format out (Lucy: MercuryCG's width is the cutoff; its 1-D kernel over averaged axes):
-    cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1 --grid 1,1,140 --average x,y \\
+    cgbound run chute.data --kernel lucy --cutoff 1 --grid 1,1,140 --average x,y \\
         --averaged-kernel lower-dimensional -o chute.stat
   MDAnalysis (topology and trajectory):
     cgbound run topol.tpr traj.xtc --format mdanalysis --grid 40,40,40 --fields density -o density.npz
@@ -89,7 +88,8 @@ def add_parser(sub):
     g.add_argument("--fixed-ids", metavar="LIST",
                    help="atom IDs (lammps/liggghts) or particle indices (mercury) of fixed particles")
     g.add_argument("--walls", metavar="LIST", help="lammps: IDs of fix wall/gran ... contacts, e.g. floor")
-    g.add_argument("--gravity", metavar="VECTOR", help="body force per unit mass on flowing particles, e.g. 0,0,-1")
+    g.add_argument("--gravity", metavar="VECTOR", help="body force per unit mass on flowing particles, e.g. 0,0,-1 "
+                                                       "(mercury: default the .restart's gravity, which it must match)")
     g.add_argument("--masses", metavar="TYPE=MASS,...",
                    help="lammps/liggghts: masses per atom type when the dump has no mass column")
     g.add_argument("--dt", metavar="DT", help="lammps/liggghts: time step size (time = timestep x dt)")
@@ -371,7 +371,7 @@ def open_data(args):
         from ..readers.files import companion
         restart = args.restart or companion(paths[0], ".data", ".restart")
         if restart and args.restart is None:
-            print(f"cgbound: fixed particles, densities and periodic axes from {os.path.basename(restart)}",
+            print(f"cgbound: fixed particles, densities, periodic axes and gravity from {os.path.basename(restart)}",
                   file=sys.stderr)
         options["restart_path"] = restart
     output_not_input(args.output, read_files(paths, contacts, options.get("restart_path"), args.input), "--output")

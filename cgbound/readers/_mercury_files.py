@@ -300,14 +300,14 @@ def scan_fstat(path):
 
 def read_restart(path):
     """Key-based parse of a .restart: species densities, the particles' invMass and positions (by id),
-    periodic normals.
+    periodic normals, the gravity vector (None when the file has no ``systemDimensions ... gravity gx gy gz`` line).
 
     Particles are the lines of the ``Particles N`` section whose first word names a particle class
     (``BaseParticle``, ``SphericalParticle``, ...); other lines with particle keys, such as the
     template particle embedded in an insertion boundary's line, are not particles. A section with
     fewer than N particle lines (a truncated file), or a file without one, is an error.
     """
-    density, normals, particle_dim = {}, [], None
+    density, normals, particle_dim, gravity = {}, [], None, None
     inv_mass, positions = [], []
     declared, declared_line = None, None
     text = b"".join(iter_chunks(path))
@@ -332,6 +332,8 @@ def read_restart(path):
         try:
             if "particleDimensions" in keys:
                 particle_dim = int(val("particleDimensions")[0])
+            if "gravity" in keys and "systemDimensions" in keys and gravity is None:   # DPMBase::write's line
+                gravity = val("gravity", 3)
             if "density" in keys and "id" in keys and words[0].endswith("Species"):
                 density[int(val("id")[0])] = val("density")[0]
             elif words[0].endswith("Particle") and "invMass" in keys and "position" in keys:
@@ -352,7 +354,7 @@ def read_restart(path):
     # the file's order is the particle handler's, which is the order of the .data rows
     return {"density": density, "inv_mass": np.array(inv_mass, dtype=float),
             "positions": np.array(positions, dtype=float).reshape(-1, 3), "normals": normals,
-            "particle_dim": particle_dim}
+            "particle_dim": particle_dim, "gravity": None if gravity is None else np.array(gravity)}
 
 
 def _row_length_error(path, data, first_line, ncols, what, time, exc):

@@ -79,7 +79,9 @@ row numbers, since insertion attempts use ids too), and every fixed
 particle must sit in the frame where the restart has it (fixed particles do not move), else the
 frame is refused. Template particles inside boundary lines (``ChuteInsertionBoundary``) are not
 particles; a ``Particles N`` section with fewer lines is a truncated file and an error. Periodic axes: ``periodic=`` (per cgbound axis), else from
-``PeriodicBoundary ... normal nx ny nz`` lines of the ``.restart``.
+``PeriodicBoundary ... normal nx ny nz`` lines of the ``.restart``. Body force: ``body_force=``, else the
+``.restart``'s ``gravity`` (``DPMBase::write``: ``systemDimensions D particleDimensions P gravity gx gy gz``; a
+chute's is tilted by its angle, e.g. ``(sin 24, 0, -cos 24)``); when both are known they must agree.
 
 Reading and structure checks
 ----------------------------
@@ -174,7 +176,8 @@ class MercuryReader(FrameReader):
         given either, a :class:`CompanionFileWarning` says so (``False``: without the warning).
     fixed : indices, (N,) bools, or callable(radius, species) -> (N,) bools, optional
     body_force : (D,) body force per unit mass on flowing particles, cgbound axes
-        (in 2D also the 3 MercuryDPM components, third 0).
+        (in 2D also the 3 MercuryDPM components, third 0). Default: the ``.restart``'s gravity; when both are
+        known they must agree (to 1e-4 of the larger).
     dim : 2 or 3, optional
         Checked against the ``.data`` headers (default: from them).
     density : number or {species: density}, optional
@@ -218,7 +221,7 @@ class MercuryReader(FrameReader):
         if self.particle_dim not in (2, 3):
             raise ValueError(f"particle_dim: expected 2 or 3, got {pdim!r}")
         self.fixed = fixed if callable(fixed) or fixed is None else np.asarray(fixed)
-        self.body_force = self._check_body_force(body_force, self.dim, "MercuryDPM")
+        self.body_force = self._body_force(body_force, restart)
         self.periodic = self._periodic(periodic, restart)
         self.rtol = finite_number(rtol, "rtol")
         if self.rtol < 0:
@@ -260,6 +263,32 @@ class MercuryReader(FrameReader):
             warnings.warn(f"{found} lies beside {self.data_path} but {keyword}= was not given, so {consequence}; "
                           f"pass {keyword}={found!r} to use it, or {keyword}=False to read without it",
                           CompanionFileWarning, stacklevel=3)
+
+    #: how far a given body_force may differ from the .restart's gravity (relative to its magnitude): the restart
+    #: writes 15 significant digits, a user types a few (0.40674, 0, -0.91355)
+    GRAVITY_RTOL = 1e-4
+
+    def _body_force(self, body_force, restart):
+        """``body_force=``, checked against the gravity the run used (the .restart's), else that gravity: a chute's
+        is tilted by its angle (ChuteDemo: (sin 24, 0, -cos 24)), so a guessed (0, 0, -1) would unbalance every
+        momentum balance silently."""
+        given = self._check_body_force(body_force, self.dim, "MercuryDPM")
+        g = None if restart is None else restart.get("gravity")
+        if g is None:
+            return given
+        if self.dim == 2:
+            if g[2] != 0:
+                raise ValueError(f"{self.restart_path}: a 2D run with gravity {g.tolist()} (its third component is "
+                                 f"not 0)")
+            g = g[:2]
+        if given is None:
+            return g if np.any(g) else None
+        scale = max(float(np.max(np.abs(g))), float(np.max(np.abs(given))))
+        if float(np.max(np.abs(given - g))) > self.GRAVITY_RTOL * scale:
+            raise ValueError(f"body_force: {given.tolist()} is not the gravity the run used, {g.tolist()} (the "
+                             f"'gravity' of {self.restart_path}; a chute's gravity is tilted by its angle); leave it "
+                             f"out to use the restart's")
+        return g
 
     def _densities(self, density, restart):
         if density is None:
