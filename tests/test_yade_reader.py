@@ -194,3 +194,15 @@ def test_fixed_ids_naming_no_sphere_and_a_refused_value_name_the_file_and_body(t
     with pytest.raises(ValueError, match=r"yade_0000004000.npz: masses: expected positive masses .* at index 19 "
                                          r"\(index 19 is Yade body 24\)"):
         YadeReader(bad, check_forces=False)[0]
+
+
+def test_a_body_force_other_than_the_runs_gravity_is_refused(tmp_path, capsys):
+    # body_force= (--gravity) replaced the NewtonIntegrator's gravity silently: the force check cannot see it
+    path = os.path.join(DATA, "walls")
+    with pytest.raises(ValueError, match=r"body_force: \[0.0, 0.0, -1.0\] is not the gravity of the run, "
+                                         r"\[0.0, 0.0, -9.81\]"):
+        YadeReader(path, body_force=(0, 0, -1))[0]
+    assert np.array_equal(YadeReader(path, body_force=GRAVITY)[0].body_force[0], GRAVITY)
+    from cgbound.cli import main
+    assert main(["run", path, "--gravity", "0,0,-1", "--width", "0.1", "-q", "-o", str(tmp_path / "o.h5")]) == 2
+    assert "--gravity: [0.0, 0.0, -1.0] is not the gravity of the run" in capsys.readouterr().err

@@ -28,7 +28,7 @@ How Yade's data becomes a Snapshot:
   (``pos2 + cellDist * size - pos1``) must equal the minimum image that cgbound uses, else the
   cell is too small for the minimum-image convention and the frame is refused. Sheared cells are
   refused.
-* the body force per unit mass is the NewtonIntegrator's gravity.
+* the body force per unit mass is the NewtonIntegrator's gravity (a different ``body_force=`` is refused).
 
 Checks made on every frame (cheap, before the snapshot is returned):
 
@@ -157,7 +157,8 @@ class YadeReader(FrameReader):
     fixed_ids : sequence of int
         Yade body ids to treat as boundary in addition to the non-dynamic / blocked ones.
     body_force : (3,) array, optional
-        Overrides the NewtonIntegrator's gravity (per unit mass).
+        The body force per unit mass when the export has no NewtonIntegrator gravity; when it has one, they must
+        agree (to 1e-4 of the larger).
     """
 
     def __init__(self, paths, *, check_forces=True, tolerance=DEFAULT_TOLERANCE, fixed_ids=(), body_force=None,
@@ -305,7 +306,14 @@ class YadeReader(FrameReader):
                 rows = clump[part] == c
                 masses[rows] *= data["mass"][by_id[int(c)]] / masses[rows].sum()
         g = self.body_force
-        if g is None and np.all(np.isfinite(data["gravity"])):
+        if np.all(np.isfinite(data["gravity"])):
+            if g is not None and float(np.max(np.abs(g - data["gravity"]))) > 1e-4 * max(
+                    float(np.max(np.abs(g))), float(np.max(np.abs(data["gravity"])))):
+                # the NewtonIntegrator's gravity is the one the particles fell under: another would unbalance every
+                # momentum balance, silently (O.forces.f, which the force check uses, holds no gravity)
+                raise ValueError(f"body_force: {g.tolist()} is not the gravity of the run, "
+                                 f"{data['gravity'].tolist()} (the NewtonIntegrator's, in {path}); leave it out to "
+                                 f"use the export's")
             g = data["gravity"]
         try:
             snapshot = Snapshot(pos, data["vel"][part], masses, box=box,
