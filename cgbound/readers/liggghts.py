@@ -169,6 +169,23 @@ class LiggghtsReader(LammpsReader):
     def _pair_id_columns(self):
         return self.pair_columns["id"][:2]
 
+    #: how far a contact line's x_i (the ``pos`` keyword) may lie from the atoms dump's position of ID_i, in radii
+    #: (the same step's values agree to their printed digits; another run's or step's are particles apart)
+    PAIR_POSITION_TOLERANCE = 1e-2
+
+    def _check_pair_positions(self, tab, columns, pos_i, radius_i, id1, box, timestep):
+        """The contact dump's x_i against the atoms dump's position of ID_i: a contact dump of another run or step
+        (same IDs and timesteps) was read silently when the force check was off (check_forces=False)."""
+        given = self._vectors(tab, columns[:3])
+        off = row_norms(box.minimum_image(given - pos_i))
+        far = np.flatnonzero(off > self.PAIR_POSITION_TOLERANCE * radius_i)
+        if far.size:
+            k = int(far[0])
+            raise ValueError(f"{self.pairs_path}: timestep {timestep}: contact {k} puts atom ID {int(id1[k])} at "
+                             f"{given[k].tolist()} (its 'pos' values) but the atoms dump {self.atoms_path} has it at "
+                             f"{pos_i[k].tolist()} ({off[k]:.3g} away, radius {radius_i[k]:.3g}): the contact dump is "
+                             f"not of this run and step; use the dumps one run wrote at the same steps")
+
     def _pairs_from_table(self, tab, m, timestep, ids, pos, radii, box):
         path = self.pairs_path
         names = self.pair_columns
@@ -186,6 +203,8 @@ class LiggghtsReader(LammpsReader):
         else:
             force = self._vectors(tab, names["force_normal"]) + self._vectors(tab, names["force_tangential"])
         pos_i = np.take(pos, i, axis=0)     # (np.take: 5-7 times faster than pos[i], the same values)
+        if "pos" in names and radii is not None:
+            self._check_pair_positions(tab, names["pos"], pos_i, np.take(radii, i), id1, box, timestep)
         branch = box.minimum_image(pos_i - np.take(pos, j, axis=0))
         dist = row_norms(branch)
         if "contactPoint" in names:
