@@ -505,3 +505,20 @@ def test_an_existing_output_is_replaced_only_when_cgbound_wrote_it_as_a_result(t
         assert main(args + [str(tmp_path / name)]) == 0 and main(args + [str(tmp_path / name)]) == 0
     status, err = run_error(["demo", "-q", "--output", str(snaps)], capsys)   # the demo's output as well
     assert status == 2 and "exists and is not a result file cgbound wrote" in err
+
+
+def test_files_of_another_format_or_the_same_times_are_refused(tmp_path, capsys):
+    # a copy of a snapshot file among the paths was averaged in twice; a file of another format was read as the
+    # first file's format (and its errors named the wrong thing)
+    first = [random_snapshot(k, dim=3) for k in range(2)]
+    first = [cg.Snapshot(s.positions, s.velocities, s.masses, box=s.box, contacts=s.contacts, fixed=s.fixed,
+                         radii=s.radii, time=float(k)) for k, s in enumerate(first)]
+    cg.readers.write_snapshots(tmp_path / "a1.h5", first)
+    shutil.copy(tmp_path / "a1.h5", tmp_path / "a2.h5")
+    args = ["--grid", "1,1,4", "--average", "x,y", "-q", "-o", str(tmp_path / "o.h5")]
+    status, err = run_error(["run", str(tmp_path / "a1.h5"), str(tmp_path / "a2.h5")] + args, capsys)
+    assert status == 2 and "PATH: the frames of a2.h5 (first time 0) do not come after those of a1.h5 (last time 1)" \
+        in err, err
+    (tmp_path / "b.data").write_text("1 0 0 0 0 1 1 1\n0.5 0.5 0.5 0 0 0 0.1 0 0 0 0 0 0 0\n")
+    status, err = run_error(["run", str(tmp_path / "a1.h5"), str(tmp_path / "b.data")] + args, capsys)
+    assert status == 2 and "b.data is mercury data but" in err and "a1.h5 is hdf5 data" in err, err

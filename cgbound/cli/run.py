@@ -257,7 +257,13 @@ def data_format(args, paths):
     if args.format:
         return args.format
     try:
-        return sniff_format(paths[0])
+        fmt = sniff_format(paths[0])
+        for path in paths[1:]:   # a file of another format among them would be read as this one's
+            other = sniff_format(path)
+            if other != fmt:
+                raise UsageError("PATH", f"{path} is {other} data but {paths[0]} is {fmt} data; give the files of "
+                                         f"one dataset (contact files with --pairs, a .restart with --restart)")
+        return fmt
     except ValueError as exc:
         raise UsageError("--format", str(exc)) from None
 

@@ -158,6 +158,14 @@ class HDF5Snapshots(FrameSequence):
                           f"write it again") from None
         return n
 
+    @property
+    def frame_times(self):
+        """The frames' times (their ``time`` attributes; no dataset is read)."""
+        with self._open() as f:
+            frames = self._member(f, "frames", "the file")
+            return [float(_attr(self._member(frames, f"{k:06d}", "/frames"), "time", self.path, f"frame {k:06d}",
+                                kind="scalar")) for k in self._frames]
+
     def _open(self):
         h5py = _h5py()
         try:
