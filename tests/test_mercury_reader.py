@@ -6,6 +6,7 @@ negated; walls once with j = -1 - wallIndex and n, t flipped) and BaseParticle::
 ParticleSpecies::write (.restart keys); see cgbound/readers/mercury.py.
 """
 import math
+import os
 import pickle
 import warnings
 
@@ -366,3 +367,18 @@ def test_no_warning_without_companion_files(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert len(MercuryReader(f["b.data"], density=1.0)) == 2
+
+
+def test_write_mercury_replaces_the_files_only_when_every_frame_is_written(tmp_path):
+    # it wrote in place: a frame it could not write (no radii) left both files truncated and half written
+    snap = cg.Snapshot(np.array([[0.5, 0.5, 0.5]]), None, np.ones(1), box=cg.Box([0, 0, 0], [1, 1, 1]),
+                       radii=np.full(1, 0.1))
+    data, fstat = tmp_path / "r.data", tmp_path / "r.fstat"
+    write_mercury([snap], data, fstat)
+    before = data.read_bytes(), fstat.read_bytes()
+    bare = cg.Snapshot(snap.positions, None, snap.masses, box=snap.box)
+    with pytest.raises(ValueError, match="snapshots need radii"):
+        write_mercury([snap, snap, bare], data, fstat)
+    assert (data.read_bytes(), fstat.read_bytes()) == before and sorted(os.listdir(tmp_path)) == ["r.data", "r.fstat"]
+    with pytest.raises(ValueError, match="fstat_path: the same file as data_path"):
+        write_mercury([snap], data, data)
