@@ -448,10 +448,12 @@ def warn_if_no_particle_reached(args, out):
         if name in args.fields:
             if not np.any(np.asarray(out[name])):
                 import warnings
-                warnings.warn(f"the {name.replace('_', ' ')} is zero at every node of every frame: no particle came "
+                which = "particle" if args.species is None else f"flowing particle of species {args.species}"
+                warnings.warn(f"the {name.replace('_', ' ')} is zero at every node of every frame: no {which} came "
                               f"within the kernel's cutoff of the grid, so every field is zero (velocity NaN); "
-                              f"check --lower and --upper against the data's box {out.box.lower.tolist()} .. "
-                              f"{out.box.upper.tolist()}", stacklevel=2)
+                              f"check {'--species, ' if args.species is not None else ''}--lower and --upper "
+                              f"against the data's box {out.box.lower.tolist()} .. {out.box.upper.tolist()}",
+                              stacklevel=2)
             return
 
 
