@@ -522,3 +522,11 @@ def test_files_of_another_format_or_the_same_times_are_refused(tmp_path, capsys)
     (tmp_path / "b.data").write_text("1 0 0 0 0 1 1 1\n0.5 0.5 0.5 0 0 0 0.1 0 0 0 0 0 0 0\n")
     status, err = run_error(["run", str(tmp_path / "a1.h5"), str(tmp_path / "b.data")] + args, capsys)
     assert status == 2 and "b.data is mercury data but" in err and "a1.h5 is hdf5 data" in err, err
+
+
+def test_a_stat_output_of_2d_data_is_refused_before_work(tmp_path, capsys):
+    snaps = tmp_path / "snap.h5"
+    cg.readers.write_snapshots(snaps, [random_snapshot(0, dim=2)])
+    status, err = run_error(["run", str(snaps), "--grid", "1,4", "--average", "x", "--kernel", "lucy", "--averaged-kernel",
+                             "lower-dimensional", "-q", "-o", str(tmp_path / "o.stat")], capsys)
+    assert status == 2 and "--output: MercuryCG's .stat files are 3-D, the data are 2-D" in err, err

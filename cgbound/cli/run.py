@@ -513,6 +513,10 @@ def run(args):
     with as_usage(args=args):        # the reader checks the first frame: a selection of nothing names its flag
         first = data[0]
     check_flat_3d(args, fmt, first)
+    if os.path.splitext(args.output)[1].lower() == ".stat" and first.dim != 3:
+        # (refused by the writer after the work otherwise)
+        raise UsageError("--output", f"MercuryCG's .stat files are 3-D, the data are {first.dim}-D: write .h5, .npz "
+                                     f"or .vtk")
     with as_usage("--fields"):
         check_units_fields(first.units, args.fields)
     grid = make_grid(args, first)
