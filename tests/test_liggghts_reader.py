@@ -231,3 +231,16 @@ def test_a_contact_dump_of_another_step_is_refused_by_its_positions(liggghts_dir
                                          r"run and step"):
         shifted[0]
     reader(liggghts_dir, consistent=False)[1]     # frames dumped during a run: their positions agree
+
+
+def test_a_run_with_walls_fails_the_force_check_naming_the_walls():
+    # a genuine LIGGGHTS run on a primitive wall (tests/data/liggghts/wall/in.wall): the hints named LAMMPS's
+    # --pair-style and --walls, which LIGGGHTS input does not take, and not the walls this reader does not read
+    d = os.path.join(DATA, "wall")
+    frames = LiggghtsReader(os.path.join(d, "atoms.dump"), os.path.join(d, "pairs.dump"), pair_values=VALUES,
+                            body_force=G)
+    with pytest.raises(ValueError, match=r"timestep 22500: the contact forces plus the body forces do not reproduce .* "
+                                         r"the run has walls \(fix wall/gran, primitive or mesh\): this reader does not "
+                                         r"read LIGGGHTS wall contacts") as info:
+        frames[0]
+    assert "--pair-style" not in str(info.value) and "--walls" not in str(info.value)
