@@ -122,6 +122,14 @@ def test_figure_format_follows_the_extension(tmp_path, ext, magic):
     assert main(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,40", "--average", "x,y", "--fields",
                  "density,stress", "-o", str(tmp_path / "p.npz"), "--figure", str(fig), "-q"]) == 0
     assert fig.read_bytes().startswith(magic)
+    # a figure of an earlier run is replaced; another file with the extension is not
+    assert main(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,40", "--average", "x,y", "--fields", "density", "-o",
+                 str(tmp_path / "p.npz"), "--figure", str(fig), "-q"]) == 0
+    mine = tmp_path / f"mine{ext}"
+    mine.write_bytes(magic + b" not a figure of cgbound's")
+    assert main(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,40", "--average", "x,y", "--fields", "density", "-o",
+                 str(tmp_path / "q.npz"), "--figure", str(mine), "-q"]) == 2
+    assert mine.read_bytes() == magic + b" not a figure of cgbound's" and not (tmp_path / "q.npz").exists()
 
 
 def test_run_grid_extent_from_lower_and_upper(tmp_path):

@@ -4,7 +4,7 @@ import time
 import numpy as np
 
 from .figures import check_matplotlib, figure_format, save_figure
-from .values import output_directory_exists, replaceable_output
+from .values import output_directory_exists, replaceable_figure, replaceable_output
 
 
 def add_parser(sub):
@@ -33,6 +33,7 @@ def check(args):
     replaceable_output(args.output, "--output")
     if args.figure:
         args.figure_format = figure_format(args.figure, "--figure")
+        replaceable_figure(args.figure, "--figure")
         check_matplotlib("--figure")
 
 

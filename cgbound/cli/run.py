@@ -13,7 +13,7 @@ import numpy as np
 from .errors import UsageError, as_usage
 from .figures import check_matplotlib, figure_format, save_figure
 from .values import (existing_file, integers, numbers, output_directory_exists, output_not_input, positive_number,
-                     replaceable_output, split_list, type_masses)
+                     replaceable_figure, replaceable_output, split_list, type_masses)
 
 KERNELS = ("gaussian", "lucy", "heaviside")
 OUTPUTS = (".h5", ".hdf5", ".npz", ".vtk", ".stat")
@@ -187,6 +187,7 @@ def check(args):
     args.upper = None if args.upper is None else numbers(args.upper, "--upper", allow_empty=True)
     if args.figure:
         args.figure_format = figure_format(args.figure, "--figure")
+        replaceable_figure(args.figure, "--figure")
         check_matplotlib("--figure")
         args.figure_fields = split_list(args.figure_fields) if args.figure_fields else list(args.fields)
         for name in args.figure_fields:

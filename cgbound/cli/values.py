@@ -162,3 +162,22 @@ def replaceable_output(path, flag):
         raise UsageError(flag, f"{path!r} exists and is not a result file cgbound wrote (writing would replace its "
                                f"data); choose another output file, or move that one away first")
     return path
+
+
+def replaceable_figure(path, flag):
+    """An existing figure file is replaced only when Matplotlib wrote it (its metadata names Matplotlib: PNG and
+    SVG near the start, PDF in the trailer's info): another file with the extension (a paper, a photograph) would
+    be destroyed, so it is refused."""
+    if not os.path.isfile(path) or os.path.getsize(path) == 0:
+        return path
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8192)
+            fh.seek(max(0, os.path.getsize(path) - 8192))
+            tail = fh.read()
+    except OSError:
+        head = tail = b""
+    if b"Matplotlib" not in head and b"Matplotlib" not in tail:
+        raise UsageError(flag, f"{path!r} exists and is not a figure cgbound (Matplotlib) wrote (writing would replace "
+                               f"it); choose another file name, or move that one away first")
+    return path
