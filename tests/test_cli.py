@@ -513,6 +513,12 @@ def test_an_existing_output_is_replaced_only_when_cgbound_wrote_it_as_a_result(t
         assert main(args + [str(tmp_path / name)]) == 0 and main(args + [str(tmp_path / name)]) == 0
     status, err = run_error(["demo", "-q", "--output", str(snaps)], capsys)   # the demo's output as well
     assert status == 2 and "exists and is not a result file cgbound wrote" in err
+    # a result made read-only to keep it: replacing by rename ignores the file's mode (as root, even its directory's)
+    os.chmod(tmp_path / "r.h5", 0o444)
+    before = (tmp_path / "r.h5").read_bytes()
+    status, err = run_error(args + [str(tmp_path / "r.h5")], capsys)
+    assert status == 2 and "--output: " in err and "is read-only (mode 0444)" in err, err
+    assert (tmp_path / "r.h5").read_bytes() == before
 
 
 def test_files_of_another_format_or_the_same_times_are_refused(tmp_path, capsys):

@@ -152,11 +152,21 @@ def _cgbound_output(path, ext):
         return False
 
 
+def refuse_read_only(path, flag):
+    """A file without write permission was made so to keep it: the writers replace by rename, which the file's own
+    mode does not stop (only its directory's), so refuse it here."""
+    mode = os.stat(path).st_mode
+    if not mode & 0o222:
+        raise UsageError(flag, f"{path!r} is read-only (mode {mode & 0o777:04o}); make it writable to replace it, or "
+                               f"choose another file name")
+
+
 def replaceable_output(path, flag):
     """An existing output file is replaced only when cgbound wrote it as a result: anything else (a snapshot file,
     another program's data that happens to have the extension) would be destroyed, so it is refused."""
     if not os.path.isfile(path):
         return path
+    refuse_read_only(path, flag)
     ext = os.path.splitext(path)[1].lower()
     if not _cgbound_output(path, ext):
         raise UsageError(flag, f"{path!r} exists and is not a result file cgbound wrote (writing would replace its "
@@ -168,7 +178,10 @@ def replaceable_figure(path, flag):
     """An existing figure file is replaced only when Matplotlib wrote it (its metadata names Matplotlib: PNG and
     SVG near the start, PDF in the trailer's info): another file with the extension (a paper, a photograph) would
     be destroyed, so it is refused."""
-    if not os.path.isfile(path) or os.path.getsize(path) == 0:
+    if not os.path.isfile(path):
+        return path
+    refuse_read_only(path, flag)
+    if os.path.getsize(path) == 0:
         return path
     try:
         with open(path, "rb") as fh:
