@@ -190,7 +190,9 @@ class Partial:
                       check_computable(snap, plan.needed))
             prim = whole_target_sums(job, self.u_ref)
         if plan.species is not None:
-            self.species_seen.update(np.unique(snapshot.species).tolist())
+            # the flowing particles' species: partial fields count no fixed particle, so a species only among the
+            # fixed ones would give zero fields, like one absent
+            self.species_seen.update(np.unique(snapshot.species[~snapshot.fixed]).tolist())
         if self.target is None:
             self.target, self.kernel, self.box = target, kernel, snap.box
             self.units = snap.units
@@ -246,8 +248,9 @@ class Partial:
         """Fields (flat over nodes, with a leading time axis unless the mode is "mean") and their times."""
         plan = self.plan
         if plan.species is not None and plan.species not in self.species_seen:
-            raise ValueError(f"species: {plan.species} is in none of the {len(self.times)} frames read (species "
-                             f"present: {sorted(self.species_seen)}); partial fields of it would be zero")
+            raise ValueError(f"species: {plan.species} is in none of the {len(self.times)} frames read (species of "
+                             f"flowing particles present: {sorted(self.species_seen)}; fixed particles do not count); "
+                             f"partial fields of it would be zero")
         if plan.mode == "mean":
             return derive(self.averages[0].result(), plan.fields, self.u_ref, self.dim, plan.convention), \
                 [float(np.mean(self.times))]

@@ -59,9 +59,10 @@ def coarse_grain(snapshot, grid, kernel, fields=DEFAULT_FIELDS, convention="tens
     if isinstance(grid, CylindricalGrid):
         return coarse_grain_cylindrical(snapshot, grid, kernel, fields, convention, species)
     job = prepare(snapshot, grid, kernel, fields, convention, species, couple_stress_form=couple_stress_form)
-    if species is not None and not np.any(snapshot.species == species):
-        raise ValueError(f"species: {species} is not in the snapshot (species present: "
-                         f"{sorted(set(np.asarray(snapshot.species).tolist()))}); partial fields of it would be zero")
+    if species is not None and not np.any(snapshot.species[~snapshot.fixed] == species):
+        raise ValueError(f"species: {species} is not among the snapshot's flowing particles (their species: "
+                         f"{sorted(set(np.asarray(snapshot.species[~snapshot.fixed]).tolist()))}; fixed particles do "
+                         f"not count); partial fields of it would be zero")
     return run_snapshot(job)
 
 

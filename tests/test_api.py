@@ -226,8 +226,17 @@ def two_species(seed):
 def test_a_species_in_no_frame_is_an_error_not_zero_fields():
     snap = two_species(3)
     grid = cg.Grid(snap.box, (2, 2, 3))
-    with pytest.raises(ValueError, match=r"species: 7 is not in the snapshot \(species present: \[0, 1\]\)"):
+    with pytest.raises(ValueError, match=r"species: 7 is not among the snapshot's flowing particles \(their species: "
+                                         r"\[0, 1\]"):
         cg.coarse_grain(snap, grid, cg.Gaussian(0.5), fields=("density",), species=7)
+    # a species only among the fixed particles: the species view keeps them fixed, so its fields are zero too
+    base = cg.Snapshot(snap.positions, snap.velocities, snap.masses, box=snap.box, contacts=snap.contacts,
+                       species=snap.species, fixed=snap.species == 1)
+    with pytest.raises(ValueError, match=r"species: 1 is not among the snapshot's flowing particles"):
+        cg.coarse_grain(base, grid, cg.Gaussian(0.5), fields=("density",), species=1)
+    with pytest.raises(ValueError, match=r"species: 1 is in none of the 1 frames read \(species of flowing particles "
+                                         r"present: \[0\]; fixed particles do not count\)"):
+        cg.CoarseGrain([base], grid, cg.Gaussian(0.5), fields=("density",), species=1).run()
     with pytest.raises(ValueError, match=r"species: 7 is in none of the 2 frames read"):
         cg.CoarseGrain([snap, two_species(4)], grid, cg.Gaussian(0.5), fields=("density",), species=7).run()
     # a species absent from some frames only (inserted later, say) is fine

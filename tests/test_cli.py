@@ -122,6 +122,14 @@ def test_figure_format_follows_the_extension(tmp_path, ext, magic):
     assert main(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,40", "--average", "x,y", "--fields",
                  "density,stress", "-o", str(tmp_path / "p.npz"), "--figure", str(fig), "-q"]) == 0
     assert fig.read_bytes().startswith(magic)
+    # a figure of an earlier run is replaced; another file with the extension is not
+    assert main(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,40", "--average", "x,y", "--fields", "density", "-o",
+                 str(tmp_path / "p.npz"), "--figure", str(fig), "-q"]) == 0
+    mine = tmp_path / f"mine{ext}"
+    mine.write_bytes(magic + b" not a figure of cgbound's")
+    assert main(["run", ATOMS] + LAMMPS_ARGS + ["--grid", "1,1,40", "--average", "x,y", "--fields", "density", "-o",
+                 str(tmp_path / "q.npz"), "--figure", str(mine), "-q"]) == 2
+    assert mine.read_bytes() == magic + b" not a figure of cgbound's" and not (tmp_path / "q.npz").exists()
 
 
 def test_run_grid_extent_from_lower_and_upper(tmp_path):
@@ -334,11 +342,11 @@ def test_contact_fields_without_a_contact_file_warn(tmp_path, capsys):
 
 def test_mercury_companion_files_are_used_and_announced(tmp_path, capsys):
     # two frames with the same fixed particles (fixed particles stay fixed; --fixed-ids is one list)
+    # (radii that reach the random contact points: the reader refuses a contact point outside its particles)
     first = random_snapshot(0, dim=3, n_wall=0)
     second = random_snapshot(1, dim=3, n_wall=0)
-    second = cg.Snapshot(second.positions, second.velocities, second.masses, box=second.box,
-                         contacts=second.contacts, fixed=first.fixed, radii=second.radii, time=1.0)
-    snaps = [first, second]
+    snaps = [cg.Snapshot(s.positions, s.velocities, s.masses, box=s.box, contacts=s.contacts, fixed=first.fixed,
+                         radii=np.full(len(s.masses), 5.0), time=t) for t, s in enumerate((first, second))]
     from cgbound.readers import write_mercury
     write_mercury(snaps, tmp_path / "m.data", tmp_path / "m.fstat")
     out = tmp_path / "o.npz"
@@ -407,3 +415,133 @@ def test_stat_output_is_mercurycg_format_and_its_kernel_is_checked_before_work(t
     expected = cg.CoarseGrain(frames, cg.Grid(frames[0].box, (1, 1, 20), average=("x", "y")),
                               cg.Lucy(1.0, averaged_axes="lower-dimensional"), fields=("density",)).run().results
     np.testing.assert_allclose(stat.columns["Density"].ravel(), expected.density.ravel(), rtol=5e-6)
+
+
+def test_run_refuses_an_output_that_is_an_input_file_or_cannot_be_written_before_work(tmp_path, capsys):
+    # `cgbound run snap.h5 -o snap.h5` replaced the snapshots by the fields; a directory, a link loop or a link into
+    # a missing directory failed only after the work
+    snaps = tmp_path / "snap.h5"
+    cg.readers.write_snapshots(snaps, [random_snapshot(0, dim=3)])
+    before = snaps.read_bytes()
+    os.symlink("snap.h5", tmp_path / "link.h5")
+    os.mkdir(tmp_path / "dir.h5")
+    os.symlink("loop2.h5", tmp_path / "loop1.h5")
+    os.symlink("loop1.h5", tmp_path / "loop2.h5")
+    os.symlink(os.path.join("missing", "x.h5"), tmp_path / "dangling.h5")
+    for target, expected in (("snap.h5", "is the input file"), ("link.h5", "is the input file"),
+                             ("dir.h5", "is a directory"), ("loop1.h5", "cannot be followed"),
+                             ("dangling.h5", "does not exist")):
+        status, err = run_error(["run", str(snaps), "--grid", "1,1,4", "--average", "x,y", "-q",
+                                 "-o", str(tmp_path / target)], capsys)
+        assert status == 2 and err.startswith("cgbound: error: --output: ") and expected in err, (target, err)
+    assert snaps.read_bytes() == before
+
+
+def test_a_data_mass_that_is_not_positive_is_the_datas_error_not_the_masses_flags(tmp_path, capsys):
+    path = tmp_path / "s.h5"
+    cg.readers.write_snapshots(path, [random_snapshot(0, dim=3)])
+    with h5py.File(path, "r+") as f:
+        masses = f["frames/000000/masses"][()]
+        masses[~f["frames/000000/fixed"][()]] = 0.0
+        del f["frames/000000/masses"]
+        f["frames/000000/masses"] = masses
+    status, err = run_error(["run", str(path), "-q", "-o", str(tmp_path / "o.h5")], capsys)
+    assert status == 1 and "--masses" not in err and "s.h5: frame 000000" in err, err
+
+
+def test_a_grid_no_particle_reaches_is_said(tmp_path, capsys):
+    # a --lower/--upper outside the data wrote zero fields (velocity NaN) with exit 0 and no word
+    snaps = tmp_path / "snap.h5"
+    cg.readers.write_snapshots(snaps, [random_snapshot(0, dim=3)])
+    args = ["run", str(snaps), "--grid", "2,2,2", "-q", "-o", str(tmp_path / "o.h5")]
+    assert main(args + ["--lower", "100,100,100", "--upper", "200,200,200"]) == 0
+    err = capsys.readouterr().err
+    assert "cgbound: warning: the density is zero at every node of every frame: no particle came within" in err, err
+    assert main(args) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_the_default_width_is_refused_on_particles_far_from_unit_size(tmp_path, capsys):
+    # LIGGGHTS grains of 0.9 mm in SI: the default width 0.25 (for d ~ 1) smoothed the 12 mm column into one
+    # uniform density of 2.2 kg/m^3 (the packing's is ~1500), exit 0
+    data = os.path.join(os.path.dirname(__file__), "data", "liggghts")
+    args = ["run", os.path.join(data, "atoms.dump"), "--format", "liggghts", "--pairs", os.path.join(data, "pairs.dump"),
+            "--input", os.path.join(data, "in.settle"), "--grid", "1,1,10", "--average", "x,y", "--stop", "1", "-q",
+            "-o", str(tmp_path / "o.h5")]
+    status, err = run_error(args, capsys)
+    assert status == 2 and err.startswith("cgbound: error: --width: not given, and the default 0.25 is 272 times the "
+                                          "particles' median diameter d = 0.000918"), err
+    assert main(args + ["--width", "0.00025"]) == 0
+
+
+def test_a_2d_lammps_run_read_as_3d_is_refused_naming_dimension(tmp_path, capsys):
+    # without --dimension 2 (even with the script's 'dimension 2' as --input) the discs were coarse-grained in 3-D:
+    # per volume through z = 0, with a "profile" along z, exit 0
+    data = os.path.join(os.path.dirname(__file__), "data", "lammps")
+    args = ["run", os.path.join(data, "hooke2d", "atoms.dump"), "--pairs", os.path.join(data, "hooke2d", "pairs.dump"),
+            "--input", os.path.join(data, "in.hooke2d"), "--stop", "1", "-q", "-o", str(tmp_path / "o.h5")]
+    status, err = run_error(args + ["--grid", "1,1,10", "--average", "x,y"], capsys)
+    assert status == 2 and err.startswith("cgbound: error: --dimension: not given, so the data are read as 3-D, but "
+                                          "every particle of the first frame has z = 0 and vz = 0"), err
+    assert main(args + ["--dimension", "2", "--grid", "1,10", "--average", "x"]) == 0
+
+
+@pytest.mark.parametrize("time_average", ["none", "0.5"])
+def test_a_vtk_output_of_many_results_is_refused_before_work(tmp_path, capsys, time_average):
+    # the VTK writer took frame 0 only: "2 frames -> ... wrote t.vtk" with the other frames dropped
+    snaps = tmp_path / "snap.h5"
+    cg.readers.write_snapshots(snaps, [random_snapshot(k, dim=3) for k in range(2)])
+    status, err = run_error(["run", str(snaps), "--grid", "2,2,2", "--time-average", time_average, "-q",
+                             "-o", str(tmp_path / "t.vtk")], capsys)
+    assert status == 2 and "--output: a .vtk file holds one result" in err and not (tmp_path / "t.vtk").exists()
+
+
+def test_an_existing_output_is_replaced_only_when_cgbound_wrote_it_as_a_result(tmp_path, capsys):
+    # any existing file with the extension was replaced: another snapshot file, another program's HDF5 or .npz
+    snaps = tmp_path / "snap.h5"
+    cg.readers.write_snapshots(snaps, [random_snapshot(0, dim=3)])
+    shutil.copy(snaps, tmp_path / "other.h5")
+    np.savez(tmp_path / "mine.npz", x=np.arange(3))
+    with h5py.File(tmp_path / "foreign.h5", "w") as f:
+        f["data"] = np.arange(3)
+    args = ["run", str(snaps), "--grid", "1,1,4", "--average", "x,y", "-q", "-o"]
+    for name in ("other.h5", "mine.npz", "foreign.h5"):
+        before = (tmp_path / name).read_bytes()
+        status, err = run_error(args + [str(tmp_path / name)], capsys)
+        assert status == 2 and "--output: " in err and "exists and is not a result file cgbound wrote" in err, err
+        assert (tmp_path / name).read_bytes() == before
+    for name in ("r.h5", "r.npz", "r.vtk"):       # a result of an earlier run is replaced
+        assert main(args + [str(tmp_path / name)]) == 0 and main(args + [str(tmp_path / name)]) == 0
+    status, err = run_error(["demo", "-q", "--output", str(snaps)], capsys)   # the demo's output as well
+    assert status == 2 and "exists and is not a result file cgbound wrote" in err
+    # a result made read-only to keep it: replacing by rename ignores the file's mode (as root, even its directory's)
+    os.chmod(tmp_path / "r.h5", 0o444)
+    before = (tmp_path / "r.h5").read_bytes()
+    status, err = run_error(args + [str(tmp_path / "r.h5")], capsys)
+    assert status == 2 and "--output: " in err and "is read-only (mode 0444)" in err, err
+    assert (tmp_path / "r.h5").read_bytes() == before
+
+
+def test_files_of_another_format_or_the_same_times_are_refused(tmp_path, capsys):
+    # a copy of a snapshot file among the paths was averaged in twice; a file of another format was read as the
+    # first file's format (and its errors named the wrong thing)
+    first = [random_snapshot(k, dim=3) for k in range(2)]
+    first = [cg.Snapshot(s.positions, s.velocities, s.masses, box=s.box, contacts=s.contacts, fixed=s.fixed,
+                         radii=s.radii, time=float(k)) for k, s in enumerate(first)]
+    cg.readers.write_snapshots(tmp_path / "a1.h5", first)
+    shutil.copy(tmp_path / "a1.h5", tmp_path / "a2.h5")
+    args = ["--grid", "1,1,4", "--average", "x,y", "-q", "-o", str(tmp_path / "o.h5")]
+    status, err = run_error(["run", str(tmp_path / "a1.h5"), str(tmp_path / "a2.h5")] + args, capsys)
+    assert status == 2 and "PATH: the frames of a2.h5 (first time 0) do not come after those of a1.h5 (last time 1)" \
+        in err, err
+    (tmp_path / "b.data").write_text("1 0 0 0 0 1 1 1\n0.5 0.5 0.5 0 0 0 0.1 0 0 0 0 0 0 0\n")
+    status, err = run_error(["run", str(tmp_path / "a1.h5"), str(tmp_path / "b.data")] + args, capsys)
+    assert status == 2 and "b.data is mercury data but" in err and "a1.h5 is hdf5 data" in err, err
+
+
+def test_a_stat_output_of_2d_data_is_refused_before_work(tmp_path, capsys):
+    snaps = tmp_path / "snap.h5"
+    cg.readers.write_snapshots(snaps, [random_snapshot(0, dim=2)])
+    status, err = run_error(["run", str(snaps), "--grid", "1,4", "--average", "x", "--kernel", "lucy", "--averaged-kernel",
+                             "lower-dimensional", "-q", "-o", str(tmp_path / "o.stat")], capsys)
+    assert status == 2 and "--output: MercuryCG's .stat files are 3-D, the data are 2-D" in err, err

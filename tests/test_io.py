@@ -145,6 +145,26 @@ def test_snapshot_file_rejects_foreign_files(tmp_path):
         HDF5Snapshots(path)
 
 
+@pytest.mark.parametrize("name, edit, message", [
+    ("masses", lambda m: np.where(np.arange(m.size) == 2, 0.0, m), "masses: expected positive masses"),
+    ("positions", lambda x: x.T.copy(), r"positions: expected shape"),
+    ("contacts/i", lambda i: i + 1000, r"contacts.i: expected particle indices"),
+])
+def test_an_edited_snapshot_dataset_is_refused_naming_the_file_and_frame(tmp_path, name, edit, message):
+    # the Snapshot's own message alone ("frame 1: masses: ...") named neither the file nor its frame; at the command
+    # line a mass of the data's was even blamed on --masses
+    path = tmp_path / "s.h5"
+    write_snapshots(path, [random_snapshot(k, dim=3) for k in range(2)])
+    with h5py.File(path, "r+") as f:
+        value = edit(f["frames/000001/" + name][()])
+        del f["frames/000001/" + name]
+        f["frames/000001/" + name] = value
+    frames = HDF5Snapshots(path)
+    frames[0]
+    with pytest.raises(ValueError, match=rf"s.h5: frame 000001 \(t = [^)]*\): {message}"):
+        frames[1]
+
+
 def result_3d():
     snap = random_snapshot(3, dim=3)
     return cg.coarse_grain(snap, cg.Grid(snap.box, (4, 3, 5)), cg.Gaussian(0.5),

@@ -214,3 +214,33 @@ def test_keywords_that_do_not_match_the_dump_are_refused(liggghts_dir):
 def test_a_missing_body_force_is_refused_by_the_force_balance(liggghts_dir):
     with pytest.raises(ValueError, match="a body force is missing or wrong"):
         reader(liggghts_dir, body_force=None)[0]
+
+
+def test_a_contact_dump_of_another_step_is_refused_by_its_positions(liggghts_dir, tmp_path):
+    # the contact frames rotated by one (each timestep label kept: same IDs, same steps): with the force check off
+    # (as for frames dumped during a run) they were read as this step's contacts, silently
+    frames = open(os.path.join(liggghts_dir, "pairs.dump")).read().split("ITEM: TIMESTEP\n")[1:]
+    labels = [f.split("\n", 1)[0] for f in frames]
+    bodies = [f.split("\n", 1)[1] for f in frames]
+    (tmp_path / "pairs.dump").write_text("".join(f"ITEM: TIMESTEP\n{labels[k]}\n{bodies[(k + 1) % len(frames)]}"
+                                                 for k in range(len(frames))))
+    shifted = LiggghtsReader(os.path.join(liggghts_dir, "atoms.dump"), tmp_path / "pairs.dump", pair_values=VALUES,
+                             fixed_types=[2], body_force=G, check_forces=False)
+    with pytest.raises(ValueError, match=r"atoms.dump: timestep 22500: the positions do not fit the contacts of "
+                                         r".*pairs.dump: \d+ of \d+ contacts have positions \(pair/gran/local 'pos'.*"
+                                         r"the two dumps are not of the same run"):
+        shifted[0]
+    reader(liggghts_dir, consistent=False)[1]     # frames dumped during a run: their positions agree
+
+
+def test_a_run_with_walls_fails_the_force_check_naming_the_walls():
+    # a genuine LIGGGHTS run on a primitive wall (tests/data/liggghts/wall/in.wall): the hints named LAMMPS's
+    # --pair-style and --walls, which LIGGGHTS input does not take, and not the walls this reader does not read
+    d = os.path.join(DATA, "wall")
+    frames = LiggghtsReader(os.path.join(d, "atoms.dump"), os.path.join(d, "pairs.dump"), pair_values=VALUES,
+                            body_force=G)
+    with pytest.raises(ValueError, match=r"timestep 22500: the contact forces plus the body forces do not reproduce .* "
+                                         r"the run has walls \(fix wall/gran, primitive or mesh\): this reader does not "
+                                         r"read LIGGGHTS wall contacts") as info:
+        frames[0]
+    assert "--pair-style" not in str(info.value) and "--walls" not in str(info.value)

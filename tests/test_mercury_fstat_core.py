@@ -67,8 +67,7 @@ def read_all(frames):
 
 
 def test_genuine_mercurydpm_frames_identical(recorded):
-    frames = MercuryReader(GENUINE + ".data", GENUINE + ".fstat", restart_path=GENUINE + ".restart",
-                           body_force=(0, 0, -1))
+    frames = MercuryReader(GENUINE + ".data", GENUINE + ".fstat", restart_path=GENUINE + ".restart")
     read_all(frames)
     assert len(frames) == 10 and len(recorded) == 9     # (the frame at t = 0 has no contacts)
     kept = 0

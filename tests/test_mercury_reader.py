@@ -6,6 +6,7 @@ negated; walls once with j = -1 - wallIndex and n, t flipped) and BaseParticle::
 ParticleSpecies::write (.restart keys); see cgbound/readers/mercury.py.
 """
 import math
+import os
 import pickle
 import warnings
 
@@ -269,8 +270,11 @@ def test_frames_written_again_at_one_time_pair_in_file_order(tmp_path):
 
     first, again = snap(1, [-2.0, 0.0, 0.0]), snap(2, [0.0, -3.0, 0.0])
     write_mercury([first, again], tmp_path / "r.data", tmp_path / "r.fstat")
-    back = MercuryReader(tmp_path / "r.data", tmp_path / "r.fstat", restart_path=False, density=1.0,
-                         periodic=(False,) * 3)
+    # each copy is read, so a time average counts that time twice: allowed, but said
+    with pytest.warns(UserWarning, match=r"r.data: the frame at t = 1 is written 2 times \(lines 1, 5\), as by a run "
+                                         r"restarted .* a time average counts it 2 times"):
+        back = MercuryReader(tmp_path / "r.data", tmp_path / "r.fstat", restart_path=False, density=1.0,
+                             periodic=(False,) * 3)
     for got, written in zip(back, (first, again)):
         a, b = contact_dict(got), contact_dict(written)
         assert set(a) == set(b)
@@ -279,8 +283,9 @@ def test_frames_written_again_at_one_time_pair_in_file_order(tmp_path):
     lines = (tmp_path / "r.fstat").read_text().splitlines()
     lines[-1] = lines[-1].replace(lines[-1].split()[4], "1.2.3", 1)    # damage the second frame's cy
     (tmp_path / "r.fstat").write_text("\n".join(lines) + "\n")
-    back = MercuryReader(tmp_path / "r.data", tmp_path / "r.fstat", restart_path=False, density=1.0,
-                         periodic=(False,) * 3)
+    with pytest.warns(UserWarning, match="written 2 times"):
+        back = MercuryReader(tmp_path / "r.data", tmp_path / "r.fstat", restart_path=False, density=1.0,
+                             periodic=(False,) * 3)
     back[0]
     with pytest.raises(ValueError, match=f"r.fstat \\(t = 1\\), line {len(lines)}, column 5: not a number: '1.2.3'"):
         back[1]
@@ -362,3 +367,18 @@ def test_no_warning_without_companion_files(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert len(MercuryReader(f["b.data"], density=1.0)) == 2
+
+
+def test_write_mercury_replaces_the_files_only_when_every_frame_is_written(tmp_path):
+    # it wrote in place: a frame it could not write (no radii) left both files truncated and half written
+    snap = cg.Snapshot(np.array([[0.5, 0.5, 0.5]]), None, np.ones(1), box=cg.Box([0, 0, 0], [1, 1, 1]),
+                       radii=np.full(1, 0.1))
+    data, fstat = tmp_path / "r.data", tmp_path / "r.fstat"
+    write_mercury([snap], data, fstat)
+    before = data.read_bytes(), fstat.read_bytes()
+    bare = cg.Snapshot(snap.positions, None, snap.masses, box=snap.box)
+    with pytest.raises(ValueError, match="snapshots need radii"):
+        write_mercury([snap, snap, bare], data, fstat)
+    assert (data.read_bytes(), fstat.read_bytes()) == before and sorted(os.listdir(tmp_path)) == ["r.data", "r.fstat"]
+    with pytest.raises(ValueError, match="fstat_path: the same file as data_path"):
+        write_mercury([snap], data, data)

@@ -81,9 +81,8 @@ def test_gzip_equals_plain_bit_for_bit(tmp_path):
     for ext in (".data", ".fstat", ".restart"):
         with open(STEM + ext, "rb") as src, gzip.open(tmp_path / ("c" + ext), "wb") as dst:
             shutil.copyfileobj(src, dst)
-    plain = MercuryReader(STEM + ".data", STEM + ".fstat", restart_path=STEM + ".restart", body_force=(0, 0, -1))
-    packed = MercuryReader(tmp_path / "c.data", tmp_path / "c.fstat", restart_path=tmp_path / "c.restart",
-                           body_force=(0, 0, -1))
+    plain = MercuryReader(STEM + ".data", STEM + ".fstat", restart_path=STEM + ".restart")
+    packed = MercuryReader(tmp_path / "c.data", tmp_path / "c.fstat", restart_path=tmp_path / "c.restart")
     frames_equal(plain, packed)
     assert sum(len(packed[k].contacts) for k in range(len(packed))) > 1000
 

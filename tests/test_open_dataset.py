@@ -74,9 +74,8 @@ def test_gzipped_mercurydpm_output_reads_as_the_plain_files(tmp_path):
         with open(MERCURY + ext, "rb") as src, gzip.open(tmp_path / f"c{ext}.gz", "wb") as dst:
             shutil.copyfileobj(src, dst)
     gz = open_dataset(str(tmp_path / "c.data.gz"), fstat_path=tmp_path / "c.fstat.gz",
-                      restart_path=tmp_path / "c.restart.gz", body_force=(0, 0, -1))
-    plain = MercuryReader(MERCURY + ".data", MERCURY + ".fstat", restart_path=MERCURY + ".restart",
-                          body_force=(0, 0, -1))
+                      restart_path=tmp_path / "c.restart.gz")
+    plain = MercuryReader(MERCURY + ".data", MERCURY + ".fstat", restart_path=MERCURY + ".restart")
     same_frames(gz, plain)
 
 
@@ -100,7 +99,6 @@ def test_mercurydpm_multiple_files_read_as_one_file(tmp_path):
         (tmp_path / f"c.fstat.{f}").write_text("".join(fstat[a:b]))
     assert frame == len(starts) == 10
     multi = open_dataset(str(tmp_path / "c.data.*"), fstat_path=str(tmp_path / "c.fstat.*"),
-                         restart_path=MERCURY + ".restart", body_force=(0, 0, -1))
-    plain = MercuryReader(MERCURY + ".data", MERCURY + ".fstat", restart_path=MERCURY + ".restart",
-                          body_force=(0, 0, -1))
+                         restart_path=MERCURY + ".restart")
+    plain = MercuryReader(MERCURY + ".data", MERCURY + ".fstat", restart_path=MERCURY + ".restart")
     same_frames(multi, plain)

@@ -176,3 +176,33 @@ def test_clump_members_are_particles():
     assert snap.masses[members].sum() == pytest.approx(clump_mass, rel=1e-14)
     assert not snap.fixed[members].any() and snap.fixed.sum() == 4
     assert YadeReader(path).force_mismatch(0) < 1e-12
+
+
+def test_fixed_ids_naming_no_sphere_and_a_refused_value_name_the_file_and_body(tmp_path):
+    path = os.path.join(DATA, "walls")
+    # an id that is no sphere of the frame (a typo, a wall's id) left the particle meant flowing, silently
+    for ids in ([99999], [0], [40, -1]):
+        with pytest.raises(ValueError, match=r"fixed_ids: \[.*\] is not a sphere of the frame .*yade_0000004000.npz "
+                                             r"\(its spheres' ids: 5..60\)"):
+            YadeReader(path, fixed_ids=ids)[0]
+    assert YadeReader(path, fixed_ids=[40])[0].fixed.sum() == YadeReader(path)[0].fixed.sum() + 1
+
+    def massless(m):
+        m[24] = 0.0    # body 24, a flowing sphere
+        return m
+    bad = tampered(tmp_path, mass=massless)
+    with pytest.raises(ValueError, match=r"yade_0000004000.npz: masses: expected positive masses .* at index 19 "
+                                         r"\(index 19 is Yade body 24\)"):
+        YadeReader(bad, check_forces=False)[0]
+
+
+def test_a_body_force_other_than_the_runs_gravity_is_refused(tmp_path, capsys):
+    # body_force= (--gravity) replaced the NewtonIntegrator's gravity silently: the force check cannot see it
+    path = os.path.join(DATA, "walls")
+    with pytest.raises(ValueError, match=r"body_force: \[0.0, 0.0, -1.0\] is not the gravity of the run, "
+                                         r"\[0.0, 0.0, -9.81\]"):
+        YadeReader(path, body_force=(0, 0, -1))[0]
+    assert np.array_equal(YadeReader(path, body_force=GRAVITY)[0].body_force[0], GRAVITY)
+    from cgbound.cli import main
+    assert main(["run", path, "--gravity", "0,0,-1", "--width", "0.1", "-q", "-o", str(tmp_path / "o.h5")]) == 2
+    assert "--gravity: [0.0, 0.0, -1.0] is not the gravity of the run" in capsys.readouterr().err

@@ -74,8 +74,7 @@ def _mercurydpm(paths):
 
 def _mercurydpm_restart(paths):
     from cgbound.readers import MercuryReader
-    return MercuryReader(paths["ChutePeriodicDemo.data"], False, restart_path=paths["ChutePeriodicDemo.restart"],
-                         body_force=(0, 0, -1))
+    return MercuryReader(paths["ChutePeriodicDemo.data"], False, restart_path=paths["ChutePeriodicDemo.restart"])
 
 
 def _mercurycg(paths):

@@ -4,7 +4,7 @@ import time
 import numpy as np
 
 from .figures import check_matplotlib, figure_format, save_figure
-from .values import output_directory_exists
+from .values import output_directory_exists, replaceable_figure, replaceable_output
 
 
 def add_parser(sub):
@@ -30,8 +30,10 @@ def check(args):
     if not (np.isfinite(args.width) and args.width > 0):
         raise UsageError("--width", f"expected a positive number, got {args.width!r}")
     output_directory_exists(args.output, "--output")
+    replaceable_output(args.output, "--output")
     if args.figure:
         args.figure_format = figure_format(args.figure, "--figure")
+        replaceable_figure(args.figure, "--figure")
         check_matplotlib("--figure")
 
 

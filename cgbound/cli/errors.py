@@ -32,17 +32,25 @@ _LEADING_NAME = re.compile(r"^([A-Za-z_][A-Za-z0-9_.]*): ")
 _NO_FLAG = object()
 
 
+#: flags whose API name also names values read from the data (a Snapshot's ``masses``): an error with that name is
+#: the flag's only when the flag was given, else the data's
+DATA_NAMED_FLAGS = {"--masses": "masses"}
+
+
 @contextlib.contextmanager
-def as_usage(default_flag=_NO_FLAG):
+def as_usage(default_flag=_NO_FLAG, args=None):
     """Turn the API's ValueError/TypeError into a UsageError naming the flag behind its argument
     (the message's leading ``name:``), else ``default_flag``; without a default, an error about no
-    argument (the data itself) passes unchanged."""
+    argument (the data itself) passes unchanged. With ``args`` (the parsed arguments), a name of
+    DATA_NAMED_FLAGS whose flag was not given is the data's."""
     try:
         yield
     except (ValueError, TypeError, OverflowError) as exc:
         message = str(exc)
         match = _LEADING_NAME.match(message)
         flag = API_FLAGS.get(match.group(1)) if match else None
+        if flag in DATA_NAMED_FLAGS and args is not None and getattr(args, DATA_NAMED_FLAGS[flag], None) is None:
+            flag = None
         if flag is not None:
             raise UsageError(flag, message[match.end():]) from exc
         if default_flag is _NO_FLAG:

@@ -12,7 +12,8 @@ import numpy as np
 
 from .errors import UsageError, as_usage
 from .figures import check_matplotlib, figure_format, save_figure
-from .values import existing_file, integers, numbers, output_directory_exists, positive_number, split_list, type_masses
+from .values import (existing_file, integers, numbers, output_directory_exists, output_not_input, positive_number,
+                     replaceable_figure, replaceable_output, split_list, type_masses)
 
 KERNELS = ("gaussian", "lucy", "heaviside")
 OUTPUTS = (".h5", ".hdf5", ".npz", ".vtk", ".stat")
@@ -40,16 +41,15 @@ examples, one per format:
   LIGGGHTS (compute pair/gran/local with ID pgl2):
     cgbound run atoms.dump --format liggghts --pairs pairs.dump --pair-compute pgl2 --fixed-types 2 \\
         --gravity 0,0,-9.81 --grid 20,20,40 -o fields.h5
-  MercuryDPM (name.fstat and name.restart next to name.data are used when present):
-    cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1.5 --grid 1,1,100 --average x,y \\
-        -o chute.h5
+  MercuryDPM (name.fstat and name.restart next to name.data are used when present; gravity from the .restart):
+    cgbound run chute.data --kernel lucy --cutoff 1.5 --grid 1,1,100 --average x,y -o chute.h5
   LAMMPS read with its input script (columns, frozen types, walls and gravity from the script):
     cgbound run atoms.dump --pairs pairs.dump --input in.chute --var angle=26 --grid 1,1,200 --average x,y \\
         -o profile.h5
   Yade (a directory of exports written by cgbound.readers.yade_export inside Yade):
     cgbound run yade_frames/ --grid 1,1,50 --average x,y --fields density,stress -o yade.h5
   MercuryCG's .stat format out (Lucy: MercuryCG's width is the cutoff; its 1-D kernel over averaged axes):
-    cgbound run chute.data --gravity 0,0,-1 --kernel lucy --cutoff 1 --grid 1,1,140 --average x,y \\
+    cgbound run chute.data --kernel lucy --cutoff 1 --grid 1,1,140 --average x,y \\
         --averaged-kernel lower-dimensional -o chute.stat
   MDAnalysis (topology and trajectory):
     cgbound run topol.tpr traj.xtc --format mdanalysis --grid 40,40,40 --fields density -o density.npz
@@ -90,7 +90,8 @@ def add_parser(sub):
     g.add_argument("--fixed-ids", metavar="LIST",
                    help="atom IDs (lammps/liggghts) or particle indices (mercury) of fixed particles")
     g.add_argument("--walls", metavar="LIST", help="lammps: IDs of fix wall/gran ... contacts, e.g. floor")
-    g.add_argument("--gravity", metavar="VECTOR", help="body force per unit mass on flowing particles, e.g. 0,0,-1")
+    g.add_argument("--gravity", metavar="VECTOR", help="body force per unit mass on flowing particles, e.g. 0,0,-1 "
+                                                       "(mercury: default the .restart's gravity, which it must match)")
     g.add_argument("--masses", metavar="TYPE=MASS,...",
                    help="lammps/liggghts: masses per atom type when the dump has no mass column")
     g.add_argument("--dt", metavar="DT", help="lammps/liggghts: time step size (time = timestep x dt)")
@@ -108,7 +109,8 @@ def add_parser(sub):
                         "units command, else '(simulation units)'")
     k = r.add_argument_group("kernel and grid")
     k.add_argument("--kernel", choices=KERNELS, default="gaussian", help="coarse-graining kernel (default gaussian)")
-    k.add_argument("--width", default="0.25", help="Gaussian width w, also the default scale of the others (default 0.25)")
+    k.add_argument("--width", help="Gaussian width w, also the default scale of the others (default 0.25, for "
+                                   "particles of diameter about 1; refused for particles far larger or smaller)")
     k.add_argument("--cutoff", default=None, help="support radius (Gaussian default 5 w; Lucy 3 w; Heaviside w)")
     k.add_argument("--normalize", choices=["full", "truncated"], default="full", help="Gaussian normalisation (default full)")
     k.add_argument("--grid", default="20,20,20", help="nodes per axis, e.g. 1,1,400 (averaged axes take 1; default 20,20,20)")
@@ -163,7 +165,8 @@ def check(args):
     for name in args.fields:
         if name not in FIELDS:
             raise UsageError("--fields", f"unknown field {name!r}; expected some of {', '.join(FIELDS)}")
-    args.width = positive_number(args.width, "--width")
+    args.width_given = args.width is not None
+    args.width = positive_number(args.width if args.width_given else DEFAULT_WIDTH, "--width")
     args.cutoff = None if args.cutoff is None else positive_number(args.cutoff, "--cutoff")
     args.grid = integers(args.grid, "--grid", positive=True, allow_x=True)
     args.average = tuple(split_list(args.average))
@@ -176,12 +179,17 @@ def check(args):
         if not (np.isfinite(width) and width > 0):
             raise UsageError("--time-average", f"expected mean, none or a positive time width, got {args.time_average!r}")
         args.time_average = width
+    if ext == ".vtk" and args.time_average != "mean":
+        # (the VTK writer takes one frame: the others were computed and dropped)
+        raise UsageError("--output", f"a .vtk file holds one result, but --time-average {args.time_average} gives "
+                                     f"one per frame (or output time): write .h5 or .npz, or use --time-average mean")
     if args.step == 0:
         raise UsageError("--step", "expected a non-zero integer")
     args.lower = None if args.lower is None else numbers(args.lower, "--lower", allow_empty=True)
     args.upper = None if args.upper is None else numbers(args.upper, "--upper", allow_empty=True)
     if args.figure:
         args.figure_format = figure_format(args.figure, "--figure")
+        replaceable_figure(args.figure, "--figure")
         check_matplotlib("--figure")
         args.figure_fields = split_list(args.figure_fields) if args.figure_fields else list(args.fields)
         for name in args.figure_fields:
@@ -252,7 +260,13 @@ def data_format(args, paths):
     if args.format:
         return args.format
     try:
-        return sniff_format(paths[0])
+        fmt = sniff_format(paths[0])
+        for path in paths[1:]:   # a file of another format among them would be read as this one's
+            other = sniff_format(path)
+            if other != fmt:
+                raise UsageError("PATH", f"{path} is {other} data but {paths[0]} is {fmt} data; give the files of "
+                                         f"one dataset (contact files with --pairs, a .restart with --restart)")
+        return fmt
     except ValueError as exc:
         raise UsageError("--format", str(exc)) from None
 
@@ -271,6 +285,13 @@ def contact_files(args, paths, fmt):
     if fmt == "mercury":
         from ..readers.files import companion
         found = [companion(p, ".data", ".fstat") for p in paths]
+        if any(found) and not all(found):
+            # some frames without their contacts would be coarse-grained as if no particle touched
+            lost = [os.path.basename(p) for p, f in zip(paths, found) if f is None]
+            raise UsageError("--pairs", f"{len(lost)} of the {len(paths)} .data files have no .fstat beside them "
+                                        f"({', '.join(lost[:3])}{' ...' if len(lost) > 3 else ''}) while the others "
+                                        f"have: a contact file is missing; restore it, or name the .data files that "
+                                        f"have one")
         if all(found):
             print(f"cgbound: contacts from {', '.join(os.path.basename(f) for f in found[:3])}"
                   f"{' ...' if len(found) > 3 else ''}", file=sys.stderr)
@@ -329,6 +350,17 @@ def reader_options(args, fmt, paths):
     return options
 
 
+def read_files(paths, contacts, restart, script):
+    """Every file the run reads (the files of a directory of exports, the files a --pairs pattern names)."""
+    import glob
+    out = []
+    for p in paths:
+        out.extend(os.path.join(p, name) for name in sorted(os.listdir(p))) if os.path.isdir(p) else out.append(p)
+    for item in [contacts] if isinstance(contacts, str) else (contacts or []):
+        out.extend(glob.glob(item) or [item])
+    return out + [p for p in (restart, script) if p]
+
+
 def open_data(args):
     """The dataset as one frame sequence, with every reader flag checked against the format."""
     from ..readers import open_dataset
@@ -336,6 +368,8 @@ def open_data(args):
     fmt = data_format(args, paths)
     check_flags_apply(args, fmt)
     if fmt == "mdanalysis":
+        output_not_input(args.output, paths, "--output")
+        replaceable_output(args.output, "--output")
         with as_usage("PATH"):
             return open_dataset(tuple(paths) if len(paths) > 1 else paths[0], format=fmt), fmt, paths
     options = reader_options(args, fmt, paths)
@@ -346,9 +380,11 @@ def open_data(args):
         from ..readers.files import companion
         restart = args.restart or companion(paths[0], ".data", ".restart")
         if restart and args.restart is None:
-            print(f"cgbound: fixed particles, densities and periodic axes from {os.path.basename(restart)}",
+            print(f"cgbound: fixed particles, densities, periodic axes and gravity from {os.path.basename(restart)}",
                   file=sys.stderr)
         options["restart_path"] = restart
+    output_not_input(args.output, read_files(paths, contacts, options.get("restart_path"), args.input), "--output")
+    replaceable_output(args.output, "--output")
     with as_usage("PATH"):
         try:
             data = open_dataset(paths, format=fmt, **options)
@@ -408,6 +444,61 @@ def make_kernel(args):
         return Heaviside(args.cutoff if args.cutoff is not None else args.width, averaged_axes=args.averaged_kernel)
 
 
+def warn_if_no_particle_reached(args, out):
+    """Say so when the density is zero at every node of every frame: no particle came within the kernel's reach of
+    the grid (a --lower/--upper outside the data, or a --species absent), so every field is zero (velocity NaN)."""
+    for name in ("density", "number_density"):
+        if name in args.fields:
+            if not np.any(np.asarray(out[name])):
+                import warnings
+                which = "particle" if args.species is None else f"flowing particle of species {args.species}"
+                warnings.warn(f"the {name.replace('_', ' ')} is zero at every node of every frame: no {which} came "
+                              f"within the kernel's cutoff of the grid, so every field is zero (velocity NaN); "
+                              f"check {'--species, ' if args.species is not None else ''}--lower and --upper "
+                              f"against the data's box {out.box.lower.tolist()} .. {out.box.upper.tolist()}",
+                              stacklevel=2)
+            return
+
+
+#: --width when neither it nor --cutoff is given: a quarter of a unit diameter (the paper's d/4)
+DEFAULT_WIDTH = "0.25"
+#: the default width is refused when it is this many times larger, or smaller, than the particles' median diameter
+DEFAULT_WIDTH_RANGE = (0.01, 10.0)
+
+
+def check_flat_3d(args, fmt, first):
+    """A LAMMPS/LIGGGHTS dump of a 2-D run (``dimension 2``) read without --dimension 2 is 3-D data with every z and
+    vz 0: its fields would be per volume through the plane z = 0 and its profiles along z meaningless. Refuse it."""
+    if fmt not in ("lammps", "liggghts") or args.dimension is not None or first.dim != 3 or first.n_particles < 2:
+        return
+    z = first.positions[:, 2]
+    flat = np.all(z == z[0]) and (first.velocities is None or not np.any(first.velocities[:, 2]))
+    if flat:
+        raise UsageError("--dimension", f"not given, so the data are read as 3-D, but every particle of the first "
+                                        f"frame has z = {z[0]:g} and vz = 0: a 2-D run (LAMMPS 'dimension 2')? Pass "
+                                        f"--dimension 2 (the fields are then per unit area of the run's plane)")
+
+
+def check_default_width(args, first):
+    """The default width assumes particles of diameter about 1: on data in other units (SI grains of a millimetre)
+    it smooths over the whole system, or resolves nothing, and the fields are meaningless though finite. Refuse it
+    before the work when the first frame's radii say so."""
+    if args.width_given or args.cutoff is not None or first.radii is None:
+        return
+    flowing = first.radii[~first.fixed] if np.any(~first.fixed) else first.radii
+    diameter = 2.0 * float(np.median(flowing)) if flowing.size else 0.0
+    if not diameter > 0:
+        return
+    ratio = args.width / diameter
+    if DEFAULT_WIDTH_RANGE[0] <= ratio <= DEFAULT_WIDTH_RANGE[1]:
+        return
+    raise UsageError("--width", f"not given, and the default {args.width:g} is {ratio:.3g} times the particles' "
+                                f"median diameter d = {diameter:.3g} (the data's units): the fields would be "
+                                f"{'smoothed over the whole system' if ratio > 1 else 'spikes at the particles'}; "
+                                f"give --width (or --cutoff) in the data's units, e.g. --width {diameter / 4:.3g} "
+                                f"(d/4)")
+
+
 def check_figure(args, grid):
     if args.figure and len(grid.resolved) not in (1, 2):
         raise UsageError("--figure", f"a figure shows profiles (one resolved axis) or maps (two); the grid "
@@ -422,12 +513,18 @@ def run(args):
     data, fmt, paths = open_data(args)
     if args.units is not None:
         data.units = args.units
-    with as_usage():                 # the reader checks the first frame: a selection of nothing names its flag
+    with as_usage(args=args):        # the reader checks the first frame: a selection of nothing names its flag
         first = data[0]
+    check_flat_3d(args, fmt, first)
+    if os.path.splitext(args.output)[1].lower() == ".stat" and first.dim != 3:
+        # (refused by the writer after the work otherwise)
+        raise UsageError("--output", f"MercuryCG's .stat files are 3-D, the data are {first.dim}-D: write .h5, .npz "
+                                     f"or .vtk")
     with as_usage("--fields"):
         check_units_fields(first.units, args.fields)
     grid = make_grid(args, first)
     kernel = make_kernel(args)
+    check_default_width(args, first)
     check_figure(args, grid)
     with as_usage("--fields"):
         analysis = CoarseGrain(data, grid, kernel, fields=args.fields, convention=args.convention,
@@ -437,6 +534,7 @@ def run(args):
     analysis.run(args.start, args.stop, args.step, verbose=not args.quiet)
     elapsed = time.perf_counter() - start
     out = analysis.results
+    warn_if_no_particle_reached(args, out)
     ext = os.path.splitext(args.output)[1].lower()
     if ext in (".h5", ".hdf5"):
         out.to_hdf5(args.output, provenance={"input": ", ".join(os.path.abspath(p) for p in paths),

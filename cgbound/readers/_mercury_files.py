@@ -140,6 +140,14 @@ def _empty_file_error(path, what):
                       f"not yet written? write it again)")
 
 
+def _cut_line_error(path, line):
+    """MercuryDPM ends every line with a newline: a last line without one was cut while being written or copied, and
+    a cut inside its last number would leave a line of the right length with a wrong value."""
+    return ValueError(f"{path}:{line}: the last line has no newline at its end: the file was cut while being written "
+                      f"(a run still going?) or copied; read it when the run has ended, copy it again, or delete "
+                      f"that line (and its frame)")
+
+
 def _words(data, start, stop):
     return bytes(data[start:stop]).split()
 
@@ -150,9 +158,12 @@ def scan_data(path, dim):
     frames = []
     text_seen = False
     open_frame, remaining = None, 0       # a frame whose particle lines run on into the next window
+    last_byte, last_line = b"\n", 0
     with contextlib.closing(scan_windows(path)) as windows:
         for data, lo, hi, base, first_line, starts in windows:
             nlines = len(starts)
+            if hi > lo:
+                last_byte, last_line = bytes(data[hi - 1:hi]), first_line + nlines - 1
             k = 0
             if open_frame is not None:
                 k = min(remaining, nlines)
@@ -195,6 +206,8 @@ def scan_data(path, dim):
         raise ValueError(f"{path}:{lineno}: the frame at t = {time:g} declares {n} particles but only "
                          f"{n - remaining} lines follow: the file is truncated (cut off while being "
                          f"written or copied); write it again or drop its last frame")
+    if last_byte != b"\n" and frames:
+        raise _cut_line_error(path, last_line)
     if not frames:   # only blank and '#' lines
         if not text_seen:
             raise _empty_file_error(path, "MercuryDPM .data frames ('N time xmin ...' headers)")
@@ -212,9 +225,12 @@ def scan_fstat(path):
     size, text_line = 0, None         # text_line: the line of the first text before the first header
     text_after = False                # whether the lines after the last header hold text
     line = 1                          # the line number of the window's start, counted here
+    last_byte = b"\n"
     with contextlib.closing(scan_windows(path, line_starts=False)) as windows:
         for data, lo, hi, base, _, _ in windows:
             size = base + hi
+            if hi > lo:
+                last_byte = bytes(data[hi - 1:hi])
             found = find_lines(data, b"#", lo, hi).tolist()
             if not heads and text_line is None:
                 text = _TEXT.search(data, lo, found[0] if found else hi)
@@ -271,6 +287,8 @@ def scan_fstat(path):
             rows_stop = heads[runs[r + 1][0]] if f + FSTAT_HEADER_LINES == b and r + 1 < len(runs) else \
                 (heads[f + FSTAT_HEADER_LINES] if f + FSTAT_HEADER_LINES < b else size)
             frames.append((heads[f], lines[f], float(head[0]), marker, rows_start, rows_stop, lines[last] + 1))
+    if last_byte != b"\n":
+        raise _cut_line_error(path, line - 1)   # line: the one after the last (count_lines counts the cut one)
     last = frames[-1]
     if not text_after and any(f[5] > f[4] for f in frames[:-1]):
         raise ValueError(f"{path}:{last[1]}: the last frame (t = {last[2]:g}) has no interaction lines while "
@@ -282,14 +300,14 @@ def scan_fstat(path):
 
 def read_restart(path):
     """Key-based parse of a .restart: species densities, the particles' invMass and positions (by id),
-    periodic normals.
+    periodic normals, the gravity vector (None when the file has no ``systemDimensions ... gravity gx gy gz`` line).
 
     Particles are the lines of the ``Particles N`` section whose first word names a particle class
     (``BaseParticle``, ``SphericalParticle``, ...); other lines with particle keys, such as the
     template particle embedded in an insertion boundary's line, are not particles. A section with
     fewer than N particle lines (a truncated file), or a file without one, is an error.
     """
-    density, normals, particle_dim = {}, [], None
+    density, normals, particle_dim, gravity = {}, [], None, None
     inv_mass, positions = [], []
     declared, declared_line = None, None
     text = b"".join(iter_chunks(path))
@@ -314,6 +332,8 @@ def read_restart(path):
         try:
             if "particleDimensions" in keys:
                 particle_dim = int(val("particleDimensions")[0])
+            if "gravity" in keys and "systemDimensions" in keys and gravity is None:   # DPMBase::write's line
+                gravity = val("gravity", 3)
             if "density" in keys and "id" in keys and words[0].endswith("Species"):
                 density[int(val("id")[0])] = val("density")[0]
             elif words[0].endswith("Particle") and "invMass" in keys and "position" in keys:
@@ -334,7 +354,7 @@ def read_restart(path):
     # the file's order is the particle handler's, which is the order of the .data rows
     return {"density": density, "inv_mass": np.array(inv_mass, dtype=float),
             "positions": np.array(positions, dtype=float).reshape(-1, 3), "normals": normals,
-            "particle_dim": particle_dim}
+            "particle_dim": particle_dim, "gravity": None if gravity is None else np.array(gravity)}
 
 
 def _row_length_error(path, data, first_line, ncols, what, time, exc):

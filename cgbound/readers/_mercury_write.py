@@ -1,5 +1,9 @@
 """Write snapshots as MercuryDPM ``.data`` and ``.fstat`` files (the layouts of cgbound/readers/mercury.py)."""
+import os
+
 import numpy as np
+
+from .._atomic import atomic_write
 
 __all__ = ["write_mercury"]
 
@@ -16,18 +20,26 @@ def write_mercury(snapshots, data_path, fstat_path, *, precision=17, wall_index=
     """
     count = 0
     fmt = f"%.{int(precision)}g"
+    if os.path.abspath(os.fspath(data_path)) == os.path.abspath(os.fspath(fstat_path)):
+        raise ValueError(f"fstat_path: the same file as data_path ({os.fspath(data_path)!r}); expected two files")
 
     def vec(v):
         return " ".join(fmt % x for x in v)
 
-    with open(data_path, "w") as fd, open(fstat_path, "w") as ff:
-        for snap in snapshots:
-            if snap.radii is None:
-                raise ValueError("write_mercury: snapshots need radii")
-            _write_data_frame(fd, snap, fmt, vec)
-            widx = np.zeros(len(snap.contacts), np.int64) if wall_index is None else np.asarray(wall_index(snap))
-            _write_fstat_frame(ff, snap, widx, fmt, vec)
-            count += 1
+    def write(data_tmp, fstat_tmp):
+        nonlocal count
+        with open(data_tmp, "w") as fd, open(fstat_tmp, "w") as ff:
+            for snap in snapshots:
+                if snap.radii is None:
+                    raise ValueError("write_mercury: snapshots need radii")
+                _write_data_frame(fd, snap, fmt, vec)
+                widx = np.zeros(len(snap.contacts), np.int64) if wall_index is None else np.asarray(wall_index(snap))
+                _write_fstat_frame(ff, snap, widx, fmt, vec)
+                count += 1
+
+    # both files through temporaries renamed into place once every frame is written: a failure half way (a
+    # snapshot without radii) left existing files truncated and half-written ones behind
+    atomic_write(data_path, lambda data_tmp: atomic_write(fstat_path, lambda fstat_tmp: write(data_tmp, fstat_tmp)))
     return count
 
 

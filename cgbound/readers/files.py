@@ -105,15 +105,20 @@ class ConcatenatedFrames(FrameSequence):
         self._check_order(name)
 
     def _check_order(self, name):
-        """Each file's frames must come after the previous file's (times from the readers' own locators)."""
+        """Each file's frames must come after the previous file's (timesteps, or else times, from the readers' own
+        locators: ``timesteps`` or ``frame_times``)."""
         last = None
         for reader in self.readers:
-            steps = getattr(reader, "timesteps", None)
+            steps, what = getattr(reader, "timesteps", None), "timestep"
+            if not steps:
+                steps, what = getattr(reader, "frame_times", None), "time"
             if not steps:
                 continue
             if last is not None and steps[0] <= last[0]:
-                raise ValueError(f"{name}: the frames of {describe(reader)} (first timestep {steps[0]}) do not come "
-                                 f"after those of {describe(last[1])} (last timestep {last[0]}); name the files so "
+                show = str if what == "timestep" else "{:g}".format
+                raise ValueError(f"{name}: the frames of {describe(reader)} (first {what} {show(steps[0])}) do not "
+                                 f"come after those of {describe(last[1])} (last {what} {show(last[0])}); name the "
+                                 f"files so "
                                  f"that their numbers give the time order, or pass them in order")
             last = (steps[-1], reader)
 

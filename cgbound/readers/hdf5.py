@@ -158,6 +158,14 @@ class HDF5Snapshots(FrameSequence):
                           f"write it again") from None
         return n
 
+    @property
+    def frame_times(self):
+        """The frames' times (their ``time`` attributes; no dataset is read)."""
+        with self._open() as f:
+            frames = self._member(f, "frames", "the file")
+            return [float(_attr(self._member(frames, f"{k:06d}", "/frames"), "time", self.path, f"frame {k:06d}",
+                                kind="scalar")) for k in self._frames]
+
     def _open(self):
         h5py = _h5py()
         try:
@@ -200,13 +208,17 @@ class HDF5Snapshots(FrameSequence):
         box = Box(lower, upper, periodic=tuple(bool(p) for p in periodic))
         data = {name: g[name][()] for name in _OPTIONAL if name in g}
         c = self._member(g, "contacts", where)
-        contacts = Contacts(*(self._member(c, name, f"{where}/contacts")[()] for name in ("i", "j", "force", "point")))
+        arrays = [self._member(c, name, f"{where}/contacts")[()] for name in ("i", "j", "force", "point")]
         time = float(_attr(g, "time", self.path, where, kind="scalar"))
-        return Snapshot(self._member(g, "positions", where)[()], data.get("velocities"),
-                        self._member(g, "masses", where)[()], box=box, contacts=contacts, fixed=data.get("fixed"),
-                        species=data.get("species"), body_force=data.get("body_force"), radii=data.get("radii"),
-                        time=time, angular_velocities=data.get("angular_velocities"), torques=data.get("torques"),
-                        moments_of_inertia=data.get("moments_of_inertia"))
+        positions, masses = self._member(g, "positions", where)[()], self._member(g, "masses", where)[()]
+        try:
+            return Snapshot(positions, data.get("velocities"), masses, box=box, contacts=Contacts(*arrays),
+                            fixed=data.get("fixed"), species=data.get("species"), body_force=data.get("body_force"),
+                            radii=data.get("radii"), time=time, angular_velocities=data.get("angular_velocities"),
+                            torques=data.get("torques"), moments_of_inertia=data.get("moments_of_inertia"))
+        except (ValueError, TypeError, IndexError) as exc:   # a dataset of the wrong shape, type or values: the file
+            raise ValueError(f"{self.path}: {where} (t = {time:g}): {exc} (the file was not written by cgbound's "
+                             f"write_snapshots, or was edited: write it again)") from None
 
     def _describe(self):
         return [repr(self.path)], []

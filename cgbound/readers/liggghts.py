@@ -179,6 +179,17 @@ class LiggghtsReader(LammpsReader):
         script = self.input_script
         self.contact_reach = 1.0 if script is not None and script.cohesive is False else 2.0
 
+    def _balance_hints(self):
+        """The causes of a force mismatch that apply to LIGGGHTS (LAMMPS's name --pair-style and --walls, which
+        LIGGGHTS input does not take, and miss its walls, whose contacts this reader does not read)."""
+        return [f"the contact dump's columns are not pair_columns={self.pair_columns} (--pair-values): check the "
+                f"keywords of the 'compute pair/gran/local' line",
+                "a body force is missing or wrong (body_force=, --gravity)",
+                "fixed particles are not marked (fixed_types=, fixed_ids=; --fixed-types, --fixed-ids)",
+                "the run has walls (fix wall/gran, primitive or mesh): this reader does not read LIGGGHTS wall "
+                "contacts, so their forces are missing; make the boundary of fixed particles, or read anyway "
+                "(check_forces=False, --no-check-forces) knowing that the walls' forces are missing from every field"]
+
     def _pair_id_columns(self):
         return self.pair_columns["id"][:2]
 

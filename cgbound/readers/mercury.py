@@ -79,7 +79,9 @@ row numbers, since insertion attempts use ids too), and every fixed
 particle must sit in the frame where the restart has it (fixed particles do not move), else the
 frame is refused. Template particles inside boundary lines (``ChuteInsertionBoundary``) are not
 particles; a ``Particles N`` section with fewer lines is a truncated file and an error. Periodic axes: ``periodic=`` (per cgbound axis), else from
-``PeriodicBoundary ... normal nx ny nz`` lines of the ``.restart``.
+``PeriodicBoundary ... normal nx ny nz`` lines of the ``.restart``. Body force: ``body_force=``, else the
+``.restart``'s ``gravity`` (``DPMBase::write``: ``systemDimensions D particleDimensions P gravity gx gy gz``; a
+chute's is tilted by its angle, e.g. ``(sin 24, 0, -cos 24)``); when both are known they must agree.
 
 Reading and structure checks
 ----------------------------
@@ -91,8 +93,13 @@ second C pass (``csrc/cg_fstat.h``; its NumPy twin is ``oracle_fstat_contacts`` 
 with the file, the frame's time and the line: a ``.data`` frame with fewer particle lines than its header
 declares, a particle line with a value more or less than the frame's first (the columns would shift), a
 ``.fstat`` block of ``#`` lines that is not 3 per frame (a header line lost, or a blank line inserted), an
-interaction line whose time is not its frame's, a last ``.fstat`` frame cut off after its header while
-earlier frames have contacts, a ``.restart`` without a complete ``Particles N`` section, empty or
+interaction line whose time is not its frame's, an interaction line whose contact point lies outside the sphere
+(radius plus |overlap|, 1 % and the file's rounding of slack) of its particle or partner particle in the ``.data``
+frame (an ``.fstat`` of another run or frame, or a damaged index: a contact with a fixed particle or a wall is
+listed once, so no pairing check would see it), a last ``.fstat`` frame cut off after its header while
+earlier frames have contacts, a ``.data`` or ``.fstat`` whose last line has no newline (cut while written or
+copied: a cut inside the last number keeps the line's length), a ``.restart`` without a complete ``Particles N``
+section, a flowing particle whose radius is not positive, empty or
 whitespace-only files, nan/inf, non-numbers and bytes that are not text.
 
 Unverified / not supported
@@ -106,7 +113,8 @@ Unverified / not supported
   ``PeriodicBoundary``); other restart content (walls, insertion boundaries) is ignored.
 * Frames are matched by time: a ``.data`` frame without an ``.fstat`` frame of the same time
   (within 1e-9 relative) raises; unmatched ``.fstat`` frames are ignored. Frames of one time written
-  more than once (a run restarted and appended) pair in file order.
+  more than once (a run restarted and appended) pair in file order, with a warning (a time average counts
+  each copy).
 """
 from dataclasses import dataclass
 import math
@@ -120,6 +128,7 @@ from .. import _engine
 from .._validate import finite_number, index_array, integer
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
+from .checks import row_squares
 from ._mercury_files import LINE_TIME_RTOL, fstat_rows, read_particles, read_restart, scan_data, scan_fstat
 from ._mercury_write import write_mercury
 from .files import CompanionFileWarning, companion
@@ -167,7 +176,8 @@ class MercuryReader(FrameReader):
         given either, a :class:`CompanionFileWarning` says so (``False``: without the warning).
     fixed : indices, (N,) bools, or callable(radius, species) -> (N,) bools, optional
     body_force : (D,) body force per unit mass on flowing particles, cgbound axes
-        (in 2D also the 3 MercuryDPM components, third 0).
+        (in 2D also the 3 MercuryDPM components, third 0). Default: the ``.restart``'s gravity; when both are
+        known they must agree (to 1e-4 of the larger).
     dim : 2 or 3, optional
         Checked against the ``.data`` headers (default: from them).
     density : number or {species: density}, optional
@@ -211,13 +221,29 @@ class MercuryReader(FrameReader):
         if self.particle_dim not in (2, 3):
             raise ValueError(f"particle_dim: expected 2 or 3, got {pdim!r}")
         self.fixed = fixed if callable(fixed) or fixed is None else np.asarray(fixed)
-        self.body_force = self._check_body_force(body_force, self.dim, "MercuryDPM")
+        self.body_force = self._body_force(body_force, restart)
         self.periodic = self._periodic(periodic, restart)
         self.rtol = finite_number(rtol, "rtol")
         if self.rtol < 0:
             raise ValueError(f"rtol: expected a non-negative number, got {rtol!r}")
         self._frames = self._match(data_frames)
+        self._warn_repeated_times(data_frames)
         self._cache = None
+
+    def _warn_repeated_times(self, data_frames):
+        """A time written twice (a run restarted and appended to its files writes the restart's frames again) is
+        read twice: a time average counts it twice. Allowed, but not silently."""
+        seen = {}
+        for f in data_frames:
+            seen.setdefault(f[3], []).append(f[1])
+        repeated = [(t, lines) for t, lines in seen.items() if len(lines) > 1]
+        if repeated:
+            t, lines = repeated[0]
+            more = f" (and {len(repeated) - 1} more time(s))" if len(repeated) > 1 else ""
+            warnings.warn(f"{self.data_path}: the frame at t = {t:g} is written {len(lines)} times (lines "
+                          f"{', '.join(map(str, lines))}){more}, as by a run restarted and appended to its files; "
+                          f"each copy is read, so a time average counts it {len(lines)} times: select the frames "
+                          f"(start/stop/step, --start/--stop/--step) to count each time once", stacklevel=3)
 
     # ------------------------------------------------------------------------------------------
     @staticmethod
@@ -237,6 +263,32 @@ class MercuryReader(FrameReader):
             warnings.warn(f"{found} lies beside {self.data_path} but {keyword}= was not given, so {consequence}; "
                           f"pass {keyword}={found!r} to use it, or {keyword}=False to read without it",
                           CompanionFileWarning, stacklevel=3)
+
+    #: how far a given body_force may differ from the .restart's gravity (relative to its magnitude): the restart
+    #: writes 15 significant digits, a user types a few (0.40674, 0, -0.91355)
+    GRAVITY_RTOL = 1e-4
+
+    def _body_force(self, body_force, restart):
+        """``body_force=``, checked against the gravity the run used (the .restart's), else that gravity: a chute's
+        is tilted by its angle (ChuteDemo: (sin 24, 0, -cos 24)), so a guessed (0, 0, -1) would unbalance every
+        momentum balance silently."""
+        given = self._check_body_force(body_force, self.dim, "MercuryDPM")
+        g = None if restart is None else restart.get("gravity")
+        if g is None:
+            return given
+        if self.dim == 2:
+            if g[2] != 0:
+                raise ValueError(f"{self.restart_path}: a 2D run with gravity {g.tolist()} (its third component is "
+                                 f"not 0)")
+            g = g[:2]
+        if given is None:
+            return g if np.any(g) else None
+        scale = max(float(np.max(np.abs(g))), float(np.max(np.abs(given))))
+        if float(np.max(np.abs(given - g))) > self.GRAVITY_RTOL * scale:
+            raise ValueError(f"body_force: {given.tolist()} is not the gravity the run used, {g.tolist()} (the "
+                             f"'gravity' of {self.restart_path}; a chute's gravity is tilted by its angle); leave it "
+                             f"out to use the restart's")
+        return g
 
     def _densities(self, density, restart):
         if density is None:
@@ -285,6 +337,11 @@ class MercuryReader(FrameReader):
             raise ValueError(f"{self.fstat_path}: no .fstat frame for time(s) {missing[:10]} of {self.data_path}")
         return out
 
+    @property
+    def frame_times(self):
+        """The frames' times as their headers give them (no frame is read)."""
+        return [header[1] for header, *_ in self._frames]
+
     def _describe(self):
         return [file_name(self.data_path), file_name(self.fstat_path)], [f"{self.dim}D"]
 
@@ -298,6 +355,7 @@ class MercuryReader(FrameReader):
         pos, vel, radii, species = self._particle_columns(table, species, data_line)
         box = Box(np.minimum(lower, upper), np.maximum(lower, upper), self.periodic)
         fixed = self._fixed(radii, species, n, pos, time)
+        self._check_radii(radii, fixed, data_line, time)
         masses = self._masses(radii, species, fixed)
         if fstat is not None:
             contacts, wall_index, overlap = self._contacts(fstat, pos, radii, box, fixed)
@@ -327,7 +385,7 @@ class MercuryReader(FrameReader):
     def _fixed(self, radii, species, n, positions, time):
         f = self.fixed
         if f is not None:
-            out = self._fixed_given(f, radii, species, n)
+            out = self._fixed_given(f, radii, species, n, time)
             if not out.any():
                 raise ValueError(f"fixed: selects no particle of the frame at t = {time:g} of {self.data_path} "
                                  f"({n} particles); check the predicate or the indices")
@@ -337,7 +395,7 @@ class MercuryReader(FrameReader):
         return self._fixed_from_restart(n, positions, time)
 
     @staticmethod
-    def _fixed_given(f, radii, species, n):
+    def _fixed_given(f, radii, species, n, time=0.0):
         """The fixed flags of ``fixed=``: a callable of (radius, species), N bools, or indices."""
         if callable(f):
             out = np.asarray(f(radii, species), dtype=bool)
@@ -350,8 +408,10 @@ class MercuryReader(FrameReader):
             return f.copy()
         out = np.zeros(n, bool)
         idx = index_array(f.ravel(), "fixed")
-        if np.any((idx < 0) | (idx >= n)):
-            raise IndexError(f"fixed: indices must lie in [0, {n})")
+        outside = idx[(idx < 0) | (idx >= n)]
+        if outside.size:   # a ValueError, so that the command line names --fixed-ids
+            raise ValueError(f"fixed: particle indices must lie in [0, {n}) (the frame at t = {time:g} has {n} "
+                             f"particles), got {outside[:5].tolist()}; indices are the .data rows, from 0")
         out[idx] = True
         return out
 
@@ -379,6 +439,16 @@ class MercuryReader(FrameReader):
         return fixed
 
 
+    def _check_radii(self, radii, fixed, data_line, time):
+        """A flowing particle's mass is density x volume: a radius that is not positive is a damaged line (or a
+        column shifted by a driver's own output), refused here by its line rather than as a mass."""
+        bad = np.flatnonzero(~fixed & ~(radii > 0))
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(f"{self.data_path}:{data_line + 1 + k}: particle {k} of the frame at t = {time:g} has "
+                             f"radius {radii[k]:g}; a flowing particle needs a positive radius (its mass is density x "
+                             f"volume): a damaged line, or a .data file of another layout")
+
     def _masses(self, radii, species, fixed):
         dens = self.density
         if dens is None:
@@ -405,10 +475,66 @@ class MercuryReader(FrameReader):
             problem, detail, found = _engine.fstat_contacts(
                 rows, ints, time, LINE_TIME_RTOL * max(1.0, abs(time)), pos, radii, fixed, box.periodic,
                 [float(x) for x in box.lengths], self.rtol)
+            if problem not in (0, _FSTAT_TIME, _FSTAT_PARTICLE, _FSTAT_GHOST):
+                # every index is a particle's: a line whose point is not at its particles explains a pairing that
+                # fails (lines of another run) better than the pairing's own message
+                self._check_reach(rows, ints, line_of, time, pos, radii, box)
             if problem:
                 raise self._fstat_problem(problem, detail, rows, ints, line_of, time, pos.shape[0])
+            self._check_reach(rows, ints, line_of, time, pos, radii, box)
         i, j, wall_index, force, point, overlap = found
         return Contacts.from_reader(i, j, force, point, parsed=("contacts.point",)), wall_index, overlap
+
+    #: how far a contact point may lie outside a particle's sphere (r + |delta|, delta the overlap: a cohesive
+    #: contact's delta is negative) before the line is refused: a fraction of the reach, plus a fraction of the
+    #: box's coordinates for the .fstat's rounding (10 significant digits; 6 in files of older versions)
+    REACH_RTOL, REACH_COORDINATE_RTOL = 1e-2, 1e-5
+
+    def _check_reach(self, rows, ints, line_of, time, pos, radii, box):
+        """Refuse a line whose contact point lies outside particle i's (or the partner particle j's) sphere in the
+        .data frame: such a line is not a contact of that particle, so the .fstat is from another run (or another
+        frame of the same time), or its indices are damaged. The other checks miss it when the partner is fixed
+        or a wall (those contacts are listed once)."""
+        d = self.dim
+        point = rows[:, 3:3 + d]
+        delta = np.abs(rows[:, 6])
+        slack = self.REACH_COORDINATE_RTOL * float(np.max(np.abs(np.concatenate([box.lower, box.upper]))))
+        for column, side in ((0, "particle"), (1, "partner")):
+            k = ints[:, column]
+            lines = np.flatnonzero(k >= 0) if column else np.arange(k.size)
+            if not lines.size:
+                continue
+            k = k[lines]
+            arm = box.minimum_image(pos[k] - point[lines])
+            reach = (radii[k] + delta[lines]) * (1 + self.REACH_RTOL) + slack
+            far = np.flatnonzero(row_squares(arm) > reach * reach)
+            if far.size:
+                m = int(far[0])
+                row = int(lines[m])
+                self._check_periodic_reach(arm[m], reach[m], box, row, line_of, side, int(k[m]), time)
+                raise ValueError(
+                    f"{self.fstat_path}:{line_of(row)}: the contact point {point[row].tolist()} lies "
+                    f"{math.sqrt(float(row_squares(arm[m:m + 1])[0])):.4g} from the centre of {side} {int(k[m])} "
+                    f"(radius {radii[k[m]]:g}, overlap {rows[row, 6]:g}) in the frame at t = {time:g} of "
+                    f"{self.data_path}: the line is not a contact of that particle, so the .fstat frame does not "
+                    f"belong to this .data frame (files of different runs, or of a run restarted and appended to "
+                    f"one file, or damaged indices); use the .data and .fstat that one run wrote")
+
+    def _check_periodic_reach(self, arm, reach, box, row, line_of, side, k, time):
+        """The cause of a far contact point when it is a contact across a face of an axis not known as periodic
+        (no .restart, or periodic= without that axis): the point is at a box length from the particle."""
+        lengths = np.asarray(box.lengths, float)
+        wrapped = [a for a in range(self.dim) if not box.periodic[a] and abs(arm[a]) > 0.5 * lengths[a]]
+        if not wrapped:
+            return
+        image = arm.copy()
+        image[wrapped] -= lengths[wrapped] * np.round(image[wrapped] / lengths[wrapped])
+        if float(np.sqrt(np.sum(image * image))) <= reach:
+            names = ", ".join(box.axis_names[a] for a in wrapped)
+            raise ValueError(f"{self.fstat_path}:{line_of(row)}: the contact point lies a box length from {side} {k} "
+                             f"along {names} in the frame at t = {time:g}: a contact across a periodic face, but "
+                             f"{names} is not periodic here (periodic = {box.periodic}); pass restart_path= (its "
+                             f"PeriodicBoundary lines; --restart) or periodic=")
 
     def _fstat_problem(self, problem, detail, rows, ints, line_of, time, n):
         """The ValueError for a problem cg_fstat_contacts found (its codes: csrc/cg_fstat.h)."""

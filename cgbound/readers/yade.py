@@ -28,7 +28,7 @@ How Yade's data becomes a Snapshot:
   (``pos2 + cellDist * size - pos1``) must equal the minimum image that cgbound uses, else the
   cell is too small for the minimum-image convention and the frame is refused. Sheared cells are
   refused.
-* the body force per unit mass is the NewtonIntegrator's gravity.
+* the body force per unit mass is the NewtonIntegrator's gravity (a different ``body_force=`` is refused).
 
 Checks made on every frame (cheap, before the snapshot is returned):
 
@@ -44,6 +44,7 @@ Checks made on every frame (cheap, before the snapshot is returned):
 from dataclasses import dataclass
 import glob
 import os
+import re
 
 import numpy as np
 
@@ -156,7 +157,8 @@ class YadeReader(FrameReader):
     fixed_ids : sequence of int
         Yade body ids to treat as boundary in addition to the non-dynamic / blocked ones.
     body_force : (3,) array, optional
-        Overrides the NewtonIntegrator's gravity (per unit mass).
+        The body force per unit mass when the export has no NewtonIntegrator gravity; when it has one, they must
+        agree (to 1e-4 of the larger).
     """
 
     def __init__(self, paths, *, check_forces=True, tolerance=DEFAULT_TOLERANCE, fixed_ids=(), body_force=None,
@@ -227,6 +229,11 @@ class YadeReader(FrameReader):
             k = int(np.flatnonzero(moving_wall)[0])
             raise ValueError(f"{path}: body {ids[k]} is a dynamic {shape[k]}: only spheres can be particles; "
                              "make the body non-dynamic (fixed=True) to use it as a wall")
+        unknown = self.fixed_ids[~np.isin(self.fixed_ids, ids[sphere])]
+        if unknown.size:   # a typo would leave the particle it meant flowing, silently
+            what = "is not a sphere" if unknown.size == 1 else "are not spheres"
+            raise ValueError(f"fixed_ids: {unknown[:5].tolist()} {what} of the frame {path} (its spheres' ids: "
+                             f"{self._id_ranges(ids[sphere])}); check the ids")
         fixed_all = ~dynamic[owner] | (n_blocked == 3) | np.isin(ids, self.fixed_ids)
         part = np.flatnonzero(sphere)
         index_of = np.full(int(ids.max()) + 1 if ids.size else 1, -1, np.int64)
@@ -299,11 +306,24 @@ class YadeReader(FrameReader):
                 rows = clump[part] == c
                 masses[rows] *= data["mass"][by_id[int(c)]] / masses[rows].sum()
         g = self.body_force
-        if g is None and np.all(np.isfinite(data["gravity"])):
+        if np.all(np.isfinite(data["gravity"])):
+            if g is not None and float(np.max(np.abs(g - data["gravity"]))) > 1e-4 * max(
+                    float(np.max(np.abs(g))), float(np.max(np.abs(data["gravity"])))):
+                # the NewtonIntegrator's gravity is the one the particles fell under: another would unbalance every
+                # momentum balance, silently (O.forces.f, which the force check uses, holds no gravity)
+                raise ValueError(f"body_force: {g.tolist()} is not the gravity of the run, "
+                                 f"{data['gravity'].tolist()} (the NewtonIntegrator's, in {path}); leave it out to "
+                                 f"use the export's")
             g = data["gravity"]
-        snapshot = Snapshot(pos, data["vel"][part], masses, box=box,
-                            contacts=Contacts(ci, cj, cf, point), fixed=fixed_all[part], body_force=g,
-                            radii=data["radius"][part], time=float(data["time"]))
+        try:
+            snapshot = Snapshot(pos, data["vel"][part], masses, box=box,
+                                contacts=Contacts(ci, cj, cf, point), fixed=fixed_all[part], body_force=g,
+                                radii=data["radius"][part], time=float(data["time"]))
+        except (ValueError, TypeError, IndexError) as exc:   # a value of the export refused: name the file, the body
+            row = re.search(r"at index \(?(\d+)", str(exc))
+            body = f" (index {row.group(1)} is Yade body {ids[part][int(row.group(1))]})" if row and \
+                int(row.group(1)) < part.size else ""
+            raise ValueError(f"{path}: {exc}{body}") from None
         result = YadeFrame(snapshot, ids[part], data["force"][part], clump[part], int(data["iter"]), path,
                            contact_ids)
         if self.check_forces:
@@ -318,6 +338,16 @@ class YadeReader(FrameReader):
                     "adds forces (O.forces.addF, drag, buoyancy), or non-contact interactions. Fix: make the "
                     "PyRunner the last engine, or pass check_forces=False if you know why")
         return result
+
+    @staticmethod
+    def _id_ranges(ids):
+        """Sorted ids as 'a..b, c' runs (at most 4 runs shown)."""
+        ids = np.unique(ids)
+        if not ids.size:
+            return "none"
+        cut = np.flatnonzero(np.diff(ids) != 1) + 1
+        runs = [f"{r[0]}..{r[-1]}" if r.size > 1 else f"{r[0]}" for r in np.split(ids, cut)]
+        return ", ".join(runs[:4]) + (", ..." if len(runs) > 4 else "")
 
     @staticmethod
     def _sum(frame, k):
