@@ -131,6 +131,21 @@ def test_positions_outside_the_box_are_refused(tmp_path):
     assert len(read_all(LammpsReader(os.path.join(LAMMPS, "hooke3d", "atoms.dump")))) == 3
 
 
+@pytest.mark.parametrize("case", ["shrink_layer", "shrink_pair"])
+def test_shrink_wrapped_boxes_thinner_than_the_stray_are_read(tmp_path, case):
+    # genuine output: along a shrink-wrapped axis the box can be far thinner than an atom's stray between
+    # re-neighbourings (a falling layer: 4e-4 thick, an atom 0.04 out, 94 box lengths; two spheres colliding: 0.26)
+    reader = lammps(None, case, check_forces=False)
+    assert len(read_all(reader)) == 2
+    if case == "shrink_pair":
+        return      # (its velocities, +-1 along x, lie in its box)
+    # a length of slack, not none: velocities as positions still lie far out of the layer's box
+    bad = relabelled(os.path.join(LAMMPS, case, "atoms.dump"), tmp_path / "atoms.dump", "swap_v")
+    with pytest.raises(ValueError, match=r"timestep 0: atom 1 \(line 10\) has z = -1, outside the box .* along "
+                                         r"that shrink-wrapped axis by [0-9.]+ \(refused beyond [0-9.]+: the largest"):
+        read_all(lammps(bad, case, check_forces=False))
+
+
 def test_genuine_cohesive_frames_with_zero_rows_are_read():
     # pair granular jkr, pair/local without 'cutoff radius': LAMMPS writes zeros (force and branch) for the pairs it
     # finds not touching; the reader once called those 'two atoms at the same position'

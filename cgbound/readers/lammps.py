@@ -141,6 +141,9 @@ DEFAULT_GRANULAR_VALUES = ("dist", "fx", "fy", "fz") + tuple(f"p{k}" for k in ra
 #: re-neighbours (every skin/2 of motion at most with the default check): genuine dumps of 14 scenes stray
 #: 0.0075 at most. Positions that are velocities or forces (labels swapped) often lie boxes away.
 BOX_SLACK = {False: 0.25, True: 0.5}
+#: along a shrink-wrapped axis (boundary s or m) the slack is a length: this fraction of the box's largest length
+#: (or 4 radii, or the input script's skin, if larger): a shrink-wrapped box can be thinner than an atom's stray
+SHRINK_SLACK = 0.25
 
 _POSITION_COLUMNS = (("x", "y", "z", False, False), ("xu", "yu", "zu", False, True),
                      ("xs", "ys", "zs", True, False), ("xsu", "ysu", "zsu", True, True))
@@ -439,7 +442,7 @@ class LammpsReader(FrameReader):
         atoms = self._atoms(fr["data"], box, timestep)
         atoms = atoms._replace(first_line=fr.get("first_line"), timestep=timestep)
         if atoms.span is not None:
-            self._check_in_box(fr["data"], atoms, box, timestep)
+            self._check_in_box(fr["data"], atoms, box, timestep, fr["flags"])
         parts = []
         if pairs_offset is not None:
             parts.append(self._pair_contacts(pairs_offset, timestep, atoms, box))
@@ -559,31 +562,48 @@ class LammpsReader(FrameReader):
         return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed, spin, torques, positions_parsed,
                       extent, span=span)
 
-    def _check_in_box(self, tab, atoms, box, timestep):
+    def _check_in_box(self, tab, atoms, box, timestep, flags=None):
         """Refuse positions (wrapped or scaled, not unwrapped) outside the box by more than BOX_SLACK box lengths
-        (see the module docstring): LAMMPS lets an atom stray out of its box only until it next re-neighbours."""
+        (see the module docstring): LAMMPS lets an atom stray out of its box only until it next re-neighbours.
+        Along a shrink-wrapped axis (boundary ``s`` or ``m``, ``flags``: the dump's BOX BOUNDS flags) the box may be
+        far thinner than the stray (a flat layer: 4e-4 thick, atoms 0.04 out): there the slack is a length,
+        SHRINK_SLACK of the largest box length, 4 of the largest radius or the input script's skin, whichever is
+        largest."""
         lowest, highest, xn, scaled = atoms.span
         length = box.upper - box.lower
-        out = np.maximum(box.lower - lowest, highest - box.upper) / length
-        allowed = np.array([BOX_SLACK[p] for p in box.periodic])
-        if not np.any(out > allowed):
+        stray = np.maximum(box.lower - lowest, highest - box.upper)
+        allowed = np.array([BOX_SLACK[p] for p in box.periodic]) * length
+        axes = self._axes()
+        shrink = np.array([flags is not None and any(c in "sm" for c in flags[a]) for a in axes])
+        if shrink.any():
+            slack = SHRINK_SLACK * float(length.max())
+            if atoms.radii is not None and atoms.radii.size:
+                slack = max(slack, 4 * float(atoms.radii.max()))
+            if self.input_script is not None and self.input_script.skin is not None:
+                slack = max(slack, self.input_script.skin)
+            allowed = np.where(shrink, slack, allowed)
+        if not np.any(stray > allowed):
             return
-        axis = int(np.argmax(out - allowed))
-        name = {"x": ("x", "y", "z"), "xs": ("xs", "ys", "zs")}[xn][self._axes()[axis]]
+        axis = int(np.argmax(stray - allowed))
+        name = {"x": ("x", "y", "z"), "xs": ("xs", "ys", "zs")}[xn][axes[axis]]
         written = tab[name]
         value = box.lower[axis] + written * length[axis] if scaled else written
         row = int(np.argmax(np.maximum(box.lower[axis] - value, value - box.upper[axis])))
         atom = int(tab.integers("id")[row])
         line = "" if atoms.first_line is None else f" (line {atoms.first_line + row})"
-        kind = "periodic" if box.periodic[axis] else "non-periodic"
+        kind = ("shrink-wrapped" if shrink[axis] else "periodic" if box.periodic[axis] else "non-periodic")
+        shown = f"{name} = {written[row]:.9g}" + (f" ({name[0]} = {value[row]:.9g})" if scaled else "")
+        by = (f"by {stray[axis]:.3g} (refused beyond {allowed[axis]:.3g}: the largest of {SHRINK_SLACK:g} of the "
+              f"largest box length, 4 radii and the skin)" if shrink[axis] else
+              f"by {stray[axis] / length[axis]:.3g} box lengths (refused beyond {BOX_SLACK[box.periodic[axis]]:g})")
         raise ValueError(
-            f"{self.atoms_path}: timestep {timestep}: atom {atom}{line} has {name} = {written[row]:.9g}, outside the "
-            f"box [{box.lower[axis]:.9g}, {box.upper[axis]:.9g}] along that {kind} axis by {out[axis]:.3g} box "
-            f"lengths (genuine dumps: 0.0075 at most, as LAMMPS lets an atom stray only until it re-neighbours; "
-            f"refused beyond {allowed[axis]:g}). Likely causes: the atoms dump's position columns are not the "
-            f"positions: its 'ITEM: ATOMS' labels swapped (e.g. '{name}' with 'v{name[0]}') or shifted against the "
-            f"columns, by an edit, a merge or a converter; or the BOX BOUNDS are not this frame's. Fix: read the "
-            f"dump as LAMMPS wrote it, with the positions under their own labels")
+            f"{self.atoms_path}: timestep {timestep}: atom {atom}{line} has {shown}, outside the "
+            f"box [{box.lower[axis]:.9g}, {box.upper[axis]:.9g}] along that {kind} axis {by}; genuine dumps stray "
+            f"0.0075 box lengths at most, as LAMMPS lets an atom stray only until it re-neighbours. Likely causes: "
+            f"the atoms dump's position columns are not the positions: its 'ITEM: ATOMS' labels swapped (e.g. "
+            f"'{name}' with 'v{name[0]}') or shifted against the columns, by an edit, a merge or a converter; or the "
+            f"BOX BOUNDS are not this frame's. Fix: read the dump as LAMMPS wrote it, with the positions under their "
+            f"own labels")
 
     def _pseudo_vectors(self, tab, names, order, what):
         """(n, 3) in 3D, the z column (n,) in 2D; None if the dump has none of the columns."""
