@@ -40,8 +40,10 @@ dump's line, the likely causes and the fix):
 * the force balance (``check_forces``, below);
 * the box: wrapped (``x y z``) and scaled (``xs ys zs``) positions must lie in the frame's box to
   ``BOX_SLACK`` box lengths (0.25 along a non-periodic axis, 0.5 along a periodic one; LAMMPS lets an atom
-  stray only until it re-neighbours: 0.0075 at most in genuine dumps of 14 scenes). Unwrapped positions are
-  not checked. This needs no contacts: it also checks an atoms dump read alone;
+  stray only until it re-neighbours: 0.0075 at most in genuine dumps of 14 scenes); along a shrink-wrapped
+  axis (boundary ``s``/``m``, which can be far thinner than that stray: a flat layer's box 4e-4 thick) by a
+  length, the largest of 0.25 of the largest box length, 4 radii and the input script's ``neighbor`` skin.
+  Unwrapped positions are not checked. This needs no contacts: it also checks an atoms dump read alone;
 * the contact geometry: the dumped positions must give each contact's geometry as LAMMPS wrote it. With
   ``dist`` among the pair/local values (or ``pair granular``'s branch vector ``p10 p11 p12``), the distance
   (vector) between the two positions (minimum image) must agree to ``GEOMETRY_TOLERANCE`` (1e-3) of (the
