@@ -108,20 +108,25 @@ def check_selects(selected, name, flag, path, where, present):
                          f"check {flag}")
 
 
-def geometry_misfits(err, scale, checked=None):
+def geometry_misfits(err, scale, checked=None, lenient=None):
     """The contacts refused for their geometry, or None: ``err`` (M,) how far each is off, ``scale`` (M,) the size
-    the tolerances are fractions of, ``checked`` (M,) bools of the contacts that count (default all). Refused: any
-    contact off by more than GEOMETRY_TOLERANCE of its scale; else, when more than half of the checked contacts are
-    off by more than GEOMETRY_TOLERANCE_MOST, those. Returns (bools of the refused, their tolerance, err / scale),
-    the ratio written over ``err`` (a float array the caller gives up). One division and a maximum decide the usual
-    case, a frame that holds."""
+    the tolerances are fractions of, ``checked`` (M,) bools of the contacts that count (default all), ``lenient``
+    (M,) bools of the contacts held only to the second rule (default none). Refused: any contact (not lenient) off
+    by more than GEOMETRY_TOLERANCE of its scale; else, when more than half of the checked contacts are off by more
+    than GEOMETRY_TOLERANCE_MOST, those. Returns (bools of the refused, their tolerance, err / scale), the ratio
+    written over ``err`` (a float array the caller gives up). One division and a maximum decide the usual case, a
+    frame that holds."""
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.divide(err, scale, out=err)
     if not ratio.size:
         return None
     worst = ratio.max()
     if worst > GEOMETRY_TOLERANCE:
-        return ratio > GEOMETRY_TOLERANCE, GEOMETRY_TOLERANCE, ratio
+        bad = ratio > GEOMETRY_TOLERANCE
+        if lenient is not None:
+            bad &= ~lenient
+        if bad.any():
+            return bad, GEOMETRY_TOLERANCE, ratio
     if not worst > GEOMETRY_TOLERANCE_MOST:
         return None
     bad = ratio > GEOMETRY_TOLERANCE_MOST
