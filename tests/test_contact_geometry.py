@@ -158,6 +158,26 @@ def test_fast_deforming_box_is_read_and_misplaced_positions_refused(tmp_path):
         read_all(lammps(bad, "deform", check_forces=False))
 
 
+def test_few_decimals_are_read_and_relabelled_refused(tmp_path):
+    # genuine output written with 'format float %.2f': a distance from such positions is off by up to
+    # 2 sqrt(3) 0.005, more than 1e-3 of the coordinates (< 20): the written decimals are added to the tolerance
+    frames = read_all(lammps(None, "rounded", check_forces=False))
+    assert len(frames[-1].snapshot.contacts) > 20
+    bad = relabelled(os.path.join(LAMMPS, "rounded", "atoms.dump"), tmp_path / "atoms.dump", "shift")
+    with pytest.raises(ValueError, match=r"timestep 3000: the positions do not fit .* have a distance \('dist'"):
+        read_all(lammps(bad, "rounded", check_forces=False))
+
+
+def test_tolerance_follows_the_coordinates_not_the_box_bounds(tmp_path):
+    # particles of d ~1 in a corner of a 3000 x 3000 x 20 box: a tolerance of 1e-3 of the box bounds (3, three
+    # diameters) read positions shifted by a column; the coordinates written (< 5) set it
+    assert len(read_all(lammps(None, "corner", check_forces=False))[-1].snapshot.contacts) > 20
+    bad = relabelled(os.path.join(LAMMPS, "corner", "atoms.dump"), tmp_path / "atoms.dump", "shift")
+    reader = lammps(bad, "corner", check_forces=False, walls=())
+    with pytest.raises(ValueError, match=r"timestep 3000: the positions do not fit .* have a distance \('dist'"):
+        read_all(reader)
+
+
 def test_genuine_cohesive_frames_with_zero_rows_are_read():
     # pair granular jkr, pair/local without 'cutoff radius': LAMMPS writes zeros (force and branch) for the pairs it
     # finds not touching; the reader once called those 'two atoms at the same position'

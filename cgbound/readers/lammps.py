@@ -47,8 +47,11 @@ dump's line, the likely causes and the fix):
 * the contact geometry: the dumped positions must give each contact's geometry as LAMMPS wrote it. With
   ``dist`` among the pair/local values (or ``pair granular``'s branch vector ``p10 p11 p12``), the distance
   (vector) between the two positions (minimum image) must agree to ``GEOMETRY_TOLERANCE`` (1e-3) of (the
-  distance + the largest coordinate) for every contact and to 1e-4 for at least half of them (a ``%g`` dump
-  is off by 1.7e-5 of the largest coordinate). A contact across a periodic boundary (its separation changed
+  distance + the largest coordinate written, not the box bounds: particles in a corner of a large box are
+  written to the digits of their own size) for every contact and to 1e-4 for at least half of them (a ``%g``
+  dump is off by 1.7e-5 of the largest coordinate), plus what the written decimals account for when floats
+  have a fixed number of them (``format float %.2f``: 2 sqrt(3) 0.005 for a distance between two positions, as
+  :func:`~cgbound.readers.checks.written_resolution` finds from the values). A contact across a periodic boundary (its separation changed
   by the minimum image) is held only to the second rule, to a scale that adds the largest box length: a box
   deforming with ``remap x`` leaves the ghost images pair/local uses one step stale (off by the step's strain
   times the box length: 1e-2 of the distance at 2e-3 strain per step, tests/data/lammps/in.deform). Without either, a contact with a force must not join particles further
@@ -131,7 +134,8 @@ from ..snapshot import Contacts, Snapshot
 from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
 from .checks import (FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, contact_geometry_error,
-                     dump_local_header, force_balance, generic_columns, geometry_misfits, row_norms)
+                     dump_local_header, force_balance, generic_columns, geometry_misfits, row_norms,
+                     written_resolution)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -537,24 +541,34 @@ class LammpsReader(FrameReader):
             raise ValueError(f"{path}: no position columns (x y z, xu yu zu, xs ys zs or xsu ysu zsu)")
         # the size of the coordinates as written (before wrapping): how far their last digits reach; and their
         # range, which the box must hold (not for unwrapped positions)
-        extent = max(float(np.max(np.abs(box.lower))), float(np.max(np.abs(box.upper))))
-        span = None
+        # (the written coordinates, not the box bounds: particles in a corner of a large box are written to the
+        # digits of their own size); scaled ones s are off by their rounding times the box length
+        extent, span, resolution = 0.0, None, 0.0
         if n:
             # (a reduction per column: 25 times faster than pos.min(axis=0) on (N, 3), the same values)
             lowest = np.array([pos[:, a].min() for a in range(pos.shape[1])])
             highest = np.array([pos[:, a].max() for a in range(pos.shape[1])])
             span = None if unwrapped else (lowest, highest, xn, scaled)
-            extent = max(extent, float(highest.max()), -float(lowest.min()))
+            if scaled:
+                extent = float(max(np.max(np.abs(highest - box.lower)), np.max(np.abs(lowest - box.lower))))
+            else:
+                extent = max(float(highest.max()), -float(lowest.min()))
+            resolution = written_resolution(*(tab[c] for c in (xn, yn, zn) if c in tab))
+            if scaled:
+                resolution *= float(np.max(box.upper - box.lower))
         if self.wrap and any(box.periodic):    # (wrapping moves coordinates along periodic axes only)
             pos = box.wrap(pos)
         types = column(tab.integers("type")) if "type" in tab else np.ones(n, np.int64)
         vel = cols(("vx", "vy", "vz"), "velocities") if "vx" in tab else None
         forces = cols(("fx", "fy", "fz"), "forces") if "fx" in tab else None
         masses = self._masses(tab, column, types)
+        radius_resolution = 0.0
         if "radius" in tab:
             radii = column(tab["radius"])
+            radius_resolution = written_resolution(tab["radius"])
         elif "diameter" in tab:
             radii = 0.5 * column(tab["diameter"])
+            radius_resolution = 0.5 * written_resolution(tab["diameter"])
         else:
             radii = None
         fixed = np.isin(types, self.fixed_types) | np.isin(ids, self.fixed_ids)
@@ -564,7 +578,7 @@ class LammpsReader(FrameReader):
         spin = self._pseudo_vectors(tab, ("omegax", "omegay", "omegaz"), order, "angular velocities")
         torques = self._pseudo_vectors(tab, ("tqx", "tqy", "tqz"), order, "torques")
         return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed, spin, torques, positions_parsed,
-                      extent, span=span)
+                      extent, span=span, resolution=resolution, radius_resolution=radius_resolution)
 
     def _check_in_box(self, tab, atoms, box, timestep, flags=None):
         """Refuse positions (wrapped or scaled, not unwrapped) outside the box by more than BOX_SLACK box lengths
@@ -668,7 +682,9 @@ class LammpsReader(FrameReader):
         reach = self.wall_reach
         radii = np.take(atoms.radii, k)
         dist = row_norms(box.minimum_image(np.take(atoms.positions, k, axis=0) - point))
-        found = geometry_misfits(dist - reach * radii, radii + atoms.extent)
+        slack = (np.sqrt(3) * (atoms.resolution + written_resolution(point[:, 0], point[:, -1]))
+                 + reach * atoms.radius_resolution)
+        found = geometry_misfits(dist - reach * radii, radii + atoms.extent, slack=slack)
         if found is None:
             return
         bad, tol, ratio = found
@@ -688,7 +704,7 @@ class LammpsReader(FrameReader):
 
         def detail(j):
             return (f"the contact point is {dist[j]:.9g} from the centre, {dist[j] / radii[j]:.6g} radii (r = "
-                    f"{radii[j]:.6g}; tolerance {tol * (radii[j] + atoms.extent):.2g})")
+                    f"{radii[j]:.6g}; tolerance {tol * (radii[j] + atoms.extent) + slack:.2g})")
 
         raise contact_geometry_error(self.atoms_path, f"the wall contacts of fix {wall}", atoms.timestep, bad,
                                      ratio / tol, what, detail, location,
@@ -781,7 +797,6 @@ class LammpsReader(FrameReader):
         contact_ids[:, 0], contact_ids[:, 1] = (id1, id2) if kept is None else (id1[kept], id2[kept])
         return i, j, force, point, contact_ids, overlap
 
-
     def _check_pair_geometry(self, tab, where, i, j, id1, id2, separation, dist, branch, radii_sum, force,
                              crossed=None, box=None):
         """Refuse a frame whose positions do not give its contacts' geometry (see the module docstring): the
@@ -797,10 +812,14 @@ class LammpsReader(FrameReader):
         the largest box length."""
         names, extent = self.pair_columns, where.atoms.extent
         hints = [self._balance_hints()[0]]    # (a 'dist' or branch read from another column)
+        # what the written decimals account for (format float %.2f): each coordinate off by half its last decimal,
+        # a separation by sqrt(3) of twice that
+        slack = 2 * np.sqrt(3) * where.atoms.resolution
         if names.get("branch"):
             err = row_norms(branch - separation)
             scale = dist + extent
             cols = names["branch"]
+            slack += np.sqrt(3) * written_resolution(*(tab[c] for c in cols))
             what = f"have a branch vector x_i - x_j (columns {' '.join(cols)}) that their positions do not give"
 
             def detail(k):
@@ -813,6 +832,7 @@ class LammpsReader(FrameReader):
             np.abs(err, out=err)
             scale = np.abs(written)
             scale += extent
+            slack += written_resolution(written)
             what = f"have a distance ('dist', column {names['dist']}) that their positions do not give"
 
             def detail(k):
@@ -827,7 +847,7 @@ class LammpsReader(FrameReader):
             return
         if crossed is not None and box is not None:
             np.add(scale, float(np.max(box.upper - box.lower)), out=scale, where=crossed)
-        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, lenient=crossed)
+        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, lenient=crossed, slack=slack)
 
     def _check_reach(self, where, i, j, id1, id2, dist, radii_sum, force, hint):
         """Refuse contacts that carry a force with their particles further apart than ``contact_reach`` (r_i + r_j)."""
@@ -837,6 +857,7 @@ class LammpsReader(FrameReader):
             active |= force[:, a] != 0
         err = np.where(active, dist - reach * radii_sum, -np.inf)
         scale = radii_sum + where.atoms.extent
+        slack = 2 * np.sqrt(3) * where.atoms.resolution + 2 * reach * where.atoms.radius_resolution
         hints = ["the radius (diameter) column is not the radii"]
         if reach == 1:
             what = ("carry a force while their particles do not touch (|x_i - x_j| > r_i + r_j), which a repulsive "
@@ -850,7 +871,7 @@ class LammpsReader(FrameReader):
             return (f"their centres are {dist[k]:.9g} apart, {dist[k] / radii_sum[k]:.6g} times r_i + r_j "
                     f"({radii_sum[k]:.6g})")
 
-        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, active)
+        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, active, slack=slack)
         # nor can most contacts overlap by more than half of r_i + r_j (a centre inside the other sphere; genuine
         # frames reach 0.17, JKR and liquid bridges included): positions that are small numbers (forces, velocities)
         # put the particles of every contact nearly on top of each other
@@ -862,10 +883,11 @@ class LammpsReader(FrameReader):
                                   what, detail, hints[:1], active, tolerance=False)
 
     def _refuse_geometry(self, where, i, j, id1, id2, err, scale, what, detail, hints, checked=None, tolerance=True,
-                         lenient=None):
+                         lenient=None, slack=0.0):
         """Raise (contact_geometry_error) for the contacts :func:`geometry_misfits` refuses (``tolerance``: show
-        each one's tolerance; ``lenient``: bools of the contacts held only to the rule for most contacts)."""
-        found = geometry_misfits(err, scale, checked, lenient)
+        each one's tolerance; ``lenient``: bools of the contacts held only to the rule for most contacts;
+        ``slack``: a length the written decimals account for)."""
+        found = geometry_misfits(err, scale, checked, lenient, slack)
         if found is None:
             return
         bad, tol, ratio = found
@@ -881,7 +903,7 @@ class LammpsReader(FrameReader):
         raise contact_geometry_error(
             self.atoms_path, f"the contacts of {self.pairs_path}", where.timestep, bad,
             ratio / tol, what,
-            (lambda k: f"{detail(k)} (tolerance {tol * scale[k]:.2g})") if tolerance else detail, location,
+            (lambda k: f"{detail(k)} (tolerance {tol * scale[k] + slack:.2g})") if tolerance else detail, location,
             [*hints, "the two dumps are not of the same run"], checked)
 
 
@@ -941,6 +963,8 @@ class _Atoms(NamedTuple):
     first_line: object = None        # the atoms dump's line of the frame's first row (None: not known)
     timestep: object = None
     span: object = None              # (lowest, highest coordinate per axis, the x column's name, scaled) or None
+    resolution: float = 0.0          # half the positions' last written decimal (fixed decimals; else 0), a length
+    radius_resolution: float = 0.0   # the same of the radii
 
 
 def _joined_contacts(parts, dim):
