@@ -37,7 +37,8 @@ from this compute's values: ``pos`` (x_i and x_j, against the atoms dump's posit
 ``delta`` (against r_i + r_j - |x_i - x_j|), else the reach of a contact force: r_i + r_j when the input
 script's ``pair_style gran`` has no ``cohesion`` model, else 2 (r_i + r_j) (cohesion possible or not known:
 liquid bridges pull beyond contact, 1.0066 (r_i + r_j) measured on tests/data/liggghts/in.easo), and
-most contacts not overlapping by more than half of r_i + r_j.
+most contacts not overlapping by more than half of r_i + r_j (loose bounds: positions shifted by a column in a
+settled packing can pass them; dump ``pos`` to have the positions checked).
 
 Writing consistent dumps
 ------------------------
