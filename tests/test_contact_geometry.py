@@ -119,6 +119,7 @@ def test_misplaced_positions_are_refused_by_the_contacts(tmp_path, case, columns
         assert re.search(what, message), message
         assert "the contact dump's line" in message and "the atoms dump's lines" in message
         assert "labels swapped" in message and "Fix:" in message
+        assert "The positions look right" not in message   # (they do not: the labels lead)
 
 
 def test_positions_outside_the_box_are_refused(tmp_path):

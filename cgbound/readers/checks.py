@@ -162,14 +162,17 @@ def geometry_misfits(err, scale, checked=None, lenient=None, slack=0.0):
     return None
 
 
-def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detail, location, hints=(), checked=None):
+def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detail, location, hints=(), checked=None,
+                           touching=None):
     """The error for contacts whose geometry the dumped positions do not give (nothing is raised here).
 
     ``source``: the contacts' origin ("the contacts of PAIRS"); ``bad``: (M,) bools of the contacts refused;
     ``score``: (M,) how far each is beyond its tolerance (the worst, largest, is shown); ``what``: what the refused
     contacts do ("have a 'dist' that ..."); ``detail(k)``: the numbers of contact k; ``location(k)``: where it is
     (its atoms, their lines); ``hints``: other likely causes, as text naming the reader's option; ``checked``:
-    bools of the contacts checked (default all).
+    bools of the contacts checked (default all); ``touching``: the fraction of the checked contacts whose positions
+    are as far apart as touching particles are (0.7 to 1.01 r_i + r_j), or None: from 0.9 on the positions look
+    right, and the contact dump's own columns (``hints``, first: their order) lead the causes.
     """
     rows = np.flatnonzero(bad)
     total = bad.size if checked is None else int(np.count_nonzero(checked))
@@ -177,9 +180,18 @@ def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detai
     causes = ("the atoms dump's position columns are not the positions: its 'ITEM: ATOMS' labels swapped (e.g. "
               "'x y z' with 'vx vy vz') or the columns shifted against their labels, by an edit, a merge or a "
               "converter")
-    causes = "; ".join([causes, *hints])
+    fix = ("read the dumps as LAMMPS/LIGGGHTS wrote them, with the positions under their own labels (x y z, xu yu "
+           "zu or xs ys zs); write floats with 'dump_modify ... format float %.17g' (few digits also blur this "
+           "comparison)")
+    lead = ""
+    if touching is not None and touching >= 0.9:
+        causes = "; ".join([*hints, causes])
+        lead = (f"The positions look right: {100 * touching:.0f}% of these contacts join particles as far apart as "
+                "touching ones are (0.7 to 1.01 r_i + r_j), so the contact dump's columns are the likely fault. ")
+        fix = ("name the contact dump's columns in the order its compute line gives them (pair_values=, "
+               "--pair-values; or give the input script, --input); else " + fix)
+    else:
+        causes = "; ".join([causes, *hints])
     return ValueError(
         f"{atoms_path}: timestep {timestep}: the positions do not fit {source}: {rows.size} of {total} contacts "
-        f"{what}. The worst: {location(k)}: {detail(k)}. Likely causes: {causes}. Fix: read the dumps as LAMMPS/LIGGGHTS wrote them, with the positions "
-        f"under their own labels (x y z, xu yu zu or xs ys zs); write floats with 'dump_modify ... format float "
-        f"%.17g' (few digits also blur this comparison)")
+        f"{what}. The worst: {location(k)}: {detail(k)}. {lead}Likely causes: {causes}. Fix: {fix}")

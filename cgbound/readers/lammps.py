@@ -850,7 +850,8 @@ class LammpsReader(FrameReader):
             return
         if crossed is not None and box is not None:
             np.add(scale, float(np.max(box.upper - box.lower)), out=scale, where=crossed)
-        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, lenient=crossed, slack=slack)
+        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, lenient=crossed, slack=slack,
+                              fit=(dist if names.get("branch") is None else row_norms(separation), radii_sum))
 
     def _check_reach(self, where, i, j, id1, id2, dist, radii_sum, force, hint):
         """Refuse contacts that carry a force with their particles further apart than ``contact_reach`` (r_i + r_j)."""
@@ -886,15 +887,22 @@ class LammpsReader(FrameReader):
                                   what, detail, hints[:1], active, tolerance=False)
 
     def _refuse_geometry(self, where, i, j, id1, id2, err, scale, what, detail, hints, checked=None, tolerance=True,
-                         lenient=None, slack=0.0):
+                         lenient=None, slack=0.0, fit=None):
         """Raise (contact_geometry_error) for the contacts :func:`geometry_misfits` refuses (``tolerance``: show
         each one's tolerance; ``lenient``: bools of the contacts held only to the rule for most contacts;
-        ``slack``: a length the written decimals account for)."""
+        ``slack``: a length the written decimals account for; ``fit``: (the positions' distances, r_i + r_j), to
+        tell whether the positions look right, the contact dump's columns then the likely fault)."""
         found = geometry_misfits(err, scale, checked, lenient, slack)
         if found is None:
             return
         bad, tol, ratio = found
         atoms = where.atoms
+        touching = None
+        if fit is not None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                apart = fit[0] / fit[1]
+            near = (apart >= 0.7) & (apart <= 1.01)
+            touching = float(np.mean(near if checked is None else near[checked])) if apart.size else None
 
         def location(k):
             text = f"atoms {int(id1[k])} and {int(id2[k])}"
@@ -907,7 +915,7 @@ class LammpsReader(FrameReader):
             self.atoms_path, f"the contacts of {self.pairs_path}", where.timestep, bad,
             ratio / tol, what,
             (lambda k: f"{detail(k)} (tolerance {tol * scale[k] + slack:.2g})") if tolerance else detail, location,
-            [*hints, "the two dumps are not of the same run"], checked)
+            [*hints, "the two dumps are not of the same run"], checked, touching)
 
 
 def _contact_reach(pair_style, script):

@@ -267,4 +267,5 @@ class LiggghtsReader(LammpsReader):
             return
         else:
             return
-        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, slack=slack)
+        fit = None if radii is None else (dist, np.take(radii, i) + np.take(radii, j))
+        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, slack=slack, fit=fit)
