@@ -298,3 +298,34 @@ def test_wall_contacts_of_relabelled_positions_are_refused(tmp_path):
                                          r"fix w: \d+ of \d+ contacts have their contact point \(f_w\[5\.\.7\]\) "
                                          r"further than the radius .*The worst: atom \d+ \(the atoms dump's line \d+\)"):
         reader.frame(0)
+
+
+def test_errors_without_line_numbers(tmp_path):
+    # a frame whose first line is not known (first_line None): the errors name the atoms without lines
+    bad = relabelled(os.path.join(LAMMPS, "hooke3d", "atoms.dump"), tmp_path / "atoms.dump", "swap_v")
+    with pytest.warns(UserWarning, match="no contact dump"):
+        reader = LammpsReader(bad, input=os.path.join(LAMMPS, "in.hooke3d"))
+    read = reader._atoms_dump.read
+
+    def without_lines(*args, **kwargs):
+        frame = read(*args, **kwargs)
+        frame.pop("first_line", None)
+        return frame
+
+    reader._atoms_dump.read = without_lines
+    with pytest.raises(ValueError, match=r"the wall contacts of fix w: .*The worst: atom \d+: the contact point"):
+        reader.frame(0)
+
+
+def test_scaled_positions_outside_the_box_are_shown_unscaled_too(tmp_path):
+    src = os.path.join(LAMMPS, "hooke3d", "atoms_scaled.dump")
+    dst = tmp_path / "atoms.dump"
+    with open(src) as fh, open(dst, "w") as out:     # forces labelled as the scaled positions
+        swap = {"xs": "fx", "ys": "fy", "zs": "fz", "fx": "xs", "fy": "ys", "fz": "zs"}
+        for line in fh:
+            if line.startswith("ITEM: ATOMS"):
+                line = "ITEM: ATOMS " + " ".join(swap.get(c, c) for c in line.split()[2:]) + "\n"
+            out.write(line)
+    with pytest.raises(ValueError, match=r"timestep 4500: atom \d+ \(line \d+\) has ([xyz])s = -?[0-9.]+ \(\1 = "
+                                         r"-?[0-9.]+\), outside the box \[0, (6|10)\]"):
+        LammpsReader(dst).frame(0)

@@ -691,7 +691,6 @@ class LammpsReader(FrameReader):
         if found is None:
             return
         bad, tol, ratio = found
-        line = "" if atoms.first_line is None else " (the atoms dump's line {})"
         hints = ["the radius (diameter) column is not the radii"]
         if reach == 1:
             what = (f"have their contact point (f_{wall}[5..7]) further than the radius from the particle's centre, "
@@ -703,7 +702,10 @@ class LammpsReader(FrameReader):
                     "centre, which no wall model can")
 
         def location(j):
-            return f"atom {int(atoms.ids[k[j]])}" + line.format(atoms.first_line + int(atoms.order[k[j]]))
+            text = f"atom {int(atoms.ids[k[j]])}"
+            if atoms.first_line is not None:
+                text += f" (the atoms dump's line {atoms.first_line + int(atoms.order[k[j]])})"
+            return text
 
         def detail(j):
             return (f"the contact point is {dist[j]:.9g} from the centre, {dist[j] / radii[j]:.6g} radii (r = "
