@@ -329,3 +329,52 @@ def test_scaled_positions_outside_the_box_are_shown_unscaled_too(tmp_path):
     with pytest.raises(ValueError, match=r"timestep 4500: atom \d+ \(line \d+\) has ([xyz])s = -?[0-9.]+ \(\1 = "
                                          r"-?[0-9.]+\), outside the box \[0, (6|10)\]"):
         LammpsReader(dst).frame(0)
+
+
+def _dist_edited(tmp_path, fraction, count):
+    """A copy of hooke3d's contact dump whose first frame has the 'dist' of ``count`` contacts (inside the box) off by
+    ``fraction`` of (dist + the largest coordinate written), the documented scale; the reader on it."""
+    with open(os.path.join(LAMMPS, "hooke3d", "atoms.dump")) as fh:
+        lines = fh.readlines()
+    start = next(k for k, line in enumerate(lines) if line.startswith("ITEM: ATOMS")) + 1
+    n = int(lines[3])
+    names = lines[start - 1].split()[2:]
+    rows = np.array([[float(w) for w in line.split()] for line in lines[start:start + n]])
+    pos = {int(r[names.index("id")]): r[[names.index(c) for c in ("x", "y", "z")]] for r in rows}
+    extent = float(np.max(np.abs(rows[:, [names.index(c) for c in ("x", "y", "z")]])))
+    with open(os.path.join(LAMMPS, "hooke3d", "pairs.dump")) as fh:
+        pairs = fh.readlines()
+    start = next(k for k, line in enumerate(pairs) if line.startswith("ITEM: ENTRIES")) + 1
+    m = int(pairs[3])
+    edited = 0
+    for k in range(start, start + m):
+        words = pairs[k].split()
+        sep = pos[int(words[1])] - pos[int(words[2])]
+        if edited == count or np.any(np.abs(sep[:2]) > 3.0):     # (contacts across the periodic x, y boundary: kept)
+            continue
+        d = float(np.linalg.norm(sep))
+        words[3] = repr((d + fraction * extent) / (1 - fraction))  # d' - d = fraction (d' + extent)
+        pairs[k] = " ".join(words) + "\n"
+        edited += 1
+    assert edited == count
+    out = tmp_path / "pairs.dump"
+    out.write_text("".join(pairs))
+    return LammpsReader(os.path.join(LAMMPS, "hooke3d", "atoms.dump"), out,
+                        input=os.path.join(LAMMPS, "in.hooke3d")), m
+
+
+@pytest.mark.parametrize("fraction,count,refused", [
+    (1.03e-3, 1, True), (0.97e-3, 1, False),       # any contact: 1e-3 of (dist + the largest coordinate)
+    (1.03e-4, 22, True), (0.97e-4, 22, False),     # most contacts (22 of 43): 1e-4
+    (3e-4, 21, False),                             # 1e-4 < off < 1e-3 on fewer than half: read
+])
+def test_geometry_tolerances_hold_at_their_values(tmp_path, fraction, count, refused):
+    reader, m = _dist_edited(tmp_path, fraction, count)
+    assert m == 43
+    if refused:
+        tol = "0.001" if count == 1 else "0.0001"
+        with pytest.raises(ValueError, match=rf"timestep 4500: .*: {count} of 43 contacts have a distance \('dist'.*"
+                                             rf"\(tolerance {tol[:3]}"):
+            reader.frame(0)
+    else:
+        assert int(np.sum(reader.frame(0).snapshot.contacts.j >= 0)) == 43
