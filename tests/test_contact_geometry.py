@@ -378,3 +378,20 @@ def test_geometry_tolerances_hold_at_their_values(tmp_path, fraction, count, ref
             reader.frame(0)
     else:
         assert int(np.sum(reader.frame(0).snapshot.contacts.j >= 0)) == 43
+
+
+@pytest.mark.parametrize("column", [1, 4])     # x_i's x, x_j's x
+def test_liggghts_one_wrong_position_in_the_contact_dump_is_refused(tmp_path, column):
+    # the contact dump's pos (x_i, x_j) of one contact moved by 2e-4 (0.4 radii; tolerance 1e-3 of the largest
+    # coordinate, 1.2e-5): refused whichever of the two is off
+    with open(os.path.join(LIGGGHTS, "pairs.dump")) as fh:
+        lines = fh.readlines()
+    row = next(k for k, line in enumerate(lines) if line.startswith("ITEM: ENTRIES")) + 1
+    words = lines[row].split()
+    words[column - 1] = repr(float(words[column - 1]) + 2e-4)
+    lines[row] = " ".join(words) + "\n"
+    pairs = tmp_path / "pairs.dump"
+    pairs.write_text("".join(lines))
+    reader = liggghts(None, pairs=pairs, check_forces=False, **SETTLE)
+    with pytest.raises(ValueError, match=r"timestep 22500: .*: 1 of 88 contacts have positions \(pair/gran/local 'pos'"):
+        reader.frame(0)
