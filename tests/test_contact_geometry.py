@@ -395,3 +395,12 @@ def test_liggghts_one_wrong_position_in_the_contact_dump_is_refused(tmp_path, co
     reader = liggghts(None, pairs=pairs, check_forces=False, **SETTLE)
     with pytest.raises(ValueError, match=r"timestep 22500: .*: 1 of 88 contacts have positions \(pair/gran/local 'pos'"):
         reader.frame(0)
+
+
+def test_written_resolution():
+    from cgbound.readers.checks import written_resolution
+    values = np.random.default_rng(1).uniform(-10, 10, 1000)
+    assert written_resolution(np.round(values, 2)) == 0.005
+    assert written_resolution(np.round(values, 5), np.round(values, 2)) == 5e-6   # the finest column's
+    assert written_resolution(values) < 1e-10                 # full precision: relative rounding only
+    assert written_resolution(np.zeros(0)) == 0.0
