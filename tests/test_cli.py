@@ -169,6 +169,10 @@ def test_a_wrong_pair_values_order_fails_loudly_not_silently(tmp_path, capsys):
                              "--fixed-types", "2", "--walls", "w", "--gravity", "0,0,-1", "--grid", "1,1,10",
                              "--average", "x,y", "--fields", "stress", "-o", str(tmp_path / "o.npz"), "-q"], capsys)
     assert status == 1 and "contacts have a distance ('dist', column c_pl[8])" in err and "--pair-values" in err
+    # the positions give touching distances: the contact dump's column order leads the causes and the fix
+    assert "The positions look right" in err
+    assert err.index("Likely causes: the contact dump's columns are not pair_values=") < err.index("labels swapped")
+    assert "Fix: name the contact dump's columns in the order" in err
     assert not (tmp_path / "o.npz").exists()
 
 

@@ -119,6 +119,7 @@ def test_misplaced_positions_are_refused_by_the_contacts(tmp_path, case, columns
         assert re.search(what, message), message
         assert "the contact dump's line" in message and "the atoms dump's lines" in message
         assert "labels swapped" in message and "Fix:" in message
+        assert "The positions look right" not in message   # (they do not: the labels lead)
 
 
 def test_positions_outside_the_box_are_refused(tmp_path):
@@ -129,6 +130,56 @@ def test_positions_outside_the_box_are_refused(tmp_path):
                                          r"lengths .*labels swapped"):
         LammpsReader(bad).frame(0)
     assert len(read_all(LammpsReader(os.path.join(LAMMPS, "hooke3d", "atoms.dump")))) == 3
+
+
+@pytest.mark.parametrize("case", ["shrink_layer", "shrink_pair"])
+def test_shrink_wrapped_boxes_thinner_than_the_stray_are_read(tmp_path, case):
+    # genuine output: along a shrink-wrapped axis the box can be far thinner than an atom's stray between
+    # re-neighbourings (a falling layer: 4e-4 thick, an atom 0.04 out, 94 box lengths; two spheres colliding: 0.26)
+    reader = lammps(None, case, check_forces=False)
+    assert len(read_all(reader)) == 2
+    if case == "shrink_pair":
+        return      # (its velocities, +-1 along x, lie in its box)
+    # a length of slack, not none: velocities as positions still lie far out of the layer's box
+    bad = relabelled(os.path.join(LAMMPS, case, "atoms.dump"), tmp_path / "atoms.dump", "swap_v")
+    with pytest.raises(ValueError, match=r"timestep 0: atom 1 \(line 10\) has z = -1, outside the box .* along "
+                                         r"that shrink-wrapped axis by [0-9.]+ \(refused beyond [0-9.]+: the largest"):
+        read_all(lammps(bad, case, check_forces=False))
+
+
+@pytest.mark.parametrize("case", ["deform", "deform_mpi"])
+def test_fast_deforming_box_is_read_and_misplaced_positions_refused(tmp_path, case):
+    # genuine output, 2e-3 strain per step (fix deform ... remap x): the ghost images pair/local takes for contacts
+    # across the periodic boundary keep the old box length, their 'dist' off by up to 1e-2 of it; held only to the
+    # rule for most contacts (those inside the box: exact). On 2 processes the ghost copies of the other process's
+    # atoms inside the box are stale too: the box's change per step (from the neighbouring frames) is allowed
+    script = os.path.join(LAMMPS, "in.deform")
+    frames = read_all(lammps(None, case, check_forces=False, input=script))
+    assert [len(f.snapshot.contacts) for f in frames][-1] > 50
+    # (frame 0, a lattice, is read: each atom given its neighbour's position keeps the distances)
+    bad = misaligned(os.path.join(LAMMPS, case, "atoms.dump"), tmp_path / "atoms.dump")
+    with pytest.raises(ValueError, match=r"timestep 40: the positions do not fit .* have a distance \('dist'"):
+        read_all(lammps(bad, case, check_forces=False, input=script))
+
+
+def test_few_decimals_are_read_and_relabelled_refused(tmp_path):
+    # genuine output written with 'format float %.2f': a distance from such positions is off by up to
+    # 2 sqrt(3) 0.005, more than 1e-3 of the coordinates (< 20): the written decimals are added to the tolerance
+    frames = read_all(lammps(None, "rounded", check_forces=False))
+    assert len(frames[-1].snapshot.contacts) > 20
+    bad = relabelled(os.path.join(LAMMPS, "rounded", "atoms.dump"), tmp_path / "atoms.dump", "shift")
+    with pytest.raises(ValueError, match=r"timestep 3000: the positions do not fit .* have a distance \('dist'"):
+        read_all(lammps(bad, "rounded", check_forces=False))
+
+
+def test_tolerance_follows_the_coordinates_not_the_box_bounds(tmp_path):
+    # particles of d ~1 in a corner of a 3000 x 3000 x 20 box: a tolerance of 1e-3 of the box bounds (3, three
+    # diameters) read positions shifted by a column; the coordinates written (< 5) set it
+    assert len(read_all(lammps(None, "corner", check_forces=False))[-1].snapshot.contacts) > 20
+    bad = relabelled(os.path.join(LAMMPS, "corner", "atoms.dump"), tmp_path / "atoms.dump", "shift")
+    reader = lammps(bad, "corner", check_forces=False, walls=())
+    with pytest.raises(ValueError, match=r"timestep 3000: the positions do not fit .* have a distance \('dist'"):
+        read_all(reader)
 
 
 def test_genuine_cohesive_frames_with_zero_rows_are_read():
@@ -250,3 +301,109 @@ def test_wall_contacts_of_relabelled_positions_are_refused(tmp_path):
                                          r"fix w: \d+ of \d+ contacts have their contact point \(f_w\[5\.\.7\]\) "
                                          r"further than the radius .*The worst: atom \d+ \(the atoms dump's line \d+\)"):
         reader.frame(0)
+
+
+def test_errors_without_line_numbers(tmp_path):
+    # a frame whose first line is not known (first_line None): the errors name the atoms without lines
+    bad = relabelled(os.path.join(LAMMPS, "hooke3d", "atoms.dump"), tmp_path / "atoms.dump", "swap_v")
+    with pytest.warns(UserWarning, match="no contact dump"):
+        reader = LammpsReader(bad, input=os.path.join(LAMMPS, "in.hooke3d"))
+    read = reader._atoms_dump.read
+
+    def without_lines(*args, **kwargs):
+        frame = read(*args, **kwargs)
+        frame.pop("first_line", None)
+        return frame
+
+    reader._atoms_dump.read = without_lines
+    with pytest.raises(ValueError, match=r"the wall contacts of fix w: .*The worst: atom \d+: the contact point"):
+        reader.frame(0)
+
+
+def test_scaled_positions_outside_the_box_are_shown_unscaled_too(tmp_path):
+    src = os.path.join(LAMMPS, "hooke3d", "atoms_scaled.dump")
+    dst = tmp_path / "atoms.dump"
+    with open(src) as fh, open(dst, "w") as out:     # forces labelled as the scaled positions
+        swap = {"xs": "fx", "ys": "fy", "zs": "fz", "fx": "xs", "fy": "ys", "fz": "zs"}
+        for line in fh:
+            if line.startswith("ITEM: ATOMS"):
+                line = "ITEM: ATOMS " + " ".join(swap.get(c, c) for c in line.split()[2:]) + "\n"
+            out.write(line)
+    with pytest.raises(ValueError, match=r"timestep 4500: atom \d+ \(line \d+\) has ([xyz])s = -?[0-9.]+ \(\1 = "
+                                         r"-?[0-9.]+\), outside the box \[0, (6|10)\]"):
+        LammpsReader(dst).frame(0)
+
+
+def _dist_edited(tmp_path, fraction, count):
+    """A copy of hooke3d's contact dump whose first frame has the 'dist' of ``count`` contacts (inside the box) off by
+    ``fraction`` of (dist + the largest coordinate written), the documented scale; the reader on it."""
+    with open(os.path.join(LAMMPS, "hooke3d", "atoms.dump")) as fh:
+        lines = fh.readlines()
+    start = next(k for k, line in enumerate(lines) if line.startswith("ITEM: ATOMS")) + 1
+    n = int(lines[3])
+    names = lines[start - 1].split()[2:]
+    rows = np.array([[float(w) for w in line.split()] for line in lines[start:start + n]])
+    pos = {int(r[names.index("id")]): r[[names.index(c) for c in ("x", "y", "z")]] for r in rows}
+    extent = float(np.max(np.abs(rows[:, [names.index(c) for c in ("x", "y", "z")]])))
+    with open(os.path.join(LAMMPS, "hooke3d", "pairs.dump")) as fh:
+        pairs = fh.readlines()
+    start = next(k for k, line in enumerate(pairs) if line.startswith("ITEM: ENTRIES")) + 1
+    m = int(pairs[3])
+    edited = 0
+    for k in range(start, start + m):
+        words = pairs[k].split()
+        sep = pos[int(words[1])] - pos[int(words[2])]
+        if edited == count or np.any(np.abs(sep[:2]) > 3.0):     # (contacts across the periodic x, y boundary: kept)
+            continue
+        d = float(np.linalg.norm(sep))
+        words[3] = repr((d + fraction * extent) / (1 - fraction))  # d' - d = fraction (d' + extent)
+        pairs[k] = " ".join(words) + "\n"
+        edited += 1
+    assert edited == count
+    out = tmp_path / "pairs.dump"
+    out.write_text("".join(pairs))
+    return LammpsReader(os.path.join(LAMMPS, "hooke3d", "atoms.dump"), out,
+                        input=os.path.join(LAMMPS, "in.hooke3d")), m
+
+
+@pytest.mark.parametrize("fraction,count,refused", [
+    (1.03e-3, 1, True), (0.97e-3, 1, False),       # any contact: 1e-3 of (dist + the largest coordinate)
+    (1.03e-4, 22, True), (0.97e-4, 22, False),     # most contacts (22 of 43): 1e-4
+    (3e-4, 21, False),                             # 1e-4 < off < 1e-3 on fewer than half: read
+])
+def test_geometry_tolerances_hold_at_their_values(tmp_path, fraction, count, refused):
+    reader, m = _dist_edited(tmp_path, fraction, count)
+    assert m == 43
+    if refused:
+        tol = "0.001" if count == 1 else "0.0001"
+        with pytest.raises(ValueError, match=rf"timestep 4500: .*: {count} of 43 contacts have a distance \('dist'.*"
+                                             rf"\(tolerance {tol[:3]}"):
+            reader.frame(0)
+    else:
+        assert int(np.sum(reader.frame(0).snapshot.contacts.j >= 0)) == 43
+
+
+@pytest.mark.parametrize("column", [1, 4])     # x_i's x, x_j's x
+def test_liggghts_one_wrong_position_in_the_contact_dump_is_refused(tmp_path, column):
+    # the contact dump's pos (x_i, x_j) of one contact moved by 2e-4 (0.4 radii; tolerance 1e-3 of the largest
+    # coordinate, 1.2e-5): refused whichever of the two is off
+    with open(os.path.join(LIGGGHTS, "pairs.dump")) as fh:
+        lines = fh.readlines()
+    row = next(k for k, line in enumerate(lines) if line.startswith("ITEM: ENTRIES")) + 1
+    words = lines[row].split()
+    words[column - 1] = repr(float(words[column - 1]) + 2e-4)
+    lines[row] = " ".join(words) + "\n"
+    pairs = tmp_path / "pairs.dump"
+    pairs.write_text("".join(lines))
+    reader = liggghts(None, pairs=pairs, check_forces=False, **SETTLE)
+    with pytest.raises(ValueError, match=r"timestep 22500: .*: 1 of 88 contacts have positions \(pair/gran/local 'pos'"):
+        reader.frame(0)
+
+
+def test_written_resolution():
+    from cgbound.readers.checks import written_resolution
+    values = np.random.default_rng(1).uniform(-10, 10, 1000)
+    assert written_resolution(np.round(values, 2)) == 0.005
+    assert written_resolution(np.round(values, 5), np.round(values, 2)) == 5e-6   # the finest column's
+    assert written_resolution(values) < 1e-10                 # full precision: relative rounding only
+    assert written_resolution(np.zeros(0)) == 0.0

@@ -16,10 +16,12 @@ FORCE_BALANCE_TOLERANCE = 1e-9
 #: overlap) must agree with the dumped positions to this fraction of (the value + the largest coordinate) for
 #: every contact, and to GEOMETRY_TOLERANCE_MOST for at least half of them. A coordinate written with ``%g``
 #: (6 digits) is off by 5e-6 of its size, so a distance by at most 2 sqrt(3) 5e-6 = 1.7e-5 of the largest
-#: coordinate (``%.17g``: 1e-16). A box that deforms (fix deform ... remap x, barostats) remaps the atoms at
+#: coordinate (``%.17g``: 1e-16); fixed decimals (``%.2f``) add their half last place, an absolute slack
+#: (:func:`written_resolution`). A box that deforms (fix deform ... remap x, barostats) remaps the atoms at
 #: the end of a step but not their ghost copies, which pair/local uses: a contact across a periodic boundary (or
 #: between processors) is then off by the step's strain times the box length (measured: 2.8e-4 of a box of 7.7
-#: compressed 20% in 4000 steps, 3.6e-5 of the extent). Positions that are not positions (labels swapped,
+#: compressed 20% in 4000 steps, 3.6e-5 of the extent; 1e-2 of the distance at 2e-3 strain per step: contacts
+#: across a periodic boundary are held to the second rule only). Positions that are not positions (labels swapped,
 #: columns shifted) miss by the size of the distance itself, on nearly every contact.
 GEOMETRY_TOLERANCE = 1e-3
 GEOMETRY_TOLERANCE_MOST = 1e-4
@@ -108,20 +110,53 @@ def check_selects(selected, name, flag, path, where, present):
                          f"check {flag}")
 
 
-def geometry_misfits(err, scale, checked=None):
+_POWERS = 10.0 ** np.arange(13)
+
+
+def written_resolution(*columns, sample=64):
+    """Half the last decimal place of values written with a fixed number of decimals (``format float %.2f``:
+    0.005), judged from about ``sample`` values of each column (strided); 0 when they have more than 12 decimals
+    (``%g``, ``%.17g``: their rounding is relative, a fraction of the values' size). Finer values than the sample
+    shows are harmless (the estimate errs coarse: it loosens the tolerances it is added to); coarser ones are
+    ``%g``'s large values, whose relative rounding the tolerances' own scale covers. Values exact at a few decimals (a lattice's
+    0.5, 1.5) read as coarse: the tolerance of such a frame is loosened by them."""
+    parts = [np.asarray(c)[::max(1, len(c) // sample)] for c in columns if len(c)]
+    if not parts:
+        return 0.0
+    values = np.concatenate(parts)
+    values = values[np.isfinite(values)]
+    # every decimal count at once ((n, 13): one pass, not 13 of NumPy's per-call costs). A value parsed from k
+    # decimals is a whole number times 10^-k to double precision; a chance near-whole number only where
+    # 1e-9 |scaled| >= 0.5, a resolution of 1e-9 of the values, which changes nothing
+    scaled = values[:, None] * _POWERS
+    near = np.abs(scaled - np.rint(scaled)) <= 1e-9 * np.maximum(np.abs(scaled), 1.0)
+    whole = np.flatnonzero(near.all(axis=0))
+    return 0.5 * 10.0 ** -int(whole[0]) if whole.size else 0.0
+
+
+def geometry_misfits(err, scale, checked=None, lenient=None, slack=0.0):
     """The contacts refused for their geometry, or None: ``err`` (M,) how far each is off, ``scale`` (M,) the size
-    the tolerances are fractions of, ``checked`` (M,) bools of the contacts that count (default all). Refused: any
-    contact off by more than GEOMETRY_TOLERANCE of its scale; else, when more than half of the checked contacts are
-    off by more than GEOMETRY_TOLERANCE_MOST, those. Returns (bools of the refused, their tolerance, err / scale),
-    the ratio written over ``err`` (a float array the caller gives up). One division and a maximum decide the usual
-    case, a frame that holds."""
+    the tolerances are fractions of, ``checked`` (M,) bools of the contacts that count (default all), ``lenient``
+    (M,) bools of the contacts held only to the second rule (default none). Refused: any contact (not lenient) off
+    by more than GEOMETRY_TOLERANCE of its scale; else, when more than half of the checked contacts are off by more
+    than GEOMETRY_TOLERANCE_MOST, those; ``slack``: a length taken off each error first (what the written
+    decimals can account for: :func:`written_resolution`). Returns (bools of the refused, their tolerance, err / scale), the ratio
+    written over ``err`` (a float array the caller gives up). One division and a maximum decide the usual case, a
+    frame that holds."""
+    if slack:
+        np.subtract(err, slack, out=err)
+        np.maximum(err, 0.0, out=err)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.divide(err, scale, out=err)
     if not ratio.size:
         return None
     worst = ratio.max()
     if worst > GEOMETRY_TOLERANCE:
-        return ratio > GEOMETRY_TOLERANCE, GEOMETRY_TOLERANCE, ratio
+        bad = ratio > GEOMETRY_TOLERANCE
+        if lenient is not None:
+            bad &= ~lenient
+        if bad.any():
+            return bad, GEOMETRY_TOLERANCE, ratio
     if not worst > GEOMETRY_TOLERANCE_MOST:
         return None
     bad = ratio > GEOMETRY_TOLERANCE_MOST
@@ -131,14 +166,17 @@ def geometry_misfits(err, scale, checked=None):
     return None
 
 
-def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detail, location, hints=(), checked=None):
+def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detail, location, hints=(), checked=None,
+                           touching=None):
     """The error for contacts whose geometry the dumped positions do not give (nothing is raised here).
 
     ``source``: the contacts' origin ("the contacts of PAIRS"); ``bad``: (M,) bools of the contacts refused;
     ``score``: (M,) how far each is beyond its tolerance (the worst, largest, is shown); ``what``: what the refused
     contacts do ("have a 'dist' that ..."); ``detail(k)``: the numbers of contact k; ``location(k)``: where it is
     (its atoms, their lines); ``hints``: other likely causes, as text naming the reader's option; ``checked``:
-    bools of the contacts checked (default all).
+    bools of the contacts checked (default all); ``touching``: the fraction of the checked contacts whose positions
+    are as far apart as touching particles are (0.7 to 1.01 r_i + r_j), or None: from 0.9 on the positions look
+    right, and the contact dump's own columns (``hints``, first: their order) lead the causes.
     """
     rows = np.flatnonzero(bad)
     total = bad.size if checked is None else int(np.count_nonzero(checked))
@@ -146,9 +184,18 @@ def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detai
     causes = ("the atoms dump's position columns are not the positions: its 'ITEM: ATOMS' labels swapped (e.g. "
               "'x y z' with 'vx vy vz') or the columns shifted against their labels, by an edit, a merge or a "
               "converter")
-    causes = "; ".join([causes, *hints])
+    fix = ("read the dumps as LAMMPS/LIGGGHTS wrote them, with the positions under their own labels (x y z, xu yu "
+           "zu or xs ys zs); write floats with 'dump_modify ... format float %.17g' (few digits also blur this "
+           "comparison)")
+    lead = ""
+    if touching is not None and touching >= 0.9:
+        causes = "; ".join([*hints, causes])
+        lead = (f"The positions look right: {100 * touching:.0f}% of these contacts join particles as far apart as "
+                "touching ones are (0.7 to 1.01 r_i + r_j), so the contact dump's columns are the likely fault. ")
+        fix = ("name the contact dump's columns in the order its compute line gives them (pair_values=, "
+               "--pair-values; or give the input script, --input); else " + fix)
+    else:
+        causes = "; ".join([causes, *hints])
     return ValueError(
         f"{atoms_path}: timestep {timestep}: the positions do not fit {source}: {rows.size} of {total} contacts "
-        f"{what}. The worst: {location(k)}: {detail(k)}. Likely causes: {causes}. Fix: read the dumps as LAMMPS/LIGGGHTS wrote them, with the positions "
-        f"under their own labels (x y z, xu yu zu or xs ys zs); write floats with 'dump_modify ... format float "
-        f"%.17g' (few digits also blur this comparison)")
+        f"{what}. The worst: {location(k)}: {detail(k)}. {lead}Likely causes: {causes}. Fix: {fix}")

@@ -124,6 +124,7 @@ class InputScript:
     pair_style: str = None
     pair_command: tuple = ()       # the words of the pair_style line ("gran/hooke/history", "2000.0", ...)
     pair_coeffs: list = field(default_factory=list)   # the words of each pair_coeff line
+    skin: float = None             # the ``neighbor`` command's skin distance, None without one
     computes: dict = field(default_factory=dict)
     dumps: list = field(default_factory=list)
     walls: tuple = ()
@@ -385,6 +386,11 @@ class _Parser:
             self.result.pair_coeffs = []
         elif cmd == "pair_coeff":
             self.result.pair_coeffs.append(tuple(w[1:]))
+        elif cmd == "neighbor" and len(w) > 1:
+            try:
+                self.result.skin = float(w[1])
+            except ValueError:      # (a variable: the box check then goes without the skin)
+                pass
         elif cmd == "group":
             self.group(w)
         elif cmd == "compute":

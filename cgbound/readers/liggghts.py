@@ -37,7 +37,8 @@ from this compute's values: ``pos`` (x_i and x_j, against the atoms dump's posit
 ``delta`` (against r_i + r_j - |x_i - x_j|), else the reach of a contact force: r_i + r_j when the input
 script's ``pair_style gran`` has no ``cohesion`` model, else 2 (r_i + r_j) (cohesion possible or not known:
 liquid bridges pull beyond contact, 1.0066 (r_i + r_j) measured on tests/data/liggghts/in.easo), and
-most contacts not overlapping by more than half of r_i + r_j.
+most contacts not overlapping by more than half of r_i + r_j (loose bounds: positions shifted by a column in a
+settled packing can pass them; dump ``pos`` to have the positions checked).
 
 Writing consistent dumps
 ------------------------
@@ -76,7 +77,7 @@ import os
 import numpy as np
 
 from .._validate import integer
-from .checks import compute_columns, dump_local_header, row_norms
+from .checks import compute_columns, dump_local_header, row_norms, written_resolution
 from .lammps import LammpsReader, contact_indices
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns"]
@@ -249,6 +250,7 @@ class LiggghtsReader(LammpsReader):
             err = np.maximum(row_norms(box.minimum_image(written_i - pos_i)),
                              row_norms(box.minimum_image(written_j - pos_j)))
             scale = np.full(err.shape, extent)
+            slack = np.sqrt(3) * (where.atoms.resolution + written_resolution(*(tab[c] for c in names["pos"])))
             what = f"have positions (pair/gran/local 'pos', columns {' '.join(names['pos'])}) other than the atoms dump's"
 
             def detail(k):
@@ -260,6 +262,8 @@ class LiggghtsReader(LammpsReader):
             radii_sum = np.take(radii, i) + np.take(radii, j)
             err = np.abs(overlap - (radii_sum - dist))
             scale = radii_sum + extent
+            slack = (written_resolution(overlap) + 2 * where.atoms.radius_resolution
+                     + 2 * np.sqrt(3) * where.atoms.resolution)
             what = (f"have an overlap (pair/gran/local 'delta', column {names['delta'][0]}) that their positions and "
                     "radii do not give")
             hints.append("the radius (diameter) column is not the radii")
@@ -274,4 +278,5 @@ class LiggghtsReader(LammpsReader):
             return
         else:
             return
-        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints)
+        fit = None if radii is None else (dist, np.take(radii, i) + np.take(radii, j))
+        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, slack=slack, fit=fit)
