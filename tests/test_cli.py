@@ -479,15 +479,31 @@ def test_the_default_width_is_refused_on_particles_far_from_unit_size(tmp_path, 
 
 
 def test_a_2d_lammps_run_read_as_3d_is_refused_naming_dimension(tmp_path, capsys):
-    # without --dimension 2 (even with the script's 'dimension 2' as --input) the discs were coarse-grained in 3-D:
-    # per volume through z = 0, with a "profile" along z, exit 0
+    # without --dimension 2 the discs were coarse-grained in 3-D: per volume through z = 0, with a "profile" along
+    # z, exit 0
     data = os.path.join(os.path.dirname(__file__), "data", "lammps")
-    args = ["run", os.path.join(data, "hooke2d", "atoms.dump"), "--pairs", os.path.join(data, "hooke2d", "pairs.dump"),
-            "--input", os.path.join(data, "in.hooke2d"), "--stop", "1", "-q", "-o", str(tmp_path / "o.h5")]
+    atoms = os.path.join(data, "hooke2d", "atoms.dump")
+    args = ["run", atoms, "--stop", "1", "-q", "-o", str(tmp_path / "o.h5")]
     status, err = run_error(args + ["--grid", "1,1,10", "--average", "x,y"], capsys)
     assert status == 2 and err.startswith("cgbound: error: --dimension: not given, so the data are read as 3-D, but "
                                           "every particle of the first frame has z = 0 and vz = 0"), err
     assert main(args + ["--dimension", "2", "--grid", "1,10", "--average", "x"]) == 0
+
+
+def test_a_2d_lammps_run_takes_its_dimension_from_the_input_script(tmp_path, capsys):
+    # the script's 'dimension 2' is the run's dimension (it was read as 3-D unless --dimension 2 was also given);
+    # --gravity then takes the 2 components of the run's plane, and a --dimension the script contradicts is refused
+    data = os.path.join(os.path.dirname(__file__), "data", "lammps")
+    args = ["run", os.path.join(data, "hooke2d", "atoms.dump"), "--pairs", os.path.join(data, "hooke2d", "pairs.dump"),
+            "--input", os.path.join(data, "in.hooke2d"), "--stop", "1", "-q", "--grid", "1,10", "--average", "x"]
+    assert main(args + ["-o", str(tmp_path / "a.h5")]) == 0
+    assert main(args + ["--gravity", "0,-1", "-o", str(tmp_path / "b.h5")]) == 0
+    with h5py.File(tmp_path / "a.h5") as a, h5py.File(tmp_path / "b.h5") as b:
+        assert sorted(a["axes"]) == ["x", "z"] and a["fields/density"].shape[-1] == 10
+        assert np.array_equal(a["fields/density"][()], b["fields/density"][()]) and np.any(a["fields/density"][()] > 0)
+    status, err = run_error(args + ["--dimension", "3", "-o", str(tmp_path / "c.h5")], capsys)
+    assert status == 2 and "--dimension: 3 given, but the input script" in err and "runs in 2-D" in err, err
+    assert not (tmp_path / "c.h5").exists()
 
 
 @pytest.mark.parametrize("time_average", ["none", "0.5"])

@@ -241,6 +241,38 @@ def test_two_dimensions_map_lammps_xy_to_x_z(lammps_dir):
         reader(lammps_dir, "hooke2d", body_force=(0.0, -1.0, 1.0))
 
 
+def test_the_dimension_comes_from_the_input_script(lammps_dir):
+    # 'dimension 2' in the script is the run's dimension (without dimension=2 the discs were read in 3-D); a
+    # dimension the script contradicts is refused
+    base = os.path.join(lammps_dir, "hooke2d")
+    script = os.path.join(DATA, "in.hooke2d")
+    r = LammpsReader(os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump"), input=script)
+    assert r.dimension == 2 and r[0].dim == 2 and r.force_mismatch(0) < TOL
+    with pytest.raises(ValueError, match=r"dimension: 3 given, but the input script .*in.hooke2d runs in 2-D"):
+        LammpsReader(os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump"), input=script, dimension=3)
+    assert LammpsReader(os.path.join(base, "atoms.dump"), os.path.join(base, "pairs.dump"), input=script,
+                        dimension=2).dimension == 2
+
+
+def test_a_timestep_written_twice_is_read_with_a_warning(lammps_dir, tmp_path):
+    # a run restarted and appending to its dump writes the restart's step again: each copy is read (a time average
+    # counts it twice), which is said, not silent
+    atoms = open(os.path.join(lammps_dir, "hooke3d", "atoms.dump")).read()
+    pairs = open(os.path.join(lammps_dir, "hooke3d", "pairs.dump")).read()
+    first = "ITEM: TIMESTEP" + atoms.split("ITEM: TIMESTEP")[1]
+    first_pairs = "ITEM: TIMESTEP" + pairs.split("ITEM: TIMESTEP")[1]
+    step = first.split("\n")[1]
+    (tmp_path / "atoms.dump").write_text(atoms + first)
+    (tmp_path / "pairs.dump").write_text(pairs + first_pairs)
+    lines = atoms.count("\n") + 1
+    opts = dict(CASES["hooke3d"], walls=["w"], fixed_types=[2])
+    with pytest.warns(UserWarning, match=rf"atoms.dump: timestep {step} is written 2 times \(frames at lines 1, "
+                                         rf"{lines}\).*counts it 2 times"):
+        r = LammpsReader(tmp_path / "atoms.dump", tmp_path / "pairs.dump", **opts)
+    assert len(r) == len(LammpsReader(os.path.join(lammps_dir, "hooke3d", "atoms.dump"),
+                                      os.path.join(lammps_dir, "hooke3d", "pairs.dump"), **opts)) + 1
+
+
 def test_len_slicing_and_pickling(lammps_dir):
     r = reader(lammps_dir, "granular3d")
     assert len(r) == 3

@@ -99,7 +99,7 @@ def add_parser(sub):
                    help="lammps/liggghts: read frames whose contact and body forces do not reproduce the dumped "
                         "per-particle forces (dumps written during a run; by default such a frame is an error)")
     g.add_argument("--dimension", type=int, choices=[2, 3], help="lammps/liggghts: dimension of the run "
-                                                                  "(default 3)")
+                                                                  "(default: the --input script's, else 3)")
     g.add_argument("--restart", metavar="PATH", help="mercury: the .restart file (fixed particles, densities, "
                                                      "periodic axes)")
     g.add_argument("--density", metavar="RHO", help="mercury: particle material density (masses from radii)")
@@ -306,10 +306,20 @@ def mercury_dimension(path):
     return 2 if len(words) == 6 else 3
 
 
+def lammps_dimension(args):
+    """A LAMMPS/LIGGGHTS run's dimension: --dimension, else the input script's (--input), else 3."""
+    if args.dimension is not None:
+        return args.dimension
+    if getattr(args, "input", None) is not None:
+        from ..readers.lammps_input import read_input
+        return read_input(args.input, args.var or None).dimension
+    return 3
+
+
 def check_gravity(args, fmt, paths):
     if args.gravity is None:
         return None
-    dim = mercury_dimension(paths[0]) if fmt == "mercury" else (args.dimension or 3)
+    dim = mercury_dimension(paths[0]) if fmt == "mercury" else lammps_dimension(args)
     allowed = (2, 3) if dim == 2 else (3,)
     if len(args.gravity) not in allowed:
         text = ",".join(f"{g:g}" for g in args.gravity)

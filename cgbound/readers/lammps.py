@@ -117,15 +117,17 @@ Set the column names explicitly with ``pair_columns`` for other layouts.
 
 Two dimensions
 --------------
-With ``dimension=2`` the LAMMPS x and y columns become cgbound's 2-D axes (x, z); the LAMMPS z
-column is ignored. ``body_force`` is then given in cgbound axes (2 values, e.g. ``(0, -1)`` for
+With ``dimension=2`` (the default when the input script, ``input=``, says ``dimension 2``) the LAMMPS
+x and y columns become cgbound's 2-D axes (x, z); the LAMMPS z column is ignored. ``body_force`` is then given in cgbound axes (2 values, e.g. ``(0, -1)`` for
 LAMMPS ``fix gravity 1.0 vector 0 -1 0``) or as the 3 LAMMPS components (z must be 0).
 
 Particle order
 --------------
 Particles are sorted by LAMMPS atom ID in every frame, so index k is the same atom in every frame
 (as long as no atoms are created or lost). :meth:`LammpsReader.frame` also returns the IDs, types,
-timestep and the dumped per-particle forces.
+timestep and the dumped per-particle forces. A timestep written more than once (a run restarted and
+appending to its dump, or dumps concatenated) is read each time, with a warning: a time average counts it
+that many times.
 """
 from dataclasses import dataclass
 import os
@@ -313,7 +315,8 @@ class LammpsReader(FrameReader):
         (in 2D also accepted as the 3 LAMMPS components).
     masses : dict type -> mass, optional
         When the atoms dump has no ``mass`` column.
-    dimension : 2 or 3
+    dimension : 2 or 3, optional
+        Default: the input script's ``dimension`` (``input=``), else 3. A value the script contradicts is refused.
     dt : float, optional
         Time step size: a snapshot's time is ``timestep * dt``. Default: the dump's ``ITEM: TIME``
         when present, else the timestep number.
@@ -342,7 +345,7 @@ class LammpsReader(FrameReader):
 
     def __init__(self, atoms, pairs=None, *, pair_style=None, pair_compute="pl", pair_values=None,
                  property_compute="pp", property_values=("patom1", "patom2"), pair_columns=None,
-                 walls=(), fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=3,
+                 walls=(), fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=None,
                  dt=None, wrap=True, drop_inactive=True, input=None, variables=None, check_forces=True, units=None):
         self.units = units
         self.input_script = script = None
@@ -359,8 +362,14 @@ class LammpsReader(FrameReader):
                 body_force = script.gravity
             if not walls:
                 walls = script.walls
+        if dimension is None:
+            dimension = script.dimension if script is not None else 3
         if dimension not in (2, 3):
             raise ValueError(f"dimension: expected 2 or 3, got {dimension!r}")
+        if script is not None and dimension != script.dimension:
+            raise ValueError(f"dimension: {dimension} given, but the input script {script.path} runs in "
+                             f"{script.dimension}-D (its 'dimension', 3 where the script does not say): "
+                             f"leave dimension out (--dimension) to take the script's, or give the script of this run")
         self.contact_reach = _contact_reach(pair_style, script)
         if pair_style is None:
             pair_style = script.pair_style if script is not None and script.pair_style else "gran"
@@ -399,7 +408,24 @@ class LammpsReader(FrameReader):
         self._atoms_dump = scan_dump(self.atoms_path, "atoms")
         self._pairs_dump = None if self.pairs_path is None else scan_dump(self.pairs_path, "local")
         self._frames = self._match(list(self._atoms_dump))
+        self._warn_repeated_steps()
         self._cache = None
+
+    def _warn_repeated_steps(self):
+        """A timestep written twice in the atoms dump (a run restarted from a restart file and appending to its dump,
+        or dumps concatenated) is read twice: a time average counts it twice. Allowed, but not silently."""
+        seen = {}
+        for off, ts in self._atoms_dump:
+            seen.setdefault(ts, []).append(self._atoms_dump.extent[off][1])
+        repeated = [(ts, lines) for ts, lines in seen.items() if len(lines) > 1]
+        if repeated:
+            ts, lines = repeated[0]
+            more = f" (and {len(repeated) - 1} more timestep(s))" if len(repeated) > 1 else ""
+            warnings.warn(f"{self.atoms_path}: timestep {ts} is written {len(lines)} times (frames at lines "
+                          f"{', '.join(map(str, lines))}){more}, as by a run restarted and appending to its dump, or "
+                          f"dumps concatenated; each copy is read, so a time average counts it {len(lines)} times: "
+                          f"select the frames (start/stop/step, --start/--stop/--step) to count each step once",
+                          stacklevel=3)
 
     def _match(self, atom_frames):
         """Pair each atoms frame with the pairs frame of the same timestep (k-th with k-th)."""

@@ -145,7 +145,7 @@ class LiggghtsReader(LammpsReader):
     """
 
     def __init__(self, atoms, pairs=None, *, pair_compute="pgl", pair_values=None, history=0,
-                 pair_columns=None, fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=3,
+                 pair_columns=None, fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=None,
                  dt=None, wrap=True, input=None, variables=None, check_forces=True, units=None):
         if input is not None and pairs is not None and pair_values is None and pair_columns is None:
             from .lammps_input import read_input
