@@ -1324,6 +1324,228 @@ HOT_CLONES static int visit_point(const job *jb, double *out, cg_index obj, cons
 }
 #endif
 
+#ifdef HAVE_V4D
+/* The exact form for a segment along a grid axis (it moves along one slot m only): every node's value
+   separates. With rho^2 the node's squared distance to the segment's line (from its coordinates across
+   slot m, a "cross" entry: the same for every node along m) and u its coordinate along the segment
+   (from the start, in the segment's direction; an "along" entry, the same for every node across), the
+   part of the segment inside the ball is [max(0, u - h), min(L, u + h)], h = sqrt(R^2 - rho^2), and
+     value = factor (A erf-bracket),  A = exp(-rho^2 / 2w^2) = g_a g_b (the two cross slots' 1-D tables);
+   in tails (as cut_batch_flush) each limit's term is A erfc(|a| / sqrt2 w), a = limit - u: at an end of
+   the segment A Es[u] or A Ee[u] (erfc of |u| and |u - L|: along tables, by erfcx and a halved
+   exponent), at a crossing of the sphere exp(-R^2 / 2w^2) erfcx(h / sqrt2 w) = Pc (rho^2 + h^2 = R^2:
+   a cross table). Where both ends are inside the ball the bracket is A W[u] (an along table: 2 - Es - Ee,
+   or |Es - Ee| beyond an end; where those cancel by more than 4 bits, the 8-point Gauss-Legendre rule
+   on [0, L], as cut_batch_flush's fallback). Elsewhere the same test of the terms against the value
+   (16 times): a node that fails it goes to the cut batch (the general path's own closed form and
+   fallback). So a row needs no transcendental per node: the per-object tables (1-D along m; 2-D across)
+   and a few vector operations per node. The rows are along slot 2 either way: for m = 2 a row has one
+   cross entry and the along tables; for m = 0 or 1, one along entry and a row of the cross table.
+   Only where every product of terms stays normal (R^2 / 2w^2 below AXIS_EXPONENT_MAX: each term is at
+   least exp(-R^2 / 2w^2) times erfcx), n2 <= 64, MODE_VALUE and finite values (a node whose value is 0
+   then adds +-0 in its row's update, which changes no output). */
+#define AXIS_EXPONENT_MAX 600.0
+
+/* one VW-lane step of a row: val = the bracket (0 where the ball misses the segment or the terms cancel:
+   cancel's lanes), from the along entries u, Es, Ee, W and the cross entries h, A, Pc */
+INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *cancel)
+{
+    const vwd zero = {0.0};
+    const vwd lo = u - h, hi = u + h;
+    const vwl at_start = lo <= zero, at_end = hi >= L;
+    const vwd t0 = SELECT(at_start, zero, lo), t1 = SELECT(at_end, L, hi);
+    const vwl meets = t1 > t0;
+    const vwd P0 = SELECT(at_start, A * Es, Pc), P1 = SELECT(at_end, A * Ee, Pc);
+    const vwl straddle = (t0 < u) & (t1 > u);
+    const vwd twoA = A + A;
+    const vwl first = P0 > P1;
+    const vwd diff = SELECT(first, P0 - P1, P1 - P0), larger = SELECT(first, P0, P1);
+    vwd v = SELECT(straddle, (twoA - P0) - P1, diff);
+    const vwd largest = SELECT(straddle, twoA, larger);
+    const vwl both = at_start & at_end;
+    v = SELECT(both, A * W, v);
+    const vwl ok = both | (SPLAT(16.0) * v >= largest);
+    *val = (vwd)((vwl)v & (meets & ok));
+    *cancel = meets & ~ok;
+}
+
+/* (VW-multiple round-up) */
+#define AXIS_UP(n) (((size_t)(n) + 2 * VW - 1) / (2 * VW) * (2 * VW))
+
+#if defined(__GNUC__)
+__attribute__((noinline))
+#endif
+HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_index obj, const double *x,
+                                 const double *es, const cg_index first[3], const cg_index count[3],
+                                 const cg_index stride[3], int m, double amp, double L2, const picked *pick)
+{
+    const cg_target *t = jb->target;
+    const int pad = 3 - t->n_resolved, nv = jb->n_values;
+    const double R = jb->kernel->radius, R2 = R * R, w = jb->kernel->width, inv2w2 = 0.5 / (w * w);
+    const double L = sqrt(L2), sgn = es[m] < 0.0 ? -1.0 : 1.0;
+    const double factor = amp * 1.2533141373155003 * w / L; /* as cut_batch_flush's */
+    const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w), q4 = 0.25 / (w * w);
+    const int c1 = m == 0 ? 1 : 0, c2 = m == 2 ? 1 : 2; /* the cross slots */
+    const cg_index n0 = count[0], n1 = count[1], n2 = count[2], nm = count[m], na = count[c1], nb = count[c2];
+    const cg_index nc = na * nb;
+    const size_t nmp = AXIS_UP(nm), ncp = AXIS_UP(nc), nsp = AXIS_UP(n0 + n1 + n2);
+    /* node - x per slot; the cross slots' exponentials; along: u, Es, Ee, W and two work arrays (2 nmp
+       for the exponentials); cross: A, h, Pc; a row; a cut batch */
+    const size_t ncs = ncp + 2 * VW; /* a cross table and room for a row's reads past it */
+    const size_t need = nsp + nsp + 6 * nmp + 3 * ncs + AXIS_UP(n2) + CUT_BATCH_DOUBLES;
+    double *buf = scratch_get(sc, need);
+    if (!buf) return -1;
+    double *q[3] = {buf, buf + n0, buf + n0 + n1};
+    double *ge = buf + nsp, *g[3] = {ge, ge + n0, ge + n0 + n1};
+    double *U = ge + nsp, *ES = U + nmp, *EE = ES + nmp, *WW = EE + nmp, *EX = WW + nmp; /* EX: 2 nmp */
+    double *AC = EX + 2 * nmp, *HC = AC + ncs, *PC = HC + ncs;
+    double *rowbuf = PC + ncs;
+    cut_batch cuts;
+    cut_batch_init(&cuts, rowbuf + AXIS_UP(n2));
+    for (int s = 0; s < 3; ++s) {
+        if (s < pad) {
+            q[s][0] = 0.0;
+            continue;
+        }
+        const double *restrict c = t->coords[s - pad] + first[s];
+        const double xs_s = x[s - pad];
+        for (cg_index k = 0; k < count[s]; ++k) q[s][k] = c[k] - xs_s;
+    }
+    /* the cross slots' 1-D Gaussians (the along slot's entries: computed, not used) */
+    for (cg_index k = 0; k < n0 + n1 + n2; ++k) ge[k] = -(q[0][k] * q[0][k]) * inv2w2; /* (q's slots are contiguous) */
+    for (size_t k = (size_t)(n0 + n1 + n2); k < nsp; ++k) ge[k] = 0.0;
+    cg_exp_in_place(ge, (cg_index)nsp);
+    /* along: u, the ends' erfc as (E erfcx) E with E the halved exponent's exponential */
+    {
+        const double *restrict qm = q[m];
+        double *restrict e0 = EX, *restrict e1 = EX + nmp;
+        for (cg_index a = 0; a < nm; ++a) {
+            const double u = sgn * qm[a], v = u - L;
+            U[a] = u;
+            e0[a] = -(u * u) * q4;
+            e1[a] = -(v * v) * q4;
+            ES[a] = (u < 0.0 ? -u : u) * inv_sqrt2w;
+            EE[a] = (v < 0.0 ? -v : v) * inv_sqrt2w;
+        }
+        for (size_t a = (size_t)nm; a < nmp; ++a) U[a] = e0[a] = e1[a] = ES[a] = EE[a] = 0.0;
+        cg_exp_in_place(EX, (cg_index)(2 * nmp));
+        erfcx_in_place2(ES, EE, (cg_index)nmp, 1);
+        int cancels = 0;
+        for (size_t a = 0; a < nmp; ++a) {
+            const double es_a = (e0[a] * ES[a]) * e0[a], ee_a = (e1[a] * EE[a]) * e1[a], u = U[a];
+            ES[a] = es_a;
+            EE[a] = ee_a;
+            const int straddle = (u > 0.0) & (u < L);
+            const double larger = es_a > ee_a ? es_a : ee_a, diff = es_a > ee_a ? es_a - ee_a : ee_a - es_a;
+            const double v = straddle ? (2.0 - es_a) - ee_a : diff, largest = straddle ? 2.0 : larger;
+            WW[a] = v;
+            cancels |= !(16.0 * v >= largest) & (a < (size_t)nm);
+        }
+        if (cancels) {
+            double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
+            cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
+            const double scale_back = L / (1.2533141373155003 * w); /* W is in units of factor */
+            for (cg_index a = 0; a < nm; ++a) {
+                const double es_a = ES[a], ee_a = EE[a], u = U[a];
+                const int straddle = (u > 0.0) & (u < L);
+                const double larger = es_a > ee_a ? es_a : ee_a, largest = straddle ? 2.0 : larger;
+                if (16.0 * WW[a] >= largest) continue;
+                double arg[CUT_FALLBACK_POINTS + EXP_PAD];
+                for (int k = 0; k < CUT_FALLBACK_POINTS; ++k) {
+                    const double d = u - gx[k] * L;
+                    arg[k] = -(d * d) * inv2w2;
+                }
+                for (int k = CUT_FALLBACK_POINTS; k < CUT_FALLBACK_POINTS + EXP_PAD; ++k) arg[k] = 0.0;
+                cg_exp_in_place(arg, CUT_FALLBACK_POINTS);
+                double sum = 0.0;
+                for (int k = 0; k < CUT_FALLBACK_POINTS; ++k) sum += gw[k] * arg[k];
+                WW[a] = sum * scale_back;
+            }
+        }
+    }
+    /* cross: A, h and the crossing's term Pc = exp(-R^2 / 2w^2) erfcx(h / sqrt2 w) */
+    {
+        const double *restrict qa = q[c1], *restrict qb = q[c2], *restrict ga = g[c1], *restrict gb = g[c2];
+        for (cg_index a = 0; a < na; ++a)
+            for (cg_index b = 0; b < nb; ++b) {
+                const double rho2 = qa[a] * qa[a] + qb[b] * qb[b], hh = R2 - rho2;
+                const double h = hh > 0.0 ? sqrt(hh) : 0.0;
+                AC[a * nb + b] = ga[a] * gb[b];
+                HC[a * nb + b] = h;
+                PC[a * nb + b] = h * inv_sqrt2w;
+            }
+        for (size_t c = (size_t)nc; c < ncs; ++c) AC[c] = HC[c] = PC[c] = 0.0;
+        erfcx_in_place2(PC, PC + ncp / 2, (cg_index)(ncp / 2), R2 > 31.9 * (w * w));
+        const double ER = exp(-R2 * inv2w2);
+        for (size_t c = 0; c < ncp; ++c) PC[c] = ER * PC[c];
+    }
+    const double *values = jb->values + obj * nv;
+    const cg_index width = jb->out_width, s2 = stride[2];
+    const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
+    const vwd Lv = SPLAT(L), zero = {0.0};
+    for (cg_index i = 0; i < n0; ++i) {
+        if (m == 0 && !(U[i] > -R && U[i] < L + R)) continue;
+        for (cg_index j = 0; j < n1; ++j) {
+            uint64_t nonzero = 0, cancel_bits = 0;
+            if (m == 2) {
+                const cg_index c = i * n1 + j;
+                if (!(HC[c] > 0.0)) continue;
+                const vwd h = SPLAT(HC[c]), A = SPLAT(AC[c]), Pc = SPLAT(PC[c]);
+                for (cg_index kw = 0; kw < n2; kw += VW) {
+                    vwd u, Es, Ee, W, val;
+                    vwl cancel;
+                    memcpy(&u, U + kw, sizeof u);
+                    memcpy(&Es, ES + kw, sizeof Es);
+                    memcpy(&Ee, EE + kw, sizeof Ee);
+                    memcpy(&W, WW + kw, sizeof W);
+                    axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &cancel);
+                    memcpy(rowbuf + kw, &val, sizeof val);
+                    nonzero |= mask_bits((vwl)(val != zero)) << kw;
+                    cancel_bits |= mask_bits(cancel) << kw;
+                }
+            } else {
+                const cg_index a = m == 0 ? i : j, r = m == 0 ? j : i; /* along entry, cross row */
+                if (m == 1 && !(U[a] > -R && U[a] < L + R)) continue;
+                const vwd u = SPLAT(U[a]), Es = SPLAT(ES[a]), Ee = SPLAT(EE[a]), W = SPLAT(WW[a]);
+                const double *hr = HC + r * n2, *ar = AC + r * n2, *pr = PC + r * n2;
+                for (cg_index kw = 0; kw < n2; kw += VW) {
+                    vwd h, A, Pc, val;
+                    vwl cancel;
+                    memcpy(&h, hr + kw, sizeof h);
+                    memcpy(&A, ar + kw, sizeof A);
+                    memcpy(&Pc, pr + kw, sizeof Pc);
+                    axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &cancel);
+                    memcpy(rowbuf + kw, &val, sizeof val);
+                    nonzero |= mask_bits((vwl)(val != zero)) << kw;
+                    cancel_bits |= mask_bits(cancel) << kw;
+                }
+            }
+            nonzero &= valid;
+            cancel_bits &= valid;
+            const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + first[2] * s2;
+            if (nonzero) {
+                const cg_index k0 = __builtin_ctzll(nonzero), k1 = 64 - __builtin_clzll(nonzero);
+                block_add_picked(out + (base + k0 * s2) * width, factor, rowbuf + k0, k1 - k0, values, nv, pick);
+            }
+            if (cancel_bits) {
+                if (cuts.n + n2 > CUT_BATCH) cut_batch_flush_out(&cuts, jb, out, obj, es, L2, R2, w, amp, pick);
+                do {
+                    const cg_index k = __builtin_ctzll(cancel_bits);
+                    cancel_bits &= cancel_bits - 1;
+                    const int n = cuts.n++;
+                    cuts.q[0][n] = q[0][i];
+                    cuts.q[1][n] = q[1][j];
+                    cuts.q[2][n] = q[2][k];
+                    cuts.node[n] = base + k * s2;
+                } while (cancel_bits);
+            }
+        }
+    }
+    cut_batch_flush_out(&cuts, jb, out, obj, es, L2, R2, w, amp, pick);
+    return 1;
+}
+#endif
+
 #ifndef CG_SEPARABLE_WIDE
 static
 #endif
@@ -1383,6 +1605,18 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         const double lo = (end < x[a] ? end : x[a]) - R, hi = (end > x[a] ? end : x[a]) + R;
         if (!slot_range(jb, a, s, lo, hi, first, count)) return 1;
     }
+#ifdef HAVE_V4D
+    /* a segment along a grid axis: every node's value from 1-D and cross-section tables (visit_axis) */
+    if (hybrid && jb->mode == MODE_VALUE && L2 > 0.0 && count[2] <= 64 && R2 * inv2w2 < AXIS_EXPONENT_MAX &&
+        (es[0] != 0.0) + (es[1] != 0.0) + (es[2] != 0.0) == 1) {
+        const double amp = scale * kn->prefactor;
+        const double *v = jb->values + obj * nv;
+        int finite = isfinite(2.0 * (amp * 1.2533141373155003 * w / sqrt(L2)));
+        for (int c = 0; c < nv; ++c) finite &= isfinite(v[c]);
+        if (finite) return visit_axis(jb, out, sc, obj, x, es, first, count, stride, es[2] != 0.0 ? 2 : es[1] != 0.0,
+                                      amp, L2, &pick);
+    }
+#endif
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
     const size_t per_table_f = (size_t)(n0 + n1 + n2); /* hybrid: the factorised weights (below) */
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
