@@ -1348,7 +1348,7 @@ HOT_CLONES static int visit_point(const job *jb, double *out, cg_index obj, cons
 
 /* one VW-lane step of a row: val = the bracket (0 where the ball misses the segment or the terms cancel:
    cancel's lanes), from the along entries u, Es, Ee, W and the cross entries h, A, Pc */
-INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *cancel)
+INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *in, vwl *cancel)
 {
     const vwd zero = {0.0};
     const vwd lo = u - h, hi = u + h;
@@ -1366,8 +1366,15 @@ INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L
     v = SELECT(both, A * W, v);
     const vwl ok = both | (SPLAT(16.0) * v >= largest);
     *val = (vwd)((vwl)v & (meets & ok));
+    *in = meets;
     *cancel = meets & ~ok;
 }
+
+#if VW == 8
+static const vwd lane_index = {0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0};
+#else
+static const vwd lane_index = {0.0, 1.0, 2.0, 3.0};
+#endif
 
 /* (VW-multiple round-up) */
 #define AXIS_UP(n) (((size_t)(n) + 2 * VW - 1) / (2 * VW) * (2 * VW))
@@ -1387,21 +1394,21 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w), q4 = 0.25 / (w * w);
     const int c1 = m == 0 ? 1 : 0, c2 = m == 2 ? 1 : 2; /* the cross slots */
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2], nm = count[m], na = count[c1], nb = count[c2];
-    const cg_index nc = na * nb;
+    const cg_index nbp = (nb + VW - 1) / VW * VW, nc = na * nbp; /* cross rows in whole vectors */
     const size_t nmp = AXIS_UP(nm), ncp = AXIS_UP(nc), nsp = AXIS_UP(n0 + n1 + n2);
     /* node - x per slot; the cross slots' exponentials; along: u, Es, Ee, W and two work arrays (2 nmp
        for the exponentials); cross: A, h, Pc; a row; a cut batch */
     const size_t ncs = ncp + 2 * VW; /* a cross table and room for a row's reads past it */
-    const size_t need = nsp + nsp + 6 * nmp + 3 * ncs + AXIS_UP(n2) + CUT_BATCH_DOUBLES;
+    const size_t need = nsp + nsp + 6 * nmp + 3 * ncs + 2 * AXIS_UP(n2) + CUT_BATCH_DOUBLES;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *q[3] = {buf, buf + n0, buf + n0 + n1};
     double *ge = buf + nsp, *g[3] = {ge, ge + n0, ge + n0 + n1};
     double *U = ge + nsp, *ES = U + nmp, *EE = ES + nmp, *WW = EE + nmp, *EX = WW + nmp; /* EX: 2 nmp */
     double *AC = EX + 2 * nmp, *HC = AC + ncs, *PC = HC + ncs;
-    double *rowbuf = PC + ncs;
+    double *const rowbufs[2] = {PC + ncs, PC + ncs + AXIS_UP(n2)}; /* two rows: see pending below */
     cut_batch cuts;
-    cut_batch_init(&cuts, rowbuf + AXIS_UP(n2));
+    cut_batch_init(&cuts, rowbufs[1] + AXIS_UP(n2));
     for (int s = 0; s < 3; ++s) {
         if (s < pad) {
             q[s][0] = 0.0;
@@ -1463,70 +1470,124 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
         }
     }
-    /* cross: A, h and the crossing's term Pc = exp(-R^2 / 2w^2) erfcx(h / sqrt2 w) */
+    /* cross: A, h and the crossing's term Pc = exp(-R^2 / 2w^2) erfcx(h / sqrt2 w), rows of nbp entries
+       (whole vectors; h = 0 past nb) */
+    cg_index a_lo = 0, a_hi = 0, vlo[64], vhi[64];
     {
-        const double *restrict qa = q[c1], *restrict qb = q[c2], *restrict ga = g[c1], *restrict gb = g[c2];
-        for (cg_index a = 0; a < na; ++a)
-            for (cg_index b = 0; b < nb; ++b) {
-                const double rho2 = qa[a] * qa[a] + qb[b] * qb[b], hh = R2 - rho2;
-                const double h = hh > 0.0 ? sqrt(hh) : 0.0;
-                AC[a * nb + b] = ga[a] * gb[b];
-                HC[a * nb + b] = h;
-                PC[a * nb + b] = h * inv_sqrt2w;
+        const double *restrict qa = q[c1], *restrict ga = g[c1];
+        double qb[64 + VW], gb[64 + VW];
+        for (cg_index b = 0; b < nbp; ++b) {
+            qb[b] = b < nb ? q[c2][b] : 0.0;
+            gb[b] = b < nb ? g[c2][b] : 0.0;
+        }
+        /* the rows whose line meets the ball, [a_lo, a_hi); per row, its vectors with h > 0, [vlo, vhi) */
+        while (a_lo < na && !(qa[a_lo] * qa[a_lo] < R2)) ++a_lo;
+        a_hi = a_lo;
+        while (a_hi < na && qa[a_hi] * qa[a_hi] < R2) ++a_hi;
+        const vwd R2v = SPLAT(R2), isw = SPLAT(inv_sqrt2w), zero = {0.0};
+        for (cg_index a = a_lo; a < a_hi; ++a) {
+            const vwd qa2 = SPLAT(qa[a] * qa[a]), gaa = SPLAT(ga[a]);
+            cg_index lo = nbp, hi = 0;
+            for (cg_index bw = 0; bw < nbp; bw += VW) {
+                vwd qbv, gbv, h;
+                memcpy(&qbv, qb + bw, sizeof qbv);
+                memcpy(&gbv, gb + bw, sizeof gbv);
+                vwd hh = R2v - (qa2 + qbv * qbv);
+                hh = SELECT(hh > zero, hh, zero);
+                sqrt_lanes(hh, &h);
+                const vwl in_row = (vwl)(SPLAT((double)(bw - nb)) + lane_index < zero);
+                h = (vwd)((vwl)h & in_row);
+                if (mask_bits((vwl)(h > zero))) {
+                    lo = lo < bw ? lo : bw;
+                    hi = bw + VW;
+                }
+                const vwd A = gaa * gbv, arg = h * isw;
+                memcpy(AC + a * nbp + bw, &A, sizeof A);
+                memcpy(HC + a * nbp + bw, &h, sizeof h);
+                memcpy(PC + a * nbp + bw, &arg, sizeof arg);
             }
-        for (size_t c = (size_t)nc; c < ncs; ++c) AC[c] = HC[c] = PC[c] = 0.0;
-        erfcx_in_place2(PC, PC + ncp / 2, (cg_index)(ncp / 2), R2 > 31.9 * (w * w));
+            vlo[a] = lo;
+            vhi[a] = hi;
+        }
+        if (m == 2) { /* (the rows read h: 0 in the rows that miss the ball) */
+            for (cg_index c = 0; c < a_lo * nbp; ++c) HC[c] = 0.0;
+            for (cg_index c = a_hi * nbp; c < nc; ++c) HC[c] = 0.0;
+        }
+        /* erfcx of the rows that meet the ball (two halves; the second may reach a vector past them,
+           which the table has room for, and whose values are not used) */
+        const cg_index off = a_lo * nbp, nvec = (a_hi - a_lo) * nbp / VW, half = (nvec + 1) / 2 * VW;
+        for (cg_index c = off + nvec * VW; c < off + 2 * half; ++c) PC[c] = 0.0;
+        erfcx_in_place2(PC + off, PC + off + half, half, R2 > 31.9 * (w * w));
         const double ER = exp(-R2 * inv2w2);
-        for (size_t c = 0; c < ncp; ++c) PC[c] = ER * PC[c];
+        for (cg_index c = off; c < off + nvec * VW; ++c) PC[c] = ER * PC[c];
     }
     const double *values = jb->values + obj * nv;
     const cg_index width = jb->out_width, s2 = stride[2];
     const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
-    const vwd Lv = SPLAT(L), zero = {0.0};
+    const vwd Lv = SPLAT(L);
+    /* a row's update of the output waits for the next row's values (as rows_of_rule's: read right after
+       their vector store, the row would stall store forwarding) */
+    const double *pending = NULL;
+    cg_index pending_at = 0, pending_n = 0;
+    int parity = 0;
     for (cg_index i = 0; i < n0; ++i) {
         if (m == 0 && !(U[i] > -R && U[i] < L + R)) continue;
-        for (cg_index j = 0; j < n1; ++j) {
-            uint64_t nonzero = 0, cancel_bits = 0;
+        if (m != 0 && (i < a_lo || i >= a_hi)) continue; /* (m = 1, 2: plane i is cross row i's) */
+        cg_index base = (first[0] + i) * stride[0] + first[1] * stride[1] + first[2] * s2;
+        for (cg_index j = 0; j < n1; ++j, base += stride[1]) {
+            uint64_t meets = 0, cancel_bits = 0;
+            double *const rowbuf = rowbufs[parity];
             if (m == 2) {
-                const cg_index c = i * n1 + j;
+                const cg_index c = i * nbp + j;
                 if (!(HC[c] > 0.0)) continue;
                 const vwd h = SPLAT(HC[c]), A = SPLAT(AC[c]), Pc = SPLAT(PC[c]);
                 for (cg_index kw = 0; kw < n2; kw += VW) {
                     vwd u, Es, Ee, W, val;
-                    vwl cancel;
+                    vwl in, cancel;
                     memcpy(&u, U + kw, sizeof u);
                     memcpy(&Es, ES + kw, sizeof Es);
                     memcpy(&Ee, EE + kw, sizeof Ee);
                     memcpy(&W, WW + kw, sizeof W);
-                    axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &cancel);
+                    axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
                     memcpy(rowbuf + kw, &val, sizeof val);
-                    nonzero |= mask_bits((vwl)(val != zero)) << kw;
-                    cancel_bits |= mask_bits(cancel) << kw;
+                    uint64_t bi, bc, unused;
+                    mask_bits3(in, cancel, in, &bi, &bc, &unused);
+                    meets |= bi << kw;
+                    cancel_bits |= bc << kw;
                 }
             } else {
                 const cg_index a = m == 0 ? i : j, r = m == 0 ? j : i; /* along entry, cross row */
                 if (m == 1 && !(U[a] > -R && U[a] < L + R)) continue;
+                if (r < a_lo || r >= a_hi || vlo[r] >= vhi[r]) continue;
                 const vwd u = SPLAT(U[a]), Es = SPLAT(ES[a]), Ee = SPLAT(EE[a]), W = SPLAT(WW[a]);
-                const double *hr = HC + r * n2, *ar = AC + r * n2, *pr = PC + r * n2;
-                for (cg_index kw = 0; kw < n2; kw += VW) {
+                const double *hr = HC + r * nbp, *ar = AC + r * nbp, *pr = PC + r * nbp;
+                for (cg_index kw = vlo[r]; kw < vhi[r]; kw += VW) {
                     vwd h, A, Pc, val;
-                    vwl cancel;
+                    vwl in, cancel;
                     memcpy(&h, hr + kw, sizeof h);
                     memcpy(&A, ar + kw, sizeof A);
                     memcpy(&Pc, pr + kw, sizeof Pc);
-                    axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &cancel);
+                    axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
                     memcpy(rowbuf + kw, &val, sizeof val);
-                    nonzero |= mask_bits((vwl)(val != zero)) << kw;
-                    cancel_bits |= mask_bits(cancel) << kw;
+                    uint64_t bi, bc, unused;
+                    mask_bits3(in, cancel, in, &bi, &bc, &unused);
+                    meets |= bi << kw;
+                    cancel_bits |= bc << kw;
                 }
             }
-            nonzero &= valid;
-            cancel_bits &= valid;
-            const cg_index base = (first[0] + i) * stride[0] + (first[1] + j) * stride[1] + first[2] * s2;
-            if (nonzero) {
-                const cg_index k0 = __builtin_ctzll(nonzero), k1 = 64 - __builtin_clzll(nonzero);
-                block_add_picked(out + (base + k0 * s2) * width, factor, rowbuf + k0, k1 - k0, values, nv, pick);
+            /* (the row's nodes that meet the segment are an interval; those cancelled in it are 0 in
+               rowbuf, and add +-0) */
+            meets &= valid;
+            if (pending) block_add_picked(out + pending_at, factor, pending, pending_n, values, nv, pick);
+            pending = NULL;
+            if (meets) {
+                const cg_index k0 = __builtin_ctzll(meets), k1 = 64 - __builtin_clzll(meets);
+                pending = rowbuf + k0;
+                pending_at = (base + k0 * s2) * width;
+                pending_n = k1 - k0;
+                parity ^= 1;
             }
+            cancel_bits &= valid;
             if (cancel_bits) {
                 if (cuts.n + n2 > CUT_BATCH) cut_batch_flush_out(&cuts, jb, out, obj, es, L2, R2, w, amp, pick);
                 do {
@@ -1541,6 +1602,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
         }
     }
+    if (pending) block_add_picked(out + pending_at, factor, pending, pending_n, values, nv, pick);
     cut_batch_flush_out(&cuts, jb, out, obj, es, L2, R2, w, amp, pick);
     return 1;
 }
@@ -1607,7 +1669,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     }
 #ifdef HAVE_V4D
     /* a segment along a grid axis: every node's value from 1-D and cross-section tables (visit_axis) */
-    if (hybrid && jb->mode == MODE_VALUE && L2 > 0.0 && count[2] <= 64 && R2 * inv2w2 < AXIS_EXPONENT_MAX &&
+    if (hybrid && jb->mode == MODE_VALUE && L2 > 0.0 && count[0] <= 64 && count[1] <= 64 && count[2] <= 64 && R2 * inv2w2 < AXIS_EXPONENT_MAX &&
         (es[0] != 0.0) + (es[1] != 0.0) + (es[2] != 0.0) == 1) {
         const double amp = scale * kn->prefactor;
         const double *v = jb->values + obj * nv;
