@@ -1668,8 +1668,9 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         if (!slot_range(jb, a, s, lo, hi, first, count)) return 1;
     }
 #ifdef HAVE_V4D
-    /* a segment along a grid axis: every node's value from 1-D and cross-section tables (visit_axis) */
-    if (hybrid && jb->mode == MODE_VALUE && L2 > 0.0 && count[0] <= 64 && count[1] <= 64 && count[2] <= 64 && R2 * inv2w2 < AXIS_EXPONENT_MAX &&
+    /* a segment along a grid axis: every node's value from 1-D and cross-section tables (visit_axis); not on
+       profiles (one resolved axis), whose blocks (cg_profile.c) give this visit's general bits */
+    if (hybrid && nr > 1 && jb->mode == MODE_VALUE && L2 > 0.0 && count[0] <= 64 && count[1] <= 64 && count[2] <= 64 && R2 * inv2w2 < AXIS_EXPONENT_MAX &&
         (es[0] != 0.0) + (es[1] != 0.0) + (es[2] != 0.0) == 1) {
         const double amp = scale * kn->prefactor;
         const double *v = jb->values + obj * nv;
