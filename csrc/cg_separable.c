@@ -1395,7 +1395,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const int c1 = m == 0 ? 1 : 0, c2 = m == 2 ? 1 : 2; /* the cross slots */
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2], nm = count[m], na = count[c1], nb = count[c2];
     const cg_index nbp = (nb + VW - 1) / VW * VW, nc = na * nbp; /* cross rows in whole vectors */
-    const size_t nmp = AXIS_UP(nm), ncp = AXIS_UP(nc), nsp = AXIS_UP(n0 + n1 + n2);
+    const size_t nmp = (size_t)(nm + VW - 1) / VW * VW, ncp = AXIS_UP(nc), nsp = AXIS_UP(n0 + n1 + n2);
     /* node - x per slot; the cross slots' exponentials; along: u, Es, Ee, W and two work arrays (2 nmp
        for the exponentials); cross: A, h, Pc; a row; a cut batch */
     const size_t ncs = ncp + 2 * VW; /* a cross table and room for a row's reads past it */
