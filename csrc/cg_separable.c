@@ -1376,6 +1376,19 @@ static const vwd lane_index = {0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0};
 static const vwd lane_index = {0.0, 1.0, 2.0, 3.0};
 #endif
 
+/* two masks' lanes as bits (mask_bits of each; in the 4-wide build one horizontal OR for both) */
+INLINE void mask_bits2(vwl a, vwl b, uint64_t *ba, uint64_t *bb)
+{
+#if VW == 4
+    const vwl zero = {0};
+    uint64_t unused;
+    mask_bits3(a, b, zero, ba, bb, &unused);
+#else
+    *ba = mask_bits(a);
+    *bb = mask_bits(b);
+#endif
+}
+
 /* (VW-multiple round-up) */
 #define AXIS_UP(n) (((size_t)(n) + 2 * VW - 1) / (2 * VW) * (2 * VW))
 
@@ -1550,8 +1563,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                     memcpy(&W, WW + kw, sizeof W);
                     axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
                     memcpy(rowbuf + kw, &val, sizeof val);
-                    uint64_t bi, bc, unused;
-                    mask_bits3(in, cancel, in, &bi, &bc, &unused);
+                    uint64_t bi, bc;
+                    mask_bits2(in, cancel, &bi, &bc);
                     meets |= bi << kw;
                     cancel_bits |= bc << kw;
                 }
@@ -1569,8 +1582,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                     memcpy(&Pc, pr + kw, sizeof Pc);
                     axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
                     memcpy(rowbuf + kw, &val, sizeof val);
-                    uint64_t bi, bc, unused;
-                    mask_bits3(in, cancel, in, &bi, &bc, &unused);
+                    uint64_t bi, bc;
+                    mask_bits2(in, cancel, &bi, &bc);
                     meets |= bi << kw;
                     cancel_bits |= bc << kw;
                 }
