@@ -1543,11 +1543,20 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const double *pending = NULL;
     cg_index pending_at = 0, pending_n = 0;
     int parity = 0;
-    for (cg_index i = 0; i < n0; ++i) {
-        if (m == 0 && !(U[i] > -R && U[i] < L + R)) continue;
-        if (m != 0 && (i < a_lo || i >= a_hi)) continue; /* (m = 1, 2: plane i is cross row i's) */
-        cg_index base = (first[0] + i) * stride[0] + first[1] * stride[1] + first[2] * s2;
-        for (cg_index j = 0; j < n1; ++j, base += stride[1]) {
+    /* the along entries within R of the segment's line range, [u_lo, u_hi) (u is monotone along its slot) */
+    cg_index u_lo = 0, u_hi;
+    while (u_lo < nm && !(U[u_lo] > -R && U[u_lo] < L + R)) ++u_lo;
+    u_hi = u_lo;
+    while (u_hi < nm && U[u_hi] > -R && U[u_hi] < L + R) ++u_hi;
+    /* the planes, and the rows of a plane, that can meet the segment: along entries in range, cross rows
+       that meet the ball (m = 0: the rows are cross rows; m = 1: along entries; m = 2: the plane's cross
+       row's entries, whole vectors of them) */
+    const cg_index i_lo = m == 0 ? u_lo : a_lo, i_hi = m == 0 ? u_hi : a_hi;
+    for (cg_index i = i_lo; i < i_hi; ++i) {
+        const cg_index j_lo = m == 0 ? a_lo : (m == 1 ? u_lo : vlo[i]);
+        const cg_index j_hi = m == 0 ? a_hi : (m == 1 ? u_hi : (vhi[i] < n1 ? vhi[i] : n1));
+        cg_index base = (first[0] + i) * stride[0] + (first[1] + j_lo) * stride[1] + first[2] * s2;
+        for (cg_index j = j_lo; j < j_hi; ++j, base += stride[1]) {
             uint64_t meets = 0, cancel_bits = 0;
             double *const rowbuf = rowbufs[parity];
             if (m == 2) {
@@ -1570,8 +1579,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 }
             } else {
                 const cg_index a = m == 0 ? i : j, r = m == 0 ? j : i; /* along entry, cross row */
-                if (m == 1 && !(U[a] > -R && U[a] < L + R)) continue;
-                if (r < a_lo || r >= a_hi || vlo[r] >= vhi[r]) continue;
+                if (vlo[r] >= vhi[r]) continue;
                 const vwd u = SPLAT(U[a]), Es = SPLAT(ES[a]), Ee = SPLAT(EE[a]), W = SPLAT(WW[a]);
                 const double *hr = HC + r * nbp, *ar = AC + r * nbp, *pr = PC + r * nbp;
                 for (cg_index kw = vlo[r]; kw < vhi[r]; kw += VW) {
