@@ -200,3 +200,19 @@ def test_axis_segments_the_sphere_cuts_near_an_end(axis):
                 # no double-precision path keeps 1e-12 of such values: there the two paths agree, above)
                 want = float(mp_psi(list(node - s), list(v), w, R))
                 assert want > 0.0 and abs(fast[k] - want) <= RTOL * want, (axis, delta, fast[k], want)
+
+
+def test_axis_segments_with_picked_values():
+    """Nine values per segment of which one (a force along the branch: W1's contact stress) or three are not 0
+    (the values picked: one folds into the row's terms), against the general path."""
+    rng = np.random.default_rng(13)
+    w, cutoff = 0.5, 4.0
+    starts, vectors = axis_segments(rng, 3, 12, 0.9, False, 2.5, 5.5)
+    branch = vectors / np.linalg.norm(vectors, axis=1)[:, None]
+    magnitude = rng.uniform(0.5, 1.5, size=(12, 1))
+    across = np.roll(branch, 1, axis=1)
+    for force in (magnitude * branch, magnitude * (branch + 0.3 * across)):
+        values = np.einsum("ni,nj->nij", force, branch).reshape(12, 9)
+        fast = scatter(BOX3, SHAPE3, starts, vectors, values, w, cutoff)
+        slow = scatter(BOX3, SHAPE3, starts, tilted(vectors), values, w, cutoff)
+        assert_values_equal(fast, slow, "picked values")
