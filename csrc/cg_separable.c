@@ -26,6 +26,10 @@
  * the closed erf form on the part of the segment inside the ball, in tails
  * (erfcx), exact relative to each value (gathered and evaluated in vectorised
  * batches); segments too long for such a rule go to the node-by-node path.
+ * A segment along a grid axis (it moves along one slot; not on profiles) takes
+ * visit_axis instead: every node's exact value from per-object 1-D tables
+ * along the segment and a table of its cross-section (no transcendental per
+ * node, no rule), the few nodes whose tail terms cancel through the cut batch.
  *
  * Resolved axes are placed in three "slots", right-aligned: the last
  * resolved axis (stride 1 in the output) is always slot 2; missing slots
