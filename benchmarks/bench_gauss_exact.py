@@ -3,7 +3,8 @@
     python benchmarks/bench_gauss_exact.py [--baseline TREE] [--cutoffs 3,5] [--threads 1,2] [--rounds 3]
                                            [--repeat 3]
 
-W1 (or --workload jittered: its particles moved by up to 0.05, no contact along an axis): the 46^3 simple-cubic lattice of benchmarks/workloads.py (285,660 contacts) on an XYZ grid of 46^3 nodes;
+W1 (or --workload jittered: its particles moved by up to 0.05, no contact along an axis): the 46^3 simple-cubic
+lattice of benchmarks/workloads.py (285,660 contacts) on an XYZ grid of 46^3 nodes;
 field: contact_stress alone; kernel: Gaussian w = 1.0, normalize="truncated", exact line integrals (the default
 line_quadrature), at each cutoff (in w). Each measurement runs in a fresh process importing cgbound from a tree
 (this one, or --baseline: another checkout with its extension built in place, e.g. a git worktree of main), and

@@ -1349,6 +1349,10 @@ HOT_CLONES static int visit_point(const job *jb, double *out, cg_index obj, cons
    least exp(-R^2 / 2w^2) times erfcx), n2 <= 64, MODE_VALUE and finite values (a node whose value is 0
    then adds +-0 in its row's update, which changes no output). */
 #define AXIS_EXPONENT_MAX 600.0
+/* and A W, ~ (L / w) exp(-R^2 / 2w^2) at least, normal: below exp(-AXIS_VALUE_EXPONENT_MAX) it loses digits
+   or is 0 while the node's value is normal (short segments with large cutoffs: the general path; the test's
+   L >= 1e-20 w in the dispatch keeps log off every other segment's way, 600 + 46 < 700) */
+#define AXIS_VALUE_EXPONENT_MAX 700.0
 
 /* one VW-lane step of a row: val = the bracket (0 where the ball misses the segment or the terms cancel:
    cancel's lanes), from the along entries u, Es, Ee, W and the cross entries h, A, Pc */
@@ -1393,7 +1397,7 @@ INLINE void mask_bits2(vwl a, vwl b, uint64_t *ba, uint64_t *bb)
 #endif
 }
 
-/* (VW-multiple round-up) */
+/* (round-up to a multiple of 2 VW) */
 #define AXIS_UP(n) (((size_t)(n) + 2 * VW - 1) / (2 * VW) * (2 * VW))
 
 #if defined(__GNUC__)
@@ -1695,8 +1699,9 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
 #ifdef HAVE_V4D
     /* a segment along a grid axis: every node's value from 1-D and cross-section tables (visit_axis); not on
        profiles (one resolved axis), whose blocks (cg_profile.c) give this visit's general bits */
-    if (hybrid && nr > 1 && jb->mode == MODE_VALUE && L2 > 0.0 && count[0] <= 64 && count[1] <= 64 && count[2] <= 64 && R2 * inv2w2 < AXIS_EXPONENT_MAX &&
-        (es[0] != 0.0) + (es[1] != 0.0) + (es[2] != 0.0) == 1) {
+    if (hybrid && nr > 1 && jb->mode == MODE_VALUE && L2 > 0.0 && count[0] <= 64 && count[1] <= 64 &&
+        count[2] <= 64 && (es[0] != 0.0) + (es[1] != 0.0) + (es[2] != 0.0) == 1 && R2 * inv2w2 < AXIS_EXPONENT_MAX &&
+        (L2 >= 1e-40 * (w * w) || R2 * inv2w2 - 0.5 * log(L2 / (w * w)) < AXIS_VALUE_EXPONENT_MAX)) {
         const double amp = scale * kn->prefactor;
         const double *v = jb->values + obj * nv;
         int finite = isfinite(2.0 * (amp * 1.2533141373155003 * w / sqrt(L2)));

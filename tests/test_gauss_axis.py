@@ -13,7 +13,9 @@ import pytest
 import cgbound as cg
 from cgbound import _core, _engine
 from helpers import narrow_build
-from test_hard_cases import mp_psi
+import mpmath as mp
+
+from test_hard_cases import mp_gauss, mp_psi
 
 RTOL = 1e-12
 
@@ -69,10 +71,11 @@ GRID3 = cg.Grid(BOX3, SHAPE3)
 @pytest.mark.parametrize("cutoff", [1.5, 3.0, 5.0, 7.0])
 def test_axis_segments_equal_the_general_path(cutoff):
     """Along each axis, both directions, from nodes and between them, lengths from 1e-9 w (every node's
-    W by the Gauss-Legendre fallback) to 4.5 w (the longest rule); cutoff 7 w takes erfcx's long series."""
+    W by the Gauss-Legendre fallback; 1e-7 and 1e-5 w: about the fallback's threshold) to 4.5 w (the longest rule);
+    cutoff 7 w takes erfcx's long series."""
     rng = np.random.default_rng(int(cutoff * 10))
     w = 0.6
-    for length_over_w in (1e-9, 1e-3, 0.07, 0.4, 1.0, 2.5, 4.5):
+    for length_over_w in (1e-9, 1e-7, 1e-5, 1e-3, 0.07, 0.4, 1.0, 2.5, 4.5):
         for on_nodes in (True, False):
             starts, vectors = axis_segments(rng, 3, 6, length_over_w * w, on_nodes, 3.0, 5.0, GRID3)
             values = rng.uniform(0.5, 1.5, size=(6, 1))   # (one sign: no cancellation between segments)
@@ -216,3 +219,23 @@ def test_axis_segments_with_picked_values():
         fast = scatter(BOX3, SHAPE3, starts, vectors, values, w, cutoff)
         slow = scatter(BOX3, SHAPE3, starts, tilted(vectors), values, w, cutoff)
         assert_values_equal(fast, slow, "picked values")
+
+
+def test_short_axis_segments_with_a_large_cutoff():
+    """Segments of 1e-40 to 1e-100 w at a cutoff of 34.6 w: every node's value is normal (the point Gaussian to
+    relative L / w), though (L / w) exp(-R^2 / 2w^2), the scale of W's fallback, is not: against the general path
+    and mpmath's point Gaussian."""
+    box, shape = cg.Box([0, 0, 0], [12, 12, 12]), (25, 25, 25)
+    grid = cg.Grid(box, shape)
+    nodes = np.stack(np.meshgrid(*grid.axis_coordinates, indexing="ij"), -1).reshape(-1, 3)
+    w, cutoff = 0.17, 34.6
+    s = np.array([6.1, 5.9, 6.05])
+    for length_over_w in (1e-40, 1e-60, 1e-100):
+        v = np.array([0.0, 0.0, length_over_w * w])
+        fast = scatter(box, shape, s[None], v[None], [[1.0]], w, cutoff)[:, 0]
+        slow = scatter(box, shape, s[None], tilted(v[None]), [[1.0]], w, cutoff)[:, 0]
+        assert_values_equal(fast, slow, length_over_w)
+        order = np.argsort(np.where(fast != 0.0, fast, np.inf))[:4]   # the smallest values
+        want = np.array([float(mp_gauss(sum(mp.mpf(float(x)) ** 2 for x in nodes[k] - s), w, cutoff * w, 3))
+                         for k in order])
+        assert np.max(np.abs(fast[order] - want) / want) <= RTOL, length_over_w
