@@ -728,6 +728,8 @@ INLINE int cut_values(cg_index n, const double *restrict t0s, const double *rest
    against 1 / x). Where a term exceeds 16 times the value (cancellation of
    more than 4 bits), the interval is that short: its integrand varies by
    less than 7 % and an 8-point Gauss-Legendre rule is exact to round-off. */
+INLINE void cut_batch_add(const cut_batch *b, int n, const job *jb, double *out, cg_index obj, const picked *pick);
+
 INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index obj, const double *e, double L2,
                             double R2, double w, double amp, const picked *pick)
 {
@@ -796,6 +798,13 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
         }
     }
     /* (value 0: the segment misses this node's ball) */
+    cut_batch_add(b, n, jb, out, obj, pick);
+}
+
+/* the batch's n values (b->value) times the object's values, added to its nodes */
+INLINE void cut_batch_add(const cut_batch *b, int n, const job *jb, double *out, cg_index obj, const picked *pick)
+{
+    const double *restrict value = b->value;
     if (jb->mode == MODE_VALUE) {
         const double *restrict vals = jb->values + obj * jb->n_values;
         const cg_index width = jb->out_width;
@@ -1397,6 +1406,40 @@ INLINE void mask_bits2(vwl a, vwl b, uint64_t *ba, uint64_t *bb)
 #endif
 }
 
+/* visit_axis's cancelling nodes, gathered in a cut batch as q[0] = A, q[1] = d0 and q[2] = span: the part
+   of the segment inside the node's ball is [u + d0, u + d0 + span] (d0 = -u or -h, span = t1 - t0 from
+   visit_axis's own u, h and L: where the sphere crosses within a few ulp of an end, exact differences; the cut
+   batch's closed form rebuilds them in units of the segment, at the scale of R / L, and loses such a sliver to
+   rounding). The terms cancel, so the interval is short (as cut_batch_flush's fallback): there the 8-point
+   Gauss-Legendre rule is exact to round-off,
+     value = amp / L  A span sum_g gw_g exp(-(d0 + gx_g span)^2 / 2w^2)
+   (A times an exponential is normal: rho^2 + d^2 <= R^2 inside the ball, R^2 / 2w^2 < AXIS_EXPONENT_MAX). */
+static void axis_cut_flush(cut_batch *b, const job *jb, double *out, cg_index obj, double L, double w, double amp,
+                           const picked *pick)
+{
+    const int n = b->n;
+    b->n = 0;
+    if (n == 0) return;
+    double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
+    cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
+    const double inv2w2 = 0.5 / (w * w), per_length = amp / L;
+    double *restrict arg = b->arg; /* CUT_BATCH_WORK CUT_BATCH > CUT_FALLBACK_POINTS CUT_BATCH + EXP_PAD */
+    const cg_index n_args = (cg_index)CUT_FALLBACK_POINTS * n;
+    for (int g = 0; g < CUT_FALLBACK_POINTS; ++g)
+        for (int i = 0; i < n; ++i) {
+            const double d = b->q[1][i] + gx[g] * b->q[2][i];
+            arg[g * n + i] = -(d * d) * inv2w2;
+        }
+    for (cg_index k = n_args; k < n_args + EXP_PAD; ++k) arg[k] = 0.0;
+    cg_exp_in_place(arg, n_args);
+    for (int i = 0; i < n; ++i) {
+        double sum = 0.0;
+        for (int g = 0; g < CUT_FALLBACK_POINTS; ++g) sum += gw[g] * arg[g * n + i];
+        b->value[i] = (b->q[0][i] * sum) * (b->q[2][i] * per_length);
+    }
+    cut_batch_add(b, n, jb, out, obj, pick);
+}
+
 /* (round-up to a multiple of 2 VW) */
 #define AXIS_UP(n) (((size_t)(n) + 2 * VW - 1) / (2 * VW) * (2 * VW))
 
@@ -1618,21 +1661,28 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
             cancel_bits &= valid;
             if (cancel_bits) {
-                if (cuts.n + n2 > CUT_BATCH) cut_batch_flush_out(&cuts, jb, out, obj, es, L2, R2, w, amp, pick);
+                if (cuts.n + n2 > CUT_BATCH) axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
                 do {
                     const cg_index k = __builtin_ctzll(cancel_bits);
                     cancel_bits &= cancel_bits - 1;
+                    /* the node's along and cross entries (as axis_lanes's) */
+                    const cg_index at = m == 2 ? k : (m == 0 ? i : j);
+                    const cg_index cr = m == 2 ? i * nbp + j : (m == 0 ? j : i) * nbp + k;
+                    const double u = U[at], h = HC[cr];
+                    const double lo = u - h, hi = u + h;
+                    const int at_start = lo <= 0.0, at_end = hi >= L;
+                    const double t0 = at_start ? 0.0 : lo, t1 = at_end ? L : hi;
                     const int n = cuts.n++;
-                    cuts.q[0][n] = q[0][i];
-                    cuts.q[1][n] = q[1][j];
-                    cuts.q[2][n] = q[2][k];
+                    cuts.q[0][n] = AC[cr];
+                    cuts.q[1][n] = at_start ? -u : -h;
+                    cuts.q[2][n] = t1 - t0;
                     cuts.node[n] = base + k * s2;
                 } while (cancel_bits);
             }
         }
     }
     if (pending) block_add_picked(out + pending_at, factor, pending, pending_n, values, nv, pick);
-    cut_batch_flush_out(&cuts, jb, out, obj, es, L2, R2, w, amp, pick);
+    axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
     return 1;
 }
 #endif

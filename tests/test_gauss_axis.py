@@ -40,9 +40,35 @@ def tilted(vectors):
     return out
 
 
-def assert_values_equal(fast, slow, what):
+def slivers(grid, starts, vectors, R, w):
+    """The nodes (flat, non-periodic grids) whose ball some axis segment leaves, or barely meets, with less than
+    1e-2 w of it inside (a short part [t0, t1] with an end where the sphere crosses the segment). Their value is
+    relative to that part's length, and its ends' rounding (eps R) takes digits: on the general path, which
+    rebuilds the part in units of the segment, more than in visit_axis, which has the crossing from u and h
+    (exact at rho = 0: test_axis_segments_sliver_at_an_end_on_the_line). Left out of the comparison with the
+    general path."""
+    nodes = np.stack(np.meshgrid(*grid.axis_coordinates, indexing="ij"), -1).reshape(-1, len(grid.shape))
+    out = np.zeros(len(nodes), bool)
+    for s, v in zip(np.atleast_2d(starts), np.atleast_2d(vectors)):
+        a = int(np.argmax(np.abs(v)))
+        q = nodes - s
+        u = q[:, a] * np.sign(v[a])
+        h2 = R * R - (np.sum(q * q, axis=1) - q[:, a] ** 2)
+        h = np.sqrt(np.maximum(h2, 0.0))
+        lo, hi, L = u - h, u + h, abs(v[a])
+        span = np.minimum(hi, L) - np.maximum(lo, 0.0)
+        crossing = (lo > 0.0) | (hi < L) | (h2 < 1e-4 * w * w)
+        out |= crossing & (h2 > -1e-9 * w * w) & (span > -1e-9 * w) & (span < 1e-2 * w)
+    return out
+
+
+def assert_values_equal(fast, slow, what, skip=None):
+    """equal to 1e-12 of each value, the same nodes empty (skip: nodes left out, flat)"""
     assert np.all(np.isfinite(fast)), what
     assert np.count_nonzero(slow) > 0, what
+    if skip is not None:
+        keep = ~skip.reshape(-1)
+        fast, slow = fast.reshape(len(keep), -1)[keep], slow.reshape(len(keep), -1)[keep]
     assert np.array_equal(fast == 0.0, slow == 0.0), what
     nz = slow != 0.0
     err = float(np.max(np.abs(fast[nz] - slow[nz]) / np.abs(slow[nz])))
@@ -81,7 +107,8 @@ def test_axis_segments_equal_the_general_path(cutoff):
             values = rng.uniform(0.5, 1.5, size=(6, 1))   # (one sign: no cancellation between segments)
             fast = scatter(BOX3, SHAPE3, starts, vectors, values, w, cutoff)
             slow = scatter(BOX3, SHAPE3, starts, tilted(vectors), values, w, cutoff)
-            assert_values_equal(fast, slow, (cutoff, length_over_w, on_nodes))
+            skip = slivers(GRID3, starts, vectors, cutoff * w, w)
+            assert_values_equal(fast, slow, (cutoff, length_over_w, on_nodes), skip)
 
 
 def test_axis_segments_equal_node_by_node_and_mpmath():
@@ -194,7 +221,7 @@ def test_axis_segments_the_sphere_cuts_near_an_end(axis):
         for s, v in zip(starts, vectors):
             fast = scatter(BOX3, SHAPE3, s[None], v[None], [[1.0]], w, cutoff)[:, 0]
             slow = scatter(BOX3, SHAPE3, s[None], tilted(v[None]), [[1.0]], w, cutoff)[:, 0]
-            assert_values_equal(fast, slow, (axis, delta))
+            assert_values_equal(fast, slow, (axis, delta), slivers(GRID3, s, v, R, w))
             k = np.ravel_multi_index(tuple(np.argmin(np.abs(c - x)) for c, x in zip(GRID3.axis_coordinates, node)),
                                      SHAPE3)
             if delta > 1e-4 * w and abs(np.linalg.norm(np.delete(node - s, axis)) - 2 * GRID3.spacing[across]) < 1e-9:
@@ -218,7 +245,7 @@ def test_axis_segments_with_picked_values():
         values = np.einsum("ni,nj->nij", force, branch).reshape(12, 9)
         fast = scatter(BOX3, SHAPE3, starts, vectors, values, w, cutoff)
         slow = scatter(BOX3, SHAPE3, starts, tilted(vectors), values, w, cutoff)
-        assert_values_equal(fast, slow, "picked values")
+        assert_values_equal(fast, slow, "picked values", slivers(GRID3, starts, vectors, cutoff * w, w))
 
 
 def test_short_axis_segments_with_a_large_cutoff():
@@ -239,3 +266,32 @@ def test_short_axis_segments_with_a_large_cutoff():
         want = np.array([float(mp_gauss(sum(mp.mpf(float(x)) ** 2 for x in nodes[k] - s), w, cutoff * w, 3))
                          for k in order])
         assert np.max(np.abs(fast[order] - want) / want) <= RTOL, length_over_w
+
+
+def test_axis_segments_sliver_at_an_end_on_the_line():
+    """A node on the segment's line (rho = 0: h = R exactly) whose sphere crosses the segment within a few ulp of
+    an end, before the start (a sliver [0, u + h], or nothing) or beyond it (the part [u - h, L]): visit_axis
+    integrates over the part from its own u and h, exact differences, against mpmath (the general path rebuilds
+    the part in units of the segment and loses the sliver: up to 20 % off at L = 0.3 w)."""
+    w, cutoff = 0.5, 3.0
+    R = cutoff * w
+    node = np.array([c[8] for c in GRID3.axis_coordinates])
+    k = np.ravel_multi_index((8, 8, 8), SHAPE3)
+    for axis, length_over_w in ((2, 1e-3), (0, 0.3), (1, 4.0)):
+        for ulps in (-3, -1, 2, 20):
+            for sign in (1.0, -1.0):
+                s = node.copy()
+                s[axis] = node[axis] + sign * R * (1 + ulps * 2.0 ** -52)
+                v = np.zeros(3)
+                v[axis] = (sign if ulps < 0 else -sign) * length_over_w * w
+                got = scatter(BOX3, SHAPE3, s[None], v[None], [[1.0]], w, cutoff)[k, 0]
+                want = float(mp_psi(list(node - s), list(v), w, R))
+                assert abs(got - want) <= RTOL * want, (axis, length_over_w, ulps, sign, got, want)
+    # a short segment at a small cutoff, the node just inside its sphere at the segment's start
+    box, shape = cg.Box([0, 0], [8, 8]), (8, 8)
+    s, v = np.array([4.5, 3.721026658511189]), np.array([0.0, -1.7255666894195883e-05])
+    w = 0.7789733414888114
+    got = scatter(box, shape, s[None], v[None], [[1.0]], w, 1.0)[:, 0]
+    nodes = np.stack(np.meshgrid(*cg.Grid(box, shape).axis_coordinates, indexing="ij"), -1).reshape(-1, 2)
+    want = float(mp_psi(list(nodes[36] - s), list(v), w, w))
+    assert want > 0.0 and abs(got[36] - want) <= RTOL * want, (got[36], want)
