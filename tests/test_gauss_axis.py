@@ -248,6 +248,35 @@ def test_axis_segments_with_picked_values():
         assert_values_equal(fast, slow, "picked values", slivers(GRID3, starts, vectors, cutoff * w, w))
 
 
+@pytest.mark.parametrize("cutoff", [12.0, 20.0, 34.6])
+def test_axis_segments_with_large_cutoffs(cutoff):
+    """Cutoffs of 12, 20 and 34.6 w (R^2 / 2w^2 = 599, just under AXIS_EXPONENT_MAX): the crossing's term Pc by
+    erfcx's long series (h > 4 sqrt2 w), against mpmath at nodes whose sphere crosses the segment there, and for
+    12 and 20 w against the node-by-node erf form everywhere (at 34.6 w it is itself up to 7e-13 off mpmath, and
+    the general path 2e-12)."""
+    box, shape = cg.Box([0, 0, 0], [20, 20, 20]), (40, 40, 40)   # spacing 0.5
+    grid = cg.Grid(box, shape)
+    nodes = np.stack(np.meshgrid(*grid.axis_coordinates, indexing="ij"), -1).reshape(-1, 3)
+    R = 9.0
+    w = R / cutoff
+    for s, v in (([10.1, 9.8, 10.2], [0.0, 0.0, 0.5 * w]), ([10.0, 10.3, 9.9], [-3.0 * w, 0.0, 0.0])):
+        s, v = np.array(s), np.array(v)
+        fast = scatter(box, shape, s[None], v[None], [[1.0]], w, cutoff)[:, 0]
+        if cutoff < 30.0:
+            slow = scatter(box, shape, s[None], v[None], [[1.0]], w, cutoff, per_node=True)[:, 0]
+            assert_values_equal(fast, slow, cutoff, slivers(grid, s, v, R, w))
+        a = int(np.argmax(np.abs(v)))
+        q = nodes - s
+        u = q[:, a] * np.sign(v[a])
+        h = np.sqrt(np.maximum(R * R - (np.sum(q * q, axis=1) - q[:, a] ** 2), 0.0))
+        crossing = ((u - h > 0.0) | (u + h < abs(v[a]))) & (h > 6.0 * w) & (fast != 0.0)
+        pick = np.flatnonzero(crossing)[::53][:6]
+        assert len(pick) == 6
+        want = np.array([float(mp_psi(list(q[k]), list(v), w, R)) for k in pick])
+        assert np.min(want) > 0.0
+        assert np.max(np.abs(fast[pick] - want) / want) <= RTOL, cutoff
+
+
 def test_short_axis_segments_with_a_large_cutoff():
     """Segments of 1e-40 to 1e-100 w at a cutoff of 34.6 w: every node's value is normal (the point Gaussian to
     relative L / w), though (L / w) exp(-R^2 / 2w^2), the scale of W's fallback, is not: against the general path
