@@ -1353,15 +1353,16 @@ HOT_CLONES static int visit_point(const job *jb, double *out, cg_index obj, cons
    on [0, L], as cut_batch_flush's fallback). Elsewhere the same test of the terms against the value
    (16 times): a node that fails it has a short part of the segment inside its ball, gathered for
    axis_cut_flush (Gauss-Legendre on that part, from u, h and L). So a row needs no transcendental per
-   node: the per-object tables (1-D along m; 2-D across) and a few vector operations per node. The rows are along slot 2 either way: for m = 2 a row has one
-   cross entry and the along tables; for m = 0 or 1, one along entry and a row of the cross table.
+   node: the per-object tables (1-D along m; 2-D across) and a few vector operations per node. The rows
+   are along slot 2 either way: for m = 2 a row has one cross entry and the along tables; for m = 0 or 1,
+   one along entry and a row of the cross table.
    Only where every product of terms stays normal (R^2 / 2w^2 below AXIS_EXPONENT_MAX: each term is at
    least exp(-R^2 / 2w^2) times erfcx), n2 <= 64, MODE_VALUE and finite values (a node whose value is 0
    then adds +-0 in its row's update, which changes no output). */
 #define AXIS_EXPONENT_MAX 600.0
 /* and A W, ~ (L / w) exp(-R^2 / 2w^2) at least, normal: below exp(-AXIS_VALUE_EXPONENT_MAX) it loses digits
    or is 0 while the node's value is normal (short segments with large cutoffs: the general path; the test's
-   L >= 1e-20 w in the dispatch keeps log off every other segment's way, 600 + 46 < 700) */
+   L >= 1e-20 w in the dispatch keeps log off every other segment's way: 600 + 46 < 700) */
 #define AXIS_VALUE_EXPONENT_MAX 700.0
 
 /* one VW-lane step of a row: val = the bracket (0 where the ball misses the segment or the terms cancel:
