@@ -3,7 +3,8 @@
     python benchmarks/bench_gauss_exact.py [--baseline TREE] [--cutoffs 3,5] [--threads 1,2] [--rounds 3]
                                            [--repeat 3]
 
-W1: the 46^3 simple-cubic lattice of benchmarks/workloads.py (285,660 contacts) on an XYZ grid of 46^3 nodes;
+W1 (or --workload jittered: its particles moved by up to 0.05, no contact along an axis): the 46^3 simple-cubic
+lattice of benchmarks/workloads.py (285,660 contacts) on an XYZ grid of 46^3 nodes;
 field: contact_stress alone; kernel: Gaussian w = 1.0, normalize="truncated", exact line integrals (the default
 line_quadrature), at each cutoff (in w). Each measurement runs in a fresh process importing cgbound from a tree
 (this one, or --baseline: another checkout with its extension built in place, e.g. a git worktree of main), and
@@ -22,15 +23,26 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 THIS_TREE = os.path.dirname(HERE)
 
 
-def worker(cutoff, threads, repeat):
+def worker(cutoff, threads, repeat, workload="w1"):
     """One measurement in this process: prints a JSON line {wall, cpu, header}."""
     sys.path.insert(0, HERE)
     import cgbound as cg
     from common import header, timed
+
     from workloads import lattice
 
     snap = lattice(n=46)
     grid = cg.Grid(snap.box, (46, 46, 46))
+    if workload == "jittered":
+        # every particle moved by up to 0.05 along each axis (fixed seed): the same contacts and grid, none along
+        # a grid axis (the general exact path)
+        import numpy as np
+
+        rng = np.random.default_rng(1)
+        pos = snap.positions + rng.uniform(-0.05, 0.05, snap.positions.shape)
+        c = snap.contacts
+        snap = cg.Snapshot(pos, snap.velocities, snap.masses, box=snap.box,
+                           contacts=cg.Contacts(c.i, c.j, c.force, 0.5 * (pos[c.i] + pos[c.j])))
     kernel = cg.Gaussian(1.0, cutoff=cutoff, normalize="truncated")
     with cg.threads(threads):
         wall, _, cpu = timed(lambda: cg.coarse_grain(snap, grid, kernel, fields=("contact_stress",)), repeat,
@@ -38,10 +50,10 @@ def worker(cutoff, threads, repeat):
     print(json.dumps({"wall": wall, "cpu": cpu, "header": header(threads=threads)}))
 
 
-def measure(tree, cutoff, threads, repeat):
+def measure(tree, cutoff, threads, repeat, workload="w1"):
     env = dict(os.environ, PYTHONPATH=tree)
     out = subprocess.run([sys.executable, os.path.abspath(__file__), "--worker", str(cutoff), str(threads),
-                          str(repeat)], env=env, check=True, stdout=subprocess.PIPE, text=True).stdout
+                          str(repeat), workload], env=env, check=True, stdout=subprocess.PIPE, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
 
@@ -52,10 +64,13 @@ def main():
     parser.add_argument("--threads", default="1,2", help="comma-separated thread counts (default 1,2)")
     parser.add_argument("--rounds", type=int, default=3, help="alternating rounds per tree (default 3)")
     parser.add_argument("--repeat", type=int, default=3, help="timed calls per measurement (default 3)")
-    parser.add_argument("--worker", nargs=3, help=argparse.SUPPRESS)
+    parser.add_argument("--workload", choices=("w1", "jittered"), default="w1",
+                        help="w1 (default: every contact along a grid axis) or jittered (W1 with every particle "
+                             "moved by up to 0.05 per axis: no contact along an axis)")
+    parser.add_argument("--worker", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        worker(float(args.worker[0]), int(args.worker[1]), int(args.worker[2]))
+        worker(float(args.worker[0]), int(args.worker[1]), int(args.worker[2]), args.worker[3])
         return
     try:
         cutoffs = [float(c) for c in args.cutoffs.split(",") if c]
@@ -72,7 +87,7 @@ def main():
         if not os.path.isdir(os.path.join(baseline, "cgbound")):
             parser.error(f"--baseline: expected a source tree with a cgbound/ package, got {args.baseline!r}")
         trees = {"baseline": baseline, "this": THIS_TREE}
-    print(f"# W1 contact stress, Gaussian w = 1.0 exact; trees: {trees}; {args.rounds} alternating rounds, "
+    print(f"# {args.workload} contact stress, Gaussian w = 1.0 exact; trees: {trees}; {args.rounds} alternating rounds, "
           f"medians of {args.repeat} calls each")
     first = True
     for cutoff in cutoffs:
@@ -80,7 +95,7 @@ def main():
             results = {name: [] for name in trees}
             for _ in range(args.rounds):
                 for name, tree in trees.items():
-                    r = measure(tree, cutoff, t, args.repeat)
+                    r = measure(tree, cutoff, t, args.repeat, args.workload)
                     if first:
                         print(r["header"])
                         first = False

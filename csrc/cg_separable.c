@@ -26,6 +26,11 @@
  * the closed erf form on the part of the segment inside the ball, in tails
  * (erfcx), exact relative to each value (gathered and evaluated in vectorised
  * batches); segments too long for such a rule go to the node-by-node path.
+ * A segment along a grid axis (it moves along one slot; not on profiles) takes
+ * visit_axis instead: every node's exact value from per-object 1-D tables
+ * along the segment and a table of its cross-section (no transcendental per
+ * node, no rule), the few nodes whose tail terms cancel by Gauss-Legendre on
+ * their part of the segment (axis_cut_flush).
  *
  * Resolved axes are placed in three "slots", right-aligned: the last
  * resolved axis (stride 1 in the output) is always slot 2; missing slots
@@ -724,6 +729,8 @@ INLINE int cut_values(cg_index n, const double *restrict t0s, const double *rest
    against 1 / x). Where a term exceeds 16 times the value (cancellation of
    more than 4 bits), the interval is that short: its integrand varies by
    less than 7 % and an 8-point Gauss-Legendre rule is exact to round-off. */
+INLINE void cut_batch_add(const cut_batch *b, int n, const job *jb, double *out, cg_index obj, const picked *pick);
+
 INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index obj, const double *e, double L2,
                             double R2, double w, double amp, const picked *pick)
 {
@@ -792,6 +799,13 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
         }
     }
     /* (value 0: the segment misses this node's ball) */
+    cut_batch_add(b, n, jb, out, obj, pick);
+}
+
+/* the batch's n values (b->value) times the object's values, added to its nodes */
+INLINE void cut_batch_add(const cut_batch *b, int n, const job *jb, double *out, cg_index obj, const picked *pick)
+{
+    const double *restrict value = b->value;
     if (jb->mode == MODE_VALUE) {
         const double *restrict vals = jb->values + obj * jb->n_values;
         const cg_index width = jb->out_width;
@@ -1324,6 +1338,357 @@ HOT_CLONES static int visit_point(const job *jb, double *out, cg_index obj, cons
 }
 #endif
 
+#ifdef HAVE_V4D
+/* The exact form for a segment along a grid axis (it moves along one slot m only): every node's value
+   separates. With rho^2 the node's squared distance to the segment's line (from its coordinates across
+   slot m, a "cross" entry: the same for every node along m) and u its coordinate along the segment
+   (from the start, in the segment's direction; an "along" entry, the same for every node across), the
+   part of the segment inside the ball is [max(0, u - h), min(L, u + h)], h = sqrt(R^2 - rho^2), and
+     value = factor (A erf-bracket),  A = exp(-rho^2 / 2w^2) = g_a g_b (the two cross slots' 1-D tables);
+   in tails (as cut_batch_flush) each limit's term is A erfc(|a| / sqrt2 w), a = limit - u: at an end of
+   the segment A Es[u] or A Ee[u] (erfc of |u| and |u - L|: along tables, by erfcx and a halved
+   exponent), at a crossing of the sphere exp(-R^2 / 2w^2) erfcx(h / sqrt2 w) = Pc (rho^2 + h^2 = R^2:
+   a cross table). Where both ends are inside the ball the bracket is A W[u] (an along table: 2 - Es - Ee,
+   or |Es - Ee| beyond an end; where those cancel by more than 4 bits, the 8-point Gauss-Legendre rule
+   on [0, L], as cut_batch_flush's fallback). Elsewhere the same test of the terms against the value
+   (16 times): a node that fails it has a short part of the segment inside its ball, gathered for
+   axis_cut_flush (Gauss-Legendre on that part, from u, h and L). So a row needs no transcendental per
+   node: the per-object tables (1-D along m; 2-D across) and a few vector operations per node. The rows
+   are along slot 2 either way: for m = 2 a row has one cross entry and the along tables; for m = 0 or 1,
+   one along entry and a row of the cross table.
+   Only where every product of terms stays normal (R^2 / 2w^2 below AXIS_EXPONENT_MAX: each term is at
+   least exp(-R^2 / 2w^2) times erfcx), n2 <= 64, MODE_VALUE and finite values (a node whose value is 0
+   then adds +-0 in its row's update, which changes no output). */
+#define AXIS_EXPONENT_MAX 600.0
+/* and A W, ~ (L / w) exp(-R^2 / 2w^2) at least, normal: below exp(-AXIS_VALUE_EXPONENT_MAX) it loses digits
+   or is 0 while the node's value is normal (short segments with large cutoffs: the general path; the test's
+   L >= 1e-20 w in the dispatch keeps log off every other segment's way: 600 + 46 < 700) */
+#define AXIS_VALUE_EXPONENT_MAX 700.0
+
+/* one VW-lane step of a row: val = the bracket (0 where the ball misses the segment or the terms cancel:
+   cancel's lanes), from the along entries u, Es, Ee, W and the cross entries h, A, Pc */
+INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *in, vwl *cancel)
+{
+    const vwd zero = {0.0};
+    const vwd lo = u - h, hi = u + h;
+    const vwl at_start = lo <= zero, at_end = hi >= L;
+    const vwd t0 = SELECT(at_start, zero, lo), t1 = SELECT(at_end, L, hi);
+    const vwl meets = t1 > t0;
+    const vwd P0 = SELECT(at_start, A * Es, Pc), P1 = SELECT(at_end, A * Ee, Pc);
+    const vwl straddle = (t0 < u) & (t1 > u);
+    const vwd twoA = A + A;
+    const vwl first = P0 > P1;
+    const vwd diff = SELECT(first, P0 - P1, P1 - P0), larger = SELECT(first, P0, P1);
+    vwd v = SELECT(straddle, (twoA - P0) - P1, diff);
+    const vwd largest = SELECT(straddle, twoA, larger);
+    const vwl both = at_start & at_end;
+    v = SELECT(both, A * W, v);
+    const vwl ok = both | (SPLAT(16.0) * v >= largest);
+    *val = (vwd)((vwl)v & (meets & ok));
+    *in = meets;
+    *cancel = meets & ~ok;
+}
+
+#if VW == 8
+static const vwd lane_index = {0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0};
+#else
+static const vwd lane_index = {0.0, 1.0, 2.0, 3.0};
+#endif
+
+/* two masks' lanes as bits (mask_bits of each; in the 4-wide build one horizontal OR for both) */
+INLINE void mask_bits2(vwl a, vwl b, uint64_t *ba, uint64_t *bb)
+{
+#if VW == 4
+    const vwl zero = {0};
+    uint64_t unused;
+    mask_bits3(a, b, zero, ba, bb, &unused);
+#else
+    *ba = mask_bits(a);
+    *bb = mask_bits(b);
+#endif
+}
+
+/* visit_axis's cancelling nodes, gathered in a cut batch as q[0] = A, q[1] = d0 and q[2] = span: the part
+   of the segment inside the node's ball is [u + d0, u + d0 + span] (d0 = -u or -h, span = t1 - t0 from
+   visit_axis's own u, h and L: where the sphere crosses within a few ulp of an end, exact differences; the cut
+   batch's closed form rebuilds them in units of the segment, at the scale of R / L, and loses such a sliver to
+   rounding). The terms cancel, so the interval is short (as cut_batch_flush's fallback): there the 8-point
+   Gauss-Legendre rule is exact to round-off,
+     value = amp / L  A span sum_g gw_g exp(-(d0 + gx_g span)^2 / 2w^2)
+   (A times an exponential is normal: rho^2 + d^2 <= R^2 inside the ball, R^2 / 2w^2 < AXIS_EXPONENT_MAX). */
+static void axis_cut_flush(cut_batch *b, const job *jb, double *out, cg_index obj, double L, double w, double amp,
+                           const picked *pick)
+{
+    const int n = b->n;
+    b->n = 0;
+    if (n == 0) return;
+    double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
+    cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
+    const double inv2w2 = 0.5 / (w * w), per_length = amp / L;
+    double *restrict arg = b->arg; /* CUT_BATCH_WORK CUT_BATCH > CUT_FALLBACK_POINTS CUT_BATCH + EXP_PAD */
+    const cg_index n_args = (cg_index)CUT_FALLBACK_POINTS * n;
+    for (int g = 0; g < CUT_FALLBACK_POINTS; ++g)
+        for (int i = 0; i < n; ++i) {
+            const double d = b->q[1][i] + gx[g] * b->q[2][i];
+            arg[g * n + i] = -(d * d) * inv2w2;
+        }
+    for (cg_index k = n_args; k < n_args + EXP_PAD; ++k) arg[k] = 0.0;
+    cg_exp_in_place(arg, n_args);
+    for (int i = 0; i < n; ++i) {
+        double sum = 0.0;
+        for (int g = 0; g < CUT_FALLBACK_POINTS; ++g) sum += gw[g] * arg[g * n + i];
+        b->value[i] = (b->q[0][i] * sum) * (b->q[2][i] * per_length);
+    }
+    cut_batch_add(b, n, jb, out, obj, pick);
+}
+
+/* (round-up to a multiple of 2 VW) */
+#define AXIS_UP(n) (((size_t)(n) + 2 * VW - 1) / (2 * VW) * (2 * VW))
+
+#if defined(__GNUC__)
+__attribute__((noinline))
+#endif
+HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_index obj, const double *x,
+                                 const double *es, const cg_index first[3], const cg_index count[3],
+                                 const cg_index stride[3], int m, double amp, double L2, const picked *pick)
+{
+    const cg_target *t = jb->target;
+    const int pad = 3 - t->n_resolved, nv = jb->n_values;
+    const double R = jb->kernel->radius, R2 = R * R, w = jb->kernel->width, inv2w2 = 0.5 / (w * w);
+    const double L = sqrt(L2), sgn = es[m] < 0.0 ? -1.0 : 1.0;
+    const double factor = amp * 1.2533141373155003 * w / L; /* as cut_batch_flush's */
+    const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w), q4 = 0.25 / (w * w);
+    const int c1 = m == 0 ? 1 : 0, c2 = m == 2 ? 1 : 2; /* the cross slots */
+    const cg_index n0 = count[0], n1 = count[1], n2 = count[2], nm = count[m], na = count[c1], nb = count[c2];
+    const cg_index nbp = (nb + VW - 1) / VW * VW, nc = na * nbp; /* cross rows in whole vectors */
+    const size_t nmp = (size_t)(nm + VW - 1) / VW * VW, ncp = AXIS_UP(nc), nsp = AXIS_UP(n0 + n1 + n2);
+    /* node - x per slot; the cross slots' exponentials; along: u, Es, Ee, W and two work arrays (2 nmp
+       for the exponentials); cross: A, h, Pc; a row; a cut batch */
+    const size_t ncs = ncp + 2 * VW; /* a cross table and room for a row's reads past it */
+    const size_t need = nsp + nsp + 6 * nmp + 3 * ncs + 2 * AXIS_UP(n2) + CUT_BATCH_DOUBLES;
+    double *buf = scratch_get(sc, need);
+    if (!buf) return -1;
+    double *q[3] = {buf, buf + n0, buf + n0 + n1};
+    double *ge = buf + nsp, *g[3] = {ge, ge + n0, ge + n0 + n1};
+    double *U = ge + nsp, *ES = U + nmp, *EE = ES + nmp, *WW = EE + nmp, *EX = WW + nmp; /* EX: 2 nmp */
+    double *AC = EX + 2 * nmp, *HC = AC + ncs, *PC = HC + ncs;
+    double *const rowbufs[2] = {PC + ncs, PC + ncs + AXIS_UP(n2)}; /* two rows: see pending below */
+    cut_batch cuts;
+    cut_batch_init(&cuts, rowbufs[1] + AXIS_UP(n2));
+    for (int s = 0; s < 3; ++s) {
+        if (s < pad) {
+            q[s][0] = 0.0;
+            continue;
+        }
+        const double *restrict c = t->coords[s - pad] + first[s];
+        const double xs_s = x[s - pad];
+        for (cg_index k = 0; k < count[s]; ++k) q[s][k] = c[k] - xs_s;
+    }
+    /* the cross slots' 1-D Gaussians (the along slot's entries: computed, not used) */
+    for (cg_index k = 0; k < n0 + n1 + n2; ++k) ge[k] = -(q[0][k] * q[0][k]) * inv2w2; /* (q's slots are contiguous) */
+    for (size_t k = (size_t)(n0 + n1 + n2); k < nsp; ++k) ge[k] = 0.0;
+    cg_exp_in_place(ge, (cg_index)nsp);
+    /* along: u, the ends' erfc as (E erfcx) E with E the halved exponent's exponential */
+    {
+        const double *restrict qm = q[m];
+        double *restrict e0 = EX, *restrict e1 = EX + nmp;
+        for (cg_index a = 0; a < nm; ++a) {
+            const double u = sgn * qm[a], v = u - L;
+            U[a] = u;
+            e0[a] = -(u * u) * q4;
+            e1[a] = -(v * v) * q4;
+            ES[a] = (u < 0.0 ? -u : u) * inv_sqrt2w;
+            EE[a] = (v < 0.0 ? -v : v) * inv_sqrt2w;
+        }
+        for (size_t a = (size_t)nm; a < nmp; ++a) U[a] = e0[a] = e1[a] = ES[a] = EE[a] = 0.0;
+        cg_exp_in_place(EX, (cg_index)(2 * nmp));
+        erfcx_in_place2(ES, EE, (cg_index)nmp, 1);
+        int cancels = 0;
+        for (size_t a = 0; a < nmp; ++a) {
+            const double es_a = (e0[a] * ES[a]) * e0[a], ee_a = (e1[a] * EE[a]) * e1[a], u = U[a];
+            ES[a] = es_a;
+            EE[a] = ee_a;
+            const int straddle = (u > 0.0) & (u < L);
+            const double larger = es_a > ee_a ? es_a : ee_a, diff = es_a > ee_a ? es_a - ee_a : ee_a - es_a;
+            const double v = straddle ? (2.0 - es_a) - ee_a : diff, largest = straddle ? 2.0 : larger;
+            WW[a] = v;
+            cancels |= !(16.0 * v >= largest) & (a < (size_t)nm);
+        }
+        if (cancels) {
+            double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
+            cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
+            const double scale_back = L / (1.2533141373155003 * w); /* W is in units of factor */
+            for (cg_index a = 0; a < nm; ++a) {
+                const double es_a = ES[a], ee_a = EE[a], u = U[a];
+                const int straddle = (u > 0.0) & (u < L);
+                const double larger = es_a > ee_a ? es_a : ee_a, largest = straddle ? 2.0 : larger;
+                if (16.0 * WW[a] >= largest) continue;
+                double arg[CUT_FALLBACK_POINTS + EXP_PAD];
+                for (int k = 0; k < CUT_FALLBACK_POINTS; ++k) {
+                    const double d = u - gx[k] * L;
+                    arg[k] = -(d * d) * inv2w2;
+                }
+                for (int k = CUT_FALLBACK_POINTS; k < CUT_FALLBACK_POINTS + EXP_PAD; ++k) arg[k] = 0.0;
+                cg_exp_in_place(arg, CUT_FALLBACK_POINTS);
+                double sum = 0.0;
+                for (int k = 0; k < CUT_FALLBACK_POINTS; ++k) sum += gw[k] * arg[k];
+                WW[a] = sum * scale_back;
+            }
+        }
+    }
+    /* cross: A, h and the crossing's term Pc = exp(-R^2 / 2w^2) erfcx(h / sqrt2 w), rows of nbp entries
+       (whole vectors; h = 0 past nb) */
+    cg_index a_lo = 0, a_hi = 0, vlo[64], vhi[64];
+    {
+        const double *restrict qa = q[c1], *restrict ga = g[c1];
+        double qb[64 + VW], gb[64 + VW];
+        for (cg_index b = 0; b < nbp; ++b) {
+            qb[b] = b < nb ? q[c2][b] : 0.0;
+            gb[b] = b < nb ? g[c2][b] : 0.0;
+        }
+        /* the rows whose line meets the ball, [a_lo, a_hi); per row, its vectors with h > 0, [vlo, vhi) */
+        while (a_lo < na && !(qa[a_lo] * qa[a_lo] < R2)) ++a_lo;
+        a_hi = a_lo;
+        while (a_hi < na && qa[a_hi] * qa[a_hi] < R2) ++a_hi;
+        const vwd R2v = SPLAT(R2), isw = SPLAT(inv_sqrt2w), zero = {0.0};
+        for (cg_index a = a_lo; a < a_hi; ++a) {
+            const vwd qa2 = SPLAT(qa[a] * qa[a]), gaa = SPLAT(ga[a]);
+            cg_index lo = nbp, hi = 0;
+            for (cg_index bw = 0; bw < nbp; bw += VW) {
+                vwd qbv, gbv, h;
+                memcpy(&qbv, qb + bw, sizeof qbv);
+                memcpy(&gbv, gb + bw, sizeof gbv);
+                vwd hh = R2v - (qa2 + qbv * qbv);
+                hh = SELECT(hh > zero, hh, zero);
+                sqrt_lanes(hh, &h);
+                const vwl in_row = (vwl)(SPLAT((double)(bw - nb)) + lane_index < zero);
+                h = (vwd)((vwl)h & in_row);
+                if (mask_bits((vwl)(h > zero))) {
+                    lo = lo < bw ? lo : bw;
+                    hi = bw + VW;
+                }
+                const vwd A = gaa * gbv, arg = h * isw;
+                memcpy(AC + a * nbp + bw, &A, sizeof A);
+                memcpy(HC + a * nbp + bw, &h, sizeof h);
+                memcpy(PC + a * nbp + bw, &arg, sizeof arg);
+            }
+            vlo[a] = lo;
+            vhi[a] = hi;
+        }
+        if (m == 2) { /* (the rows read h: 0 in the rows that miss the ball) */
+            for (cg_index c = 0; c < a_lo * nbp; ++c) HC[c] = 0.0;
+            for (cg_index c = a_hi * nbp; c < nc; ++c) HC[c] = 0.0;
+        }
+        /* erfcx of the rows that meet the ball (two halves; the second may reach a vector past them,
+           which the table has room for, and whose values are not used) */
+        const cg_index off = a_lo * nbp, nvec = (a_hi - a_lo) * nbp / VW, half = (nvec + 1) / 2 * VW;
+        for (cg_index c = off + nvec * VW; c < off + 2 * half; ++c) PC[c] = 0.0;
+        erfcx_in_place2(PC + off, PC + off + half, half, R2 > 31.9 * (w * w));
+        const double ER = exp(-R2 * inv2w2);
+        for (cg_index c = off; c < off + nvec * VW; ++c) PC[c] = ER * PC[c];
+    }
+    const double *values = jb->values + obj * nv;
+    const cg_index width = jb->out_width, s2 = stride[2];
+    const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
+    const vwd Lv = SPLAT(L);
+    /* a row's update of the output waits for the next row's values (as rows_of_rule's: read right after
+       their vector store, the row would stall store forwarding) */
+    const double *pending = NULL;
+    cg_index pending_at = 0, pending_n = 0;
+    int parity = 0;
+    /* the along entries within R of the segment's line range, [u_lo, u_hi) (u is monotone along its slot) */
+    cg_index u_lo = 0, u_hi;
+    while (u_lo < nm && !(U[u_lo] > -R && U[u_lo] < L + R)) ++u_lo;
+    u_hi = u_lo;
+    while (u_hi < nm && U[u_hi] > -R && U[u_hi] < L + R) ++u_hi;
+    /* the planes, and the rows of a plane, that can meet the segment: along entries in range, cross rows
+       that meet the ball (m = 0: the rows are cross rows; m = 1: along entries; m = 2: the plane's cross
+       row's entries, whole vectors of them) */
+    const cg_index i_lo = m == 0 ? u_lo : a_lo, i_hi = m == 0 ? u_hi : a_hi;
+    for (cg_index i = i_lo; i < i_hi; ++i) {
+        const cg_index j_lo = m == 0 ? a_lo : (m == 1 ? u_lo : vlo[i]);
+        const cg_index j_hi = m == 0 ? a_hi : (m == 1 ? u_hi : (vhi[i] < n1 ? vhi[i] : n1));
+        cg_index base = (first[0] + i) * stride[0] + (first[1] + j_lo) * stride[1] + first[2] * s2;
+        for (cg_index j = j_lo; j < j_hi; ++j, base += stride[1]) {
+            uint64_t meets = 0, cancel_bits = 0;
+            double *const rowbuf = rowbufs[parity];
+            if (m == 2) {
+                const cg_index c = i * nbp + j;
+                if (!(HC[c] > 0.0)) continue;
+                const vwd h = SPLAT(HC[c]), A = SPLAT(AC[c]), Pc = SPLAT(PC[c]);
+                for (cg_index kw = 0; kw < n2; kw += VW) {
+                    vwd u, Es, Ee, W, val;
+                    vwl in, cancel;
+                    memcpy(&u, U + kw, sizeof u);
+                    memcpy(&Es, ES + kw, sizeof Es);
+                    memcpy(&Ee, EE + kw, sizeof Ee);
+                    memcpy(&W, WW + kw, sizeof W);
+                    axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
+                    memcpy(rowbuf + kw, &val, sizeof val);
+                    uint64_t bi, bc;
+                    mask_bits2(in, cancel, &bi, &bc);
+                    meets |= bi << kw;
+                    cancel_bits |= bc << kw;
+                }
+            } else {
+                const cg_index a = m == 0 ? i : j, r = m == 0 ? j : i; /* along entry, cross row */
+                if (vlo[r] >= vhi[r]) continue;
+                const vwd u = SPLAT(U[a]), Es = SPLAT(ES[a]), Ee = SPLAT(EE[a]), W = SPLAT(WW[a]);
+                const double *hr = HC + r * nbp, *ar = AC + r * nbp, *pr = PC + r * nbp;
+                for (cg_index kw = vlo[r]; kw < vhi[r]; kw += VW) {
+                    vwd h, A, Pc, val;
+                    vwl in, cancel;
+                    memcpy(&h, hr + kw, sizeof h);
+                    memcpy(&A, ar + kw, sizeof A);
+                    memcpy(&Pc, pr + kw, sizeof Pc);
+                    axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
+                    memcpy(rowbuf + kw, &val, sizeof val);
+                    uint64_t bi, bc;
+                    mask_bits2(in, cancel, &bi, &bc);
+                    meets |= bi << kw;
+                    cancel_bits |= bc << kw;
+                }
+            }
+            /* (the row's nodes that meet the segment are an interval; those cancelled in it are 0 in
+               rowbuf, and add +-0) */
+            meets &= valid;
+            if (pending) block_add_picked(out + pending_at, factor, pending, pending_n, values, nv, pick);
+            pending = NULL;
+            if (meets) {
+                const cg_index k0 = __builtin_ctzll(meets), k1 = 64 - __builtin_clzll(meets);
+                pending = rowbuf + k0;
+                pending_at = (base + k0 * s2) * width;
+                pending_n = k1 - k0;
+                parity ^= 1;
+            }
+            cancel_bits &= valid;
+            if (cancel_bits) {
+                if (cuts.n + n2 > CUT_BATCH) axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
+                do {
+                    const cg_index k = __builtin_ctzll(cancel_bits);
+                    cancel_bits &= cancel_bits - 1;
+                    /* the node's along and cross entries (as axis_lanes's) */
+                    const cg_index at = m == 2 ? k : (m == 0 ? i : j);
+                    const cg_index cr = m == 2 ? i * nbp + j : (m == 0 ? j : i) * nbp + k;
+                    const double u = U[at], h = HC[cr];
+                    const double lo = u - h, hi = u + h;
+                    const int at_start = lo <= 0.0, at_end = hi >= L;
+                    const double t0 = at_start ? 0.0 : lo, t1 = at_end ? L : hi;
+                    const int n = cuts.n++;
+                    cuts.q[0][n] = AC[cr];
+                    cuts.q[1][n] = at_start ? -u : -h;
+                    cuts.q[2][n] = t1 - t0;
+                    cuts.node[n] = base + k * s2;
+                } while (cancel_bits);
+            }
+        }
+    }
+    if (pending) block_add_picked(out + pending_at, factor, pending, pending_n, values, nv, pick);
+    axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
+    return 1;
+}
+#endif
+
 #ifndef CG_SEPARABLE_WIDE
 static
 #endif
@@ -1383,6 +1748,20 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         const double lo = (end < x[a] ? end : x[a]) - R, hi = (end > x[a] ? end : x[a]) + R;
         if (!slot_range(jb, a, s, lo, hi, first, count)) return 1;
     }
+#ifdef HAVE_V4D
+    /* a segment along a grid axis: every node's value from 1-D and cross-section tables (visit_axis); not on
+       profiles (one resolved axis), whose blocks (cg_profile.c) give this visit's general bits */
+    if (hybrid && nr > 1 && jb->mode == MODE_VALUE && L2 > 0.0 && count[0] <= 64 && count[1] <= 64 &&
+        count[2] <= 64 && (es[0] != 0.0) + (es[1] != 0.0) + (es[2] != 0.0) == 1 && R2 * inv2w2 < AXIS_EXPONENT_MAX &&
+        (L2 >= 1e-40 * (w * w) || R2 * inv2w2 - 0.5 * log(L2 / (w * w)) < AXIS_VALUE_EXPONENT_MAX)) {
+        const double amp = scale * kn->prefactor;
+        const double *v = jb->values + obj * nv;
+        int finite = isfinite(2.0 * (amp * 1.2533141373155003 * w / sqrt(L2)));
+        for (int c = 0; c < nv; ++c) finite &= isfinite(v[c]);
+        if (finite) return visit_axis(jb, out, sc, obj, x, es, first, count, stride, es[2] != 0.0 ? 2 : es[1] != 0.0,
+                                      amp, L2, &pick);
+    }
+#endif
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
     const size_t per_table_f = (size_t)(n0 + n1 + n2); /* hybrid: the factorised weights (below) */
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
