@@ -481,14 +481,51 @@ class MercuryReader(FrameReader):
                 self._check_reach(rows, ints, line_of, time, pos, radii, box)
             if problem:
                 raise self._fstat_problem(problem, detail, rows, ints, line_of, time, pos.shape[0])
-            self._check_reach(rows, ints, line_of, time, pos, radii, box)
-        i, j, wall_index, force, point, overlap = found
+            i, j, wall_index, force, point, overlap = found
+            if not self._reach_holds(i, j, point, overlap, pos, radii, box):
+                self._check_reach(rows, ints, line_of, time, pos, radii, box)   # (names the line)
         return Contacts.from_reader(i, j, force, point, parsed=("contacts.point",)), wall_index, overlap
 
     #: how far a contact point may lie outside a particle's sphere (r + |delta|, delta the overlap: a cohesive
     #: contact's delta is negative) before the line is refused: a fraction of the reach, plus a fraction of the
     #: box's coordinates for the .fstat's rounding (10 significant digits; 6 in files of older versions)
     REACH_RTOL, REACH_COORDINATE_RTOL = 1e-2, 1e-5
+    #: contacts per chunk of _reach_holds
+    REACH_CHUNK = 8192
+
+    def _reach_slack(self, box):
+        return self.REACH_COORDINATE_RTOL * float(np.max(np.abs(np.concatenate([box.lower, box.upper]))))
+
+    def _reach_holds(self, i, j, point, overlap, pos, radii, box):
+        """_check_reach's test on the kept contacts only (one line per pair: the pairing already found the other
+        line's point equal within rtol), without the minimum image where a point is within reach as it is, in
+        chunks that stay in cache: the same test, 8 ms a frame of W1 where every line took 95. False if some
+        contact fails it; _check_reach then finds its line."""
+        walls = j < 0
+        if np.any(walls):
+            keep = np.flatnonzero(~walls)
+            j_point, j_overlap, j = np.take(point, keep, axis=0), np.take(overlap, keep), np.take(j, keep)
+        else:
+            j_point, j_overlap = point, overlap
+        slack, grow = self._reach_slack(box), 1 + self.REACH_RTOL
+        step = self.REACH_CHUNK
+        # (np.take copies a strided source, the .data table's columns, to contiguous memory at every call)
+        pos, radii = np.ascontiguousarray(pos), np.ascontiguousarray(radii)
+        for k, pts, dl in ((i, point, overlap), (j, j_point, j_overlap)):
+            for a in range(0, k.size, step):
+                kk = k[a:a + step]
+                arm = np.take(pos, kk, axis=0)
+                arm -= pts[a:a + step]
+                reach = np.abs(dl[a:a + step])
+                reach += np.take(radii, kk)
+                reach *= grow
+                reach += slack
+                reach *= reach
+                far = np.flatnonzero(row_squares(arm) > reach)
+                if far.size and np.any(row_squares(box.minimum_image(np.take(arm, far, axis=0))) >
+                                       np.take(reach, far)):
+                    return False
+        return True
 
     def _check_reach(self, rows, ints, line_of, time, pos, radii, box):
         """Refuse a line whose contact point lies outside particle i's (or the partner particle j's) sphere in the
@@ -498,7 +535,7 @@ class MercuryReader(FrameReader):
         d = self.dim
         point = rows[:, 3:3 + d]
         delta = np.abs(rows[:, 6])
-        slack = self.REACH_COORDINATE_RTOL * float(np.max(np.abs(np.concatenate([box.lower, box.upper]))))
+        slack = self._reach_slack(box)
         for column, side in ((0, "particle"), (1, "partner")):
             k = ints[:, column]
             lines = np.flatnonzero(k >= 0) if column else np.arange(k.size)
