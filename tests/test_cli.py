@@ -502,8 +502,29 @@ def test_a_2d_lammps_run_takes_its_dimension_from_the_input_script(tmp_path, cap
         assert sorted(a["axes"]) == ["x", "z"] and a["fields/density"].shape[-1] == 10
         assert np.array_equal(a["fields/density"][()], b["fields/density"][()]) and np.any(a["fields/density"][()] > 0)
     status, err = run_error(args + ["--dimension", "3", "-o", str(tmp_path / "c.h5")], capsys)
-    assert status == 2 and "--dimension: 3 given, but the input script" in err and "runs in 2-D" in err, err
+    assert status == 2 and "--dimension: 3 given, but the input script" in err and "says 'dimension 2'" in err, err
     assert not (tmp_path / "c.h5").exists()
+
+
+def test_the_script_decides_the_dimension_only_where_it_states_it(tmp_path, capsys):
+    # a script without a 'dimension' line (a run continued from a restart file) leaves --dimension 2 to the user;
+    # a script that says 'dimension 3' is a 3-D run even where its first frame is a layer at z = 0 (not refused
+    # as a 2-D run read in 3-D, the check the CLI makes without a script)
+    data = os.path.join(os.path.dirname(__file__), "data", "lammps")
+    lines = open(os.path.join(data, "in.hooke2d")).read().splitlines(keepends=True)
+    assert any(line.split()[:1] == ["dimension"] for line in lines)
+    (tmp_path / "in.nodim").write_text("".join(line for line in lines if line.split()[:1] != ["dimension"]))
+    (tmp_path / "in.dim3").write_text("".join("dimension 3\n" if line.split()[:1] == ["dimension"] else line
+                                              for line in lines))
+    atoms, pairs = os.path.join(data, "hooke2d", "atoms.dump"), os.path.join(data, "hooke2d", "pairs.dump")
+    base = ["run", atoms, "--pairs", pairs, "--stop", "1", "-q", "--no-check-forces"]
+    assert main(base + ["--input", str(tmp_path / "in.nodim"), "--dimension", "2", "--grid", "1,10", "--average", "x",
+                        "-o", str(tmp_path / "a.h5")]) == 0
+    assert main(base + ["--input", str(tmp_path / "in.dim3"), "--grid", "1,1,10", "--average", "x,y",
+                        "-o", str(tmp_path / "b.h5")]) == 0
+    status, err = run_error(base + ["--input", str(tmp_path / "in.nodim"), "--grid", "1,1,10", "--average", "x,y",
+                                    "-o", str(tmp_path / "c.h5")], capsys)
+    assert status == 2 and "--dimension: not given" in err and "or --dimension 3 if the run is 3-D" in err, err
 
 
 @pytest.mark.parametrize("time_average", ["none", "0.5"])
@@ -524,8 +545,10 @@ def test_an_existing_output_is_replaced_only_when_cgbound_wrote_it_as_a_result(t
     np.savez(tmp_path / "mine.npz", x=np.arange(3))
     with h5py.File(tmp_path / "foreign.h5", "w") as f:
         f["data"] = np.arange(3)
+    with h5py.File(tmp_path / "profiles.h5", "w") as f:     # a cgbound file that is not fields: hours of work
+        f.attrs["format"] = "cgbound-depth-profiles"
     args = ["run", str(snaps), "--grid", "1,1,4", "--average", "x,y", "-q", "-o"]
-    for name in ("other.h5", "mine.npz", "foreign.h5"):
+    for name in ("other.h5", "mine.npz", "foreign.h5", "profiles.h5"):
         before = (tmp_path / name).read_bytes()
         status, err = run_error(args + [str(tmp_path / name)], capsys)
         assert status == 2 and "--output: " in err and "exists and is not a result file cgbound wrote" in err, err
@@ -557,6 +580,11 @@ def test_files_of_another_format_or_the_same_times_are_refused(tmp_path, capsys)
     (tmp_path / "b.data").write_text("1 0 0 0 0 1 1 1\n0.5 0.5 0.5 0 0 0 0.1 0 0 0 0 0 0 0\n")
     status, err = run_error(["run", str(tmp_path / "a1.h5"), str(tmp_path / "b.data")] + args, capsys)
     assert status == 2 and "b.data is mercury data but" in err and "a1.h5 is hdf5 data" in err, err
+    # a companion file among the paths (it was '--format: cannot tell the format', which --format does not mend)
+    (tmp_path / "b.fstat").write_text("not a data file\n")
+    status, err = run_error(["run", str(tmp_path / "b.data"), str(tmp_path / "b.fstat")] + args, capsys)
+    assert status == 2 and "PATH: " in err and "b.fstat is not a data file of a known format but" in err and \
+        "contact files with --pairs" in err, err
 
 
 def test_a_stat_output_of_2d_data_is_refused_before_work(tmp_path, capsys):

@@ -40,7 +40,7 @@ examples, one per format:
         --fixed-types 2 --walls floor --gravity 0,0,-1 --grid 1,1,200 --average x,y -o profile.h5
   LIGGGHTS (compute pair/gran/local with ID pgl2):
     cgbound run atoms.dump --format liggghts --pairs pairs.dump --pair-compute pgl2 --fixed-types 2 \\
-        --gravity 0,0,-9.81 --grid 20,20,40 -o fields.h5
+        --gravity 0,0,-9.81 --width 0.00025 --grid 20,20,40 -o fields.h5
   MercuryDPM (name.fstat and name.restart next to name.data are used when present; gravity from the .restart):
     cgbound run chute.data --kernel lucy --cutoff 1.5 --grid 1,1,100 --average x,y -o chute.h5
   LAMMPS read with its input script (columns, frozen types, walls and gravity from the script):
@@ -262,9 +262,12 @@ def data_format(args, paths):
     try:
         fmt = sniff_format(paths[0])
         for path in paths[1:]:   # a file of another format among them would be read as this one's
-            other = sniff_format(path)
-            if other != fmt:
-                raise UsageError("PATH", f"{path} is {other} data but {paths[0]} is {fmt} data; give the files of "
+            try:
+                other = f"{sniff_format(path)} data"
+            except ValueError:
+                other = "not a data file of a known format"
+            if other != f"{fmt} data":
+                raise UsageError("PATH", f"{path} is {other} but {paths[0]} is {fmt} data; give the files of "
                                          f"one dataset (contact files with --pairs, a .restart with --restart)")
         return fmt
     except ValueError as exc:
@@ -478,15 +481,21 @@ DEFAULT_WIDTH_RANGE = (0.01, 10.0)
 
 def check_flat_3d(args, fmt, first):
     """A LAMMPS/LIGGGHTS dump of a 2-D run (``dimension 2``) read without --dimension 2 is 3-D data with every z and
-    vz 0: its fields would be per volume through the plane z = 0 and its profiles along z meaningless. Refuse it."""
+    vz 0 (LAMMPS keeps a 2-D run's z at 0): its fields would be per volume through the plane z = 0 and its
+    profiles along z meaningless. Refuse it, unless the input script says which dimension the run has."""
     if fmt not in ("lammps", "liggghts") or args.dimension is not None or first.dim != 3 or first.n_particles < 2:
         return
+    if getattr(args, "input", None) is not None:
+        from ..readers.lammps_input import read_input
+        if read_input(args.input, args.var or None).dimension_given:
+            return
     z = first.positions[:, 2]
-    flat = np.all(z == z[0]) and (first.velocities is None or not np.any(first.velocities[:, 2]))
+    flat = not np.any(z) and (first.velocities is None or not np.any(first.velocities[:, 2]))
     if flat:
-        raise UsageError("--dimension", f"not given, so the data are read as 3-D, but every particle of the first "
-                                        f"frame has z = {z[0]:g} and vz = 0: a 2-D run (LAMMPS 'dimension 2')? Pass "
-                                        f"--dimension 2 (the fields are then per unit area of the run's plane)")
+        raise UsageError("--dimension", "not given, so the data are read as 3-D, but every particle of the first "
+                                        "frame has z = 0 and vz = 0: a 2-D run (LAMMPS 'dimension 2')? Pass "
+                                        "--dimension 2 (the fields are then per unit area of the run's plane), or "
+                                        "--dimension 3 if the run is 3-D (a layer at z = 0)")
 
 
 def check_default_width(args, first):

@@ -127,7 +127,7 @@ def output_not_input(path, inputs, flag):
 
 def _cgbound_output(path, ext):
     """Whether the existing file ``path`` is one cgbound wrote as a result (so replacing it loses nothing that
-    cannot be computed again): an HDF5 file with a ``cgbound-...`` format attribute other than the snapshots',
+    cannot be computed again): an HDF5 file of fields (format attribute ``cgbound-fields``),
     an .npz with cgbound's metadata, a VTK file with cgbound's header line, a MercuryCG-format .stat."""
     try:
         if os.path.getsize(path) == 0:
@@ -137,7 +137,7 @@ def _cgbound_output(path, ext):
             with h5py.File(path, "r") as f:
                 fmt = f.attrs.get("format", "")
             fmt = fmt.decode(errors="replace") if isinstance(fmt, bytes) else str(fmt)
-            return fmt.startswith("cgbound-") and fmt != "cgbound-snapshots"
+            return fmt == "cgbound-fields"    # (not snapshots, nor the paper's costly profile and rheology files)
         if ext == ".npz":
             import numpy as np
             with np.load(path, allow_pickle=False) as data:

@@ -316,7 +316,8 @@ class LammpsReader(FrameReader):
     masses : dict type -> mass, optional
         When the atoms dump has no ``mass`` column.
     dimension : 2 or 3, optional
-        Default: the input script's ``dimension`` (``input=``), else 3. A value the script contradicts is refused.
+        Default: the input script's ``dimension`` command (``input=``), else 3. A value that command contradicts
+        is refused.
     dt : float, optional
         Time step size: a snapshot's time is ``timestep * dt``. Default: the dump's ``ITEM: TIME``
         when present, else the timestep number.
@@ -366,10 +367,10 @@ class LammpsReader(FrameReader):
             dimension = script.dimension if script is not None else 3
         if dimension not in (2, 3):
             raise ValueError(f"dimension: expected 2 or 3, got {dimension!r}")
-        if script is not None and dimension != script.dimension:
-            raise ValueError(f"dimension: {dimension} given, but the input script {script.path} runs in "
-                             f"{script.dimension}-D (its 'dimension', 3 where the script does not say): "
-                             f"leave dimension out (--dimension) to take the script's, or give the script of this run")
+        if script is not None and script.dimension_given and dimension != script.dimension:
+            raise ValueError(f"dimension: {dimension} given, but the input script {script.path} says 'dimension "
+                             f"{script.dimension}': leave dimension out (--dimension) to take the script's, or give "
+                             f"the script of this run")
         self.contact_reach = _contact_reach(pair_style, script)
         if pair_style is None:
             pair_style = script.pair_style if script is not None and script.pair_style else "gran"

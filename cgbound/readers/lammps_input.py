@@ -120,6 +120,7 @@ class DumpSpec:
 class InputScript:
     path: str
     dimension: int = 3
+    dimension_given: bool = False  # a ``dimension`` command seen (else 3, LAMMPS's default, or a restart file's)
     units: str = None              # the ``units`` command's style (lj, si, real, ...), None without one
     pair_style: str = None
     pair_command: tuple = ()       # the words of the pair_style line ("gran/hooke/history", "2000.0", ...)
@@ -370,6 +371,7 @@ class _Parser:
             self.variable(w)
         elif cmd == "dimension":
             self.result.dimension = self.integer(w, 1, "dimension")
+            self.result.dimension_given = True
         elif cmd == "units":
             if len(w) != 2:
                 self.fail("units: expected one style (lj, real, metal, si, cgs, electron, micro, nano)")
