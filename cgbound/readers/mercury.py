@@ -100,7 +100,8 @@ interaction line whose time is not its frame's, an interaction line whose contac
 frame (an ``.fstat`` of another run or frame, or a damaged index: a contact with a fixed particle or a wall is
 listed once, so no pairing check would see it), a last ``.fstat`` frame cut off after its header while
 earlier frames have contacts, a ``.data`` or ``.fstat`` whose last line has no newline (cut while written or
-copied: a cut inside the last number keeps the line's length), a ``.restart`` without a complete ``Particles N``
+copied: a cut inside the last number keeps the line's length; a complete file written without its final newline
+needs one added), a ``.restart`` without a complete ``Particles N``
 section, a flowing particle whose radius is not positive, empty or
 whitespace-only files, nan/inf, non-numbers and bytes that are not text.
 
