@@ -382,3 +382,35 @@ def test_write_mercury_replaces_the_files_only_when_every_frame_is_written(tmp_p
     assert (data.read_bytes(), fstat.read_bytes()) == before and sorted(os.listdir(tmp_path)) == ["r.data", "r.fstat"]
     with pytest.raises(ValueError, match="fstat_path: the same file as data_path"):
         write_mercury([snap], data, data)
+
+
+def test_a_given_body_force_is_used_when_the_restarts_gravity_is_zero_or_on_override(tmp_path):
+    # a driver applying the weight in its own code writes gravity 0: --gravity was refused, no way out
+    zero = RESTART3.replace("gravity 0 0 -1", "gravity 0 0 0")
+    f = write(tmp_path, **{"z.data": DATA3, "z.fstat": FSTAT3, "z.restart": zero})
+    with pytest.warns(UserWarning, match=r"the run's gravity is 0; the given body force \[0.0, 0.0, -2.0\] is used"):
+        r = MercuryReader(f["z.data"], f["z.fstat"], restart_path=f["z.restart"], body_force=(0, 0, -2))
+    np.testing.assert_array_equal(r[0].body_force[0], [0, 0, -2])
+    f = write(tmp_path, **{"a.data": DATA3, "a.fstat": FSTAT3, "a.restart": RESTART3})
+    with pytest.raises(ValueError, match=r"leave it out to use the restart's, or, .* pass body_force_override=True "
+                                         r"\(--gravity-override\)"):
+        MercuryReader(f["a.data"], f["a.fstat"], restart_path=f["a.restart"], body_force=(0, 0, -2))
+    r = MercuryReader(f["a.data"], f["a.fstat"], restart_path=f["a.restart"], body_force=(0, 0, -2),
+                      body_force_override=True)
+    np.testing.assert_array_equal(r[0].body_force[0], [0, 0, -2])
+    with pytest.raises(ValueError, match=r"body_force_override: True needs body_force="):
+        MercuryReader(f["a.data"], f["a.fstat"], restart_path=f["a.restart"], body_force_override=True)
+
+
+def test_2d_restart_gravity_with_a_z_component_gives_way_to_a_given_body_force(tmp_path):
+    # a 2D .restart written with gravity 0 0 -1 refused even --gravity 0,-1: the plane's components, given, win
+    restart = (RESTART3[:RESTART3.index("Species 2")].replace("systemDimensions 3 particleDimensions 3",
+                                                              "systemDimensions 2 particleDimensions 2")
+               + "Species 2\n" + RESTART3[RESTART3.index("Species 2") + 10:RESTART3.index("Walls 1")] + "Particles 0\n")
+    f = write(tmp_path, **{"c.data": DATA2, "c.fstat": FSTAT2, "c.restart": restart})
+    with pytest.raises(ValueError, match=r"a 2D run with gravity \[0.0, 0.0, -1.0\] .* pass body_force= \(--gravity\) "
+                                         r"with the plane's two components"):
+        MercuryReader(f["c.data"], f["c.fstat"], restart_path=f["c.restart"])
+    with pytest.warns(UserWarning, match=r"the given body force \[0.0, -1.0\] is used"):
+        r = MercuryReader(f["c.data"], f["c.fstat"], restart_path=f["c.restart"], body_force=(0, -1), fixed=[1])
+    np.testing.assert_array_equal(r[0].body_force[0], [0, -1])

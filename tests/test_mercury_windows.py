@@ -132,3 +132,15 @@ def test_a_last_line_cut_inside_its_last_number_is_refused_naming_it(tmp_path, e
         with pytest.raises(ValueError, match=rf"c{ext}(.gz)?:{lines}: the last line has no newline at its end: the "
                                              r"file was cut"):
             scan(path)
+
+
+def test_a_complete_file_without_a_final_newline_is_refused_with_a_hint_that_keeps_the_data(tmp_path):
+    # a converter's "\n".join leaves a complete .data without its final newline: the hint said to delete the frame
+    path = tmp_path / "j.data"
+    path.write_bytes(genuine(".data").rstrip(b"\n"))
+    with pytest.raises(ValueError, match=r"if the file is complete, add the final newline \(echo >> .*j\.data\); "
+                                         r"if it was cut, .* delete that line and its frame"):
+        scan_data(path, None)
+    with open(path, "ab") as fh:   # the hint followed: the file is read
+        fh.write(b"\n")
+    assert len(scan_data(path, None)) > 0

@@ -206,3 +206,21 @@ def test_a_body_force_other_than_the_runs_gravity_is_refused(tmp_path, capsys):
     from cgbound.cli import main
     assert main(["run", path, "--gravity", "0,0,-1", "--width", "0.1", "-q", "-o", str(tmp_path / "o.h5")]) == 2
     assert "--gravity: [0.0, 0.0, -1.0] is not the gravity of the run" in capsys.readouterr().err
+
+
+def test_a_given_body_force_is_used_when_the_runs_gravity_is_zero_or_on_override(tmp_path):
+    # weight from another engine or addF leaves the NewtonIntegrator's gravity 0: --gravity was refused, no way out
+    zero = tampered(tmp_path, gravity=lambda g: 0 * g)
+    with pytest.warns(UserWarning, match=r"the run's gravity \(the NewtonIntegrator's\) is 0; the given body force "
+                                         r"\[0.0, 0.0, -9.8\] is used"):
+        assert np.array_equal(YadeReader(zero, body_force=(0, 0, -9.8))[0].body_force[0], [0, 0, -9.8])
+    assert not np.any(YadeReader(zero)[0].body_force)
+    path = os.path.join(DATA, "walls")
+    with pytest.raises(ValueError, match=r"leave it out to use the export's, or, .* pass body_force_override=True "
+                                         r"\(--gravity-override\)"):
+        YadeReader(path, body_force=(0, 0, -9.8))[0]
+    # a contradicting body force on demand (changed during the run); the override needs the body force
+    assert np.array_equal(YadeReader(path, body_force=(0, 0, -9.8), body_force_override=True)[0].body_force[0],
+                          [0, 0, -9.8])
+    with pytest.raises(ValueError, match=r"body_force_override: True needs body_force="):
+        YadeReader(path, body_force_override=True)

@@ -11,6 +11,7 @@ import contextlib
 import mmap
 import os
 import re
+import shlex
 
 import numpy as np
 
@@ -142,10 +143,14 @@ def _empty_file_error(path, what):
 
 def _cut_line_error(path, line):
     """MercuryDPM ends every line with a newline: a last line without one was cut while being written or copied, and
-    a cut inside its last number would leave a line of the right length with a wrong value."""
+    a cut inside its last number would leave a line of the right length with a wrong value. A converter joining
+    lines with "\\n" leaves a complete file without one: the fix then is a newline, not deleting the frame."""
+    name = os.fspath(path)
+    add = "gunzip it, echo >> it, gzip it" if name.endswith(".gz") else f"echo >> {shlex.quote(name)}"
     return ValueError(f"{path}:{line}: the last line has no newline at its end: the file was cut while being written "
-                      f"(a run still going?) or copied; read it when the run has ended, copy it again, or delete "
-                      f"that line (and its frame)")
+                      f"(a run still going?) or copied, or written without a final newline; if the file is complete, "
+                      f"add the final newline ({add}); if it was cut, read it when the run has ended, copy it again, "
+                      f"or delete that line and its frame")
 
 
 def _words(data, start, stop):

@@ -81,7 +81,9 @@ frame is refused. Template particles inside boundary lines (``ChuteInsertionBoun
 particles; a ``Particles N`` section with fewer lines is a truncated file and an error. Periodic axes: ``periodic=`` (per cgbound axis), else from
 ``PeriodicBoundary ... normal nx ny nz`` lines of the ``.restart``. Body force: ``body_force=``, else the
 ``.restart``'s ``gravity`` (``DPMBase::write``: ``systemDimensions D particleDimensions P gravity gx gy gz``; a
-chute's is tilted by its angle, e.g. ``(sin 24, 0, -cos 24)``); when both are known they must agree.
+chute's is tilted by its angle, e.g. ``(sin 24, 0, -cos 24)``); when both are known they must agree, unless the
+restart's is 0 (weight applied by the driver's code: the given one is used, with a warning) or
+``body_force_override=True``. A 2D run whose restart gravity has a z component needs ``body_force=``.
 
 Reading and structure checks
 ----------------------------
@@ -98,7 +100,8 @@ interaction line whose time is not its frame's, an interaction line whose contac
 frame (an ``.fstat`` of another run or frame, or a damaged index: a contact with a fixed particle or a wall is
 listed once, so no pairing check would see it), a last ``.fstat`` frame cut off after its header while
 earlier frames have contacts, a ``.data`` or ``.fstat`` whose last line has no newline (cut while written or
-copied: a cut inside the last number keeps the line's length), a ``.restart`` without a complete ``Particles N``
+copied: a cut inside the last number keeps the line's length; a complete file written without its final newline
+needs one added), a ``.restart`` without a complete ``Particles N``
 section, a flowing particle whose radius is not positive, empty or
 whitespace-only files, nan/inf, non-numbers and bytes that are not text.
 
@@ -125,7 +128,7 @@ import warnings
 import numpy as np
 
 from .. import _engine
-from .._validate import finite_number, index_array, integer
+from .._validate import finite_number, flag, index_array, integer
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from .checks import row_squares
@@ -177,7 +180,8 @@ class MercuryReader(FrameReader):
     fixed : indices, (N,) bools, or callable(radius, species) -> (N,) bools, optional
     body_force : (D,) body force per unit mass on flowing particles, cgbound axes
         (in 2D also the 3 MercuryDPM components, third 0). Default: the ``.restart``'s gravity; when both are
-        known they must agree (to 1e-4 of the larger).
+        known they must agree (to 1e-4 of the larger), unless the restart's is 0 (a warning; the given one is used)
+        or, in 2D, has a third component (a warning; the given one is used).
     dim : 2 or 3, optional
         Checked against the ``.data`` headers (default: from them).
     density : number or {species: density}, optional
@@ -189,10 +193,13 @@ class MercuryReader(FrameReader):
     rtol : float
         Tolerance for the two lines of a pair (relative to the frame's largest force, and to
         the largest particle diameter for the contact point).
+    body_force_override : bool
+        Use ``body_force`` even where it contradicts the ``.restart``'s nonzero gravity (a body force changed
+        during the run, or applied by the driver's own code). Default False: refused.
     """
 
     def __init__(self, data_path, fstat_path=None, *, restart_path=None, fixed=None, body_force=None, dim=None,
-                 density=None, particle_dim=None, periodic=None, rtol=1e-9, units=None):
+                 density=None, particle_dim=None, periodic=None, rtol=1e-9, units=None, body_force_override=False):
         self.units = units
         if dim is not None and dim not in (2, 3):
             raise ValueError(f"dim: expected 2 or 3, got {dim!r}")
@@ -221,7 +228,7 @@ class MercuryReader(FrameReader):
         if self.particle_dim not in (2, 3):
             raise ValueError(f"particle_dim: expected 2 or 3, got {pdim!r}")
         self.fixed = fixed if callable(fixed) or fixed is None else np.asarray(fixed)
-        self.body_force = self._body_force(body_force, restart)
+        self.body_force = self._body_force(body_force, restart, flag(body_force_override, "body_force_override"))
         self.periodic = self._periodic(periodic, restart)
         self.rtol = finite_number(rtol, "rtol")
         if self.rtol < 0:
@@ -268,26 +275,41 @@ class MercuryReader(FrameReader):
     #: writes 15 significant digits, a user types a few (0.40674, 0, -0.91355)
     GRAVITY_RTOL = 1e-4
 
-    def _body_force(self, body_force, restart):
+    def _body_force(self, body_force, restart, override):
         """``body_force=``, checked against the gravity the run used (the .restart's), else that gravity: a chute's
         is tilted by its angle (ChuteDemo: (sin 24, 0, -cos 24)), so a guessed (0, 0, -1) would unbalance every
-        momentum balance silently."""
+        momentum balance silently. A restart gravity of 0 (the weight applied by the driver's own code) gives way to
+        a given one, with a warning; a contradicting nonzero one only to ``body_force_override=True``."""
         given = self._check_body_force(body_force, self.dim, "MercuryDPM")
         g = None if restart is None else restart.get("gravity")
-        if g is None:
+        if override and given is None:
+            raise ValueError("body_force_override: True needs body_force= (--gravity), the body force to use")
+        if g is None or (override and given is not None):
             return given
+        if self.dim == 2 and g[2] != 0:
+            if given is not None:
+                # the plane's two components, given, say what the 3-component restart cannot
+                warnings.warn(f"{self.restart_path}: the 2D run's gravity {g.tolist()} has a third component; the "
+                              f"given body force {given.tolist()} is used", stacklevel=3)
+                return given
+            raise ValueError(f"{self.restart_path}: a 2D run with gravity {g.tolist()} (its third component is not "
+                             f"0, outside the plane): pass body_force= (--gravity) with the plane's two components "
+                             f"(MercuryDPM x, y)")
         if self.dim == 2:
-            if g[2] != 0:
-                raise ValueError(f"{self.restart_path}: a 2D run with gravity {g.tolist()} (its third component is "
-                                 f"not 0)")
             g = g[:2]
         if given is None:
             return g if np.any(g) else None
+        if not np.any(g):
+            warnings.warn(f"{self.restart_path}: the run's gravity is 0; the given body force {given.tolist()} is "
+                          f"used (the weight applied by the driver's own code)", stacklevel=3)
+            return given
         scale = max(float(np.max(np.abs(g))), float(np.max(np.abs(given))))
         if float(np.max(np.abs(given - g))) > self.GRAVITY_RTOL * scale:
             raise ValueError(f"body_force: {given.tolist()} is not the gravity the run used, {g.tolist()} (the "
                              f"'gravity' of {self.restart_path}; a chute's gravity is tilted by its angle); leave it "
-                             f"out to use the restart's")
+                             f"out to use the restart's, or, if the run's body force really differs from its stored "
+                             f"gravity (changed during the run, custom forcing), pass body_force_override=True "
+                             f"(--gravity-override)")
         return g
 
     def _densities(self, density, restart):

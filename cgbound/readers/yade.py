@@ -28,7 +28,8 @@ How Yade's data becomes a Snapshot:
   (``pos2 + cellDist * size - pos1``) must equal the minimum image that cgbound uses, else the
   cell is too small for the minimum-image convention and the frame is refused. Sheared cells are
   refused.
-* the body force per unit mass is the NewtonIntegrator's gravity (a different ``body_force=`` is refused).
+* the body force per unit mass is the NewtonIntegrator's gravity (a different ``body_force=`` is refused unless
+  ``body_force_override=True``; when that gravity is 0, a given ``body_force=`` is used, with a warning).
 
 Checks made on every frame (cheap, before the snapshot is returned):
 
@@ -45,9 +46,11 @@ from dataclasses import dataclass
 import glob
 import os
 import re
+import warnings
 
 import numpy as np
 
+from .._validate import flag
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._sequence import FrameReader
@@ -158,11 +161,15 @@ class YadeReader(FrameReader):
         Yade body ids to treat as boundary in addition to the non-dynamic / blocked ones.
     body_force : (3,) array, optional
         The body force per unit mass when the export has no NewtonIntegrator gravity; when it has one, they must
-        agree (to 1e-4 of the larger).
+        agree (to 1e-4 of the larger), unless it is 0 (weight from another engine or addF: the given one is used,
+        with a warning).
+    body_force_override : bool
+        Use ``body_force`` even where it contradicts the NewtonIntegrator's nonzero gravity (a body force changed
+        during the run, or applied by another engine). Default False: refused.
     """
 
     def __init__(self, paths, *, check_forces=True, tolerance=DEFAULT_TOLERANCE, fixed_ids=(), body_force=None,
-                 units=None):
+                 units=None, body_force_override=False):
         self.units = units
         files = _expand(paths)
         if not (isinstance(tolerance, (int, float)) and not isinstance(tolerance, bool) and tolerance > 0):
@@ -175,6 +182,10 @@ class YadeReader(FrameReader):
             if body_force.shape != (3,) or not np.all(np.isfinite(body_force)):
                 raise ValueError(f"body_force: expected 3 finite values, got {body_force.tolist()}")
         self.body_force = body_force
+        self.body_force_override = flag(body_force_override, "body_force_override")
+        if self.body_force_override and body_force is None:
+            raise ValueError("body_force_override: True needs body_force= (--gravity), the body force to use")
+        self._warned_zero_gravity = False
         frames = []
         for path in files:
             frames.append((int(_arrays(path, ("iter",))["iter"]), path))
@@ -306,15 +317,26 @@ class YadeReader(FrameReader):
                 rows = clump[part] == c
                 masses[rows] *= data["mass"][by_id[int(c)]] / masses[rows].sum()
         g = self.body_force
-        if np.all(np.isfinite(data["gravity"])):
-            if g is not None and float(np.max(np.abs(g - data["gravity"]))) > 1e-4 * max(
-                    float(np.max(np.abs(g))), float(np.max(np.abs(data["gravity"])))):
+        stored = data["gravity"]
+        if np.all(np.isfinite(stored)) and not (self.body_force_override and g is not None):
+            if g is None:
+                g = stored
+            elif not np.any(stored):
+                # weight from another engine or addF: O.forces.f, which the force check uses, holds it not either
+                if not self._warned_zero_gravity:
+                    self._warned_zero_gravity = True
+                    warnings.warn(f"{path}: the run's gravity (the NewtonIntegrator's) is 0; the given body force "
+                                  f"{g.tolist()} is used (weight from another engine or addF)", stacklevel=4)
+            elif float(np.max(np.abs(g - stored))) > 1e-4 * max(float(np.max(np.abs(g))),
+                                                                float(np.max(np.abs(stored)))):
                 # the NewtonIntegrator's gravity is the one the particles fell under: another would unbalance every
                 # momentum balance, silently (O.forces.f, which the force check uses, holds no gravity)
-                raise ValueError(f"body_force: {g.tolist()} is not the gravity of the run, "
-                                 f"{data['gravity'].tolist()} (the NewtonIntegrator's, in {path}); leave it out to "
-                                 f"use the export's")
-            g = data["gravity"]
+                raise ValueError(f"body_force: {g.tolist()} is not the gravity of the run, {stored.tolist()} (the "
+                                 f"NewtonIntegrator's, in {path}); leave it out to use the export's, or, if the run's "
+                                 f"body force really differs from it (changed during the run, another engine), pass "
+                                 f"body_force_override=True (--gravity-override)")
+            else:
+                g = stored
         try:
             snapshot = Snapshot(pos, data["vel"][part], masses, box=box,
                                 contacts=Contacts(ci, cj, cf, point), fixed=fixed_all[part], body_force=g,
