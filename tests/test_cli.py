@@ -527,6 +527,21 @@ def test_the_script_decides_the_dimension_only_where_it_states_it(tmp_path, caps
     assert status == 2 and "--dimension: not given" in err and "or --dimension 3 if the run is 3-D" in err, err
 
 
+def test_gravity_override_lets_a_given_gravity_replace_the_runs(tmp_path, capsys):
+    # the Yade export's gravity is (0, 0, -9.81): another --gravity is refused (it replaced the run's silently), the
+    # message names the way out, which works; the flag alone, or for LAMMPS input, is an error naming it
+    walls = os.path.join(os.path.dirname(__file__), "data", "yade", "walls")
+    args = ["run", walls, "--width", "0.002", "--grid", "1,1,10", "--average", "x,y", "-q"]
+    status, err = run_error(args + ["--gravity", "0,0,-9.8", "-o", str(tmp_path / "a.h5")], capsys)
+    assert status == 2 and "--gravity: " in err and "--gravity-override" in err, err
+    assert main(args + ["--gravity", "0,0,-9.8", "--gravity-override", "-o", str(tmp_path / "b.h5")]) == 0
+    status, err = run_error(args + ["--gravity-override", "-o", str(tmp_path / "c.h5")], capsys)
+    assert status == 2 and "--gravity-override: " in err, err
+    status, err = run_error(["run", ATOMS, "--gravity-override"] + LAMMPS_ARGS + ["-o", str(tmp_path / "d.h5")],
+                            capsys)
+    assert status == 2 and "--gravity-override: applies to mercury, yade input" in err, err
+
+
 @pytest.mark.parametrize("time_average", ["none", "0.5"])
 def test_a_vtk_output_of_many_results_is_refused_before_work(tmp_path, capsys, time_average):
     # the VTK writer took frame 0 only: "2 frames -> ... wrote t.vtk" with the other frames dropped

@@ -13,7 +13,7 @@ class UsageError(Exception):
 
 #: the API's argument names and the flags that set them, so that an API error names what the user typed
 API_FLAGS = {
-    "body_force": "--gravity", "shape": "--grid", "average": "--average", "width": "--width",
+    "body_force": "--gravity", "body_force_override": "--gravity-override", "shape": "--grid", "average": "--average", "width": "--width",
     "cutoff": "--cutoff", "radius": "--cutoff", "normalize": "--normalize", "fields": "--fields",
     "convention": "--convention", "time_average": "--time-average", "start": "--start", "stop": "--stop",
     "step": "--step", "pairs": "--pairs", "fstat_path": "--pairs", "restart_path": "--restart",

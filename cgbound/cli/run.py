@@ -27,7 +27,7 @@ FLAG_FORMATS = {
     "fixed_types": ("lammps", "liggghts"), "fixed_ids": ("lammps", "liggghts", "mercury", "yade"),
     "walls": ("lammps",), "masses": ("lammps", "liggghts"), "dt": ("lammps", "liggghts"),
     "dimension": ("lammps", "liggghts"), "restart": ("mercury",), "density": ("mercury",),
-    "gravity": ("lammps", "liggghts", "mercury", "yade"),
+    "gravity": ("lammps", "liggghts", "mercury", "yade"), "gravity_override": ("mercury", "yade"),
 }
 
 EXAMPLES = """\
@@ -91,7 +91,11 @@ def add_parser(sub):
                    help="atom IDs (lammps/liggghts) or particle indices (mercury) of fixed particles")
     g.add_argument("--walls", metavar="LIST", help="lammps: IDs of fix wall/gran ... contacts, e.g. floor")
     g.add_argument("--gravity", metavar="VECTOR", help="body force per unit mass on flowing particles, e.g. 0,0,-1 "
-                                                       "(mercury: default the .restart's gravity, which it must match)")
+                                                       "(mercury, yade: default the run's gravity, which it must match "
+                                                       "unless that is 0 or --gravity-override is given)")
+    g.add_argument("--gravity-override", action="store_const", const=True, default=None,
+                   help="mercury, yade: use --gravity although the run's stored gravity differs (a body force changed "
+                        "during the run or applied by the driver's own code)")
     g.add_argument("--masses", metavar="TYPE=MASS,...",
                    help="lammps/liggghts: masses per atom type when the dump has no mass column")
     g.add_argument("--dt", metavar="DT", help="lammps/liggghts: time step size (time = timestep x dt)")
@@ -336,6 +340,8 @@ def reader_options(args, fmt, paths):
     gravity = check_gravity(args, fmt, paths)
     if gravity is not None:
         options["body_force"] = gravity
+    if args.gravity_override:
+        options["body_force_override"] = True
     if fmt in ("lammps", "liggghts"):
         for name in ("pair_compute", "pair_values", "fixed_types", "fixed_ids", "masses", "dt", "dimension"):
             if getattr(args, name) is not None:
