@@ -508,7 +508,7 @@ class MercuryReader(FrameReader):
                 self._check_reach(rows, ints, line_of, time, pos, radii, box)   # (names the line)
         return Contacts.from_reader(i, j, force, point, parsed=("contacts.point",)), wall_index, overlap
 
-    #: how far a contact point may lie outside a particle's sphere (r + |delta|, delta the overlap: a cohesive
+    #: how far a contact point may lie outside a particle's sphere (r + abs(delta), delta the overlap: a cohesive
     #: contact's delta is negative) before the line is refused: a fraction of the reach, plus a fraction of the
     #: box's coordinates for the .fstat's rounding (10 significant digits; 6 in files of older versions)
     REACH_RTOL, REACH_COORDINATE_RTOL = 1e-2, 1e-5
