@@ -1408,6 +1408,37 @@ INLINE void mask_bits2(vwl a, vwl b, uint64_t *ba, uint64_t *bb)
 #endif
 }
 
+/* a row's lanes [k_lo, k_hi) (whole vectors) into rowbuf, with the bits of the lanes that meet the segment and
+   of those that cancel: the along entries (u, Es, Ee, W) are tables read at each lane and the cross entries
+   (h, A, Pc) one value for the row (along_varies: a row along the segment), or the other way round */
+INLINE void axis_row(double *rowbuf, cg_index k_lo, cg_index k_hi, const double *u_t, const double *es_t,
+                     const double *ee_t, const double *w_t, int along_varies, const double *h_t, const double *a_t,
+                     const double *pc_t, vwd Lv, uint64_t *meets, uint64_t *cancel_bits)
+{
+    vwd u = SPLAT(u_t[0]), Es = SPLAT(es_t[0]), Ee = SPLAT(ee_t[0]), W = SPLAT(w_t[0]);
+    vwd h = SPLAT(h_t[0]), A = SPLAT(a_t[0]), Pc = SPLAT(pc_t[0]);
+    for (cg_index kw = k_lo; kw < k_hi; kw += VW) {
+        if (along_varies) {
+            memcpy(&u, u_t + kw, sizeof u);
+            memcpy(&Es, es_t + kw, sizeof Es);
+            memcpy(&Ee, ee_t + kw, sizeof Ee);
+            memcpy(&W, w_t + kw, sizeof W);
+        } else {
+            memcpy(&h, h_t + kw, sizeof h);
+            memcpy(&A, a_t + kw, sizeof A);
+            memcpy(&Pc, pc_t + kw, sizeof Pc);
+        }
+        vwd val;
+        vwl in, cancel;
+        axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
+        memcpy(rowbuf + kw, &val, sizeof val);
+        uint64_t bi, bc;
+        mask_bits2(in, cancel, &bi, &bc);
+        *meets |= bi << kw;
+        *cancel_bits |= bc << kw;
+    }
+}
+
 /* visit_axis's cancelling nodes, gathered in a cut batch as q[0] = A, q[1] = d0 and q[2] = span: the part
    of the segment inside the node's ball is [u + d0, u + d0 + span] (d0 = -u or -h, span = t1 - t0 from
    visit_axis's own u, h and L: where the sphere crosses within a few ulp of an end, exact differences; the cut
@@ -1615,39 +1646,12 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             if (m == 2) {
                 const cg_index c = i * nbp + j;
                 if (!(HC[c] > 0.0)) continue;
-                const vwd h = SPLAT(HC[c]), A = SPLAT(AC[c]), Pc = SPLAT(PC[c]);
-                for (cg_index kw = 0; kw < n2; kw += VW) {
-                    vwd u, Es, Ee, W, val;
-                    vwl in, cancel;
-                    memcpy(&u, U + kw, sizeof u);
-                    memcpy(&Es, ES + kw, sizeof Es);
-                    memcpy(&Ee, EE + kw, sizeof Ee);
-                    memcpy(&W, WW + kw, sizeof W);
-                    axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
-                    memcpy(rowbuf + kw, &val, sizeof val);
-                    uint64_t bi, bc;
-                    mask_bits2(in, cancel, &bi, &bc);
-                    meets |= bi << kw;
-                    cancel_bits |= bc << kw;
-                }
+                axis_row(rowbuf, 0, n2, U, ES, EE, WW, 1, HC + c, AC + c, PC + c, Lv, &meets, &cancel_bits);
             } else {
                 const cg_index a = m == 0 ? i : j, r = m == 0 ? j : i; /* along entry, cross row */
                 if (vlo[r] >= vhi[r]) continue;
-                const vwd u = SPLAT(U[a]), Es = SPLAT(ES[a]), Ee = SPLAT(EE[a]), W = SPLAT(WW[a]);
-                const double *hr = HC + r * nbp, *ar = AC + r * nbp, *pr = PC + r * nbp;
-                for (cg_index kw = vlo[r]; kw < vhi[r]; kw += VW) {
-                    vwd h, A, Pc, val;
-                    vwl in, cancel;
-                    memcpy(&h, hr + kw, sizeof h);
-                    memcpy(&A, ar + kw, sizeof A);
-                    memcpy(&Pc, pr + kw, sizeof Pc);
-                    axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
-                    memcpy(rowbuf + kw, &val, sizeof val);
-                    uint64_t bi, bc;
-                    mask_bits2(in, cancel, &bi, &bc);
-                    meets |= bi << kw;
-                    cancel_bits |= bc << kw;
-                }
+                axis_row(rowbuf, vlo[r], vhi[r], U + a, ES + a, EE + a, WW + a, 0, HC + r * nbp, AC + r * nbp,
+                         PC + r * nbp, Lv, &meets, &cancel_bits);
             }
             /* (the row's nodes that meet the segment are an interval; those cancelled in it are 0 in
                rowbuf, and add +-0) */
