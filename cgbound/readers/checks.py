@@ -1,6 +1,7 @@
 """What readers verify on every frame they read, and the errors that say what was found, the likely
 causes and the fix (nothing read silently wrong)."""
 import re
+import warnings
 
 import numpy as np
 
@@ -199,3 +200,21 @@ def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detai
     return ValueError(
         f"{atoms_path}: timestep {timestep}: the positions do not fit {source}: {rows.size} of {total} contacts "
         f"{what}. The worst: {location(k)}: {detail(k)}. {lead}Likely causes: {causes}. Fix: {fix}")
+
+
+def warn_repeated_frames(path, keyed_lines, name, lines_word, cause, unit, each):
+    """Warn when a frame key (a timestep, a time) is written more than once in ``path``: each copy is read, so a
+    time average counts it that many times (a run restarted and appending to its files). ``keyed_lines``: (key,
+    line) of each frame; the first repeated key is named by ``name(key)``, its frames' lines after ``lines_word``;
+    ``unit``/``each``: what the keys are, in the count of the others and in the advice."""
+    seen = {}
+    for key, line in keyed_lines:
+        seen.setdefault(key, []).append(line)
+    repeated = [(key, lines) for key, lines in seen.items() if len(lines) > 1]
+    if not repeated:
+        return
+    key, lines = repeated[0]
+    more = f" (and {len(repeated) - 1} more {unit}(s))" if len(repeated) > 1 else ""
+    warnings.warn(f"{path}: {name(key)} is written {len(lines)} times ({lines_word} {', '.join(map(str, lines))})"
+                  f"{more}, {cause}; each copy is read, so a time average counts it {len(lines)} times: select the "
+                  f"frames (start/stop/step, --start/--stop/--step) to count each {each} once", stacklevel=4)

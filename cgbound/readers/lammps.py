@@ -143,7 +143,7 @@ from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
 from .checks import (FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, contact_geometry_error,
                      dump_local_header, force_balance, generic_columns, geometry_misfits, row_norms,
-                     written_resolution)
+                     warn_repeated_frames, written_resolution)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -415,18 +415,10 @@ class LammpsReader(FrameReader):
     def _warn_repeated_steps(self):
         """A timestep written twice in the atoms dump (a run restarted from a restart file and appending to its dump,
         or dumps concatenated) is read twice: a time average counts it twice. Allowed, but not silently."""
-        seen = {}
-        for off, ts in self._atoms_dump:
-            seen.setdefault(ts, []).append(self._atoms_dump.extent[off][1])
-        repeated = [(ts, lines) for ts, lines in seen.items() if len(lines) > 1]
-        if repeated:
-            ts, lines = repeated[0]
-            more = f" (and {len(repeated) - 1} more timestep(s))" if len(repeated) > 1 else ""
-            warnings.warn(f"{self.atoms_path}: timestep {ts} is written {len(lines)} times (frames at lines "
-                          f"{', '.join(map(str, lines))}){more}, as by a run restarted and appending to its dump, or "
-                          f"dumps concatenated; each copy is read, so a time average counts it {len(lines)} times: "
-                          f"select the frames (start/stop/step, --start/--stop/--step) to count each step once",
-                          stacklevel=3)
+        frames = ((ts, self._atoms_dump.extent[off][1]) for off, ts in self._atoms_dump)
+        warn_repeated_frames(self.atoms_path, frames, lambda ts: f"timestep {ts}", "frames at lines",
+                             "as by a run restarted and appending to its dump, or dumps concatenated",
+                             "timestep", "step")
 
     def _match(self, atom_frames):
         """Pair each atoms frame with the pairs frame of the same timestep (k-th with k-th)."""

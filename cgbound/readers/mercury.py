@@ -131,7 +131,7 @@ from .. import _engine
 from .._validate import finite_number, flag, index_array, integer
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
-from .checks import row_squares
+from .checks import row_squares, warn_repeated_frames
 from ._mercury_files import LINE_TIME_RTOL, fstat_rows, read_particles, read_restart, scan_data, scan_fstat
 from ._mercury_write import write_mercury
 from .files import CompanionFileWarning, companion
@@ -240,17 +240,8 @@ class MercuryReader(FrameReader):
     def _warn_repeated_times(self, data_frames):
         """A time written twice (a run restarted and appended to its files writes the restart's frames again) is
         read twice: a time average counts it twice. Allowed, but not silently."""
-        seen = {}
-        for f in data_frames:
-            seen.setdefault(f[3], []).append(f[1])
-        repeated = [(t, lines) for t, lines in seen.items() if len(lines) > 1]
-        if repeated:
-            t, lines = repeated[0]
-            more = f" (and {len(repeated) - 1} more time(s))" if len(repeated) > 1 else ""
-            warnings.warn(f"{self.data_path}: the frame at t = {t:g} is written {len(lines)} times (lines "
-                          f"{', '.join(map(str, lines))}){more}, as by a run restarted and appended to its files; "
-                          f"each copy is read, so a time average counts it {len(lines)} times: select the frames "
-                          f"(start/stop/step, --start/--stop/--step) to count each time once", stacklevel=3)
+        warn_repeated_frames(self.data_path, ((f[3], f[1]) for f in data_frames), lambda t: f"the frame at t = {t:g}",
+                             "lines", "as by a run restarted and appended to its files", "time", "time")
 
     # ------------------------------------------------------------------------------------------
     @staticmethod
