@@ -7,6 +7,8 @@ The general exact path is reached by tilting the segment by 1e-200 of a length i
 along two slots; the values change by far less than round-off). Each comparison is at 1e-12 relative to each
 value, and the nodes left empty must be the same.
 """
+import math
+
 import numpy as np
 import pytest
 
@@ -324,3 +326,23 @@ def test_axis_segments_sliver_at_an_end_on_the_line():
     nodes = np.stack(np.meshgrid(*cg.Grid(box, shape).axis_coordinates, indexing="ij"), -1).reshape(-1, 2)
     want = float(mp_psi(list(nodes[36] - s), list(v), w, w))
     assert want > 0.0 and abs(got[36] - want) <= RTOL * want, (got[36], want)
+
+
+@pytest.mark.parametrize("cutoff", [3.0, 5.0])
+def test_axis_contact_stress_integrates_to_minus_f_outer_b(cutoff):
+    """A physical identity through the axis path: a contact along each axis, its contact stress summed over a fine
+    grid (times the cell volume) is -f (x) b times the kernel's mass inside its cutoff ball, P(chi_3 < c) =
+    erf(c/sqrt2) - sqrt(2/pi) c exp(-c^2/2) (the Gaussian normalized over all space); a sign or factor error in a
+    table or the crossing term breaks it."""
+    w, box = 0.5, cg.Box([0, 0, 0], [6, 6, 6])
+    mass = math.erf(cutoff / math.sqrt(2)) - math.sqrt(2 / math.pi) * cutoff * math.exp(-cutoff ** 2 / 2)
+    force = np.array([0.3, -0.2, 1.0])
+    grid = cg.Grid(box, (48, 48, 48))
+    for axis in range(3):
+        p = np.full((2, 3), 3.03)
+        p[1, axis] += 0.97
+        snap = cg.Snapshot(p, np.zeros((2, 3)), np.ones(2), box=box, radii=np.full(2, 0.5),
+                           contacts=cg.Contacts([0], [1], [force], [0.5 * (p[0] + p[1])]))
+        r = cg.coarse_grain(snap, grid, cg.Gaussian(w, cutoff=cutoff * w), fields=("contact_stress",))
+        total = np.asarray(r.contact_stress).sum(axis=(0, 1, 2)) * np.prod(np.asarray(grid.spacing))
+        assert np.allclose(total, -np.outer(force, p[0] - p[1]) * mass, rtol=1e-4, atol=1e-6), (axis, total)
