@@ -1389,54 +1389,19 @@ INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L
     *cancel = meets & ~ok;
 }
 
-#if VW == 8
-static const vwd lane_index = {0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0};
-#else
-static const vwd lane_index = {0.0, 1.0, 2.0, 3.0};
-#endif
-
-/* two masks' lanes as bits (mask_bits of each; in the 4-wide build one horizontal OR for both) */
-INLINE void mask_bits2(vwl a, vwl b, uint64_t *ba, uint64_t *bb)
+/* o[at[k] + c] += (scale * w[k]) * v[c] for k < n and the picked values c (kind PLAIN + nv: all): block_add_picked
+   node by node, at each node's offset (a term w[k] = 0 is left out beyond one picked value: it adds +-0) */
+INLINE void scatter_add_picked(double *restrict o, double scale, const double *restrict w, const cg_index *restrict at,
+                               cg_index n, const double *restrict v, int nv, const picked *p)
 {
-#if VW == 4
-    const vwl zero = {0};
-    uint64_t unused;
-    mask_bits3(a, b, zero, ba, bb, &unused);
-#else
-    *ba = mask_bits(a);
-    *bb = mask_bits(b);
-#endif
-}
-
-/* a row's lanes [k_lo, k_hi) (whole vectors) into rowbuf, with the bits of the lanes that meet the segment and
-   of those that cancel: the along entries (u, Es, Ee, W) are tables read at each lane and the cross entries
-   (h, A, Pc) one value for the row (along_varies: a row along the segment), or the other way round */
-INLINE void axis_row(double *rowbuf, cg_index k_lo, cg_index k_hi, const double *u_t, const double *es_t,
-                     const double *ee_t, const double *w_t, int along_varies, const double *h_t, const double *a_t,
-                     const double *pc_t, vwd Lv, uint64_t *meets, uint64_t *cancel_bits)
-{
-    vwd u = SPLAT(u_t[0]), Es = SPLAT(es_t[0]), Ee = SPLAT(ee_t[0]), W = SPLAT(w_t[0]);
-    vwd h = SPLAT(h_t[0]), A = SPLAT(a_t[0]), Pc = SPLAT(pc_t[0]);
-    for (cg_index kw = k_lo; kw < k_hi; kw += VW) {
-        if (along_varies) {
-            memcpy(&u, u_t + kw, sizeof u);
-            memcpy(&Es, es_t + kw, sizeof Es);
-            memcpy(&Ee, ee_t + kw, sizeof Ee);
-            memcpy(&W, w_t + kw, sizeof W);
-        } else {
-            memcpy(&h, h_t + kw, sizeof h);
-            memcpy(&A, a_t + kw, sizeof A);
-            memcpy(&Pc, pc_t + kw, sizeof Pc);
-        }
-        vwd val;
-        vwl in, cancel;
-        axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
-        memcpy(rowbuf + kw, &val, sizeof val);
-        uint64_t bi, bc;
-        mask_bits2(in, cancel, &bi, &bc);
-        *meets |= bi << kw;
-        *cancel_bits |= bc << kw;
+    if (p->kind == 1) {
+        const double v0 = p->v[0];
+        double *restrict o0 = o + p->at[0];
+        for (cg_index k = 0; k < n; ++k) o0[at[k]] += (scale * w[k]) * v0;
+        return;
     }
+    for (cg_index k = 0; k < n; ++k)
+        if (w[k] != 0.0) block_add_picked(o + at[k], scale, w + k, 1, v, nv, p);
 }
 
 /* visit_axis's cancelling nodes, gathered in a cut batch as q[0] = A, q[1] = d0 and q[2] = span: the part
@@ -1491,21 +1456,24 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w), q4 = 0.25 / (w * w);
     const int c1 = m == 0 ? 1 : 0, c2 = m == 2 ? 1 : 2; /* the cross slots */
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2], nm = count[m], na = count[c1], nb = count[c2];
-    const cg_index nbp = (nb + VW - 1) / VW * VW, nc = na * nbp; /* cross rows in whole vectors */
-    const size_t nmp = (size_t)(nm + VW - 1) / VW * VW, ncp = AXIS_UP(nc), nsp = AXIS_UP(n0 + n1 + n2);
+    const cg_index nbp = (nb + VW - 1) / VW * VW; /* a cross row in whole vectors */
+    const size_t nmp = (size_t)(nm + VW - 1) / VW * VW, nsp = AXIS_UP(n0 + n1 + n2);
+    const size_t npx = AXIS_UP(na * nb); /* the packed cross entries, at most */
     /* node - x per slot; the cross slots' exponentials; along: u, Es, Ee, W and two work arrays (2 nmp
-       for the exponentials); cross: A, h, Pc; a row; a cut batch */
-    const size_t ncs = ncp + 2 * VW; /* a cross table and room for a row's reads past it */
-    const size_t need = nsp + nsp + 6 * nmp + 3 * ncs + 2 * AXIS_UP(n2) + CUT_BATCH_DOUBLES;
+       for the exponentials); a cross row's A, h and erfcx argument; packed: A, h, Pc, node, offset; two
+       planes' values; a cut batch */
+    const size_t need = nsp + nsp + 6 * nmp + 3 * (size_t)nbp + 7 * npx + CUT_BATCH_DOUBLES;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *q[3] = {buf, buf + n0, buf + n0 + n1};
     double *ge = buf + nsp, *g[3] = {ge, ge + n0, ge + n0 + n1};
     double *U = ge + nsp, *ES = U + nmp, *EE = ES + nmp, *WW = EE + nmp, *EX = WW + nmp; /* EX: 2 nmp */
-    double *AC = EX + 2 * nmp, *HC = AC + ncs, *PC = HC + ncs;
-    double *const rowbufs[2] = {PC + ncs, PC + ncs + AXIS_UP(n2)}; /* two rows: see pending below */
+    double *RA = EX + 2 * nmp, *RH = RA + nbp, *RP = RH + nbp;
+    double *PA = RP + nbp, *PH = PA + npx, *PP = PH + npx;
+    cg_index *PN = (cg_index *)(void *)(PP + npx), *PO = PN + npx; /* (cg_index and double are both 8 bytes) */
+    double *const planebufs[2] = {(double *)(void *)(PO + npx), (double *)(void *)(PO + npx) + npx};
     cut_batch cuts;
-    cut_batch_init(&cuts, rowbufs[1] + AXIS_UP(n2));
+    cut_batch_init(&cuts, planebufs[1] + npx);
     for (int s = 0; s < 3; ++s) {
         if (s < pad) {
             q[s][0] = 0.0;
@@ -1567,9 +1535,12 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
         }
     }
-    /* cross: A, h and the crossing's term Pc = exp(-R^2 / 2w^2) erfcx(h / sqrt2 w), rows of nbp entries
-       (whole vectors; h = 0 past nb) */
-    cg_index a_lo = 0, a_hi = 0, vlo[64], vhi[64];
+    /* cross: the entries whose line meets the ball (rho^2 < R^2: h > 0), packed (row by row, in order):
+       A, h, the crossing's term Pc = exp(-R^2 / 2w^2) erfcx(h / sqrt2 w), and each entry's node (its
+       index over the cross slots) and output offset; whole vectors of two (padding: h = 0, which meets
+       no segment) */
+    const cg_index width = jb->out_width;
+    cg_index npk = 0;
     {
         const double *restrict qa = q[c1], *restrict ga = g[c1];
         double qb[64 + VW], gb[64 + VW];
@@ -1577,14 +1548,11 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             qb[b] = b < nb ? q[c2][b] : 0.0;
             gb[b] = b < nb ? g[c2][b] : 0.0;
         }
-        /* the rows whose line meets the ball, [a_lo, a_hi); per row, its vectors with h > 0, [vlo, vhi) */
-        while (a_lo < na && !(qa[a_lo] * qa[a_lo] < R2)) ++a_lo;
-        a_hi = a_lo;
-        while (a_hi < na && qa[a_hi] * qa[a_hi] < R2) ++a_hi;
+        const cg_index sa = stride[c1], sb = stride[c2], node0 = first[c1] * sa + first[c2] * sb;
         const vwd R2v = SPLAT(R2), isw = SPLAT(inv_sqrt2w), zero = {0.0};
-        for (cg_index a = a_lo; a < a_hi; ++a) {
+        for (cg_index a = 0; a < na; ++a) {
+            if (!(qa[a] * qa[a] < R2)) continue;
             const vwd qa2 = SPLAT(qa[a] * qa[a]), gaa = SPLAT(ga[a]);
-            cg_index lo = nbp, hi = 0;
             for (cg_index bw = 0; bw < nbp; bw += VW) {
                 vwd qbv, gbv, h;
                 memcpy(&qbv, qb + bw, sizeof qbv);
@@ -1592,102 +1560,89 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 vwd hh = R2v - (qa2 + qbv * qbv);
                 hh = SELECT(hh > zero, hh, zero);
                 sqrt_lanes(hh, &h);
-                const vwl in_row = (vwl)(SPLAT((double)(bw - nb)) + lane_index < zero);
-                h = (vwd)((vwl)h & in_row);
-                if (mask_bits((vwl)(h > zero))) {
-                    lo = lo < bw ? lo : bw;
-                    hi = bw + VW;
-                }
                 const vwd A = gaa * gbv, arg = h * isw;
-                memcpy(AC + a * nbp + bw, &A, sizeof A);
-                memcpy(HC + a * nbp + bw, &h, sizeof h);
-                memcpy(PC + a * nbp + bw, &arg, sizeof arg);
+                memcpy(RA + bw, &A, sizeof A);
+                memcpy(RH + bw, &h, sizeof h);
+                memcpy(RP + bw, &arg, sizeof arg);
             }
-            vlo[a] = lo;
-            vhi[a] = hi;
+            /* (branch-free: every entry is written at npk, which moves on past those that meet the ball) */
+            const cg_index row_node = node0 + a * sa;
+            for (cg_index b = 0; b < nb; ++b) {
+                PA[npk] = RA[b];
+                PH[npk] = RH[b];
+                PP[npk] = RP[b];
+                PN[npk] = row_node + b * sb;
+                npk += RH[b] > 0.0;
+            }
         }
-        if (m == 2) { /* (the rows read h: 0 in the rows that miss the ball) */
-            for (cg_index c = 0; c < a_lo * nbp; ++c) HC[c] = 0.0;
-            for (cg_index c = a_hi * nbp; c < nc; ++c) HC[c] = 0.0;
-        }
-        /* erfcx of the rows that meet the ball (two halves; the second may reach a vector past them,
-           which the table has room for, and whose values are not used) */
-        const cg_index off = a_lo * nbp, nvec = (a_hi - a_lo) * nbp / VW, half = (nvec + 1) / 2 * VW;
-        for (cg_index c = off + nvec * VW; c < off + 2 * half; ++c) PC[c] = 0.0;
-        erfcx_in_place2(PC + off, PC + off + half, half, R2 > 31.9 * (w * w));
+        const cg_index npad = (cg_index)AXIS_UP(npk), half = npad / 2;
+        for (cg_index k = npk; k < npad; ++k) PA[k] = PH[k] = PP[k] = 0.0;
+        for (cg_index k = 0; k < npk; ++k) PO[k] = PN[k] * width;
+        erfcx_in_place2(PP, PP + half, half, R2 > 31.9 * (w * w));
         const double ER = exp(-R2 * inv2w2);
-        for (cg_index c = off; c < off + nvec * VW; ++c) PC[c] = ER * PC[c];
+        for (cg_index k = 0; k < npk; ++k) PP[k] = ER * PP[k];
     }
     const double *values = jb->values + obj * nv;
-    const cg_index width = jb->out_width, s2 = stride[2];
-    const uint64_t valid = n2 >= 64 ? ~UINT64_C(0) : (UINT64_C(1) << n2) - 1;
     const vwd Lv = SPLAT(L);
-    /* a row's update of the output waits for the next row's values (as rows_of_rule's: read right after
-       their vector store, the row would stall store forwarding) */
-    const double *pending = NULL;
-    cg_index pending_at = 0, pending_n = 0;
-    int parity = 0;
     /* the along entries within R of the segment's line range, [u_lo, u_hi) (u is monotone along its slot) */
     cg_index u_lo = 0, u_hi;
     while (u_lo < nm && !(U[u_lo] > -R && U[u_lo] < L + R)) ++u_lo;
     u_hi = u_lo;
     while (u_hi < nm && U[u_hi] > -R && U[u_hi] < L + R) ++u_hi;
-    /* the planes, and the rows of a plane, that can meet the segment: along entries in range, cross rows
-       that meet the ball (m = 0: the rows are cross rows; m = 1: along entries; m = 2: the plane's cross
-       row's entries, whole vectors of them) */
-    const cg_index i_lo = m == 0 ? u_lo : a_lo, i_hi = m == 0 ? u_hi : a_hi;
-    for (cg_index i = i_lo; i < i_hi; ++i) {
-        const cg_index j_lo = m == 0 ? a_lo : (m == 1 ? u_lo : vlo[i]);
-        const cg_index j_hi = m == 0 ? a_hi : (m == 1 ? u_hi : (vhi[i] < n1 ? vhi[i] : n1));
-        cg_index base = (first[0] + i) * stride[0] + (first[1] + j_lo) * stride[1] + first[2] * s2;
-        for (cg_index j = j_lo; j < j_hi; ++j, base += stride[1]) {
-            uint64_t meets = 0, cancel_bits = 0;
-            double *const rowbuf = rowbufs[parity];
-            if (m == 2) {
-                const cg_index c = i * nbp + j;
-                if (!(HC[c] > 0.0)) continue;
-                axis_row(rowbuf, 0, n2, U, ES, EE, WW, 1, HC + c, AC + c, PC + c, Lv, &meets, &cancel_bits);
-            } else {
-                const cg_index a = m == 0 ? i : j, r = m == 0 ? j : i; /* along entry, cross row */
-                if (vlo[r] >= vhi[r]) continue;
-                axis_row(rowbuf, vlo[r], vhi[r], U + a, ES + a, EE + a, WW + a, 0, HC + r * nbp, AC + r * nbp,
-                         PC + r * nbp, Lv, &meets, &cancel_bits);
-            }
-            /* (the row's nodes that meet the segment are an interval; those cancelled in it are 0 in
-               rowbuf, and add +-0) */
-            meets &= valid;
-            if (pending) block_add_picked(out + pending_at, factor, pending, pending_n, values, nv, pick);
-            pending = NULL;
-            if (meets) {
-                const cg_index k0 = __builtin_ctzll(meets), k1 = 64 - __builtin_clzll(meets);
-                pending = rowbuf + k0;
-                pending_at = (base + k0 * s2) * width;
-                pending_n = k1 - k0;
-                parity ^= 1;
-            }
-            cancel_bits &= valid;
-            if (cancel_bits) {
-                if (cuts.n + n2 > CUT_BATCH) axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
-                do {
-                    const cg_index k = __builtin_ctzll(cancel_bits);
-                    cancel_bits &= cancel_bits - 1;
+    /* Plane by plane (an along entry): every packed entry's value in one vector loop, then added at its node.
+       A plane's update of the output waits for the next plane's values (read right after their vector
+       stores, the values would stall store forwarding). */
+    const double *pending = NULL;
+    cg_index pending_at = 0;
+    int parity = 0;
+    const cg_index sm = stride[m];
+    for (cg_index i = u_lo; i < u_hi; ++i) {
+        const vwd u = SPLAT(U[i]), Es = SPLAT(ES[i]), Ee = SPLAT(EE[i]), W = SPLAT(WW[i]);
+        double *restrict pv = planebufs[parity];
+        vwl any_cancel = {0};
+        for (cg_index kw = 0; kw < npk; kw += VW) {
+            vwd h, A, Pc, val;
+            vwl in, cancel;
+            memcpy(&h, PH + kw, sizeof h);
+            memcpy(&A, PA + kw, sizeof A);
+            memcpy(&Pc, PP + kw, sizeof Pc);
+            axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
+            memcpy(pv + kw, &val, sizeof val);
+            any_cancel |= cancel;
+        }
+        /* (the plane's nodes that miss the ball, or cancel, are 0 in pv, and add +-0) */
+        if (pending) scatter_add_picked(out + pending_at, factor, pending, PO, npk, values, nv, pick);
+        pending = pv;
+        const cg_index plane_node = (first[m] + i) * sm;
+        pending_at = plane_node * width;
+        parity ^= 1;
+        if (mask_bits(any_cancel)) {
+            /* the cancelling nodes (few: their lanes again, as above), gathered for axis_cut_flush */
+            for (cg_index kw = 0; kw < npk; kw += VW) {
+                vwd h, A, Pc, val;
+                vwl in, cancel;
+                memcpy(&h, PH + kw, sizeof h);
+                memcpy(&A, PA + kw, sizeof A);
+                memcpy(&Pc, PP + kw, sizeof Pc);
+                axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
+                for (uint64_t bits = mask_bits(cancel); bits; bits &= bits - 1) {
+                    const cg_index k = kw + __builtin_ctzll(bits);
+                    if (cuts.n == CUT_BATCH) axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
                     /* the node's along and cross entries (as axis_lanes's) */
-                    const cg_index at = m == 2 ? k : (m == 0 ? i : j);
-                    const cg_index cr = m == 2 ? i * nbp + j : (m == 0 ? j : i) * nbp + k;
-                    const double u = U[at], h = HC[cr];
-                    const double lo = u - h, hi = u + h;
+                    const double uu = U[i], hk = PH[k];
+                    const double lo = uu - hk, hi = uu + hk;
                     const int at_start = lo <= 0.0, at_end = hi >= L;
                     const double t0 = at_start ? 0.0 : lo, t1 = at_end ? L : hi;
                     const int n = cuts.n++;
-                    cuts.q[0][n] = AC[cr];
-                    cuts.q[1][n] = at_start ? -u : -h;
+                    cuts.q[0][n] = PA[k];
+                    cuts.q[1][n] = at_start ? -uu : -hk;
                     cuts.q[2][n] = t1 - t0;
-                    cuts.node[n] = base + k * s2;
-                } while (cancel_bits);
+                    cuts.node[n] = plane_node + PN[k];
+                }
             }
         }
     }
-    if (pending) block_add_picked(out + pending_at, factor, pending, pending_n, values, nv, pick);
+    if (pending) scatter_add_picked(out + pending_at, factor, pending, PO, npk, values, nv, pick);
     axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
     return 1;
 }
