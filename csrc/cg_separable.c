@@ -1540,7 +1540,10 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        index over the cross slots) and output offset; whole vectors of two (padding: h = 0, which meets
        no segment) */
     const cg_index width = jb->out_width;
-    cg_index npk = 0;
+    /* the packed rows (cross entries along slot c2 of one entry along c1): their first entries, and a bound
+       on their entries' h, rounded as theirs (h^2 = R^2 - (qa^2 + qb^2) <= R^2 - qa^2, monotone) */
+    cg_index npk = 0, n_rows = 0, row_start[65];
+    double row_h[64];
     {
         const double *restrict qa = q[c1], *restrict ga = g[c1];
         double qb[64 + VW], gb[64 + VW];
@@ -1552,6 +1555,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         const vwd R2v = SPLAT(R2), isw = SPLAT(inv_sqrt2w), zero = {0.0};
         for (cg_index a = 0; a < na; ++a) {
             if (!(qa[a] * qa[a] < R2)) continue;
+            row_h[n_rows] = sqrt(R2 - qa[a] * qa[a]);
+            row_start[n_rows++] = npk;
             const vwd qa2 = SPLAT(qa[a] * qa[a]), gaa = SPLAT(ga[a]);
             for (cg_index bw = 0; bw < nbp; bw += VW) {
                 vwd qbv, gbv, h;
@@ -1575,6 +1580,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 npk += RH[b] > 0.0;
             }
         }
+        row_start[n_rows] = npk;
         const cg_index npad = (cg_index)AXIS_UP(npk), half = npad / 2;
         for (cg_index k = npk; k < npad; ++k) PA[k] = PH[k] = PP[k] = 0.0;
         for (cg_index k = 0; k < npk; ++k) PO[k] = PN[k] * width;
@@ -1593,14 +1599,27 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        A plane's update of the output waits for the next plane's values (read right after their vector
        stores, the values would stall store forwarding). */
     const double *pending = NULL;
-    cg_index pending_at = 0;
+    cg_index pending_at = 0, pending_lo = 0, pending_hi = 0;
     int parity = 0;
     const cg_index sm = stride[m];
     for (cg_index i = u_lo; i < u_hi; ++i) {
-        const vwd u = SPLAT(U[i]), Es = SPLAT(ES[i]), Ee = SPLAT(EE[i]), W = SPLAT(WW[i]);
+        const double ui = U[i];
+        /* beyond an end, the rows whose h is too short to reach the segment meet nothing (u + h <= 0 or
+           u - h >= L for each of their entries, as axis_lanes rounds it): a plane's entries that may meet it
+           are those of a range of rows [r0, r1) (h is largest in the middle rows), [k_lo, k_hi) */
+        cg_index r0 = 0, r1 = n_rows;
+        if (ui < 0.0) {
+            while (r0 < r1 && !(ui + row_h[r0] > 0.0)) ++r0;
+            while (r1 > r0 && !(ui + row_h[r1 - 1] > 0.0)) --r1;
+        } else if (ui > L) {
+            while (r0 < r1 && !(ui - row_h[r0] < L)) ++r0;
+            while (r1 > r0 && !(ui - row_h[r1 - 1] < L)) --r1;
+        }
+        const cg_index k_lo = row_start[r0], k_hi = row_start[r1];
+        const vwd u = SPLAT(ui), Es = SPLAT(ES[i]), Ee = SPLAT(EE[i]), W = SPLAT(WW[i]);
         double *restrict pv = planebufs[parity];
         vwl any_cancel = {0};
-        for (cg_index kw = 0; kw < npk; kw += VW) {
+        for (cg_index kw = k_lo / VW * VW; kw < k_hi; kw += VW) {
             vwd h, A, Pc, val;
             vwl in, cancel;
             memcpy(&h, PH + kw, sizeof h);
@@ -1611,14 +1630,17 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             any_cancel |= cancel;
         }
         /* (the plane's nodes that miss the ball, or cancel, are 0 in pv, and add +-0) */
-        if (pending) scatter_add_picked(out + pending_at, factor, pending, PO, npk, values, nv, pick);
+        if (pending) scatter_add_picked(out + pending_at, factor, pending + pending_lo, PO + pending_lo,
+                                        pending_hi - pending_lo, values, nv, pick);
         pending = pv;
+        pending_lo = k_lo;
+        pending_hi = k_hi;
         const cg_index plane_node = (first[m] + i) * sm;
         pending_at = plane_node * width;
         parity ^= 1;
         if (mask_bits(any_cancel)) {
             /* the cancelling nodes (few: their lanes again, as above), gathered for axis_cut_flush */
-            for (cg_index kw = 0; kw < npk; kw += VW) {
+            for (cg_index kw = k_lo / VW * VW; kw < k_hi; kw += VW) {
                 vwd h, A, Pc, val;
                 vwl in, cancel;
                 memcpy(&h, PH + kw, sizeof h);
@@ -1642,7 +1664,9 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
         }
     }
-    if (pending) scatter_add_picked(out + pending_at, factor, pending, PO, npk, values, nv, pick);
+    if (pending)
+        scatter_add_picked(out + pending_at, factor, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo,
+                           values, nv, pick);
     axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
     return 1;
 }
