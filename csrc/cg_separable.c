@@ -1389,6 +1389,57 @@ INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L
     *cancel = meets & ~ok;
 }
 
+/* axis_lanes for a node beyond an end of the segment, the same values bit for bit: before its start (u < 0:
+   lo <= u < 0, the start is inside the ball; no straddle) ... */
+INLINE void axis_lanes_before(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *cancel)
+{
+    const vwd zero = {0.0}, hi = u + h;
+    const vwl at_end = hi >= L;
+    const vwl meets = SELECT(at_end, L, hi) > zero;
+    const vwd P0 = A * Es, P1 = SELECT(at_end, A * Ee, Pc);
+    const vwl first = P0 > P1;
+    const vwd diff = SELECT(first, P0 - P1, P1 - P0), larger = SELECT(first, P0, P1);
+    const vwd v = SELECT(at_end, A * W, diff);
+    const vwl ok = at_end | (SPLAT(16.0) * v >= larger);
+    *val = (vwd)((vwl)v & (meets & ok));
+    *cancel = meets & ~ok;
+}
+
+/* ... and beyond its end (u > L: hi >= u > L, the end is inside the ball) */
+INLINE void axis_lanes_after(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *cancel)
+{
+    const vwd zero = {0.0}, lo = u - h;
+    const vwl at_start = lo <= zero;
+    const vwl meets = L > SELECT(at_start, zero, lo);
+    const vwd P0 = SELECT(at_start, A * Es, Pc), P1 = A * Ee;
+    const vwl first = P0 > P1;
+    const vwd diff = SELECT(first, P0 - P1, P1 - P0), larger = SELECT(first, P0, P1);
+    const vwd v = SELECT(at_start, A * W, diff);
+    const vwl ok = at_start | (SPLAT(16.0) * v >= larger);
+    *val = (vwd)((vwl)v & (meets & ok));
+    *cancel = meets & ~ok;
+}
+
+/* a plane's lanes: before, within or after the segment (where: -1, 0, 1) */
+INLINE void axis_plane_lanes(int where, vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val,
+                             vwl *cancel)
+{
+    vwl in;
+    if (where < 0)
+        axis_lanes_before(u, h, A, Pc, Es, Ee, W, L, val, cancel);
+    else if (where > 0)
+        axis_lanes_after(u, h, A, Pc, Es, Ee, W, L, val, cancel);
+    else
+        axis_lanes(u, h, A, Pc, Es, Ee, W, L, val, &in, cancel);
+}
+
+/* o[at[k]] += w[k] for k < n (the values already times the picked value and the scale, as block_add_picked
+   multiplies them) */
+INLINE void scatter_add_one(double *restrict o, const double *restrict w, const cg_index *restrict at, cg_index n)
+{
+    for (cg_index k = 0; k < n; ++k) o[at[k]] += w[k];
+}
+
 /* o[at[k] + c] += (scale * w[k]) * v[c] for k < n and the picked values c (kind PLAIN + nv: all): block_add_picked
    node by node, at each node's offset (a term w[k] = 0 is left out beyond one picked value: it adds +-0) */
 INLINE void scatter_add_picked(double *restrict o, double scale, const double *restrict w, const cg_index *restrict at,
@@ -1602,6 +1653,10 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     cg_index pending_at = 0, pending_lo = 0, pending_hi = 0;
     int parity = 0;
     const cg_index sm = stride[m];
+    /* one picked value: the plane's values times it and the scale in the vector loop, added as they are */
+    const int one = pick->kind == 1;
+    const vwd factor_v = SPLAT(factor), v0_v = SPLAT(one ? pick->v[0] : 1.0);
+    double *const out0 = out + (one ? pick->at[0] : 0);
     for (cg_index i = u_lo; i < u_hi; ++i) {
         const double ui = U[i];
         /* beyond an end, the rows whose h is too short to reach the segment meet nothing (u + h <= 0 or
@@ -1616,22 +1671,27 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             while (r1 > r0 && !(ui - row_h[r1 - 1] < L)) --r1;
         }
         const cg_index k_lo = row_start[r0], k_hi = row_start[r1];
+        const int where = ui < 0.0 ? -1 : ui > L;
         const vwd u = SPLAT(ui), Es = SPLAT(ES[i]), Ee = SPLAT(EE[i]), W = SPLAT(WW[i]);
         double *restrict pv = planebufs[parity];
         vwl any_cancel = {0};
         for (cg_index kw = k_lo / VW * VW; kw < k_hi; kw += VW) {
             vwd h, A, Pc, val;
-            vwl in, cancel;
+            vwl cancel;
             memcpy(&h, PH + kw, sizeof h);
             memcpy(&A, PA + kw, sizeof A);
             memcpy(&Pc, PP + kw, sizeof Pc);
-            axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
+            axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, Lv, &val, &cancel);
+            if (one) val = (factor_v * val) * v0_v; /* (block_add_picked's products) */
             memcpy(pv + kw, &val, sizeof val);
             any_cancel |= cancel;
         }
         /* (the plane's nodes that miss the ball, or cancel, are 0 in pv, and add +-0) */
-        if (pending) scatter_add_picked(out + pending_at, factor, pending + pending_lo, PO + pending_lo,
-                                        pending_hi - pending_lo, values, nv, pick);
+        if (pending && one)
+            scatter_add_one(out0 + pending_at, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo);
+        else if (pending)
+            scatter_add_picked(out + pending_at, factor, pending + pending_lo, PO + pending_lo,
+                               pending_hi - pending_lo, values, nv, pick);
         pending = pv;
         pending_lo = k_lo;
         pending_hi = k_hi;
@@ -1642,11 +1702,11 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             /* the cancelling nodes (few: their lanes again, as above), gathered for axis_cut_flush */
             for (cg_index kw = k_lo / VW * VW; kw < k_hi; kw += VW) {
                 vwd h, A, Pc, val;
-                vwl in, cancel;
+                vwl cancel;
                 memcpy(&h, PH + kw, sizeof h);
                 memcpy(&A, PA + kw, sizeof A);
                 memcpy(&Pc, PP + kw, sizeof Pc);
-                axis_lanes(u, h, A, Pc, Es, Ee, W, Lv, &val, &in, &cancel);
+                axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, Lv, &val, &cancel);
                 for (uint64_t bits = mask_bits(cancel); bits; bits &= bits - 1) {
                     const cg_index k = kw + __builtin_ctzll(bits);
                     if (cuts.n == CUT_BATCH) axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
@@ -1664,7 +1724,9 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
         }
     }
-    if (pending)
+    if (pending && one)
+        scatter_add_one(out0 + pending_at, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo);
+    else if (pending)
         scatter_add_picked(out + pending_at, factor, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo,
                            values, nv, pick);
     axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
