@@ -1511,17 +1511,18 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const size_t nmp = (size_t)(nm + VW - 1) / VW * VW, nsp = AXIS_UP(n0 + n1 + n2);
     const size_t npx = AXIS_UP(na * nb); /* the packed cross entries, at most */
     /* node - x per slot; the cross slots' exponentials; along: u, Es, Ee, W and two work arrays (2 nmp
-       for the exponentials); a cross row's A, h and erfcx argument; packed: A, h, Pc, node, offset; two
-       planes' values; a cut batch */
-    const size_t need = nsp + nsp + 6 * nmp + 3 * (size_t)nbp + 7 * npx + CUT_BATCH_DOUBLES;
+       for the exponentials); the cross rows' A, h and erfcx argument; packed: A, h, Pc, offset; two planes'
+       values; a cut batch */
+    const size_t nrx = (size_t)na * (size_t)nbp; /* the cross rows, whole vectors each */
+    const size_t need = nsp + nsp + 6 * nmp + 3 * nrx + 6 * npx + CUT_BATCH_DOUBLES;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *q[3] = {buf, buf + n0, buf + n0 + n1};
     double *ge = buf + nsp, *g[3] = {ge, ge + n0, ge + n0 + n1};
     double *U = ge + nsp, *ES = U + nmp, *EE = ES + nmp, *WW = EE + nmp, *EX = WW + nmp; /* EX: 2 nmp */
-    double *RA = EX + 2 * nmp, *RH = RA + nbp, *RP = RH + nbp;
-    double *PA = RP + nbp, *PH = PA + npx, *PP = PH + npx;
-    cg_index *PN = (cg_index *)(void *)(PP + npx), *PO = PN + npx; /* (cg_index and double are both 8 bytes) */
+    double *RA = EX + 2 * nmp, *RH = RA + nrx, *RP = RH + nrx;
+    double *PA = RP + nrx, *PH = PA + npx, *PP = PH + npx;
+    cg_index *PO = (cg_index *)(void *)(PP + npx); /* (cg_index and double are both 8 bytes) */
     double *const planebufs[2] = {(double *)(void *)(PO + npx), (double *)(void *)(PO + npx) + npx};
     cut_batch cuts;
     cut_batch_init(&cuts, planebufs[1] + npx);
@@ -1591,9 +1592,9 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        index over the cross slots) and output offset; whole vectors of two (padding: h = 0, which meets
        no segment) */
     const cg_index width = jb->out_width;
-    /* the packed rows (cross entries along slot c2 of one entry along c1): their first entries, and a bound
-       on their entries' h, rounded as theirs (h^2 = R^2 - (qa^2 + qb^2) <= R^2 - qa^2, monotone) */
-    cg_index npk = 0, n_rows = 0, row_start[65];
+    /* the packed rows (cross entries along slot c2 of one entry along c1): their first entries, and their
+       entries' largest h */
+    cg_index npk = 0, n_rows = 0, row_start[65], row_a[64];
     double row_h[64];
     {
         const double *restrict qa = q[c1], *restrict ga = g[c1];
@@ -1606,8 +1607,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         const vwd R2v = SPLAT(R2), isw = SPLAT(inv_sqrt2w), zero = {0.0};
         for (cg_index a = 0; a < na; ++a) {
             if (!(qa[a] * qa[a] < R2)) continue;
-            row_h[n_rows] = sqrt(R2 - qa[a] * qa[a]);
-            row_start[n_rows++] = npk;
+            double *ra = RA + n_rows * nbp, *rh = RH + n_rows * nbp, *rp = RP + n_rows * nbp;
+            row_a[n_rows++] = a;
             const vwd qa2 = SPLAT(qa[a] * qa[a]), gaa = SPLAT(ga[a]);
             for (cg_index bw = 0; bw < nbp; bw += VW) {
                 vwd qbv, gbv, h;
@@ -1617,24 +1618,33 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 hh = SELECT(hh > zero, hh, zero);
                 sqrt_lanes(hh, &h);
                 const vwd A = gaa * gbv, arg = h * isw;
-                memcpy(RA + bw, &A, sizeof A);
-                memcpy(RH + bw, &h, sizeof h);
-                memcpy(RP + bw, &arg, sizeof arg);
+                memcpy(ra + bw, &A, sizeof A);
+                memcpy(rh + bw, &h, sizeof h);
+                memcpy(rp + bw, &arg, sizeof arg);
             }
-            /* (branch-free: every entry is written at npk, which moves on past those that meet the ball) */
-            const cg_index row_node = node0 + a * sa;
+        }
+        /* packed in a second pass (read right after their vector stores, the entries would stall store
+           forwarding); branch-free: every entry is written at npk, which moves on past those that meet the
+           ball */
+        for (cg_index r = 0; r < n_rows; ++r) {
+            const double *ra = RA + r * nbp, *rh = RH + r * nbp, *rp = RP + r * nbp;
+            const cg_index row_at = (node0 + row_a[r] * sa) * width, sbw = sb * width;
+            double h_max = 0.0;
+            row_start[r] = npk;
             for (cg_index b = 0; b < nb; ++b) {
-                PA[npk] = RA[b];
-                PH[npk] = RH[b];
-                PP[npk] = RP[b];
-                PN[npk] = row_node + b * sb;
-                npk += RH[b] > 0.0;
+                const double h = rh[b];
+                PA[npk] = ra[b];
+                PH[npk] = h;
+                PP[npk] = rp[b];
+                PO[npk] = row_at + b * sbw;
+                npk += h > 0.0;
+                h_max = h > h_max ? h : h_max;
             }
+            row_h[r] = h_max;
         }
         row_start[n_rows] = npk;
         const cg_index npad = (cg_index)AXIS_UP(npk), half = npad / 2;
         for (cg_index k = npk; k < npad; ++k) PA[k] = PH[k] = PP[k] = 0.0;
-        for (cg_index k = 0; k < npk; ++k) PO[k] = PN[k] * width;
         erfcx_in_place2(PP, PP + half, half, R2 > 31.9 * (w * w));
         const double ER = exp(-R2 * inv2w2);
         for (cg_index k = 0; k < npk; ++k) PP[k] = ER * PP[k];
@@ -1719,7 +1729,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                     cuts.q[0][n] = PA[k];
                     cuts.q[1][n] = at_start ? -uu : -hk;
                     cuts.q[2][n] = t1 - t0;
-                    cuts.node[n] = plane_node + PN[k];
+                    cuts.node[n] = plane_node + PO[k] / width;
                 }
             }
         }
