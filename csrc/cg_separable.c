@@ -1514,12 +1514,12 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        for the exponentials); the cross rows' A, h and erfcx argument; packed: A, h, Pc, offset; two planes'
        values; a cut batch */
     const size_t nrx = (size_t)na * (size_t)nbp; /* the cross rows, whole vectors each */
-    const size_t need = nsp + nsp + 6 * nmp + 3 * nrx + 6 * npx + CUT_BATCH_DOUBLES;
+    const size_t need = nsp + nsp + EXP_PAD + 6 * nmp + 3 * nrx + 6 * npx + CUT_BATCH_DOUBLES;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *q[3] = {buf, buf + n0, buf + n0 + n1};
     double *ge = buf + nsp, *g[3] = {ge, ge + n0, ge + n0 + n1};
-    double *U = ge + nsp, *ES = U + nmp, *EE = ES + nmp, *WW = EE + nmp, *EX = WW + nmp; /* EX: 2 nmp */
+    double *U = ge + nsp + EXP_PAD, *ES = U + nmp, *EE = ES + nmp, *WW = EE + nmp, *EX = WW + nmp; /* EX: 2 nmp */
     double *RA = EX + 2 * nmp, *RH = RA + nrx, *RP = RH + nrx;
     double *PA = RP + nrx, *PH = PA + npx, *PP = PH + npx;
     cg_index *PO = (cg_index *)(void *)(PP + npx); /* (cg_index and double are both 8 bytes) */
@@ -1535,10 +1535,15 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         const double xs_s = x[s - pad];
         for (cg_index k = 0; k < count[s]; ++k) q[s][k] = c[k] - xs_s;
     }
-    /* the cross slots' 1-D Gaussians (the along slot's entries: computed, not used) */
-    for (cg_index k = 0; k < n0 + n1 + n2; ++k) ge[k] = -(q[0][k] * q[0][k]) * inv2w2; /* (q's slots are contiguous) */
-    for (size_t k = (size_t)(n0 + n1 + n2); k < nsp; ++k) ge[k] = 0.0;
-    cg_exp_in_place(ge, (cg_index)nsp);
+    /* the cross slots' 1-D Gaussians (q's slots are contiguous: those of the cross slots, [g_lo, g_hi), with
+       the along slot's between them for m = 1, computed, not used), in whole vectors (ge has room) */
+    {
+        const cg_index g_lo = m == 0 ? n0 : 0, g_hi = m == 2 ? n0 + n1 : n0 + n1 + n2;
+        const cg_index g_n = (g_hi - g_lo + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
+        for (cg_index k = g_lo; k < g_hi; ++k) ge[k] = -(q[0][k] * q[0][k]) * inv2w2;
+        for (cg_index k = g_hi; k < g_lo + g_n; ++k) ge[k] = 0.0;
+        cg_exp_in_place(ge + g_lo, g_n);
+    }
     /* along: u, the ends' erfc as (E erfcx) E with E the halved exponent's exponential */
     {
         const double *restrict qm = q[m];
