@@ -1518,11 +1518,12 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *q[3] = {buf, buf + n0, buf + n0 + n1};
-    double *ge = buf + nsp, *g[3] = {ge, ge + n0, ge + n0 + n1};
-    double *U = ge + nsp + EXP_PAD, *ES = U + nmp, *EE = ES + nmp, *WW = EE + nmp, *EX = WW + nmp; /* EX: 2 nmp */
-    double *RA = EX + 2 * nmp, *RH = RA + nrx, *RP = RH + nrx;
-    double *PA = RP + nrx, *PH = PA + npx, *PP = PH + npx;
-    cg_index *PO = (cg_index *)(void *)(PP + npx); /* (cg_index and double are both 8 bytes) */
+    double *ge = buf + nsp, *g[3] = {ge, ge + n0, ge + n0 + n1}; /* and room for the along exponents */
+    double *U = ge + nsp + EXP_PAD + 2 * nmp, *WW = U + nmp;
+    double *ES = WW + nmp, *EE = ES + nmp, *PP = EE + nmp; /* (one erfcx batch) */
+    double *RA = PP + npx, *RH = RA + nrx, *RP = RH + nrx;
+    double *PA = RP + nrx, *PH = PA + npx;
+    cg_index *PO = (cg_index *)(void *)(PH + npx); /* (cg_index and double are both 8 bytes) */
     double *const planebufs[2] = {(double *)(void *)(PO + npx), (double *)(void *)(PO + npx) + npx};
     cut_batch cuts;
     cut_batch_init(&cuts, planebufs[1] + npx);
@@ -1535,19 +1536,20 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         const double xs_s = x[s - pad];
         for (cg_index k = 0; k < count[s]; ++k) q[s][k] = c[k] - xs_s;
     }
+    /* The exponentials in one batch (the cross slots' 1-D Gaussians, the along entries' halved exponents),
+       then the erfcx in one (the along entries' ends, the packed cross entries' crossings): a few vectors
+       each, whose chains overlap (a batch per table left them to their latency) */
     /* the cross slots' 1-D Gaussians (q's slots are contiguous: those of the cross slots, [g_lo, g_hi), with
-       the along slot's between them for m = 1, computed, not used), in whole vectors (ge has room) */
-    {
-        const cg_index g_lo = m == 0 ? n0 : 0, g_hi = m == 2 ? n0 + n1 : n0 + n1 + n2;
-        const cg_index g_n = (g_hi - g_lo + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
-        for (cg_index k = g_lo; k < g_hi; ++k) ge[k] = -(q[0][k] * q[0][k]) * inv2w2;
-        for (cg_index k = g_hi; k < g_lo + g_n; ++k) ge[k] = 0.0;
-        cg_exp_in_place(ge + g_lo, g_n);
-    }
+       the along slot's between them for m = 1, computed, not used), in whole vectors, then the along
+       entries' exponents e0 and e1 */
+    const cg_index g_lo = m == 0 ? n0 : 0, g_hi = m == 2 ? n0 + n1 : n0 + n1 + n2;
+    const cg_index g_n = (g_hi - g_lo + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
+    for (cg_index k = g_lo; k < g_hi; ++k) ge[k] = -(q[0][k] * q[0][k]) * inv2w2;
+    for (cg_index k = g_hi; k < g_lo + g_n; ++k) ge[k] = 0.0;
+    double *restrict e0 = ge + g_lo + g_n, *restrict e1 = e0 + nmp;
     /* along: u, the ends' erfc as (E erfcx) E with E the halved exponent's exponential */
     {
         const double *restrict qm = q[m];
-        double *restrict e0 = EX, *restrict e1 = EX + nmp;
         for (cg_index a = 0; a < nm; ++a) {
             const double u = sgn * qm[a], v = u - L;
             U[a] = u;
@@ -1557,41 +1559,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             EE[a] = (v < 0.0 ? -v : v) * inv_sqrt2w;
         }
         for (size_t a = (size_t)nm; a < nmp; ++a) U[a] = e0[a] = e1[a] = ES[a] = EE[a] = 0.0;
-        cg_exp_in_place(EX, (cg_index)(2 * nmp));
-        erfcx_in_place2(ES, EE, (cg_index)nmp, 1);
-        int cancels = 0;
-        for (size_t a = 0; a < nmp; ++a) {
-            const double es_a = (e0[a] * ES[a]) * e0[a], ee_a = (e1[a] * EE[a]) * e1[a], u = U[a];
-            ES[a] = es_a;
-            EE[a] = ee_a;
-            const int straddle = (u > 0.0) & (u < L);
-            const double larger = es_a > ee_a ? es_a : ee_a, diff = es_a > ee_a ? es_a - ee_a : ee_a - es_a;
-            const double v = straddle ? (2.0 - es_a) - ee_a : diff, largest = straddle ? 2.0 : larger;
-            WW[a] = v;
-            cancels |= !(16.0 * v >= largest) & (a < (size_t)nm);
-        }
-        if (cancels) {
-            double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
-            cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
-            const double scale_back = L / (1.2533141373155003 * w); /* W is in units of factor */
-            for (cg_index a = 0; a < nm; ++a) {
-                const double es_a = ES[a], ee_a = EE[a], u = U[a];
-                const int straddle = (u > 0.0) & (u < L);
-                const double larger = es_a > ee_a ? es_a : ee_a, largest = straddle ? 2.0 : larger;
-                if (16.0 * WW[a] >= largest) continue;
-                double arg[CUT_FALLBACK_POINTS + EXP_PAD];
-                for (int k = 0; k < CUT_FALLBACK_POINTS; ++k) {
-                    const double d = u - gx[k] * L;
-                    arg[k] = -(d * d) * inv2w2;
-                }
-                for (int k = CUT_FALLBACK_POINTS; k < CUT_FALLBACK_POINTS + EXP_PAD; ++k) arg[k] = 0.0;
-                cg_exp_in_place(arg, CUT_FALLBACK_POINTS);
-                double sum = 0.0;
-                for (int k = 0; k < CUT_FALLBACK_POINTS; ++k) sum += gw[k] * arg[k];
-                WW[a] = sum * scale_back;
-            }
-        }
     }
+    cg_exp_in_place(ge + g_lo, g_n + (cg_index)(2 * nmp));
     /* cross: the entries whose line meets the ball (rho^2 < R^2: h > 0), packed (row by row, in order):
        A, h, the crossing's term Pc = exp(-R^2 / 2w^2) erfcx(h / sqrt2 w), and each entry's node (its
        index over the cross slots) and output offset; whole vectors of two (padding: h = 0, which meets
@@ -1599,7 +1568,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const cg_index width = jb->out_width;
     /* the packed rows (cross entries along slot c2 of one entry along c1): their first entries, and their
        entries' largest h */
-    cg_index npk = 0, n_rows = 0, row_start[65], row_a[64];
+    cg_index npk = 0, n_rows = 0, row_start[65], row_a[64], npad;
     double row_h[64];
     {
         const double *restrict qa = q[c1], *restrict ga = g[c1];
@@ -1648,11 +1617,49 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             row_h[r] = h_max;
         }
         row_start[n_rows] = npk;
-        const cg_index npad = (cg_index)AXIS_UP(npk), half = npad / 2;
+        npad = (cg_index)AXIS_UP(npk);
         for (cg_index k = npk; k < npad; ++k) PA[k] = PH[k] = PP[k] = 0.0;
-        erfcx_in_place2(PP, PP + half, half, R2 > 31.9 * (w * w));
+    }
+    {
+        const cg_index n_erfcx = (cg_index)(2 * nmp) + npad; /* (a multiple of 2 VW) */
+        erfcx_in_place2(ES, ES + n_erfcx / 2, n_erfcx / 2, 1);
         const double ER = exp(-R2 * inv2w2);
         for (cg_index k = 0; k < npk; ++k) PP[k] = ER * PP[k];
+    }
+    /* along: the ends' terms and the bracket where both ends are inside, W */
+    {
+        int cancels = 0;
+        for (size_t a = 0; a < nmp; ++a) {
+            const double es_a = (e0[a] * ES[a]) * e0[a], ee_a = (e1[a] * EE[a]) * e1[a], u = U[a];
+            ES[a] = es_a;
+            EE[a] = ee_a;
+            const int straddle = (u > 0.0) & (u < L);
+            const double larger = es_a > ee_a ? es_a : ee_a, diff = es_a > ee_a ? es_a - ee_a : ee_a - es_a;
+            const double v = straddle ? (2.0 - es_a) - ee_a : diff, largest = straddle ? 2.0 : larger;
+            WW[a] = v;
+            cancels |= !(16.0 * v >= largest) & (a < (size_t)nm);
+        }
+        if (cancels) {
+            double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
+            cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
+            const double scale_back = L / (1.2533141373155003 * w); /* W is in units of factor */
+            for (cg_index a = 0; a < nm; ++a) {
+                const double es_a = ES[a], ee_a = EE[a], u = U[a];
+                const int straddle = (u > 0.0) & (u < L);
+                const double larger = es_a > ee_a ? es_a : ee_a, largest = straddle ? 2.0 : larger;
+                if (16.0 * WW[a] >= largest) continue;
+                double arg[CUT_FALLBACK_POINTS + EXP_PAD];
+                for (int k = 0; k < CUT_FALLBACK_POINTS; ++k) {
+                    const double d = u - gx[k] * L;
+                    arg[k] = -(d * d) * inv2w2;
+                }
+                for (int k = CUT_FALLBACK_POINTS; k < CUT_FALLBACK_POINTS + EXP_PAD; ++k) arg[k] = 0.0;
+                cg_exp_in_place(arg, CUT_FALLBACK_POINTS);
+                double sum = 0.0;
+                for (int k = 0; k < CUT_FALLBACK_POINTS; ++k) sum += gw[k] * arg[k];
+                WW[a] = sum * scale_back;
+            }
+        }
     }
     const double *values = jb->values + obj * nv;
     const vwd Lv = SPLAT(L);
