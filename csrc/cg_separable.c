@@ -1548,6 +1548,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     for (cg_index k = g_hi; k < g_lo + g_n; ++k) ge[k] = 0.0;
     double *restrict e0 = ge + g_lo + g_n, *restrict e1 = e0 + nmp;
     /* along: u, the ends' erfc as (E erfcx) E with E the halved exponent's exponential */
+    int erfcx_beyond = 0; /* (some along argument beyond erfcx's short polynomial) */
     {
         const double *restrict qm = q[m];
         for (cg_index a = 0; a < nm; ++a) {
@@ -1557,6 +1558,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             e1[a] = -(v * v) * q4;
             ES[a] = (u < 0.0 ? -u : u) * inv_sqrt2w;
             EE[a] = (v < 0.0 ? -v : v) * inv_sqrt2w;
+            erfcx_beyond |= (ES[a] > ERFCX_SHORT_MAX) | (EE[a] > ERFCX_SHORT_MAX);
         }
         for (size_t a = (size_t)nm; a < nmp; ++a) U[a] = e0[a] = e1[a] = ES[a] = EE[a] = 0.0;
     }
@@ -1622,7 +1624,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     }
     {
         const cg_index n_erfcx = (cg_index)(2 * nmp) + npad; /* (a multiple of 2 VW) */
-        erfcx_in_place2(ES, ES + n_erfcx / 2, n_erfcx / 2, 1);
+        /* (the crossings' arguments h / sqrt2 w are at most R / sqrt2 w: beyond 4 only where R > 5.648 w) */
+        erfcx_in_place2(ES, ES + n_erfcx / 2, n_erfcx / 2, erfcx_beyond || R2 > 31.9 * (w * w));
         const double ER = exp(-R2 * inv2w2);
         for (cg_index k = 0; k < npk; ++k) PP[k] = ER * PP[k];
     }
