@@ -1786,8 +1786,6 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
             if (G == 0) return 0; /* too long: the node-by-node erf form */
             hybrid = 1;
         }
-        cg_gauss_legendre01(G, gx, gw);
-        for (int g = 0; g < G; ++g) gw[g] *= scale * kn->prefactor;
     } else {
         gx[0] = 0.0;
         gw[0] = kn->prefactor;
@@ -1832,6 +1830,10 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                                       amp, L2, &pick);
     }
 #endif
+    if (jb->is_segment) { /* (the rule: after visit_axis's dispatch, which needs none) */
+        cg_gauss_legendre01(G, gx, gw);
+        for (int g = 0; g < G; ++g) gw[g] *= scale * kn->prefactor;
+    }
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2];
     const size_t per_table_f = (size_t)(n0 + n1 + n2); /* hybrid: the factorised weights (below) */
     const size_t per_point = 2 * (size_t)(n0 + n1 + n2);
