@@ -1433,12 +1433,19 @@ INLINE void axis_plane_lanes(int where, vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd
         axis_lanes(u, h, A, Pc, Es, Ee, W, L, val, &in, cancel);
 }
 
+/* the AVX-512 build packs lanes by its compress instructions (the 4-wide, lane by lane: the same values) */
+#if VW == 8 && defined(CG_SEPARABLE_WIDE) && defined(__GNUC__) && !defined(__clang__)
+#define AXIS_COMPRESS 1
+#else
+#define AXIS_COMPRESS 0
+#endif
+
 /* the lanes of val that are not +-0 appended to vals, with their offsets (off: VW of them), at n (room for
    VW past it); the new count */
 INLINE cg_index keep_nonzero(vwd val, const cg_index *off, double *restrict vals, cg_index *restrict offs,
                              cg_index n)
 {
-#if VW == 8 && defined(CG_SEPARABLE_WIDE) && defined(__GNUC__) && !defined(__clang__)
+#if AXIS_COMPRESS
     const __mmask8 keep = _mm512_cmp_pd_mask((__m512d)val, _mm512_setzero_pd(), _CMP_NEQ_OQ);
     _mm512_storeu_pd(vals + n, _mm512_maskz_compress_pd(keep, (__m512d)val));
     _mm512_storeu_si512(offs + n, _mm512_maskz_compress_epi64(keep, _mm512_loadu_si512(off)));
@@ -1530,7 +1537,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2], nm = count[m], na = count[c1], nb = count[c2];
     const cg_index nbp = (nb + VW - 1) / VW * VW; /* a cross row in whole vectors */
     const size_t nmp = (size_t)(nm + VW - 1) / VW * VW, nsp = AXIS_UP(n0 + n1 + n2);
-    const size_t npx = AXIS_UP(na * nb); /* the packed cross entries, at most */
+    const size_t npx = AXIS_UP(na * nb + VW); /* the packed cross entries, at most, and room for a vector */
     /* node - x per slot; the cross slots' exponentials; along: u, Es, Ee, W and two work arrays (2 nmp
        for the exponentials); the cross rows' A, h and erfcx argument; packed: A, h, Pc, offset; two planes'
        values and offsets (compacted: room for a vector past them); a cut batch */
@@ -1593,7 +1600,10 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const cg_index width = jb->out_width;
     /* the packed rows (cross entries along slot c2 of one entry along c1): their first entries, and their
        entries' largest h */
-    cg_index npk = 0, n_rows = 0, row_start[65], row_a[64], npad;
+    cg_index npk = 0, n_rows = 0, row_start[65], npad;
+#if !AXIS_COMPRESS
+    cg_index row_a[64];
+#endif
     double row_h[64];
     {
         const double *restrict qa = q[c1], *restrict ga = g[c1];
@@ -1604,10 +1614,23 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         }
         const cg_index sa = stride[c1], sb = stride[c2], node0 = first[c1] * sa + first[c2] * sb;
         const vwd R2v = SPLAT(R2), isw = SPLAT(inv_sqrt2w), zero = {0.0};
+        const cg_index sbw = sb * width;
+#if AXIS_COMPRESS
+        cg_index lane_offsets[8];
+        for (int l = 0; l < 8; ++l) lane_offsets[l] = l * sbw;
+        const __m512i lane_at = _mm512_loadu_si512(lane_offsets);
+#endif
         for (cg_index a = 0; a < na; ++a) {
             if (!(qa[a] * qa[a] < R2)) continue;
             double *ra = RA + n_rows * nbp, *rh = RH + n_rows * nbp, *rp = RP + n_rows * nbp;
+#if AXIS_COMPRESS
+            const cg_index row_at = (node0 + a * sa) * width;
+            __m512d h_max = _mm512_setzero_pd();
+            row_start[n_rows] = npk;
+            ++n_rows;
+#else
             row_a[n_rows++] = a;
+#endif
             const vwd qa2 = SPLAT(qa[a] * qa[a]), gaa = SPLAT(ga[a]);
             for (cg_index bw = 0; bw < nbp; bw += VW) {
                 vwd qbv, gbv, h;
@@ -1617,17 +1640,35 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 hh = SELECT(hh > zero, hh, zero);
                 sqrt_lanes(hh, &h);
                 const vwd A = gaa * gbv, arg = h * isw;
+#if AXIS_COMPRESS
+                /* packed here: the row's entries (b < nb) with h > 0, compressed */
+                const __mmask8 in_row = nb - bw >= 8 ? (__mmask8)0xff : (__mmask8)((1u << (nb - bw)) - 1u);
+                const __mmask8 keep = in_row & _mm512_cmp_pd_mask((__m512d)h, _mm512_setzero_pd(), _CMP_GT_OQ);
+                const __m512i at = _mm512_add_epi64(_mm512_set1_epi64(row_at + bw * sbw), lane_at);
+                _mm512_storeu_pd(PA + npk, _mm512_maskz_compress_pd(keep, (__m512d)A));
+                _mm512_storeu_pd(PH + npk, _mm512_maskz_compress_pd(keep, (__m512d)h));
+                _mm512_storeu_pd(PP + npk, _mm512_maskz_compress_pd(keep, (__m512d)arg));
+                _mm512_storeu_si512(PO + npk, _mm512_maskz_compress_epi64(keep, at));
+                npk += __builtin_popcount(keep);
+                h_max = _mm512_max_pd(h_max, _mm512_maskz_mov_pd(keep, (__m512d)h));
+#else
                 memcpy(ra + bw, &A, sizeof A);
                 memcpy(rh + bw, &h, sizeof h);
                 memcpy(rp + bw, &arg, sizeof arg);
+#endif
             }
+#if AXIS_COMPRESS
+            row_h[n_rows - 1] = _mm512_reduce_max_pd(h_max);
+            (void)ra, (void)rh, (void)rp;
+#endif
         }
+#if !AXIS_COMPRESS
         /* packed in a second pass (read right after their vector stores, the entries would stall store
            forwarding); branch-free: every entry is written at npk, which moves on past those that meet the
            ball */
         for (cg_index r = 0; r < n_rows; ++r) {
             const double *ra = RA + r * nbp, *rh = RH + r * nbp, *rp = RP + r * nbp;
-            const cg_index row_at = (node0 + row_a[r] * sa) * width, sbw = sb * width;
+            const cg_index row_at = (node0 + row_a[r] * sa) * width;
             double h_max = 0.0;
             row_start[r] = npk;
             for (cg_index b = 0; b < nb; ++b) {
@@ -1641,6 +1682,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
             row_h[r] = h_max;
         }
+#endif
         row_start[n_rows] = npk;
         npad = (cg_index)AXIS_UP(npk);
         for (cg_index k = npk; k < npad; ++k) {
