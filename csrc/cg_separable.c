@@ -1440,27 +1440,6 @@ INLINE void axis_plane_lanes(int where, vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd
 #define AXIS_COMPRESS 0
 #endif
 
-/* the lanes of val that are not +-0 appended to vals, with their offsets (off: VW of them), at n (room for
-   VW past it); the new count */
-INLINE cg_index keep_nonzero(vwd val, const cg_index *off, double *restrict vals, cg_index *restrict offs,
-                             cg_index n)
-{
-#if AXIS_COMPRESS
-    const __mmask8 keep = _mm512_cmp_pd_mask((__m512d)val, _mm512_setzero_pd(), _CMP_NEQ_OQ);
-    _mm512_storeu_pd(vals + n, _mm512_maskz_compress_pd(keep, (__m512d)val));
-    _mm512_storeu_si512(offs + n, _mm512_maskz_compress_epi64(keep, _mm512_loadu_si512(off)));
-    return n + __builtin_popcount(keep);
-#else
-    /* (branch-free: every lane written at n, which moves on past those kept) */
-    for (int l = 0; l < VW; ++l) {
-        vals[n] = val[l];
-        offs[n] = off[l];
-        n += val[l] != 0.0;
-    }
-    return n;
-#endif
-}
-
 /* o[at[k]] += w[k] for k < n (the values already times the picked value and the scale, as block_add_picked
    multiplies them) */
 INLINE void scatter_add_one(double *restrict o, const double *restrict w, const cg_index *restrict at, cg_index n)
@@ -1540,9 +1519,9 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const size_t npx = AXIS_UP(na * nb + VW); /* the packed cross entries, at most, and room for a vector */
     /* node - x per slot; the cross slots' exponentials; along: u, Es, Ee, W and two work arrays (2 nmp
        for the exponentials); the cross rows' A, h and erfcx argument; packed: A, h, Pc, offset; two planes'
-       values and offsets (compacted: room for a vector past them); a cut batch */
+       values; a cut batch */
     const size_t nrx = (size_t)na * (size_t)nbp; /* the cross rows, whole vectors each */
-    const size_t need = nsp + nsp + EXP_PAD + 6 * nmp + 3 * nrx + 8 * npx + 4 * VW + CUT_BATCH_DOUBLES;
+    const size_t need = nsp + nsp + EXP_PAD + 6 * nmp + 3 * nrx + 6 * npx + CUT_BATCH_DOUBLES;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *q[3] = {buf, buf + n0, buf + n0 + n1};
@@ -1552,11 +1531,9 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     double *RA = PP + npx, *RH = RA + nrx, *RP = RH + nrx;
     double *PA = RP + nrx, *PH = PA + npx;
     cg_index *PO = (cg_index *)(void *)(PH + npx); /* (cg_index and double are both 8 bytes) */
-    double *const plane_values[2] = {(double *)(void *)(PO + npx), (double *)(void *)(PO + npx) + npx + VW};
-    cg_index *const plane_offsets[2] = {(cg_index *)(void *)(plane_values[1] + npx + VW),
-                                        (cg_index *)(void *)(plane_values[1] + npx + VW) + npx + VW};
+    double *const planebufs[2] = {(double *)(void *)(PO + npx), (double *)(void *)(PO + npx) + npx};
     cut_batch cuts;
-    cut_batch_init(&cuts, (double *)(void *)(plane_offsets[1] + npx + VW));
+    cut_batch_init(&cuts, planebufs[1] + npx);
     for (int s = 0; s < 3; ++s) {
         if (s < pad) {
             q[s][0] = 0.0;
@@ -1685,10 +1662,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
 #endif
         row_start[n_rows] = npk;
         npad = (cg_index)AXIS_UP(npk);
-        for (cg_index k = npk; k < npad; ++k) {
-            PA[k] = PH[k] = PP[k] = 0.0;
-            PO[k] = 0;
-        }
+        for (cg_index k = npk; k < npad; ++k) PA[k] = PH[k] = PP[k] = 0.0;
     }
     {
         const cg_index n_erfcx = (cg_index)(2 * nmp) + npad; /* (a multiple of 2 VW) */
@@ -1739,13 +1713,11 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     while (u_lo < nm && !(U[u_lo] > -R && U[u_lo] < L + R)) ++u_lo;
     u_hi = u_lo;
     while (u_hi < nm && U[u_hi] > -R && U[u_hi] < L + R) ++u_hi;
-    /* Plane by plane (an along entry): every packed entry's value in one vector loop, the values that are
-       not 0 kept with their offsets (the others would add +-0: the nodes that miss the ball, or cancel),
-       then added at their nodes. A plane's update of the output waits for the next plane's values (read
-       right after their vector stores, the values would stall store forwarding). */
+    /* Plane by plane (an along entry): every packed entry's value in one vector loop, then added at its node.
+       A plane's update of the output waits for the next plane's values (read right after their vector
+       stores, the values would stall store forwarding). */
     const double *pending = NULL;
-    const cg_index *pending_offsets = NULL;
-    cg_index pending_at = 0, pending_n = 0;
+    cg_index pending_at = 0, pending_lo = 0, pending_hi = 0;
     int parity = 0;
     const cg_index sm = stride[m];
     /* one picked value: the plane's values times it and the scale in the vector loop, added as they are */
@@ -1768,8 +1740,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         const cg_index k_lo = row_start[r0], k_hi = row_start[r1];
         const int where = ui < 0.0 ? -1 : ui > L;
         const vwd u = SPLAT(ui), Es = SPLAT(ES[i]), Ee = SPLAT(EE[i]), W = SPLAT(WW[i]);
-        double *restrict pv = plane_values[parity];
-        cg_index *restrict po = plane_offsets[parity], n_kept = 0;
+        double *restrict pv = planebufs[parity];
         vwl any_cancel = {0};
         for (cg_index kw = k_lo / VW * VW; kw < k_hi; kw += VW) {
             vwd h, A, Pc, val;
@@ -1779,16 +1750,18 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             memcpy(&Pc, PP + kw, sizeof Pc);
             axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, Lv, &val, &cancel);
             if (one) val = (factor_v * val) * v0_v; /* (block_add_picked's products) */
-            n_kept = keep_nonzero(val, PO + kw, pv, po, n_kept);
+            memcpy(pv + kw, &val, sizeof val);
             any_cancel |= cancel;
         }
+        /* (the plane's nodes that miss the ball, or cancel, are 0 in pv, and add +-0) */
         if (pending && one)
-            scatter_add_one(out0 + pending_at, pending, pending_offsets, pending_n);
+            scatter_add_one(out0 + pending_at, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo);
         else if (pending)
-            scatter_add_picked(out + pending_at, factor, pending, pending_offsets, pending_n, values, nv, pick);
+            scatter_add_picked(out + pending_at, factor, pending + pending_lo, PO + pending_lo,
+                               pending_hi - pending_lo, values, nv, pick);
         pending = pv;
-        pending_offsets = po;
-        pending_n = n_kept;
+        pending_lo = k_lo;
+        pending_hi = k_hi;
         const cg_index plane_node = (first[m] + i) * sm;
         pending_at = plane_node * width;
         parity ^= 1;
@@ -1819,9 +1792,10 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         }
     }
     if (pending && one)
-        scatter_add_one(out0 + pending_at, pending, pending_offsets, pending_n);
+        scatter_add_one(out0 + pending_at, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo);
     else if (pending)
-        scatter_add_picked(out + pending_at, factor, pending, pending_offsets, pending_n, values, nv, pick);
+        scatter_add_picked(out + pending_at, factor, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo,
+                           values, nv, pick);
     axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
     return 1;
 }
