@@ -377,14 +377,14 @@ INLINE void erfcx_long(vwd x, vwd *out)
    erfcx_one: VW lanes of each at a time in vector registers (the two short
    polynomials side by side, their Horner steps interleaved: each step waits
    for the previous one's result); the long series only where some argument of the
-   batch exceeds ERFCX_SHORT_MAX (cutoffs beyond 4 sqrt(2) w), lane by lane;
-   the arguments are scanned for that only if may_exceed (the caller knows
-   none does: a cut node's |x| is at most the cutoff over sqrt(2) w) */
+   pair of vectors exceeds ERFCX_SHORT_MAX (cutoffs beyond 4 sqrt(2) w), lane
+   by lane; looked for only if may_exceed (the caller knows none does: a cut
+   node's |x| is at most the cutoff over sqrt(2) w) */
+#ifdef HAVE_V4D
+INLINE uint64_t mask_bits(vwl m); /* below */
+#endif
 INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n, int may_exceed)
 {
-    int beyond = 0;
-    if (may_exceed)
-        for (cg_index i = 0; i < n; ++i) beyond |= (x[i] > ERFCX_SHORT_MAX) | (z[i] > ERFCX_SHORT_MAX);
 #ifdef HAVE_V4D
     const vwd limit = SPLAT(ERFCX_SHORT_MAX);
     for (cg_index i = 0; i < n; i += VW) {
@@ -394,8 +394,8 @@ INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n, 
         vwd rx, rz;
         erfcx_short(xv, &rx);
         erfcx_short(zv, &rz);
-        if (beyond) {
-            const vwl fx = xv > limit, fz = zv > limit;
+        const vwl fx = xv > limit, fz = zv > limit;
+        if (may_exceed && mask_bits(fx | fz)) {
             vwd lx, lz;
             erfcx_long(xv, &lx);
             erfcx_long(zv, &lz);
@@ -406,7 +406,7 @@ INLINE void erfcx_in_place2(double *restrict x, double *restrict z, cg_index n, 
         memcpy(z + i, &rz, sizeof rz);
     }
 #else
-    (void)beyond;
+    (void)may_exceed;
     for (cg_index i = 0; i < n; ++i) {
         x[i] = erfcx_one(x[i]);
         z[i] = erfcx_one(z[i]);
@@ -455,8 +455,6 @@ typedef uint64_t vwu __attribute__((vector_size(8 * VW)));
 
 /* lanes of a where m is set, else of b (m: all ones or zero per lane) */
 #define SELECT(m, a, b) ((vwd)(((vwl)(a) & (m)) | ((vwl)(b) & ~(m))))
-
-INLINE uint64_t mask_bits(vwl m); /* below */
 
 /* sqrt of each lane (a loop the compiler turns into one vector square root) */
 INLINE void sqrt_lanes(vwd x, vwd *out)
