@@ -1525,7 +1525,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     double *q[3] = {buf, buf + n0, buf + n0 + n1};
     double *ge = buf + nsp, *g[3] = {ge, ge + n0, ge + n0 + n1}; /* and room for the along exponents */
     double *U = ge + nsp + EXP_PAD + 2 * nmp, *WW = U + nmp;
-    double *ES = WW + nmp, *EE = ES + nmp, *PP = EE + nmp; /* (one erfcx batch) */
+    double *ES = WW + nmp, *EE = ES + nmp, *PP = EE + nmp;
     double *RA = PP + npx, *RH = RA + nrx, *RP = RH + nrx;
     double *PA = RP + nrx, *PH = PA + npx;
     cg_index *PO = (cg_index *)(void *)(PH + npx); /* (cg_index and double are both 8 bytes) */
@@ -1542,8 +1542,9 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         for (cg_index k = 0; k < count[s]; ++k) q[s][k] = c[k] - xs_s;
     }
     /* The exponentials in one batch (the cross slots' 1-D Gaussians, the along entries' halved exponents),
-       then the erfcx in one (the along entries' ends, the packed cross entries' crossings): a few vectors
-       each, whose chains overlap (a batch per table left them to their latency) */
+       and the erfcx (the along entries' ends, the packed cross entries' crossings) in two loops back to
+       back, after the packing: a few vectors each, whose chains overlap (a batch per table, each followed by
+       the work that needs it, left them to their latency) */
     /* the cross slots' 1-D Gaussians (q's slots are contiguous: those of the cross slots, [g_lo, g_hi), with
        the along slot's between them for m = 1, computed, not used), in whole vectors, then the along
        entries' exponents e0 and e1 */
@@ -1663,9 +1664,11 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         for (cg_index k = npk; k < npad; ++k) PA[k] = PH[k] = PP[k] = 0.0;
     }
     {
-        const cg_index n_erfcx = (cg_index)(2 * nmp) + npad; /* (a multiple of 2 VW) */
-        /* (the crossings' arguments h / sqrt2 w are at most R / sqrt2 w: beyond 4 only where R > 5.648 w) */
-        erfcx_in_place2(ES, ES + n_erfcx / 2, n_erfcx / 2, erfcx_beyond || R2 > 31.9 * (w * w));
+        /* (two loops, one after the other, the along ends paired: only their vectors may need the long
+           series, the crossings' arguments h / sqrt2 w being at most R / sqrt2 w, beyond 4 only where
+           R > 5.648 w) */
+        erfcx_in_place2(ES, EE, (cg_index)nmp, erfcx_beyond);
+        erfcx_in_place2(PP, PP + npad / 2, npad / 2, R2 > 31.9 * (w * w));
         const double ER = exp(-R2 * inv2w2);
         for (cg_index k = 0; k < npk; ++k) PP[k] = ER * PP[k];
     }
