@@ -28,9 +28,10 @@
  * batches); segments too long for such a rule go to the node-by-node path.
  * A segment along a grid axis (it moves along one slot; not on profiles) takes
  * visit_axis instead: every node's exact value from per-object 1-D tables
- * along the segment and a table of its cross-section (no transcendental per
- * node, no rule), the few nodes whose tail terms cancel by Gauss-Legendre on
- * their part of the segment (axis_cut_flush).
+ * along the segment and a packed table of its cross-section (no transcendental
+ * per node, no rule), plane by plane across the segment, the few nodes whose
+ * tail terms cancel by Gauss-Legendre on their part of the segment
+ * (axis_cut_flush).
  *
  * Resolved axes are placed in three "slots", right-aligned: the last
  * resolved axis (stride 1 in the output) is always slot 2; missing slots
@@ -1350,13 +1351,14 @@ HOT_CLONES static int visit_point(const job *jb, double *out, cg_index obj, cons
    or |Es - Ee| beyond an end; where those cancel by more than 4 bits, the 8-point Gauss-Legendre rule
    on [0, L], as cut_batch_flush's fallback). Elsewhere the same test of the terms against the value
    (16 times): a node that fails it has a short part of the segment inside its ball, gathered for
-   axis_cut_flush (Gauss-Legendre on that part, from u, h and L). So a row needs no transcendental per
-   node: the per-object tables (1-D along m; 2-D across) and a few vector operations per node. The rows
-   are along slot 2 either way: for m = 2 a row has one cross entry and the along tables; for m = 0 or 1,
-   one along entry and a row of the cross table.
+   axis_cut_flush (Gauss-Legendre on that part, from u, h and L). So a node needs no transcendental: the
+   per-object tables (1-D along m; across, the cross entries whose line meets the ball, packed) and a few
+   vector operations. The nodes go plane by plane (one along entry each), a plane's packed cross entries
+   in one vector loop whatever m is (beyond the segment's ends only the rows of entries whose h reaches
+   it), its values then added at their nodes by their offsets.
    Only where every product of terms stays normal (R^2 / 2w^2 below AXIS_EXPONENT_MAX: each term is at
-   least exp(-R^2 / 2w^2) times erfcx), n2 <= 64, MODE_VALUE and finite values (a node whose value is 0
-   then adds +-0 in its row's update, which changes no output). */
+   least exp(-R^2 / 2w^2) times erfcx), every slot's count <= 64, MODE_VALUE and finite values (a node
+   whose value is 0 then adds +-0, which changes no output). */
 #define AXIS_EXPONENT_MAX 600.0
 /* and A W, ~ (L / w) exp(-R^2 / 2w^2) at least, normal: below exp(-AXIS_VALUE_EXPONENT_MAX) it loses digits
    or is 0 while the node's value is normal (short segments with large cutoffs: the general path; the test's
