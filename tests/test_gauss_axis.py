@@ -346,3 +346,20 @@ def test_axis_contact_stress_integrates_to_minus_f_outer_b(cutoff):
         r = cg.coarse_grain(snap, grid, cg.Gaussian(w, cutoff=cutoff * w), fields=("contact_stress",))
         total = np.asarray(r.contact_stress).sum(axis=(0, 1, 2)) * np.prod(np.asarray(grid.spacing))
         assert np.allclose(total, -np.outer(force, p[0] - p[1]) * mass, rtol=1e-4, atol=1e-6), (axis, total)
+
+
+def test_axis_segments_with_many_cancelling_nodes():
+    """Short segments (L = 0.02 to 0.2 w) on a fine grid (w / 10): hundreds of nodes near the cutoff sphere have a
+    short part of the segment inside their ball and cancelling terms, more than one cut batch holds in a segment,
+    and in a plane of it (the batch is flushed between two nodes of a plane); against the general path."""
+    box, shape = cg.Box([0, 0, 0], [6, 6, 6]), (60, 60, 60)
+    grid = cg.Grid(box, shape)
+    w, cutoff = 1.0, 2.5
+    s = np.array([[3.02, 2.97, 3.01]])
+    for length_over_w in (0.02, 0.05, 0.2):
+        for axis in range(3):
+            v = np.zeros((1, 3))
+            v[0, axis] = length_over_w * w
+            fast = scatter(box, shape, s, v, [[1.0]], w, cutoff)
+            slow = scatter(box, shape, s, tilted(v), [[1.0]], w, cutoff)
+            assert_values_equal(fast, slow, (length_over_w, axis), slivers(grid, s, v, cutoff * w, w))
