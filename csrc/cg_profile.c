@@ -760,8 +760,10 @@ INLINE void gauss_segments_body(const job *jb, profile_block *B)
                    exact differences) */
                 for (int s = 0; s < n_short; ++s) {
                     const int m = short_lane[s];
-                    const double q3[3] = {0.0, 0.0, q[m]}, e3[3] = {0.0, 0.0, ez[m]};
-                    spans[m] = cg_gauss_cut_span(q3, e3, R);
+                    const double e3[3] = {0.0, 0.0, ez[m]};
+                    cg_cut_span_frame f;
+                    cg_cut_span_frame_of(e3, R, &f);
+                    spans[m] = cg_cut_span_lane(0.0, 0.0, q[m], &f);
                 }
                 double gx[GAUSS_CUT_FALLBACK], gw[GAUSS_CUT_FALLBACK];
                 cg_gauss_legendre01(GAUSS_CUT_FALLBACK, gx, gw);

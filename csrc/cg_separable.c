@@ -790,12 +790,14 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
     if (n_short) {
         /* the short intervals: Gauss-Legendre on [s0, s0 + span], the span from exact differences (a
            sliver's digits: cg_gauss_cut_span) */
-        const double R = jb->kernel->radius;
-        for (int m = 0; m < n_short; ++m) {
-            const int i = short_lane[m];
-            const double q3[3] = {b->q[0][i], b->q[1][i], b->q[2][i]};
-            spans[i] = cg_gauss_cut_span(q3, e, R);
-        }
+        cg_cut_span_frame f;
+        cg_cut_span_frame_of(e, jb->kernel->radius, &f);
+        double *restrict qs = is_short + CUT_BATCH; /* the lanes' q, then their spans (arg's room) */
+        for (int m = 0; m < n_short; ++m)
+            for (int s = 0; s < 3; ++s) qs[s * CUT_BATCH + m] = b->q[s][short_lane[m]];
+        for (int m = 0; m < n_short; ++m)
+            qs[3 * CUT_BATCH + m] = cg_cut_span_lane(qs[m], qs[CUT_BATCH + m], qs[2 * CUT_BATCH + m], &f);
+        for (int m = 0; m < n_short; ++m) spans[short_lane[m]] = qs[3 * CUT_BATCH + m];
         double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
         cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
         double *restrict arg = is_short + CUT_BATCH;
