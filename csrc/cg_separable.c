@@ -789,7 +789,7 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
             if (is_short[i] != 0.0) short_lane[n_short++] = i;
     if (n_short) {
         /* the short intervals: Gauss-Legendre on [s0, s0 + span], the span from exact differences (a
-           sliver's digits: cg_gauss_cut_span) */
+           sliver's digits: cg_cut_span_lane) */
         cg_cut_span_frame f;
         cg_cut_span_frame_of(e, jb->kernel->radius, &f);
         double *restrict qs = is_short + CUT_BATCH; /* the lanes' q, then their spans (arg's room) */

@@ -303,7 +303,7 @@ def test_gaussian_segment_slivers_against_mpmath():
     node's cutoff (a sliver of the segment in the node's ball): the node's value against 50-digit mpmath (the 1-D
     line integral over the box's cross-section), relative to itself. The blocks' closed form (cut_batch_flush's
     twin) rebuilt the part in units of the segment (1e-7 off at 1e-9 w, 5 % at 1e-14 w); now its fallback takes
-    the span from exact differences (cg_gauss_cut_span)."""
+    the span from exact differences (cg_cut_span_lane)."""
     import mpmath as mp
     from test_hard_cases import mp_psi
     w, cutoff = 0.25, 3.0
