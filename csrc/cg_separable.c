@@ -546,7 +546,8 @@ INLINE void exp_erfcx_lanes(int ne, const vwd *xe, vwd *oe, int nc, const vwd *x
    exp(-708): far nodes, cutoffs beyond 37 w), erfcx of the ends' |x|, and
    value = factor * (|T0 - T1| or, where the ends straddle the foot, 2A - T0 -
    T1), T = E erfcx; is_short: the lanes where a term exceeds 16 times the
-   value (short intervals, for the fallback), written to b->arg + 5 CUT_BATCH;
+   value (short intervals, for the fallback; with those whose span is 0 only
+   by a rounding margin: near), written to b->arg + 5 CUT_BATCH;
    their OR into *shorts (through a pointer, as chebyshev_series' result) */
 INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double *e, double L2, double R2, double w,
                             double factor, int may_exceed, vwl *shorts)
@@ -659,7 +660,9 @@ INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double
    the lanes of a batch: the part [t0, t1] of the segment inside each node's
    ball (as s0 - u and span, in units of the segment) and the arguments of the
    closed form: e0, e1, ea the exponents at the two ends and at the foot, c0,
-   c1 the ends' |x| (erfcx's arguments). Loops of this shape are vectorised. */
+   c1 the ends' |x| (erfcx's arguments); near[i] = 1 where the ball misses the
+   segment by less than a rounding margin (cut_values' short test reads it).
+   Loops of this shape are vectorised. */
 INLINE void cut_lanes(cg_index n, const double *restrict q0, const double *restrict q1, const double *restrict q2,
                       double ex, double ey, double ez, double L2, double R2, double w, double *restrict a2s,
                       double *restrict t0s, double *restrict spans, double *restrict e0, double *restrict e1,
