@@ -494,4 +494,92 @@ int cg_separable_wide_available(void);
    cg_profile.c's blocks: the cut nodes' bits */
 void cg_erfcx_in_place2(double *x, double *z, cg_index n, int may_exceed);
 
+/* Double-double steps (Dekker's product, no FMA: the same bits in every build; Knuth's sum) for
+   cg_cut_span_lane. */
+static inline void cg_dd_split(double a, double *hi, double *lo)
+{
+    const double c = 134217729.0 * a; /* 2^27 + 1: Veltkamp's split */
+    *hi = c - (c - a);
+    *lo = a - *hi;
+}
+/* a b = hi + lo exactly, a = ah + al and b = bh + bl split */
+static inline void cg_dd_prod(double a, double ah, double al, double b, double bh, double bl, double *hi, double *lo)
+{
+    *hi = a * b;
+    *lo = ((ah * bh - *hi) + ah * bl + al * bh) + al * bl;
+}
+static inline void cg_dd_add(double ah, double al, double bh, double bl, double *hi, double *lo)
+{
+    const double s = ah + bh, bb = s - ah, err = (ah - (s - bb)) + (bh - bb) + (al + bl);
+    *hi = s + err;
+    *lo = err - (*hi - s);
+}
+static inline void cg_dd_mul(double ah, double al, double bh, double bl, double *hi, double *lo)
+{
+    double sh, sl, th, tl, p, e;
+    cg_dd_split(ah, &sh, &sl);
+    cg_dd_split(bh, &th, &tl);
+    cg_dd_prod(ah, sh, sl, bh, th, tl, &p, &e);
+    e += ah * bl + al * bh;
+    *hi = p + e;
+    *lo = e - (*hi - p);
+}
+
+/* a segment's constants for cg_cut_span_lane: e (3 slots, |e| > 0) split, |e|^2 and R^2 in double-double */
+typedef struct cg_cut_span_frame {
+    double e[3], eh[3], el[3], E, El, R2, R2l;
+} cg_cut_span_frame;
+
+static inline void cg_cut_span_frame_of(const double *e, double R, cg_cut_span_frame *f)
+{
+    double h, l, Rh, Rl;
+    f->E = f->El = 0.0;
+    for (int s = 0; s < 3; ++s) {
+        f->e[s] = e[s];
+        cg_dd_split(e[s], &f->eh[s], &f->el[s]);
+        cg_dd_prod(e[s], f->eh[s], f->el[s], e[s], f->eh[s], f->el[s], &h, &l);
+        cg_dd_add(f->E, f->El, h, l, &f->E, &f->El);
+    }
+    cg_dd_split(R, &Rh, &Rl);
+    cg_dd_prod(R, Rh, Rl, R, Rh, Rl, &f->R2, &f->R2l);
+}
+
+/* The length, in units of the segment (q the node minus the start, 3 slots), of the part of the segment
+   inside the node's ball of radius R, from exact differences: the closed form's short intervals
+   (cg_separable.c's cut_batch_flush, cg_profile.c's twin: the same bits; branch-free, so that a loop of it
+   is vectorised). The lanes build it from s = u -+ h / L at the scale of R / L, which keeps only eps R / span
+   of a sliver (the sphere crossing within a few ulp of an end, or barely clipping the segment's side).
+   Here, with D = R^2 - |q|^2, P = q.e, E = |e|^2 and H = h^2 E = D E + P^2 in double-double, the
+   crossings' cancelling sums are quotients: u + h = D E / (hL - P) / L where P < 0 (the start inside),
+   h - (u - L) = (D + 2P - E) E / (hL + P - E) / L where P > E (the end inside), 2h otherwise; a few eps
+   of the part's own length for the inputs q, e, R as given. */
+static inline double cg_cut_span_lane(double q0, double q1, double q2, const cg_cut_span_frame *f)
+{
+    const double q[3] = {q0, q1, q2};
+    double Q = 0.0, Ql = 0.0, P = 0.0, Pl = 0.0, h, l, qh, ql;
+    for (int s = 0; s < 3; ++s) {
+        cg_dd_split(q[s], &qh, &ql);
+        cg_dd_prod(q[s], qh, ql, q[s], qh, ql, &h, &l);
+        cg_dd_add(Q, Ql, h, l, &Q, &Ql);
+        cg_dd_prod(q[s], qh, ql, f->e[s], f->eh[s], f->el[s], &h, &l);
+        cg_dd_add(P, Pl, h, l, &P, &Pl);
+    }
+    double D, Dl, H, Hl, Pp, Ppl, de, del, pp, ppl, Dend, Dendl;
+    cg_dd_add(f->R2, f->R2l, -Q, -Ql, &D, &Dl);     /* R^2 - |q|^2: > 0 where the start is inside */
+    cg_dd_add(P, Pl, -f->E, -f->El, &Pp, &Ppl);     /* (q - e).e */
+    cg_dd_mul(D, Dl, f->E, f->El, &de, &del);
+    cg_dd_mul(P, Pl, P, Pl, &pp, &ppl);
+    cg_dd_add(de, del, pp, ppl, &H, &Hl);
+    cg_dd_add(D, Dl, Pp, Ppl, &h, &l);
+    cg_dd_add(h, l, P, Pl, &Dend, &Dendl);          /* R^2 - |q - e|^2 = D + (P - E) + P: > 0, the end inside */
+    const double hL = sqrt(H > 0.0 ? H : 0.0), inv_E = 1.0 / f->E;
+    const int start_in = D > 0.0, end_in = Dend > 0.0;
+    const double at_start = P < 0.0 ? D / (hL - P) : (P + hL) * inv_E;
+    const double at_end = Pp > 0.0 ? Dend / (hL + Pp) : (hL - Pp) * inv_E;
+    const double middle = P > 0.0 && Pp < 0.0 ? 2.0 * hL * inv_E : 0.0;
+    double span = start_in ? (end_in ? 1.0 : at_start) : (end_in ? at_end : middle);
+    span = H > 0.0 ? span : 0.0; /* the ball misses the line or touches it */
+    return span < 1.0 ? span : 1.0;
+}
+
 #endif /* CGBOUND_CG_INTERNAL_H */

@@ -356,8 +356,9 @@ int cg_gaussian_roundoff_points(double L, double w)
 /* ------------------------------------------------------------------ */
 /* line integrals                                                        */
 
-/* int_{s0}^{s1} exp(-t(s)^2 / 2w^2) ds, stable for every length and position */
-static double gaussian_segment_integral(const segment_frame *f, double w, double s0, double s1)
+/* int_{s0}^{s1} exp(-t(s)^2 / 2w^2) ds, stable for every length and position; span_s: s1 - s0 from exact
+   differences (cg_cut_span_lane: a sliver of the segment inside the ball keeps its digits) */
+static double gaussian_segment_integral(const segment_frame *f, double w, double s0, double s1, double span_s)
 {
     const double t0 = t_at(f, s0), t1 = t_at(f, s1); /* t0 >= t1 */
     const double span = (s1 - s0) * f->L;
@@ -366,7 +367,7 @@ static double gaussian_segment_integral(const segment_frame *f, double w, double
     if (span * (tmax + w) < w * w) {
         /* the integrand varies little over the interval: Gauss-Legendre is
            exact to round-off and avoids the erf(a) - erf(b) cancellation */
-        const double half = 0.5 * (s1 - s0), mid = s0 + half;
+        const double half = 0.5 * span_s, mid = s0 + half;
         double sum = 0.0;
         for (int k = 0; k < 6; ++k) {
             const double ta = f->u - (mid + half * GL12_X[k]) * f->L;
@@ -621,7 +622,15 @@ double cg_kernel_line_rule(const cg_kernel *k, const double *q, const double *e,
     if (k->type == CG_KERNEL_GAUSSIAN) {
         const double w = k->width;
         const double amp = k->prefactor * exp(-0.5 * f.a2 / (w * w));
-        const double psi = amp * gaussian_segment_integral(&f, w, s0, s1);
+        double q3[3] = {0.0, 0.0, 0.0}, e3[3] = {0.0, 0.0, 0.0};
+        for (int d = 0; d < n; ++d) {
+            q3[d] = q[d];
+            e3[d] = e[d];
+        }
+        cg_cut_span_frame cf;
+        cg_cut_span_frame_of(e3, R, &cf);
+        const double span_s = cg_cut_span_lane(q3[0], q3[1], q3[2], &cf);
+        const double psi = amp * gaussian_segment_integral(&f, w, s0, s1, span_s);
         if (grad) {
             /* grad psi = -q_perp psi / w^2 + n [E(t0) - E(t1)] / L, with
                E(t0) - E(t1) = -E(t0) expm1((t0 - t1)(t0 + t1) / 2w^2) */

@@ -601,19 +601,23 @@ INLINE void gauss_rule_body(int n, int G, const double *restrict q, const double
 INLINE void gauss_cut_lanes_body(int n, const double *restrict q, const double *restrict ez, double R2, double w,
                                  double C, double *restrict a2s, double *restrict t0s, double *restrict spans,
                                  double *restrict e0, double *restrict e1, double *restrict ea,
-                                 double *restrict c0, double *restrict c1, double *restrict factor)
+                                 double *restrict c0, double *restrict c1, double *restrict factor,
+                                 double *restrict near)
 {
     const double inv4w2 = 0.25 / (w * w), inv_sqrt2w = 1.0 / (1.4142135623730951 * w);
     const double amp_w = C * 1.2533141373155003 * w;
     for (int i = 0; i < n; ++i) {
         const double L2 = 0.0 + ez[i] * ez[i], inv_L2 = 1.0 / L2, L = sqrt(L2);
+        const double near_b2 = -0x1p-40 * R2, near_s = 0x1p-40 * sqrt(R2 * inv_L2);
         const double u = (0.0 + q[i] * ez[i]) * inv_L2;
         const double d0 = 0.0 - u * 0.0, d2 = q[i] - u * ez[i];
         const double a2 = (d0 * d0 + d0 * d0) + d2 * d2;
         double b2 = R2 - a2;
+        const int meets_line = b2 > near_b2;
         b2 = b2 > 0.0 ? b2 : 0.0;
         const double half = sqrt(b2 * inv_L2);
         double s0 = u - half, s1 = u + half;
+        near[i] = meets_line & (s1 > -near_s) & (s0 < 1.0 + near_s) ? 1.0 : 0.0;
         s0 = s0 > 0.0 ? s0 : 0.0;
         s1 = s1 < 1.0 ? s1 : 1.0;
         double span = s1 - s0;
@@ -646,7 +650,7 @@ INLINE int gauss_cut_values_body(int n, const double *restrict t0s, const double
         const double v = straddle ? (twoA - T0) - T1 : diff;
         const double largest = straddle ? twoA : larger;
         value[i] = v * factor[i];
-        const int64_t short_i = (spans[i] > 0.0) & !(16.0 * v >= largest);
+        const int64_t short_i = ((spans[i] > 0.0) | (is_short[i] != 0.0)) & !(16.0 * v >= largest);
         is_short[i] = short_i ? 1.0 : 0.0;
         any_short |= short_i;
     }
@@ -742,7 +746,7 @@ INLINE void gauss_segments_body(const job *jb, profile_block *B)
             }
             double *const e0 = ex, *const e1 = ex + n_padded, *const ea = ex + 2 * n_padded;
             double *const c0 = c, *const c1 = c + n_padded;
-            gauss_cut_lanes_body(n_padded, q, ez, R2, w, C, a2s, t0s, spans, e0, e1, ea, c0, c1, factor);
+            gauss_cut_lanes_body(n_padded, q, ez, R2, w, C, a2s, t0s, spans, e0, e1, ea, c0, c1, factor, is_short);
             cg_exp_in_place(ex, 3 * n_padded);
             cg_erfcx_in_place2(c0, c1, n_padded, R2 > 31.9 * (w * w));
             const int any_short = gauss_cut_values_body(n_padded, t0s, spans, e0, e1, ea, c0, c1, factor, value,
@@ -752,7 +756,15 @@ INLINE void gauss_segments_body(const job *jb, profile_block *B)
                 for (int m = 0; m < n; ++m)
                     if (is_short[m] != 0.0) short_lane[n_short++] = m;
             if (n_short) {
-                /* the short intervals: Gauss-Legendre on [s0, s0 + span] (cut_batch_flush's) */
+                /* the short intervals: Gauss-Legendre on [s0, s0 + span] (cut_batch_flush's, its span from
+                   exact differences) */
+                for (int s = 0; s < n_short; ++s) {
+                    const int m = short_lane[s];
+                    const double e3[3] = {0.0, 0.0, ez[m]};
+                    cg_cut_span_frame f;
+                    cg_cut_span_frame_of(e3, R, &f);
+                    spans[m] = cg_cut_span_lane(0.0, 0.0, q[m], &f);
+                }
                 double gx[GAUSS_CUT_FALLBACK], gw[GAUSS_CUT_FALLBACK];
                 cg_gauss_legendre01(GAUSS_CUT_FALLBACK, gx, gw);
                 for (int g = 0; g < GAUSS_CUT_FALLBACK; ++g)

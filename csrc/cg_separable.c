@@ -545,7 +545,8 @@ INLINE void exp_erfcx_lanes(int ne, const vwd *xe, vwd *oe, int nc, const vwd *x
    exp(-708): far nodes, cutoffs beyond 37 w), erfcx of the ends' |x|, and
    value = factor * (|T0 - T1| or, where the ends straddle the foot, 2A - T0 -
    T1), T = E erfcx; is_short: the lanes where a term exceeds 16 times the
-   value (short intervals, for the fallback), written to b->arg + 5 CUT_BATCH;
+   value (short intervals, for the fallback; with those whose span is 0 only
+   by a rounding margin: near), written to b->arg + 5 CUT_BATCH;
    their OR into *shorts (through a pointer, as chebyshev_series' result) */
 INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double *e, double L2, double R2, double w,
                             double factor, int may_exceed, vwl *shorts)
@@ -557,7 +558,10 @@ INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double
     const vwd ex = SPLAT(e[0]), ey = SPLAT(e[1]), ez = SPLAT(e[2]);
     vwd xe[3 * CUT_ILP], E[3 * CUT_ILP], xc[2 * CUT_ILP], C[2 * CUT_ILP], t0s[CUT_ILP], span[CUT_ILP];
     vwd xa[CUT_ILP], EA[CUT_ILP];
-    vwl straddle[CUT_ILP];
+    vwl straddle[CUT_ILP], near[CUT_ILP];
+    /* lanes whose ball misses the segment (span 0) by less than these margins: the fallback's exact span
+       decides (a sliver the lanes' rounding lost) */
+    const vwd near_b2 = SPLAT(-0x1p-40 * R2), near_s = SPLAT(0x1p-40 * sqrt(R2 * inv_L2));
 #pragma GCC unroll 8
     for (int h = 0; h < nv; ++h) {
         const cg_index at = i + (cg_index)h * VW;
@@ -569,10 +573,12 @@ INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double
         const vwd d0 = q0 - u * ex, d1 = q1 - u * ey, d2 = q2 - u * ez;
         const vwd a2 = d0 * d0 + d1 * d1 + d2 * d2;
         vwd b2 = SPLAT(R2) - a2;
+        const vwl meets_line = b2 > near_b2;
         b2 = SELECT(b2 > zero, b2, zero);
         vwd half;
         sqrt_lanes(b2 * ilv, &half);
         vwd s0 = u - half, s1 = u + half;
+        near[h] = meets_line & (s1 > -near_s) & (s0 < one + near_s);
         s0 = SELECT(s0 > zero, s0, zero);
         s1 = SELECT(s1 < one, s1, one);
         vwd sp = s1 - s0;
@@ -641,7 +647,7 @@ INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double
         const vwd largest = SELECT(straddle[h], twoA, larger);
         const vwd value = v * SPLAT(factor);
         memcpy(b->value + at, &value, sizeof value);
-        const vwl s = (span[h] > zero) & ~(SPLAT(16.0) * v >= largest);
+        const vwl s = ((span[h] > zero) | near[h]) & ~(SPLAT(16.0) * v >= largest);
         memcpy(b->arg + 5 * CUT_BATCH + at, &s, sizeof s); /* all ones (a NaN) or +0 */
         *shorts |= s;
     }
@@ -653,25 +659,30 @@ INLINE void cut_lanes_fused(const cut_batch *b, cg_index i, int nv, const double
    the lanes of a batch: the part [t0, t1] of the segment inside each node's
    ball (as s0 - u and span, in units of the segment) and the arguments of the
    closed form: e0, e1, ea the exponents at the two ends and at the foot, c0,
-   c1 the ends' |x| (erfcx's arguments). Loops of this shape are vectorised. */
+   c1 the ends' |x| (erfcx's arguments); near[i] = 1 where the ball misses the
+   segment by less than a rounding margin (cut_values' short test reads it).
+   Loops of this shape are vectorised. */
 INLINE void cut_lanes(cg_index n, const double *restrict q0, const double *restrict q1, const double *restrict q2,
                       double ex, double ey, double ez, double L2, double R2, double w, double *restrict a2s,
                       double *restrict t0s, double *restrict spans, double *restrict e0, double *restrict e1,
-                      double *restrict ea, double *restrict c0, double *restrict c1)
+                      double *restrict ea, double *restrict c0, double *restrict c1, double *restrict near)
 {
     /* half the exponents: exp(x / 2)^2 reaches the subnormal values down to
        exp(-1416) where cg_exp_in_place stops at exp(-708) (far nodes, cutoffs
        beyond 37 w) */
     const double inv_L2 = 1.0 / L2, L = sqrt(L2), inv4w2 = 0.25 / (w * w);
     const double inv_sqrt2w = 1.0 / (1.4142135623730951 * w);
+    const double near_b2 = -0x1p-40 * R2, near_s = 0x1p-40 * sqrt(R2 * inv_L2);
     for (cg_index i = 0; i < n; ++i) {
         const double u = (q0[i] * ex + q1[i] * ey + q2[i] * ez) * inv_L2;
         const double d0 = q0[i] - u * ex, d1 = q1[i] - u * ey, d2 = q2[i] - u * ez;
         const double a2 = d0 * d0 + d1 * d1 + d2 * d2;
         double b2 = R2 - a2;
+        const int meets_line = b2 > near_b2;
         b2 = b2 > 0.0 ? b2 : 0.0;
         const double half = sqrt(b2 * inv_L2);
         double s0 = u - half, s1 = u + half;
+        near[i] = meets_line & (s1 > -near_s) & (s0 < 1.0 + near_s) ? 1.0 : 0.0;
         s0 = s0 > 0.0 ? s0 : 0.0;
         s1 = s1 < 1.0 ? s1 : 1.0;
         double span = s1 - s0;
@@ -705,7 +716,7 @@ INLINE int cut_values(cg_index n, const double *restrict t0s, const double *rest
         const double v = straddle ? (twoA - T0) - T1 : diff;
         const double largest = straddle ? twoA : larger;
         value[i] = v * factor;
-        const int64_t short_i = (spans[i] > 0.0) & !(16.0 * v >= largest);
+        const int64_t short_i = ((spans[i] > 0.0) | (is_short[i] != 0.0)) & !(16.0 * v >= largest);
         is_short[i] = short_i ? 1.0 : 0.0;
         any_short |= short_i;
     }
@@ -764,21 +775,31 @@ INLINE void cut_batch_flush(cut_batch *b, const job *jb, double *out, cg_index o
     const cg_index n_padded = (n + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
     for (cg_index m = n; m < n_padded; ++m) b->q[0][m] = b->q[1][m] = b->q[2][m] = 0.0;
     cut_lanes(n_padded, b->q[0], b->q[1], b->q[2], e[0], e[1], e[2], L2, R2, w, b->a2, b->t0, b->span, e0, e1, ea,
-              c0, c1);
+              c0, c1, is_short);
     cg_exp_in_place(e0, n_padded);
     cg_exp_in_place(e1, n_padded);
     cg_exp_in_place(ea, n_padded);
     erfcx_in_place2(c0, c1, n_padded, may_exceed);
     const int any_short = cut_values(n_padded, b->t0, b->span, e0, e1, ea, c0, c1, factor, value, is_short);
 #endif
-    const double *a2s = b->a2, *t0s = b->t0, *spans = b->span;
+    const double *a2s = b->a2, *t0s = b->t0;
+    double *restrict spans = b->span;
     int n_short = 0;
     int short_lane[CUT_BATCH];
     if (any_short)
         for (int i = 0; i < n; ++i)
             if (is_short[i] != 0.0) short_lane[n_short++] = i;
     if (n_short) {
-        /* the short intervals: Gauss-Legendre on [s0, s0 + span] */
+        /* the short intervals: Gauss-Legendre on [s0, s0 + span], the span from exact differences (a
+           sliver's digits: cg_cut_span_lane) */
+        cg_cut_span_frame f;
+        cg_cut_span_frame_of(e, jb->kernel->radius, &f);
+        double *restrict qs = is_short + CUT_BATCH; /* the lanes' q, then their spans (arg's room) */
+        for (int m = 0; m < n_short; ++m)
+            for (int s = 0; s < 3; ++s) qs[s * CUT_BATCH + m] = b->q[s][short_lane[m]];
+        for (int m = 0; m < n_short; ++m)
+            qs[3 * CUT_BATCH + m] = cg_cut_span_lane(qs[m], qs[CUT_BATCH + m], qs[2 * CUT_BATCH + m], &f);
+        for (int m = 0; m < n_short; ++m) spans[short_lane[m]] = qs[3 * CUT_BATCH + m];
         double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
         cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
         double *restrict arg = is_short + CUT_BATCH;

@@ -45,10 +45,11 @@ def tilted(vectors):
 def slivers(grid, starts, vectors, R, w):
     """The nodes (flat, non-periodic grids) whose ball some axis segment leaves, or barely meets, with less than
     1e-2 w of it inside (a short part [t0, t1] with an end where the sphere crosses the segment). Their value is
-    relative to that part's length, and its ends' rounding (eps R) takes digits: on the general path, which
-    rebuilds the part in units of the segment, more than in visit_axis, which has the crossing from u and h
-    (exact at rho = 0: test_axis_segments_sliver_at_an_end_on_the_line). Left out of the comparison with the
-    general path."""
+    relative to that part's length, and its ends' rounding (eps R) takes digits: in visit_axis, whose crossing
+    u -+ h has h = sqrt(R^2 - rho^2) rounded (exact at rho = 0: test_axis_segments_sliver_at_an_end_on_the_line;
+    2e-7 off at a sliver of 1e-9 w, 4e-4 where rho = R - 1e-7 w), not on the general path, whose fallback takes
+    the span from exact differences (cg_cut_span_lane: 6e-16 of mpmath at these nodes,
+    test_axis_segments_the_sphere_cuts_near_an_end). Left out of the comparison between the two."""
     nodes = np.stack(np.meshgrid(*grid.axis_coordinates, indexing="ij"), -1).reshape(-1, len(grid.shape))
     out = np.zeros(len(nodes), bool)
     for s, v in zip(np.atleast_2d(starts), np.atleast_2d(vectors)):
@@ -226,10 +227,13 @@ def test_axis_segments_the_sphere_cuts_near_an_end(axis):
             assert_values_equal(fast, slow, (axis, delta), slivers(GRID3, s, v, R, w))
             k = np.ravel_multi_index(tuple(np.argmin(np.abs(c - x)) for c, x in zip(GRID3.axis_coordinates, node)),
                                      SHAPE3)
+            # the general path (its fallback's span from exact differences) keeps each value here
+            want = float(mp_psi(list(node - s), list(tilted(v[None])[0]), w, R))
+            assert want > 0.0 and abs(slow[k] - want) <= RTOL * want, (axis, delta, slow[k], want)
             if delta > 1e-4 * w and abs(np.linalg.norm(np.delete(node - s, axis)) - 2 * GRID3.spacing[across]) < 1e-9:
-                # (only here against mpmath: where the sphere barely meets the line, h^2 = R^2 - rho^2 loses digits
-                # to rho^2's rounding, and an interval of delta << w has the crossing's round-off relative to delta;
-                # no double-precision path keeps 1e-12 of such values: there the two paths agree, above)
+                # (visit_axis only here against mpmath: where the sphere barely meets the line, its h^2 = R^2 - rho^2
+                # loses digits to rho^2's rounding, and an interval of delta << w has the crossing's round-off
+                # relative to delta; the general path keeps them, above)
                 want = float(mp_psi(list(node - s), list(v), w, R))
                 assert want > 0.0 and abs(fast[k] - want) <= RTOL * want, (axis, delta, fast[k], want)
 
@@ -302,8 +306,9 @@ def test_short_axis_segments_with_a_large_cutoff():
 def test_axis_segments_sliver_at_an_end_on_the_line():
     """A node on the segment's line (rho = 0: h = R exactly) whose sphere crosses the segment within a few ulp of
     an end, before the start (a sliver [0, u + h], or nothing) or beyond it (the part [u - h, L]): visit_axis
-    integrates over the part from its own u and h, exact differences, against mpmath (the general path rebuilds
-    the part in units of the segment and loses the sliver: up to 20 % off at L = 0.3 w)."""
+    integrates over the part from its own u and h, exact differences, against mpmath; so does the general path
+    (tilted), whose fallback takes the span from exact differences (cg_cut_span_lane; it rebuilt the part in
+    units of the segment and lost the sliver: up to 20 % off at L = 0.3 w)."""
     w, cutoff = 0.5, 3.0
     R = cutoff * w
     node = np.array([c[8] for c in GRID3.axis_coordinates])
@@ -318,6 +323,8 @@ def test_axis_segments_sliver_at_an_end_on_the_line():
                 got = scatter(BOX3, SHAPE3, s[None], v[None], [[1.0]], w, cutoff)[k, 0]
                 want = float(mp_psi(list(node - s), list(v), w, R))
                 assert abs(got - want) <= RTOL * want, (axis, length_over_w, ulps, sign, got, want)
+                slow = scatter(BOX3, SHAPE3, s[None], tilted(v[None]), [[1.0]], w, cutoff)[k, 0]
+                assert abs(slow - want) <= RTOL * want, (axis, length_over_w, ulps, sign, slow, want)
     # a short segment at a small cutoff, the node just inside its sphere at the segment's start
     box, shape = cg.Box([0, 0], [8, 8]), (8, 8)
     s, v = np.array([4.5, 3.721026658511189]), np.array([0.0, -1.7255666894195883e-05])

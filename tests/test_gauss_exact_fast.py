@@ -294,3 +294,77 @@ def test_erfcx_against_mpmath_over_its_whole_range():
     np.testing.assert_array_equal(_engine.gaussian_erfcx(long), np.concatenate([got[:50], got[50 + len(short):]]))
     with pytest.raises(ValueError, match="x: expected values >= 0"):
         _engine.gaussian_erfcx(np.array([1.0, -0.5]))
+
+
+def sliver_start(node, n, L, R, case, delta, rng):
+    """A segment start for direction n (unit) and length L such that the part of the segment inside the node's
+    ball (radius R) is a sliver of about delta: "start" (the node before the start, the start just inside),
+    "end" (the node beyond the end, the end just inside), "side" (the sphere barely clips the segment's side: a
+    chord of delta about its middle), "long" (the end just outside: the part ends delta before it)."""
+    if case == "side":
+        p = rng.normal(size=3)
+        p -= (p @ n) * n
+        p /= np.linalg.norm(p)
+        return node - (np.sqrt(R * R - (delta / 2) ** 2) * p + 0.5 * L * n)
+    m = rng.normal(size=3)
+    m /= np.linalg.norm(m)
+    sign = 1.0 if case == "end" else -1.0              # the node's offset from the end (start) along n
+    m = m + (sign * 0.6 - m @ n) * n                    # 53 degrees off the line
+    m /= np.linalg.norm(m)
+    c = m @ n
+    part = {"start": lambda r: r * c + np.sqrt(R * R - r * r * (1 - c * c)),     # u + h, the start inside
+            "end": lambda r: np.sqrt(R * R - r * r * (1 - c * c)) - r * c,       # h - (u - L), the end inside
+            "long": lambda r: r * c + np.sqrt(R * R - r * r * (1 - c * c))}[case]
+    target = L - delta if case == "long" else delta
+    lo, hi = 0.5 * R, R                                 # part decreases in r on [R / 2, R]
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if part(mid) > target else (lo, mid)
+    return node - lo * m - (L * n if case == "end" else 0.0)
+
+
+def test_slivers_of_oblique_segments_against_mpmath():
+    """Oblique segments (the general exact path's cut nodes) whose end lies within 1e-3 w to a few ulp of a
+    node's cutoff sphere, inside (a sliver of the segment in the node's ball) or outside, and segments whose
+    side the sphere barely clips: the node's value against 50-digit mpmath, relative to itself (and 0 where
+    mpmath's is). The lanes of the closed form rebuild the part inside the ball in units of the segment and
+    kept only eps R / span of it (1e-7 off at 1e-9 w, 5 % at 1e-14 w; a side's chord of 1e-6 w 4e-3 off,
+    of 1e-9 w: 0), and so did the node-by-node path's clipping; both now take the span from exact differences
+    (cg_cut_span_lane). Both builds bit for bit."""
+    w, cutoff = 0.5, 3.0
+    R = cutoff * w
+    box, shape = cg.Box([0, 0, 0], [8, 8, 8]), (17, 17, 17)
+    grid = cg.Grid(box, shape)
+    node = np.array([c[8] for c in grid.axis_coordinates])
+    k = np.ravel_multi_index((8, 8, 8), shape)
+    rng = np.random.default_rng(18)
+    mp.mp.dps = 50
+    worst, nonzero = 0.0, 0
+    for case in ("start", "end", "side", "long"):
+        for delta in (1e-3 * w, 1e-6 * w, 1e-9 * w, 1e-12 * w, 4 * 2.0 ** -52 * R):
+            for L in (0.3 * w, 2.0 * w):
+                n = rng.normal(size=3)
+                n /= np.linalg.norm(n)
+                start, vector = sliver_start(node, n, L, R, case, delta, rng), n * L
+                _, _, got = gauss_grid_psi(box, shape, start, vector, w, cutoff * w)
+                q = [mp.mpf(float(a)) - mp.mpf(float(b)) for a, b in zip(node, start)]   # (exact here)
+                want = float(mp_psi(q, vector, w, R))
+                what = (case, delta / w, L / w, got[k], want)
+                if want == 0.0:
+                    assert got[k] == 0.0, what
+                    continue
+                nonzero += 1
+                err = abs(got[k] - want) / want
+                assert err <= RTOL, what
+                worst = max(worst, err)
+                if case in ("start", "end") or delta >= 1e-6 * w:
+                    # the node-by-node path (its Gauss-Legendre branch on the same exact span; where the sphere
+                    # only grazes the segment's side by less, its clipping, in units of the segment, finds nothing)
+                    slow = gauss_grid_psi(box, shape, start, vector, w, cutoff * w, per_node=True)[2][k]
+                    assert abs(slow - want) <= RTOL * want, what + (slow,)
+                if L > w:
+                    wide = got
+                    assert narrow_build(lambda: gauss_grid_psi(box, shape, start, vector, w, cutoff * w)[2]).tobytes() \
+                        == wide.tobytes(), what
+    assert nonzero >= 30
+    record("Gaussian exact grid, slivers of oblique segments in a node's ball (value-relative)", worst)

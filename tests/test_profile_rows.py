@@ -296,3 +296,29 @@ def test_gaussian_segments(far):
         fast = sums(box, 300, "z", wide, 1.0, starts, vectors, ones)
         slow = sums(box, 300, "z", wide, 1.0, starts, vectors, ones, per_node=True)
         assert np.abs(fast - slow).max() <= 1e-12 * np.abs(slow).max()
+
+
+def test_gaussian_segment_slivers_against_mpmath():
+    """A profile's segment (oblique; its part along z) whose start or end lies within 1e-3 w to a few ulp inside a
+    node's cutoff (a sliver of the segment in the node's ball): the node's value against 50-digit mpmath (the 1-D
+    line integral over the box's cross-section), relative to itself. The blocks' closed form (cut_batch_flush's
+    twin) rebuilt the part in units of the segment (1e-7 off at 1e-9 w, 5 % at 1e-14 w); now its fallback takes
+    the span from exact differences (cg_cut_span_lane)."""
+    import mpmath as mp
+    from test_hard_cases import mp_psi
+    w, cutoff = 0.25, 3.0
+    R = cutoff * w
+    make = lambda R_: cg.Gaussian(w, cutoff=cutoff * w)   # noqa: E731  (16 nodes a stencil: the blocks)
+    box = cg.Box([0, 0, 0], [6, 6, 30])
+    grid, _, _ = profile(box, 300, "z", make, 1.0)
+    k = 150
+    zn = grid.axis_coordinates[-1][k]
+    mp.mp.dps = 50
+    for end in (False, True):
+        for delta in (1e-3 * w, 1e-9 * w, 1e-14 * w, 4 * np.spacing(zn + R)):   # (the last: 4 ulp of z0)
+            for L in (0.3 * w, 2.0 * w):
+                z0 = zn - R + delta - L if end else zn + R - delta   # the node beyond the end, before the start
+                s, v = np.array([[3.0, 3.1, z0]]), np.array([[0.37 * L, -0.2 * L, L]])
+                got = sums(box, 300, "z", make, 1.0, s, v, np.ones((1, 1)))[k, 0]
+                want = float(mp_psi([mp.mpf(float(zn)) - mp.mpf(float(z0))], [L], w, R)) / 36.0
+                assert want > 0.0 and abs(got - want) <= 1e-12 * want, (end, delta / w, L / w, got, want)
