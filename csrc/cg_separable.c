@@ -1407,12 +1407,13 @@ INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L
     const vwl ok = both | (SPLAT(16.0) * v >= largest);
     *val = (vwd)((vwl)v & (meets & ok));
     *in = meets;
-    *cancel = meets & ~ok;
+    *cancel = (meets & ~ok) | (~meets & (h > zero)); /* (and a chord lost to rounding: its exact span) */
 }
 
 /* axis_lanes for a node beyond an end of the segment, the same values bit for bit: before its start (u < 0:
    lo <= u < 0, the start is inside the ball; no straddle) ... */
-INLINE void axis_lanes_before(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *cancel)
+INLINE void axis_lanes_before(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd near, vwd *val,
+                              vwl *cancel)
 {
     const vwd zero = {0.0}, hi = u + h;
     const vwl at_end = hi >= L;
@@ -1423,11 +1424,12 @@ INLINE void axis_lanes_before(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W
     const vwd v = SELECT(at_end, A * W, diff);
     const vwl ok = at_end | (SPLAT(16.0) * v >= larger);
     *val = (vwd)((vwl)v & (meets & ok));
-    *cancel = meets & ~ok;
+    *cancel = (meets & ~ok) | (~meets & (hi > -near)); /* (and near misses: their exact span) */
 }
 
 /* ... and beyond its end (u > L: hi >= u > L, the end is inside the ball) */
-INLINE void axis_lanes_after(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *cancel)
+INLINE void axis_lanes_after(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd near, vwd *val,
+                             vwl *cancel)
 {
     const vwd zero = {0.0}, lo = u - h;
     const vwl at_start = lo <= zero;
@@ -1438,18 +1440,18 @@ INLINE void axis_lanes_after(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W,
     const vwd v = SELECT(at_start, A * W, diff);
     const vwl ok = at_start | (SPLAT(16.0) * v >= larger);
     *val = (vwd)((vwl)v & (meets & ok));
-    *cancel = meets & ~ok;
+    *cancel = (meets & ~ok) | (~meets & (lo < L + near));
 }
 
 /* a plane's lanes: before, within or after the segment (where: -1, 0, 1) */
-INLINE void axis_plane_lanes(int where, vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val,
-                             vwl *cancel)
+INLINE void axis_plane_lanes(int where, vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd near,
+                             vwd *val, vwl *cancel)
 {
     vwl in;
     if (where < 0)
-        axis_lanes_before(u, h, A, Pc, Es, Ee, W, L, val, cancel);
+        axis_lanes_before(u, h, A, Pc, Es, Ee, W, L, near, val, cancel);
     else if (where > 0)
-        axis_lanes_after(u, h, A, Pc, Es, Ee, W, L, val, cancel);
+        axis_lanes_after(u, h, A, Pc, Es, Ee, W, L, near, val, cancel);
     else
         axis_lanes(u, h, A, Pc, Es, Ee, W, L, val, &in, cancel);
 }
@@ -1483,12 +1485,12 @@ INLINE void scatter_add_picked(double *restrict o, double scale, const double *r
         if (w[k] != 0.0) block_add_picked(o + at[k], scale, w + k, 1, v, nv, p);
 }
 
-/* visit_axis's cancelling nodes, gathered in a cut batch as q[0] = A, q[1] = d0 and q[2] = span: the part
-   of the segment inside the node's ball is [u + d0, u + d0 + span] (d0 = -u or -h, span = t1 - t0 from
-   visit_axis's own u, h and L: where the sphere crosses within a few ulp of an end, exact differences; the cut
-   batch's closed form rebuilds them in units of the segment, at the scale of R / L, and loses such a sliver to
-   rounding). The terms cancel, so the interval is short (as cut_batch_flush's fallback): there the 8-point
-   Gauss-Legendre rule is exact to round-off,
+/* visit_axis's cancelling nodes (and those whose sphere misses an end of the segment, or the segment, by less
+   than rounding), gathered in a cut batch as q[0] = A, q[1] = d0 and q[2] = span: the part of the segment
+   inside the node's ball is [u + d0, u + d0 + span], its span from exact differences (cg_cut_span_lane, as the
+   general path's fallback: h = sqrt(R^2 - rho^2) rounded would take a sliver's digits), d0 = -u where it starts
+   at the start, L - u - span where it ends at the end, else -span / 2. The terms cancel, so the interval is
+   short (as cut_batch_flush's fallback): there the 8-point Gauss-Legendre rule is exact to round-off,
      value = amp / L  A span sum_g gw_g exp(-(d0 + gx_g span)^2 / 2w^2)
    (A times an exponential is normal: rho^2 + d^2 <= R^2 inside the ball, R^2 / 2w^2 < AXIS_EXPONENT_MAX). */
 static void axis_cut_flush(cut_batch *b, const job *jb, double *out, cg_index obj, double L, double w, double amp,
@@ -1597,6 +1599,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        index over the cross slots) and output offset; whole vectors of two (padding: h = 0, which meets
        no segment) */
     const cg_index width = jb->out_width;
+    const cg_index sa_c = stride[c1], sb_c = stride[c2], node0c = first[c1] * sa_c + first[c2] * sb_c;
     /* the packed rows (cross entries along slot c2 of one entry along c1): their first entries, and their
        entries' largest h */
     cg_index npk = 0, n_rows = 0, row_start[65], npad;
@@ -1747,19 +1750,27 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     /* one picked value: the plane's values times it and the scale in the vector loop, added as they are */
     const int one = pick->kind == 1;
     const vwd factor_v = SPLAT(factor), v0_v = SPLAT(one ? pick->v[0] : 1.0);
+    /* a crossing within this of an end (or a chord lost to rounding) goes to axis_cut_flush with the span
+       of the part inside the ball from exact differences (cg_cut_span_lane), as the general path's short
+       lanes do */
+    const double near = 0x1p-40 * R;
+    const vwd near_v = SPLAT(near);
+    cg_cut_span_frame span_frame;
+    int have_frame = 0;
     double *const out0 = out + (one ? pick->at[0] : 0);
     for (cg_index i = u_lo; i < u_hi; ++i) {
         const double ui = U[i];
-        /* beyond an end, the rows whose h is too short to reach the segment meet nothing (u + h <= 0 or
-           u - h >= L for each of their entries, as axis_lanes rounds it): a plane's entries that may meet it
-           are those of a range of rows [r0, r1) (h is largest in the middle rows), [k_lo, k_hi) */
+        /* beyond an end, the rows whose h is too short to reach the segment, or nearly (u + h <= -near or
+           u - h >= L + near for each of their entries, as the lanes round it), meet nothing: a plane's entries
+           that may meet it are those of a range of rows [r0, r1) (h is largest in the middle rows),
+           [k_lo, k_hi) */
         cg_index r0 = 0, r1 = n_rows;
         if (ui < 0.0) {
-            while (r0 < r1 && !(ui + row_h[r0] > 0.0)) ++r0;
-            while (r1 > r0 && !(ui + row_h[r1 - 1] > 0.0)) --r1;
+            while (r0 < r1 && !(ui + row_h[r0] > -near)) ++r0;
+            while (r1 > r0 && !(ui + row_h[r1 - 1] > -near)) --r1;
         } else if (ui > L) {
-            while (r0 < r1 && !(ui - row_h[r0] < L)) ++r0;
-            while (r1 > r0 && !(ui - row_h[r1 - 1] < L)) --r1;
+            while (r0 < r1 && !(ui - row_h[r0] < L + near)) ++r0;
+            while (r1 > r0 && !(ui - row_h[r1 - 1] < L + near)) --r1;
         }
         const cg_index k_lo = row_start[r0], k_hi = row_start[r1];
         const int where = ui < 0.0 ? -1 : ui > L;
@@ -1772,7 +1783,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             memcpy(&h, PH + kw, sizeof h);
             memcpy(&A, PA + kw, sizeof A);
             memcpy(&Pc, PP + kw, sizeof Pc);
-            axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, Lv, &val, &cancel);
+            axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, Lv, near_v, &val, &cancel);
             if (one) val = (factor_v * val) * v0_v; /* (block_add_picked's products) */
             memcpy(pv + kw, &val, sizeof val);
             any_cancel |= cancel;
@@ -1797,19 +1808,32 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 memcpy(&h, PH + kw, sizeof h);
                 memcpy(&A, PA + kw, sizeof A);
                 memcpy(&Pc, PP + kw, sizeof Pc);
-                axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, Lv, &val, &cancel);
+                axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, Lv, near_v, &val, &cancel);
                 for (uint64_t bits = mask_bits(cancel); bits; bits &= bits - 1) {
                     const cg_index k = kw + __builtin_ctzll(bits);
                     if (cuts.n == CUT_BATCH) axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
-                    /* the node's along and cross entries (as axis_lanes's) */
+                    /* the part inside the ball: its span from exact differences, in the node's coordinates
+                       q (the cross entries' indices from the offset); it starts at the start where that is
+                       inside (as the lanes round it), ends at the end where that is, else is the chord
+                       centred on the node's foot */
+                    if (!have_frame) {
+                        cg_cut_span_frame_of(es, R, &span_frame);
+                        have_frame = 1;
+                    }
+                    const cg_index cross = PO[k] / width - node0c;
+                    const cg_index ia = sa_c > sb_c ? cross / sa_c : (sa_c ? cross % sb_c / sa_c : 0);
+                    const cg_index ib = sa_c > sb_c ? (sb_c ? cross % sa_c / sb_c : 0) : (sb_c ? cross / sb_c : 0);
+                    double qn[3];
+                    qn[m] = q[m][i];
+                    qn[c1] = q[c1][ia];
+                    qn[c2] = q[c2][ib];
+                    const double span = cg_cut_span_lane(qn[0], qn[1], qn[2], &span_frame) * L;
                     const double uu = U[i], hk = PH[k];
-                    const double lo = uu - hk, hi = uu + hk;
-                    const int at_start = lo <= 0.0, at_end = hi >= L;
-                    const double t0 = at_start ? 0.0 : lo, t1 = at_end ? L : hi;
+                    const int at_start = uu - hk <= 0.0, at_end = uu + hk >= L;
                     const int n = cuts.n++;
                     cuts.q[0][n] = PA[k];
-                    cuts.q[1][n] = at_start ? -uu : -hk;
-                    cuts.q[2][n] = t1 - t0;
+                    cuts.q[1][n] = at_start ? -uu : (at_end ? (L - uu) - span : -0.5 * span);
+                    cuts.q[2][n] = span;
                     cuts.node[n] = plane_node + PO[k] / width;
                 }
             }
