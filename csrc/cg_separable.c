@@ -1417,14 +1417,15 @@ INLINE void axis_lanes_before(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W
 {
     const vwd zero = {0.0}, hi = u + h;
     const vwl at_end = hi >= L;
-    const vwl meets = SELECT(at_end, L, hi) > zero;
+    const vwd t1 = SELECT(at_end, L, hi);
+    const vwl meets = t1 > zero;
     const vwd P0 = A * Es, P1 = SELECT(at_end, A * Ee, Pc);
     const vwl first = P0 > P1;
     const vwd diff = SELECT(first, P0 - P1, P1 - P0), larger = SELECT(first, P0, P1);
     const vwd v = SELECT(at_end, A * W, diff);
     const vwl ok = at_end | (SPLAT(16.0) * v >= larger);
     *val = (vwd)((vwl)v & (meets & ok));
-    *cancel = (meets & ~ok) | (~meets & (hi > -near)); /* (and near misses: their exact span) */
+    *cancel = (t1 > -near) & ~(meets & ok); /* (and near misses: their exact span) */
 }
 
 /* ... and beyond its end (u > L: hi >= u > L, the end is inside the ball) */
@@ -1433,14 +1434,15 @@ INLINE void axis_lanes_after(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W,
 {
     const vwd zero = {0.0}, lo = u - h;
     const vwl at_start = lo <= zero;
-    const vwl meets = L > SELECT(at_start, zero, lo);
+    const vwd t0 = SELECT(at_start, zero, lo);
+    const vwl meets = L > t0;
     const vwd P0 = SELECT(at_start, A * Es, Pc), P1 = A * Ee;
     const vwl first = P0 > P1;
     const vwd diff = SELECT(first, P0 - P1, P1 - P0), larger = SELECT(first, P0, P1);
     const vwd v = SELECT(at_start, A * W, diff);
     const vwl ok = at_start | (SPLAT(16.0) * v >= larger);
     *val = (vwd)((vwl)v & (meets & ok));
-    *cancel = (meets & ~ok) | (~meets & (lo < L + near));
+    *cancel = (L + near > t0) & ~(meets & ok);
 }
 
 /* a plane's lanes: before, within or after the segment (where: -1, 0, 1) */
