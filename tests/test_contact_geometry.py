@@ -13,6 +13,7 @@ import re
 import numpy as np
 import pytest
 
+import cgbound
 from cgbound.cli import main
 from cgbound.readers import LammpsReader
 from cgbound.readers.lammps_input import read_input
@@ -160,6 +161,75 @@ def test_fast_deforming_box_is_read_and_misplaced_positions_refused(tmp_path, ca
     bad = misaligned(os.path.join(LAMMPS, case, "atoms.dump"), tmp_path / "atoms.dump")
     with pytest.raises(ValueError, match=r"timestep 40: the positions do not fit .* have a distance \('dist'"):
         read_all(lammps(bad, case, check_forces=False, input=script))
+
+
+def _virial(k):
+    """LAMMPS' pair virial W / V of frame k of tests/data/lammps/thin (compute pressure ... virial: xx yy zz xy xz yz,
+    W_ab = sum r_a f_b / V over the pairs, f on the atom at r_i from j, r = r_i - r_j)."""
+    return np.loadtxt(os.path.join(LAMMPS, "thin", "virial.txt"))[k, 2:]
+
+
+def _as_virial(stress):
+    """-(sigma_xx, sigma_yy, sigma_zz, sigma_yx, sigma_zx, sigma_zy) of a contact stress sigma_ab = -sum f_a b_b / V:
+    LAMMPS' virial components (its xy is sum r_x f_y)."""
+    return -np.array([stress[0, 0], stress[1, 1], stress[2, 2], stress[1, 0], stress[2, 0], stress[2, 1]])
+
+
+@pytest.mark.parametrize("columns", ["branch", "dist"])
+def test_thin_periodic_box_reads_each_image_as_its_own_contact(columns):
+    # genuine output: a periodic box 1.5 wide, diameters 0.85..1: 12 pairs a frame touch through two images of each
+    # other and pair/local lists them once per image (with newton on). Each listing is its own contact, its
+    # branch the image its branch vector (or else 'dist', and the normal force where two images are as far) says;
+    # the box-averaged contact stress is then minus LAMMPS' virial to round-off. The minimum image gives the
+    # second listing the first's branch: sigma_xx 44% low
+    reader = lammps(None, "thin")
+    if columns == "dist":
+        names = dict(reader.pair_columns, branch=None)
+        reader = lammps(None, "thin", pair_columns=names)
+    for k, frame in enumerate(read_all(reader)):
+        snap = frame.snapshot
+        c = snap.contacts
+        key = np.minimum(c.i, c.j) * snap.n_particles + np.maximum(c.i, c.j)
+        assert len(c) == 79 and key.size - np.unique(key).size == 12 and c.branch is not None
+        grid = cgbound.Grid(snap.box, (1, 1, 1), average=("x", "y", "z"))
+        stress = np.asarray(cgbound.coarse_grain(snap, grid, cgbound.Gaussian(0.3),
+                                                 fields=("contact_stress",)).contact_stress).reshape(3, 3)
+        want = _virial(k)
+        assert np.abs(_as_virial(stress) - want).max() <= 1e-12 * np.abs(want).max(), (k, stress, want)
+        nearest = snap.box.minimum_image(snap.positions[c.i] - snap.positions[c.j])
+        wrong = -np.einsum("ma,mb->ab", c.force, nearest) / np.prod(snap.box.upper - snap.box.lower)
+        assert np.abs(_as_virial(wrong) - want).max() > 0.1 * np.abs(want).max()
+
+
+def test_thin_periodic_box_without_dist_is_refused():
+    # the positions alone cannot tell a pair's two listings apart (the minimum image would give both one branch)
+    names = dict(lammps(None, "thin").pair_columns, branch=None, dist=None)
+    with pytest.raises(ValueError, match=r"thin/atoms.dump: timestep 7300: atoms 1 and 20 are listed 2 times in "
+                                         r".*thin/pairs.dump \(the contact dump's lines 10, 11\): the periodic box "
+                                         r"length along x \(1.5\) is less than two contact distances, .* Fix: add "
+                                         r"'dist' to compute pair/local"):
+        read_all(lammps(None, "thin", pair_columns=names))
+
+
+def test_contacts_branch_is_checked():
+    # Contacts.branch: r_i - r_j plus whole box lengths along periodic axes; a pair once per image
+    box = cgbound.Box([0, 0, 0], [1.5, 4, 4], periodic=(True, True, True))
+    pos = np.array([[0.2, 1.0, 1.0], [0.9, 1.0, 1.0]])
+    f = np.array([[-1.0, 0, 0], [1.0, 0, 0]])
+
+    def snap(branch, j=(1, 1)):
+        contacts = cgbound.Contacts([0, 0], list(j), f, [[0.55, 1, 1], [1.3, 1, 1]], branch=branch)
+        return cgbound.Snapshot(pos, None, np.ones(2), box=box, radii=np.full(2, 0.45), contacts=contacts)
+
+    s = snap([[-0.7, 0, 0], [0.8, 0, 0]])
+    assert np.allclose(s.split_contacts()[0]["branch"], [[-0.7, 0, 0], [0.8, 0, 0]])
+    with pytest.raises(ValueError, match=r"contacts.branch: expected r_i - r_j plus whole box lengths .* at contact 1"):
+        snap([[-0.7, 0, 0], [0.75, 0, 0]])
+    with pytest.raises(ValueError, match=r"expected each pair once per periodic image .* got the pair \(0, 1\) at "
+                                         r"contacts 0, 1"):
+        snap([[-0.7, 0, 0], [-0.7, 0, 0]])
+    with pytest.raises(ValueError, match=r"expected each pair once \(as"):
+        snap(None)
 
 
 def test_few_decimals_are_read_and_relabelled_refused(tmp_path):

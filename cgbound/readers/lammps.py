@@ -71,6 +71,14 @@ dump's line, the likely causes and the fix):
   output (``%g`` and ``%.17g``; gran/hooke, gran/hertz/history, granular hertz/material, dmt and jkr,
   periodic and deforming boxes, walls): errors at most 3% of the tolerance; forces only within 1.000005
   (r_i + r_j) for the repulsive styles;
+* a pair listed more than once: in a periodic box thinner than two contact distances a pair can touch through two
+  periodic images of each other at once, and pair/local lists it once per image (with its own ``dist`` and branch
+  vector). Each listing is read as its own contact, its branch vector (``Contacts.branch``) the image that
+  ``p10 p11 p12`` gives, else the one its ``dist`` gives (where two images are as far, the one along the normal
+  force ``fx fy fz``); the geometry check above then holds it as any other. Without ``dist`` or the branch vector
+  (or where neither tells the images apart) the frame is refused: the minimum image would give both listings
+  one branch, a wrong stress (tests/data/lammps/in.thin: sigma_xx 44% low; read as here, the box-averaged
+  contact stress is minus LAMMPS' virial to round-off). Listings of a pair with the same image are refused;
 * wall contacts (``walls``): the contact point ``f_ID[5..7]`` (on the wall) must lie within a radius of the
   particle's centre (1.00003 radii measured, the silo's cylinder included) when the input script gives the wall
   a repulsive model, within 2 radii otherwise (``jkr``, or no script), to the same tolerance. This also checks
@@ -141,9 +149,9 @@ from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
-from .checks import (FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, contact_geometry_error,
-                     dump_local_header, force_balance, generic_columns, geometry_misfits, row_norms,
-                     warn_repeated_frames, written_resolution)
+from .checks import (FORCE_BALANCE_TOLERANCE, GEOMETRY_TOLERANCE, check_force_balance, compute_columns,
+                     contact_geometry_error, dump_local_header, force_balance, generic_columns, geometry_misfits,
+                     row_norms, warn_repeated_frames, written_resolution)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -699,7 +707,7 @@ class LammpsReader(FrameReader):
         if self.wrap and any(box.periodic):
             point = box.wrap(point)
         wall_j = np.full(k.shape, -1, np.int64)
-        return k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), np.full(k.shape, np.nan)
+        return k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), np.full(k.shape, np.nan), None
 
     def _check_wall_geometry(self, wall, atoms, k, point, box):
         """Refuse wall contacts whose contact point (on the wall) is further from the particle's centre than
@@ -743,7 +751,7 @@ class LammpsReader(FrameReader):
         if fr["n"] == 0:
             dim = self.dimension
             return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)),
-                    np.zeros((0, 2), np.int64), np.zeros(0))
+                    np.zeros((0, 2), np.int64), np.zeros(0), None)
         where = _Where(timestep, fr.get("first_line"), atoms)
         return self._pairs_from_table(fr["data"], fr["n"], timestep, atoms.ids, atoms.positions, atoms.radii, box,
                                       where)
@@ -781,6 +789,17 @@ class LammpsReader(FrameReader):
             crossed = raw[:, 0] != separation[:, 0]
             for a in range(1, raw.shape[1]):
                 crossed |= raw[:, a] != separation[:, a]
+        if radii is None:
+            raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or 'diameter' column")
+        radii_i = np.take(radii, i)
+        radii_sum = radii_i + np.take(radii, j)
+        images = None
+        if any(box.periodic) and radii_sum.size and _thin(box, radii_sum):
+            repeated = _repeated_pairs(i, j, ids.size)
+            if repeated is not None:
+                separation, crossed = self._listed_images(tab, where, i, j, id1, id2, separation, crossed, box,
+                                                          repeated)
+                images = separation.copy()     # (the snapshot's branches: the point is rebuilt in place below)
         if names.get("branch"):
             branch = self._vectors(tab, names["branch"])
             # pair granular writes zeros (force and branch) for a pair it finds not touching (JKR beyond its
@@ -793,10 +812,6 @@ class LammpsReader(FrameReader):
         else:
             branch = separation
         dist = row_norms(branch)
-        if radii is None:
-            raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or 'diameter' column")
-        radii_i = np.take(radii, i)
-        radii_sum = radii_i + np.take(radii, j)
         if where is not None:
             self._check_pair_geometry(tab, where, i, j, id1, id2, separation, dist, branch, radii_sum, force,
                                       crossed, box)
@@ -810,6 +825,8 @@ class LammpsReader(FrameReader):
                 kept = keep
                 i, j, force, branch, dist, overlap, pos_i, radii_i = (
                     i[keep], j[keep], force[keep], branch[keep], dist[keep], overlap[keep], pos_i[keep], radii_i[keep])
+                if images is not None:
+                    images = images[keep]
         if np.any(dist == 0):
             raise ValueError(f"{path}: two atoms at the same position at timestep {timestep}")
         # point = pos[i] - (radii[i] - overlap / 2) n, n = branch / dist: the same operations, in place (over the
@@ -822,7 +839,124 @@ class LammpsReader(FrameReader):
         # ids[i], ids[j]: the contacts' own IDs (contact_indices found each one there), taken from the table
         contact_ids = np.empty((len(i), 2), np.int64)
         contact_ids[:, 0], contact_ids[:, 1] = (id1, id2) if kept is None else (id1[kept], id2[kept])
-        return i, j, force, point, contact_ids, overlap
+        return i, j, force, point, contact_ids, overlap, images
+
+    def _listed_images(self, tab, where, i, j, id1, id2, separation, crossed, box, repeated):
+        """The separations of a pair listed more than once (``repeated``: bools of those rows): in a periodic box
+        thinner than two contact distances a pair can touch through two periodic images of each other at once, and
+        LAMMPS lists it once per image (pair/local), each listing its own contact with its own branch vector. The
+        image of each such listing is the one its branch vector (pair granular's p10-p12) or else its ``dist``
+        gives (then the nearest, refused when two images are as near); without either it cannot be told and the
+        frame is refused. Returns (separations, crossed) with those rows' images; the geometry check then holds
+        them to the contact dump's values as any other. The listings of one pair must take distinct images."""
+        names, timestep = self.pair_columns, where.timestep
+        lengths = box.upper - box.lower
+        periodic = np.asarray(box.periodic, bool)
+        rows = np.flatnonzero(repeated)
+        s = separation[rows]
+
+        def lines(ks):
+            return "" if where.pairs_line is None else \
+                f" (the contact dump's lines {', '.join(str(where.pairs_line + int(k)) for k in ks)})"
+
+        def thin():
+            # (the axes along which a second image is within the contact reach)
+            reach = (self.contact_reach or 2.0) * float(np.max(np.take(where.atoms.radii, i[rows])
+                                                               + np.take(where.atoms.radii, j[rows])))
+            axes = "xyz" if self.dimension == 3 else "xy"
+            short = [f"{axes[a]} ({lengths[a]:.6g})" for a in range(len(axes)) if periodic[a]
+                     and 0.5 * lengths[a] <= reach] or [f"{axes[a]} ({lengths[a]:.6g})" for a in range(len(axes))
+                                                        if periodic[a]]
+            return f"the periodic box length{'s' if len(short) > 1 else ''} along {', '.join(short)} " + (
+                "are" if len(short) > 1 else "is")
+
+        first = rows[0]
+        pair_rows = rows[(np.minimum(i[rows], j[rows]) == min(i[first], j[first]))
+                         & (np.maximum(i[rows], j[rows]) == max(i[first], j[first]))]
+        has_dist = bool(names.get("dist")) and names["dist"] in tab
+
+        normal = self._vectors(tab, names["force"], rows)   # (gran, granular: the normal force, along the branch)
+        active = np.any(normal != 0, axis=1)
+
+        def by_dist(sub):
+            """The images of rows[sub] whose distance is their 'dist': the nearest; where two are as near (a pair
+            half a box length apart along an axis), the one along the normal force (gran, granular); refused where
+            that does not tell them apart either (rows without a force, which carry nothing, take the nearest)."""
+            written = np.take(tab[names["dist"]], rows[sub])
+            axes = np.flatnonzero(periodic)
+            shifts = np.array(np.meshgrid(*[(-1.0, 0.0, 1.0)] * axes.size, indexing="ij")).reshape(axes.size, -1).T
+            steps = np.zeros((shifts.shape[0], lengths.size))
+            steps[:, axes] = shifts
+            candidates = s[sub][:, None, :] + steps[None] * lengths                 # (rows, images, D)
+            err = np.abs(np.sqrt(np.sum(candidates ** 2, axis=2)) - written[:, None])
+            best = np.argmin(err, axis=1)
+            r = np.arange(len(written))
+            near = err - err[r, best][:, None] <= GEOMETRY_TOLERANCE * (written + where.atoms.extent)[:, None]
+            if self.pair_style != "total":
+                f = normal[sub]
+                cross = np.cross(candidates, f[:, None, :]) if lengths.size == 3 else \
+                    (candidates[..., 0] * f[:, None, 1] - candidates[..., 1] * f[:, None, 0])[..., None]
+                with np.errstate(divide="ignore", invalid="ignore"):    # (rows without a force: NaN, not along)
+                    sine = np.sqrt(np.sum(cross ** 2, axis=2)) / (np.sqrt(np.sum(candidates ** 2, axis=2))
+                                                                  * row_norms(f)[:, None])
+                along = near & (sine <= GEOMETRY_TOLERANCE)
+                pick = along.any(axis=1) & active[sub]
+                best = np.where(pick, np.argmax(along, axis=1), best)
+                near = np.where(pick[:, None], along, near)
+            tie = (np.count_nonzero(near, axis=1) > 1) & active[sub]
+            if tie.any():
+                k = int(np.flatnonzero(tie)[0])
+                row = rows[sub][k]
+                raise ValueError(
+                    f"{self.atoms_path}: timestep {timestep}: atoms {int(id1[row])} and {int(id2[row])} are listed "
+                    f"more than once in {self.pairs_path}{lines([row])}, once per periodic image they touch through "
+                    f"({thin()}: less than two contact distances), and two images are as far apart as its 'dist' "
+                    f"({written[k]:.9g}) says and as much along its force: which one this listing is cannot be told. "
+                    f"Fix: dump the branch vector (pair granular: p10 p11 p12 in compute pair/local, named in "
+                    f"pair_values=, --pair-values, or the input script, --input), or make the box at least two "
+                    f"contact distances wide along its periodic axes")
+            return steps[best]
+
+        if names.get("branch"):
+            written = self._vectors(tab, names["branch"], rows)
+            image = np.where(periodic, np.rint((written - s) / lengths), 0.0)
+            # pair granular's zero rows (an image it finds not touching): their image from 'dist' if dumped
+            unset = np.all(written == 0, axis=1)
+            if unset.any():
+                image[unset] = by_dist(unset) if has_dist else 0.0
+        elif has_dist:
+            image = by_dist(np.ones(rows.size, bool))
+        else:
+            raise ValueError(
+                f"{self.atoms_path}: timestep {timestep}: atoms {int(id1[first])} and {int(id2[first])} are listed "
+                f"{pair_rows.size} times in {self.pairs_path}{lines(pair_rows)}: {thin()} less than two contact "
+                f"distances, so a pair can touch through two periodic images of each other at once, and LAMMPS lists "
+                f"it once per image, each listing its own contact. Which image a listing is cannot be told from the "
+                f"positions alone (the minimum image would give both the same branch vector: a wrong stress). Fix: "
+                f"add 'dist' to compute pair/local (pair granular: p10 p11 p12, the branch vector) and name it in "
+                f"pair_values= (--pair-values, or give the input script, --input); or make the box at least two "
+                f"contact distances wide along its periodic axes")
+        separation = separation.copy()
+        separation[rows] = s + image * lengths
+        moved = np.any(image != 0, axis=1)
+        crossed = crossed.copy()
+        crossed[rows[moved]] = True
+        # the listings of one pair that carry a force: distinct images (oriented on the smaller index, as (j, i)
+        # lists the same; a listing without a force carries nothing, and drop_inactive drops it when not touching)
+        rows = rows[active]
+        sign = np.where(i[rows] < j[rows], 1.0, -1.0)[:, None]
+        key = np.column_stack([np.minimum(i[rows], j[rows]), np.maximum(i[rows], j[rows]),
+                               np.rint(sign * separation[rows] / lengths).astype(np.int64)])
+        _, first_of, count = np.unique(key, axis=0, return_index=True, return_counts=True)
+        if np.any(count > 1):
+            k = int(first_of[np.flatnonzero(count > 1)[0]])
+            same = rows[np.all(key == key[k], axis=1)]
+            raise ValueError(
+                f"{self.atoms_path}: timestep {timestep}: atoms {int(id1[rows[k]])} and {int(id2[rows[k]])} are "
+                f"listed {same.size} times in {self.pairs_path}{lines(same)} with the same periodic image (the same "
+                f"branch vector): a contact written twice. Likely causes: contact dumps concatenated or merged, or "
+                f"'newton off' with a contact counted from both sides. Fix: read the contact dump as LAMMPS wrote it")
+        return separation, crossed
 
     def _check_pair_geometry(self, tab, where, i, j, id1, id2, separation, dist, branch, radii_sum, force,
                              crossed=None, box=None):
@@ -994,6 +1128,27 @@ def _contact_reach(pair_style, script):
     return 1.0 if family == "gran" else 2.0
 
 
+def _thin(box, radii_sum):
+    """Whether a periodic box length is short enough for a pair to touch through two images of each other (the
+    second image is at least half a box length away; cohesive models reach 2 (r_i + r_j))."""
+    reach = 2.0 * float(radii_sum.max())
+    return any(p and 0.5 * (hi - lo) <= reach for p, lo, hi in zip(box.periodic, box.lower, box.upper))
+
+
+def _repeated_pairs(i, j, n):
+    """Bools of the contacts whose pair (in either order) is listed more than once, or None if none is."""
+    key = np.minimum(i, j) * np.int64(n) + np.maximum(i, j)
+    order = np.argsort(key, kind="stable")
+    ranked = key[order]
+    same = ranked[1:] == ranked[:-1]
+    if not same.any():
+        return None
+    repeated = np.zeros(key.size, bool)
+    repeated[order[1:][same]] = True
+    repeated[order[:-1][same]] = True
+    return repeated
+
+
 class _Where(NamedTuple):
     """Where a contact frame is: its timestep, the contact dump's line of its first row, the frame's atoms."""
     timestep: int
@@ -1039,14 +1194,21 @@ class _Atoms(NamedTuple):
 
 
 def _joined_contacts(parts, dim):
-    """Contacts, contact IDs and overlaps from the (i, j, force, point, ids, overlap) of each source."""
+    """Contacts, contact IDs and overlaps from the (i, j, force, point, ids, overlap[, branch or None]) of each
+    source."""
     if not parts:
         return Contacts.empty(dim), np.zeros((0, 2), np.int64), np.zeros(0)
+    # a source's branches (a pair listed once per periodic image), None (the minimum image): walls' rows 0
+    branches = [p[6] if len(p) > 6 else None for p in parts]
+    branch = None
+    if any(b is not None for b in branches):
+        branch = np.concatenate([b if b is not None else np.zeros((len(p[0]), dim)) for b, p in zip(branches, parts)])
     if len(parts) == 1:    # one source (the pair dump): its arrays as they are, Contacts copies them once
-        i, j, force, point, ids, overlap = parts[0]
+        i, j, force, point, ids, overlap = parts[0][:6]
     else:
-        i, j, force, point, ids, overlap = (np.concatenate(column) for column in zip(*parts))
-    return Contacts.from_reader(i, j, force.reshape(-1, dim), point.reshape(-1, dim)), ids.reshape(-1, 2), overlap
+        i, j, force, point, ids, overlap = (np.concatenate(column) for column in list(zip(*parts))[:6])
+    return (Contacts.from_reader(i, j, force.reshape(-1, dim), point.reshape(-1, dim), branch=branch),
+            ids.reshape(-1, 2), overlap)
 
 
 def _script_units(script):
