@@ -316,6 +316,24 @@ def test_liggghts_misplaced_positions_are_refused(tmp_path, keep, kind, what):
         read_all(reader)
 
 
+@pytest.mark.parametrize("keep,what", [(("pos", "id", "force", "delta"), r"have positions \(pair/gran/local 'pos'"),
+                                       (("id", "force", "delta"), r"have an overlap \(pair/gran/local 'delta'")])
+def test_liggghts_fast_deforming_box_is_read_and_misplaced_positions_refused(tmp_path, keep, what):
+    # genuine LIGGGHTS output, 2e-3 strain per step (fix deform ... remap x, tests/data/liggghts/in.deform): the
+    # ghost images pair/gran/local takes for contacts across the periodic boundary keep the old box length, their
+    # 'pos' (and 'delta') off by the step's change of the box (5.9e-6 m, the box 2.9e-3 m: 11 of 33 contacts at step 40
+    # were refused); twice the box's change per step is allowed, as for LAMMPS
+    directory = os.path.join(LIGGGHTS, "deform")
+    options = dict(input=os.path.join(LIGGGHTS, "in.deform"), check_forces=False)
+    cols = {k: v for k, v in liggghts(None, directory, **options).pair_columns.items() if k in keep}
+    frames = read_all(liggghts(None, directory, pair_columns=cols, **options))
+    assert [len(f.snapshot.contacts) for f in frames] == [0, 33, 74, 81]
+    bad = misaligned(os.path.join(directory, "atoms.dump"), tmp_path / "atoms.dump")
+    with pytest.raises(ValueError, match=r"atoms\.dump: timestep 40: the positions do not fit the contacts of .*"
+                                         + what):
+        read_all(liggghts(bad, directory, pair_columns=cols, **options))
+
+
 def test_liggghts_liquid_bridges_pull_beyond_contact_and_are_read():
     directory = os.path.join(LIGGGHTS, "easo")
     script = os.path.join(LIGGGHTS, "in.easo")

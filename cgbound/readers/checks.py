@@ -167,6 +167,19 @@ def geometry_misfits(err, scale, checked=None, lenient=None, slack=0.0):
     return None
 
 
+def box_change_per_step(lower, upper, others):
+    """How far a box that deforms (``fix deform ... remap x``) moves an atom per step: the largest change of a bound
+    or a length per step along each axis, combined over the axes (0 for a box that does not change), from the
+    frame's bounds ``lower``, ``upper`` ((D,) each) and ``others``, (lower, upper, steps apart) of its neighbouring
+    frames. The engine remaps the atoms at the end of a step but not their ghost images: a contact's geometry
+    written from a ghost is off by up to this."""
+    moved = 0.0
+    for lo, hi, steps in others:
+        change = np.maximum(np.maximum(np.abs(lo - lower), np.abs(hi - upper)), np.abs((hi - lo) - (upper - lower)))
+        moved = max(moved, float(np.sqrt(np.sum(change ** 2))) / steps)
+    return moved
+
+
 def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detail, location, hints=(), checked=None,
                            touching=None):
     """The error for contacts whose geometry the dumped positions do not give (nothing is raised here).

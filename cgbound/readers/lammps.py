@@ -150,7 +150,7 @@ from ..snapshot import Contacts, Snapshot
 from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
 from .checks import (FORCE_BALANCE_TOLERANCE, GEOMETRY_TOLERANCE, check_force_balance, compute_columns,
-                     contact_geometry_error, dump_local_header, force_balance, generic_columns, geometry_misfits,
+                     box_change_per_step, contact_geometry_error, dump_local_header, force_balance, generic_columns, geometry_misfits,
                      row_norms, warn_repeated_frames, written_resolution)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
@@ -1011,41 +1011,44 @@ class LammpsReader(FrameReader):
         if crossed is not None and box is not None:
             np.add(scale, float(np.max(box.upper - box.lower)), out=scale, where=crossed)
         fit = (dist if names.get("branch") is None else row_norms(separation), radii_sum)
+        self._refuse_geometry_deforming(box, where, i, j, id1, id2, error, scale, what, detail, hints, lenient=crossed,
+                                        slack=slack, fit=fit)
+
+    def _refuse_geometry_deforming(self, box, where, i, j, id1, id2, error, scale, what, detail, hints, slack=0.0,
+                                   **options):
+        """:meth:`_refuse_geometry` (``error``: a function giving the errors, a new array each call) with a box that
+        deforms allowed for: atoms are remapped at the end of a step, the ghost images pair/local (LIGGGHTS:
+        pair/gran/local) takes for a contact across a periodic boundary, and on several processors the ghost copies
+        of the other processors' atoms, not; a frame refused is checked again allowing twice the box's change per
+        step (:func:`~cgbound.readers.checks.box_change_per_step`; read only when the check fails: it reads the
+        neighbouring frames' bounds)."""
         try:
-            self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, lenient=crossed,
-                                  slack=slack, fit=fit)
+            self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack, **options)
         except ValueError:
-            # a box that deforms: atoms remapped at the end of a step, their ghost copies on other processors not
-            # (the error only when the check fails: it reads a neighbouring frame)
             moved = self._remap_per_step(where.timestep, box)
             if not moved:
                 raise
-            self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, lenient=crossed,
-                                  slack=slack + 2 * moved, fit=fit)
+            self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack + 2 * moved,
+                                  **options)
 
     def _remap_per_step(self, timestep, box):
         """How far a box that deforms moves an atom per step (``remap x``), from the box bounds of this frame and its
-        neighbours in the atoms dump: the largest change of a bound or length per step along the axes, combined
-        over the axes (0 for a box that does not change). With several processors, pair/local takes the ghost
-        copies of atoms other processors own, not yet remapped at the end of the step: a contact inside the box is
-        then off by up to this (2 processors, 2e-3 strain per step: 1e-2 of the distance,
-        tests/data/lammps/deform_mpi)."""
+        neighbours in the atoms dump (:func:`~cgbound.readers.checks.box_change_per_step`). With several
+        processors, pair/local takes the ghost copies of atoms other processors own, not yet remapped at the end of
+        the step: a contact inside the box is then off by up to this (2 processors, 2e-3 strain per step: 1e-2 of
+        the distance, tests/data/lammps/deform_mpi)."""
         steps = [ts for _, ts, _ in self._frames]
         if timestep not in steps or box is None:
             return 0.0
         k = steps.index(timestep)
         axes = list(self._axes())
-        moved = 0.0
+        others = []
         for n in (k - 1, k + 1):
             if 0 <= n < len(steps) and steps[n] != timestep:
                 bounds = self._atoms_dump.read(self._frames[n][0])["bounds"]
-                if bounds is None:
-                    continue
-                lower, upper = bounds[:, 0][axes], bounds[:, 1][axes]
-                change = np.maximum(np.maximum(np.abs(lower - box.lower), np.abs(upper - box.upper)),
-                                    np.abs((upper - lower) - (box.upper - box.lower)))
-                moved = max(moved, float(np.sqrt(np.sum(change ** 2))) / abs(steps[n] - timestep))
-        return moved
+                if bounds is not None:
+                    others.append((bounds[:, 0][axes], bounds[:, 1][axes], abs(steps[n] - timestep)))
+        return box_change_per_step(box.lower, box.upper, others)
 
     def _check_reach(self, where, i, j, id1, id2, dist, radii_sum, force, hint):
         """Refuse contacts that carry a force with their particles further apart than ``contact_reach`` (r_i + r_j)."""
