@@ -149,9 +149,9 @@ from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
-from .checks import (FORCE_BALANCE_TOLERANCE, GEOMETRY_TOLERANCE, check_force_balance, compute_columns,
-                     box_change_per_step, contact_geometry_error, dump_local_header, force_balance, generic_columns, geometry_misfits,
-                     row_norms, warn_repeated_frames, written_resolution)
+from .checks import (FORCE_BALANCE_TOLERANCE, GEOMETRY_TOLERANCE, box_change_per_step, check_force_balance,
+                     compute_columns, contact_geometry_error, dump_local_header, force_balance, generic_columns,
+                     geometry_misfits, row_norms, warn_repeated_frames, written_resolution)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
