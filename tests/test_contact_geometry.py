@@ -232,14 +232,42 @@ def test_contacts_branch_is_checked():
         snap(None)
 
 
+def test_frames_without_contacts_are_held_to_the_skin(tmp_path):
+    # jkr3d's step 0 has no contacts, so no contact geometry checks its positions: forces written as positions lay
+    # 0.086 box lengths out along z (under the 0.25 of a non-periodic axis) and were read. Such a frame's atoms
+    # may stray one skin out of a non-periodic box (genuine dumps: 0.39 skin at most, along a shrink-wrapped axis)
+    bad = relabelled(os.path.join(LAMMPS, "jkr3d", "atoms.dump"), tmp_path / "atoms.dump", "swap_f")
+    with pytest.raises(ValueError, match=r"atoms.dump: timestep 0: atom 41 \(line 58\) has z = -0.685119, outside "
+                                         r"the box \[0, 8\] along that non-periodic axis by 0.685 \(0.0856 box "
+                                         r"lengths; refused beyond one neighbor skin, 0.3: the default skin for units "
+                                         r"lj, as it has no 'neighbor' command in .*in.jkr3d\), in a frame without "
+                                         r"contacts.* Likely causes: the atoms dump's position columns are not the "
+                                         r"positions.* Fix: read the dump as LAMMPS wrote it"):
+        lammps(bad, "jkr3d", check_forces=False).frame(0)
+    # the skin from the script: its 'neighbor' command, else the units' default; not known where re-neighbouring
+    # is not checked every step
+    script = tmp_path / "in.x"
+    for text, bound in [("units si\n", 0.001), ("neighbor 0.2 bin\n", 0.2), ("neighbor v_s bin\n", None),
+                        ("units electron\n", None), ("neigh_modify delay 0 every 2 check yes\n", None),
+                        ("neigh_modify check no\n", None), ("neigh_modify delay 5\n", 0.3)]:
+        script.write_text(text)
+        assert read_input(str(script)).stray_bound() == bound, text
+
+
 def test_few_decimals_are_read_and_relabelled_refused(tmp_path):
     # genuine output written with 'format float %.2f': a distance from such positions is off by up to
     # 2 sqrt(3) 0.005, more than 1e-3 of the coordinates (< 20): the written decimals are added to the tolerance
     frames = read_all(lammps(None, "rounded", check_forces=False))
     assert len(frames[-1].snapshot.contacts) > 20
     bad = relabelled(os.path.join(LAMMPS, "rounded", "atoms.dump"), tmp_path / "atoms.dump", "shift")
+    reader = lammps(bad, "rounded", check_forces=False)
     with pytest.raises(ValueError, match=r"timestep 3000: the positions do not fit .* have a distance \('dist'"):
-        read_all(lammps(bad, "rounded", check_forces=False))
+        reader.frame(1)
+    # step 0 has no contacts: its positions only the box checks, to the skin (in.rounded: lj's default, 0.3)
+    with pytest.raises(ValueError, match=r"timestep 0: atom 8 \(line 17\) has z = -1.67, outside the box \[0, 20\] "
+                                         r"along that non-periodic axis by 1.67 \(0.0835 box lengths; refused beyond "
+                                         r"one neighbor skin, 0.3: the default skin for units lj"):
+        reader.frame(0)
 
 
 def test_tolerance_follows_the_coordinates_not_the_box_bounds(tmp_path):
@@ -249,7 +277,7 @@ def test_tolerance_follows_the_coordinates_not_the_box_bounds(tmp_path):
     bad = relabelled(os.path.join(LAMMPS, "corner", "atoms.dump"), tmp_path / "atoms.dump", "shift")
     reader = lammps(bad, "corner", check_forces=False, walls=())
     with pytest.raises(ValueError, match=r"timestep 3000: the positions do not fit .* have a distance \('dist'"):
-        read_all(reader)
+        reader.frame(1)      # (step 0, without contacts, is refused by the box check: the skin)
 
 
 def test_genuine_cohesive_frames_with_zero_rows_are_read():

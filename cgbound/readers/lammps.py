@@ -43,7 +43,12 @@ dump's line, the likely causes and the fix):
   stray only until it re-neighbours: 0.0075 at most in genuine dumps of 14 scenes); along a shrink-wrapped
   axis (boundary ``s``/``m``, which can be far thinner than that stray: a flat layer's box 4e-4 thick) by a
   length, the largest of 0.25 of the largest box length, 4 radii and the input script's ``neighbor`` skin.
-  Unwrapped positions are not checked. This needs no contacts: it also checks an atoms dump read alone;
+  Unwrapped positions are not checked. This needs no contacts: it also checks an atoms dump read alone. A frame
+  without contacts, whose positions no contact geometry checks, is held along non-periodic and shrink-wrapped axes
+  to one ``neighbor`` skin (the input script's, else the engine's default for its units; not known where
+  ``neigh_modify`` sets ``every`` > 1 or ``check no``): an atom strays at most half a skin between
+  re-neighbourings (genuine dumps: 0.39 skin), forces written as positions lie 0.086 box lengths out
+  (tests/data/lammps/in.jkr3d at step 0, inside the 0.25);
 * the contact geometry: the dumped positions must give each contact's geometry as LAMMPS wrote it. With
   ``dist`` among the pair/local values (or ``pair granular``'s branch vector ``p10 p11 p12``), the distance
   (vector) between the two positions (minimum image) must agree to ``GEOMETRY_TOLERANCE`` (1e-3) of (the
@@ -489,6 +494,11 @@ class LammpsReader(FrameReader):
             parts.append(self._pair_contacts(pairs_offset, timestep, atoms, box))
         parts += [self._wall_contacts(fr["data"], atoms, wall, box) for wall in self.walls]
         contacts, contact_ids, overlap = _joined_contacts(parts, self.dimension)
+        if not len(contacts) and atoms.span is not None and self.input_script is not None:
+            # no contact geometry checks this frame's positions: the box, to the script's skin
+            bound = self.input_script.stray_bound()
+            if bound is not None:
+                self._check_in_box(fr["data"], atoms, box, timestep, fr["flags"], skin=bound)
         safe_masses = np.where(atoms.fixed & ~(atoms.masses > 0), 1.0, atoms.masses)
         # the internal path (no copies): columns taken as parsed were refused nan/inf by the parser; computed
         # arrays (masses, scaled positions, contacts) and the contacts' pairs are checked as for user data
@@ -613,13 +623,15 @@ class LammpsReader(FrameReader):
         return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed, spin, torques, positions_parsed,
                       extent, span=span, resolution=resolution, radius_resolution=radius_resolution)
 
-    def _check_in_box(self, tab, atoms, box, timestep, flags=None):
+    def _check_in_box(self, tab, atoms, box, timestep, flags=None, skin=None):
         """Refuse positions (wrapped or scaled, not unwrapped) outside the box by more than BOX_SLACK box lengths
         (see the module docstring): LAMMPS lets an atom stray out of its box only until it next re-neighbours.
         Along a shrink-wrapped axis (boundary ``s`` or ``m``, ``flags``: the dump's BOX BOUNDS flags) the box may be
         far thinner than the stray (a flat layer: 4e-4 thick, atoms 0.04 out): there the slack is a length,
         SHRINK_SLACK of the largest box length, 4 of the largest radius or the input script's skin, whichever is
-        largest."""
+        largest. ``skin`` (a frame without contacts, whose positions no contact geometry checks; the input script's
+        :meth:`~cgbound.readers.lammps_input.InputScript.stray_bound`): along non-periodic and shrink-wrapped axes
+        the slack is that length instead (an atom strays at most half a skin between re-neighbourings)."""
         lowest, highest, xn, scaled = atoms.span
         length = box.upper - box.lower
         stray = np.maximum(box.lower - lowest, highest - box.upper)
@@ -633,6 +645,8 @@ class LammpsReader(FrameReader):
             if self.input_script is not None and self.input_script.skin is not None:
                 slack = max(slack, self.input_script.skin)
             allowed = np.where(shrink, slack, allowed)
+        if skin is not None:
+            allowed = np.where(np.asarray(box.periodic) & ~shrink, allowed, skin)
         if not np.any(stray > allowed):
             return
         axis = int(np.argmax(stray - allowed))
@@ -644,9 +658,18 @@ class LammpsReader(FrameReader):
         line = "" if atoms.first_line is None else f" (line {atoms.first_line + row})"
         kind = ("shrink-wrapped" if shrink[axis] else "periodic" if box.periodic[axis] else "non-periodic")
         shown = f"{name} = {written[row]:.9g}" + (f" ({name[0]} = {value[row]:.9g})" if scaled else "")
-        by = (f"by {stray[axis]:.3g} (refused beyond {allowed[axis]:.3g}: the largest of {SHRINK_SLACK:g} of the "
-              f"largest box length, 4 radii and the skin)" if shrink[axis] else
-              f"by {stray[axis] / length[axis]:.3g} box lengths (refused beyond {BOX_SLACK[box.periodic[axis]]:g})")
+        if skin is not None and (shrink[axis] or not box.periodic[axis]):
+            script = self.input_script
+            given = ("the skin of its 'neighbor' command" if script.neighbor_given else
+                     f"the default skin for units {script.units or 'lj'}, as it has no 'neighbor' command")
+            by = (f"by {stray[axis]:.3g} ({stray[axis] / length[axis]:.3g} box lengths; refused beyond one neighbor "
+                  f"skin, {skin:.3g}: {given} in {script.path}), in a frame without contacts, whose positions no "
+                  f"contact geometry checks (an atom strays at most half a skin between re-neighbourings)")
+        elif shrink[axis]:
+            by = (f"by {stray[axis]:.3g} (refused beyond {allowed[axis]:.3g}: the largest of {SHRINK_SLACK:g} of the "
+                  f"largest box length, 4 radii and the skin)")
+        else:
+            by = f"by {stray[axis] / length[axis]:.3g} box lengths (refused beyond {BOX_SLACK[box.periodic[axis]]:g})"
         raise ValueError(
             f"{self.atoms_path}: timestep {timestep}: atom {atom}{line} has {shown}, outside the "
             f"box [{box.lower[axis]:.9g}, {box.upper[axis]:.9g}] along that {kind} axis {by}; genuine dumps stray "
