@@ -362,6 +362,19 @@ def test_liggghts_fast_deforming_box_is_read_and_misplaced_positions_refused(tmp
         read_all(liggghts(bad, directory, pair_columns=cols, **options))
 
 
+def test_liggghts_thin_periodic_box_is_refused():
+    # genuine LIGGGHTS output (tests/data/liggghts/in.thin): a box 1.5 mm wide, diameters 0.85..1 mm; pairs listed
+    # once per periodic image, whose forces do not balance: refused, naming the pair's lines and the fix (it was
+    # refused by the Snapshot's "expected each pair once", naming neither file nor frame)
+    directory = os.path.join(LIGGGHTS, "thin")
+    reader = liggghts(None, directory, input=os.path.join(LIGGGHTS, "in.thin"))
+    with pytest.raises(ValueError, match=r"thin/atoms.dump: timestep 5300: atoms 14 and 3 are listed 2 times in .*"
+                                         r"thin/pairs.dump \(the contact dump's lines 12, 13\): the periodic box is "
+                                         r"thinner than two contact distances along x \(0.0015\), so .* Fix: make the "
+                                         r"box at least two contact distances wide"):
+        reader.frame(0)
+
+
 def test_liggghts_liquid_bridges_pull_beyond_contact_and_are_read():
     directory = os.path.join(LIGGGHTS, "easo")
     script = os.path.join(LIGGGHTS, "in.easo")

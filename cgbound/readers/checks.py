@@ -180,6 +180,27 @@ def box_change_per_step(lower, upper, others):
     return moved
 
 
+def thin_box(box, radii_sum):
+    """Whether a periodic box length is short enough for a pair to touch through two images of each other (the
+    second image is at least half a box length away; cohesive models reach 2 (r_i + r_j))."""
+    reach = 2.0 * float(radii_sum.max())
+    return any(p and 0.5 * (hi - lo) <= reach for p, lo, hi in zip(box.periodic, box.lower, box.upper))
+
+
+def repeated_pairs(i, j, n):
+    """Bools of the contacts whose pair (in either order) is listed more than once, or None if none is."""
+    key = np.minimum(i, j) * np.int64(n) + np.maximum(i, j)
+    order = np.argsort(key, kind="stable")
+    ranked = key[order]
+    same = ranked[1:] == ranked[:-1]
+    if not same.any():
+        return None
+    repeated = np.zeros(key.size, bool)
+    repeated[order[1:][same]] = True
+    repeated[order[:-1][same]] = True
+    return repeated
+
+
 def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detail, location, hints=(), checked=None,
                            touching=None):
     """The error for contacts whose geometry the dumped positions do not give (nothing is raised here).

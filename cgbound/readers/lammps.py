@@ -156,7 +156,8 @@ from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
 from .checks import (FORCE_BALANCE_TOLERANCE, GEOMETRY_TOLERANCE, box_change_per_step, check_force_balance,
                      compute_columns, contact_geometry_error, dump_local_header, force_balance, generic_columns,
-                     geometry_misfits, row_norms, warn_repeated_frames, written_resolution)
+                     geometry_misfits, repeated_pairs, row_norms, thin_box, warn_repeated_frames,
+                     written_resolution)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -817,11 +818,17 @@ class LammpsReader(FrameReader):
         radii_i = np.take(radii, i)
         radii_sum = radii_i + np.take(radii, j)
         images = None
-        if any(box.periodic) and radii_sum.size and _thin(box, radii_sum):
-            repeated = _repeated_pairs(i, j, ids.size)
+        if any(box.periodic) and radii_sum.size and thin_box(box, radii_sum):
+            repeated = repeated_pairs(i, j, ids.size)
             if repeated is not None:
-                separation, crossed = self._listed_images(tab, where, i, j, id1, id2, separation, crossed, box,
-                                                          repeated)
+                has_dist = bool(names.get("dist")) and names["dist"] in tab
+                separation, crossed = self._listed_images(
+                    where, i, j, id1, id2, separation, crossed, box, repeated, force,
+                    written_branch=self._vectors(tab, names["branch"]) if names.get("branch") else None,
+                    written_dist=tab[names["dist"]] if has_dist else None,
+                    normal=self._vectors(tab, names["force"]) if self.pair_style != "total" else None,
+                    fix=("add 'dist' to compute pair/local (pair granular: p10 p11 p12, the branch vector) and name it "
+                         "in pair_values= (--pair-values, or give the input script, --input)"))
                 images = separation.copy()     # (the snapshot's branches: the point is rebuilt in place below)
         if names.get("branch"):
             branch = self._vectors(tab, names["branch"])
@@ -864,19 +871,24 @@ class LammpsReader(FrameReader):
         contact_ids[:, 0], contact_ids[:, 1] = (id1, id2) if kept is None else (id1[kept], id2[kept])
         return i, j, force, point, contact_ids, overlap, images
 
-    def _listed_images(self, tab, where, i, j, id1, id2, separation, crossed, box, repeated):
+    def _listed_images(self, where, i, j, id1, id2, separation, crossed, box, repeated, force, written_branch=None,
+                       written_dist=None, normal=None, fix=""):
         """The separations of a pair listed more than once (``repeated``: bools of those rows): in a periodic box
         thinner than two contact distances a pair can touch through two periodic images of each other at once, and
-        LAMMPS lists it once per image (pair/local), each listing its own contact with its own branch vector. The
-        image of each such listing is the one its branch vector (pair granular's p10-p12) or else its ``dist``
-        gives (then the nearest, refused when two images are as near); without either it cannot be told and the
-        frame is refused. Returns (separations, crossed) with those rows' images; the geometry check then holds
-        them to the contact dump's values as any other. The listings of one pair must take distinct images."""
-        names, timestep = self.pair_columns, where.timestep
+        LAMMPS (pair/local) lists it once per image, each listing its own contact with its own branch vector. The
+        image of each such listing is the one its ``written_branch`` ((M, D): pair granular's p10-p12) gives, else
+        its ``written_dist`` ((M,): 'dist'): the nearest,
+        or where two are as near (a pair half a box length apart along an axis) the one along ``normal`` ((M, D),
+        forces along the branch: gran, granular); refused where neither tells, and without either (``fix``: how to
+        dump them). Rows without a ``force`` carry nothing and take the nearest. Returns (separations, crossed) with
+        those rows' images; the geometry check then holds them to the contact dump's values as any other. The
+        listings of one pair that carry a force must take distinct images."""
+        timestep = where.timestep
         lengths = box.upper - box.lower
         periodic = np.asarray(box.periodic, bool)
         rows = np.flatnonzero(repeated)
         s = separation[rows]
+        active = np.any(force[rows] != 0, axis=1)
 
         def lines(ks):
             return "" if where.pairs_line is None else \
@@ -896,16 +908,10 @@ class LammpsReader(FrameReader):
         first = rows[0]
         pair_rows = rows[(np.minimum(i[rows], j[rows]) == min(i[first], j[first]))
                          & (np.maximum(i[rows], j[rows]) == max(i[first], j[first]))]
-        has_dist = bool(names.get("dist")) and names["dist"] in tab
-
-        normal = self._vectors(tab, names["force"], rows)   # (gran, granular: the normal force, along the branch)
-        active = np.any(normal != 0, axis=1)
 
         def by_dist(sub):
-            """The images of rows[sub] whose distance is their 'dist': the nearest; where two are as near (a pair
-            half a box length apart along an axis), the one along the normal force (gran, granular); refused where
-            that does not tell them apart either (rows without a force, which carry nothing, take the nearest)."""
-            written = np.take(tab[names["dist"]], rows[sub])
+            """The images of rows[sub] whose distance is their written one."""
+            written = np.take(written_dist, rows[sub])
             axes = np.flatnonzero(periodic)
             shifts = np.array(np.meshgrid(*[(-1.0, 0.0, 1.0)] * axes.size, indexing="ij")).reshape(axes.size, -1).T
             steps = np.zeros((shifts.shape[0], lengths.size))
@@ -915,8 +921,8 @@ class LammpsReader(FrameReader):
             best = np.argmin(err, axis=1)
             r = np.arange(len(written))
             near = err - err[r, best][:, None] <= GEOMETRY_TOLERANCE * (written + where.atoms.extent)[:, None]
-            if self.pair_style != "total":
-                f = normal[sub]
+            if normal is not None:
+                f = normal[rows[sub]]
                 cross = np.cross(candidates, f[:, None, :]) if lengths.size == 3 else \
                     (candidates[..., 0] * f[:, None, 1] - candidates[..., 1] * f[:, None, 0])[..., None]
                 with np.errstate(divide="ignore", invalid="ignore"):    # (rows without a force: NaN, not along)
@@ -933,32 +939,31 @@ class LammpsReader(FrameReader):
                 raise ValueError(
                     f"{self.atoms_path}: timestep {timestep}: atoms {int(id1[row])} and {int(id2[row])} are listed "
                     f"more than once in {self.pairs_path}{lines([row])}, once per periodic image they touch through "
-                    f"({thin()}: less than two contact distances), and two images are as far apart as its 'dist' "
-                    f"({written[k]:.9g}) says and as much along its force: which one this listing is cannot be told. "
-                    f"Fix: dump the branch vector (pair granular: p10 p11 p12 in compute pair/local, named in "
-                    f"pair_values=, --pair-values, or the input script, --input), or make the box at least two "
+                    f"({thin()} less than two contact distances), and two images are as far apart as the contact "
+                    f"dump says ({written[k]:.9g}){' and as much along its force' if normal is not None else ''}: "
+                    f"which one this listing is cannot be told. Fix: dump the branch vector (LAMMPS pair granular: "
+                    f"p10 p11 p12 in compute pair/local; LIGGGHTS: 'pos' in compute pair/gran/local) and name it in "
+                    f"pair_values= (--pair-values, or give the input script, --input), or make the box at least two "
                     f"contact distances wide along its periodic axes")
             return steps[best]
 
-        if names.get("branch"):
-            written = self._vectors(tab, names["branch"], rows)
+        if written_branch is not None:
+            written = written_branch[rows]
             image = np.where(periodic, np.rint((written - s) / lengths), 0.0)
             # pair granular's zero rows (an image it finds not touching): their image from 'dist' if dumped
             unset = np.all(written == 0, axis=1)
             if unset.any():
-                image[unset] = by_dist(unset) if has_dist else 0.0
-        elif has_dist:
+                image[unset] = by_dist(unset) if written_dist is not None else 0.0
+        elif written_dist is not None:
             image = by_dist(np.ones(rows.size, bool))
         else:
             raise ValueError(
                 f"{self.atoms_path}: timestep {timestep}: atoms {int(id1[first])} and {int(id2[first])} are listed "
                 f"{pair_rows.size} times in {self.pairs_path}{lines(pair_rows)}: {thin()} less than two contact "
-                f"distances, so a pair can touch through two periodic images of each other at once, and LAMMPS lists "
-                f"it once per image, each listing its own contact. Which image a listing is cannot be told from the "
-                f"positions alone (the minimum image would give both the same branch vector: a wrong stress). Fix: "
-                f"add 'dist' to compute pair/local (pair granular: p10 p11 p12, the branch vector) and name it in "
-                f"pair_values= (--pair-values, or give the input script, --input); or make the box at least two "
-                f"contact distances wide along its periodic axes")
+                f"distances, so a pair can touch through two periodic images of each other at once, and the engine "
+                f"lists it once per image, each listing its own contact. Which image a listing is cannot be told "
+                f"from the positions alone (the minimum image would give both the same branch vector: a wrong "
+                f"stress). Fix: {fix}; or make the box at least two contact distances wide along its periodic axes")
         separation = separation.copy()
         separation[rows] = s + image * lengths
         moved = np.any(image != 0, axis=1)
@@ -966,10 +971,10 @@ class LammpsReader(FrameReader):
         crossed[rows[moved]] = True
         # the listings of one pair that carry a force: distinct images (oriented on the smaller index, as (j, i)
         # lists the same; a listing without a force carries nothing, and drop_inactive drops it when not touching)
-        rows = rows[active]
+        rows, image = rows[active], image[active]
         sign = np.where(i[rows] < j[rows], 1.0, -1.0)[:, None]
         key = np.column_stack([np.minimum(i[rows], j[rows]), np.maximum(i[rows], j[rows]),
-                               np.rint(sign * separation[rows] / lengths).astype(np.int64)])
+                               (sign * image).astype(np.int64)])
         _, first_of, count = np.unique(key, axis=0, return_index=True, return_counts=True)
         if np.any(count > 1):
             k = int(first_of[np.flatnonzero(count > 1)[0]])
@@ -978,7 +983,7 @@ class LammpsReader(FrameReader):
                 f"{self.atoms_path}: timestep {timestep}: atoms {int(id1[rows[k]])} and {int(id2[rows[k]])} are "
                 f"listed {same.size} times in {self.pairs_path}{lines(same)} with the same periodic image (the same "
                 f"branch vector): a contact written twice. Likely causes: contact dumps concatenated or merged, or "
-                f"'newton off' with a contact counted from both sides. Fix: read the contact dump as LAMMPS wrote it")
+                f"'newton off' with a contact counted from both sides. Fix: read the contact dump as the engine wrote it")
         return separation, crossed
 
     def _check_pair_geometry(self, tab, where, i, j, id1, id2, separation, dist, branch, radii_sum, force,
@@ -1152,27 +1157,6 @@ def _contact_reach(pair_style, script):
         return 2.0 if script.cohesive else 1.0
     # named only by the family: "gran" is LAMMPS' gran/* styles (repulsive), "granular" may be jkr
     return 1.0 if family == "gran" else 2.0
-
-
-def _thin(box, radii_sum):
-    """Whether a periodic box length is short enough for a pair to touch through two images of each other (the
-    second image is at least half a box length away; cohesive models reach 2 (r_i + r_j))."""
-    reach = 2.0 * float(radii_sum.max())
-    return any(p and 0.5 * (hi - lo) <= reach for p, lo, hi in zip(box.periodic, box.lower, box.upper))
-
-
-def _repeated_pairs(i, j, n):
-    """Bools of the contacts whose pair (in either order) is listed more than once, or None if none is."""
-    key = np.minimum(i, j) * np.int64(n) + np.maximum(i, j)
-    order = np.argsort(key, kind="stable")
-    ranked = key[order]
-    same = ranked[1:] == ranked[:-1]
-    if not same.any():
-        return None
-    repeated = np.zeros(key.size, bool)
-    repeated[order[1:][same]] = True
-    repeated[order[:-1][same]] = True
-    return repeated
 
 
 class _Where(NamedTuple):
