@@ -201,6 +201,18 @@ def test_thin_periodic_box_reads_each_image_as_its_own_contact(columns):
         assert np.abs(_as_virial(wrong) - want).max() > 0.1 * np.abs(want).max()
 
 
+def test_thin_periodic_box_with_newton_off_is_refused_by_the_balance():
+    # the same run with 'newton off': every overlapping image is listed, but the atoms of pairs listed twice miss their
+    # dumped forces (LAMMPS evaluates such pairs from each side): the balance refuses it, its first cause named
+    directory = os.path.join(LAMMPS, "thin_newton_off")
+    reader = LammpsReader(os.path.join(directory, "atoms.dump"), os.path.join(directory, "pairs.dump"),
+                          input=os.path.join(LAMMPS, "in.thin"), variables={"newton": "off"})
+    with pytest.raises(ValueError, match=r"timestep 7300: the contact forces plus the body forces do not reproduce .*"
+                                         r"mismatch 1.3 of the RMS contact force .* Likely causes: pairs listed once per "
+                                         r"periodic image .* with 'newton off' in the input script"):
+        reader.frame(0)
+
+
 def test_thin_periodic_box_without_dist_is_refused():
     # the positions alone cannot tell a pair's two listings apart (the minimum image would give both one branch)
     names = dict(lammps(None, "thin").pair_columns, branch=None, dist=None)

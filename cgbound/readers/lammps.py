@@ -510,8 +510,14 @@ class LammpsReader(FrameReader):
                                     angular_velocities=atoms.angular_velocities, torques=atoms.torques, parsed=parsed)
         frame = LammpsFrame(snap, atoms.ids, atoms.types, timestep, atoms.forces, contact_ids, overlap)
         if self.check_forces and atoms.forces is not None and pairs_offset is not None:
+            hints = self._balance_hints()
+            if contacts.branch is not None and self.input_script is not None and self.input_script.newton is False:
+                hints = ["pairs listed once per periodic image (a box thinner than two contact distances) with 'newton "
+                         "off' in the input script: LAMMPS then evaluates such pairs from each side, and the per-atom "
+                         "forces of their atoms are not those pair/local writes (tests/data/lammps/in.thin with newton "
+                         "off: 1.3 of the RMS contact force): run with 'newton on'"] + hints
             check_force_balance(frame.force_balance(), atoms.ids, self.atoms_path, timestep, FORCE_BALANCE_TOLERANCE,
-                                self._balance_hints())
+                                hints)
         return frame
 
     def _check_selection(self, types, ids, timestep):

@@ -132,6 +132,7 @@ class InputScript:
     skin: float = None             # the ``neighbor`` command's skin distance, None without one
     neighbor_given: bool = False   # a ``neighbor`` command seen (its skin may be a variable: skin None)
     neighbor_checked: bool = True  # re-neighbouring on the default check (no ``neigh_modify`` every N > 1, check no)
+    newton: bool = None            # the ``newton`` command's pair setting (None without one: LAMMPS' default, on)
     computes: dict = field(default_factory=dict)
     dumps: list = field(default_factory=list)
     walls: tuple = ()
@@ -406,6 +407,8 @@ class _Parser:
             self.result.pair_coeffs = []
         elif cmd == "pair_coeff":
             self.result.pair_coeffs.append(tuple(w[1:]))
+        elif cmd == "newton" and len(w) > 1:
+            self.result.newton = w[1] == "on"
         elif cmd == "neigh_modify":
             for key, value in zip(w[1:], w[2:]):
                 if (key == "check" and value != "yes") or (key == "every" and value != "1"):
