@@ -63,7 +63,7 @@ class Contacts:
             raise ValueError(f"contacts.point: expected shape {self.force.shape} like contacts.force, got {self.point.shape}")
         self.branch = None if branch is None else real(branch, "contacts.branch", ndim=2, shape=self.force.shape)
 
-    def oriented_branch(self, positions, box):
+    def branch_images(self, positions, box):
         """The image index of each contact between particles (``branch`` given): (M, D) whole numbers, the box
         lengths ``branch`` adds to ``r_lo - r_hi`` (lo, hi: the pair's smaller and larger index, so a listing as
         (j, i, -branch) gives the same), 0 along non-periodic axes and for walls. ValueError where a row is not the
@@ -353,7 +353,7 @@ class Snapshot:
             if c.branch.shape[1] != dim:
                 raise ValueError(f"contacts.branch: expected shape ({m}, {dim}) for a {dim}D snapshot, got "
                                  f"{c.branch.shape}")
-            image = c.oriented_branch(self.positions, self.box)[pairs]
+            image = c.branch_images(self.positions, self.box)[pairs]
         if pairs.any():
             ci, cj = c.i[pairs], c.j[pairs]
             lo, hi = np.minimum(ci, cj), np.maximum(ci, cj)
