@@ -27,23 +27,29 @@ class Contacts:
 
     ``j = -1`` marks a wall (no particle). Each pair appears once; listing a
     contact as (j, i, -force) is equivalent.
+
+    ``branch`` (optional, (M, D)): the branch vector ``r_i - r_j`` of each contact between particles, for a
+    periodic box thinner than two particles, where a pair can touch through two periodic images of each other at
+    once (LAMMPS then lists it once per image, each listing its own contact). Each row must be the positions'
+    difference plus whole box lengths along periodic axes (rows of walls, ``j = -1``, are ignored); a pair may
+    then appear once per image. None (the default): the minimum image, each pair once.
     """
 
-    def __init__(self, i, j, force, point):
-        self._setup(i, j, force, point, index_array, real_array)
+    def __init__(self, i, j, force, point, branch=None):
+        self._setup(i, j, force, point, index_array, real_array, branch)
 
     @classmethod
-    def from_reader(cls, i, j, force, point, parsed=()):
+    def from_reader(cls, i, j, force, point, parsed=(), branch=None):
         """The internal path for cgbound's readers (not for user data): arrays the reader has just produced
         (int64 i, j; float64 force, point) are kept without copies (read-only views) and with the constructor's
         checks, except the finiteness pass over the arrays named in ``parsed`` ("contacts.point",
         "contacts.force": values parsed by the C text layer, which refuses nan/inf, and not computed on).
         Other input goes through the constructor's conversions."""
         out = object.__new__(cls)
-        out._setup(i, j, force, point, reader_index_array, reader_real_array(parsed))
+        out._setup(i, j, force, point, reader_index_array, reader_real_array(parsed), branch)
         return out
 
-    def _setup(self, i, j, force, point, index, real):
+    def _setup(self, i, j, force, point, index, real, branch=None):
         self.i = index(i, "contacts.i")
         m = self.i.shape[0]
         self.j = index(j, "contacts.j", length=m)
@@ -55,6 +61,30 @@ class Contacts:
             raise ValueError(f"contacts.force: expected {m} rows like contacts.i, got {self.force.shape[0]}")
         if self.point.shape != self.force.shape:
             raise ValueError(f"contacts.point: expected shape {self.force.shape} like contacts.force, got {self.point.shape}")
+        self.branch = None if branch is None else real(branch, "contacts.branch", ndim=2, shape=self.force.shape)
+
+    def branch_images(self, positions, box):
+        """The image index of each contact between particles (``branch`` given): (M, D) whole numbers, the box
+        lengths ``branch`` adds to ``r_lo - r_hi`` (lo, hi: the pair's smaller and larger index, so a listing as
+        (j, i, -branch) gives the same), 0 along non-periodic axes and for walls. ValueError where a row is not the
+        positions' difference plus whole box lengths (to 1e-9 of the box length and the coordinates)."""
+        i, j, b = self.i, self.j, self.branch
+        pair = j >= 0
+        jj = np.where(pair, j, i)
+        flip = np.where(i > jj, -1.0, 1.0)[:, None]
+        shift = (b - (np.take(positions, i, axis=0) - np.take(positions, jj, axis=0))) * flip
+        lengths = np.asarray(box.lengths, float)
+        periodic = np.asarray(box.periodic, bool)
+        image = np.where(periodic, np.rint(shift / lengths), 0.0)
+        scale = lengths + abs_max_per_row(positions).max(initial=0.0)
+        off = abs_max_per_row((shift - image * lengths) / scale) * pair
+        if np.any(~(off <= 1e-9)):
+            k = int(np.argmax(np.where(np.isnan(off), np.inf, off)))
+            raise ValueError(f"contacts.branch: expected r_i - r_j plus whole box lengths along periodic axes, got "
+                             f"{b[k].tolist()} at contact {k} (particles {int(i[k])} and {int(j[k])}; "
+                             f"r_i - r_j = {(positions[i[k]] - positions[j[k]]).tolist()}, box lengths "
+                             f"{lengths.tolist()}, periodic {periodic.tolist()})")
+        return np.where(pair[:, None], image, 0.0)
 
     @classmethod
     def empty(cls, dim):
@@ -266,6 +296,8 @@ class Snapshot:
             other = np.where(c.j >= 0, reach[np.where(c.j >= 0, c.j, 0)], abs_max_per_row(c.point))
             with np.errstate(over="ignore"):
                 branch = reach[c.i] + other
+                if c.branch is not None:     # (a listed image's branch: up to a box length longer)
+                    np.maximum(branch, np.where(c.j >= 0, abs_max_per_row(c.branch), 0.0), out=branch)
                 product = force * branch * 2.0
             far = ~(branch <= LARGEST_PRODUCT)
             if np.any(far):
@@ -316,12 +348,22 @@ class Snapshot:
             raise ValueError(f"contacts.j: expected a particle other than contacts.i (or -1 for a wall), "
                              f"got particle {c.i[k]} joined to itself at contact {k}")
         pairs = c.j >= 0
+        image = None
+        if c.branch is not None:
+            if c.branch.shape[1] != dim:
+                raise ValueError(f"contacts.branch: expected shape ({m}, {dim}) for a {dim}D snapshot, got "
+                                 f"{c.branch.shape}")
+            image = c.branch_images(self.positions, self.box)[pairs]
         if pairs.any():
             ci, cj = c.i[pairs], c.j[pairs]
             lo, hi = np.minimum(ci, cj), np.maximum(ci, cj)
             # one int64 key per pair (lo * n + hi, exact since n * n < 2^63): sorting it orders the pairs as
             # (lo, hi) tuples, so the first repeat found is the lexicographically first repeated pair
-            if n < 3_000_000_000:
+            if image is not None:
+                # with branches, a pair once per periodic image: the (lo, hi, image) tuples must be distinct
+                key = np.unique(np.column_stack([lo, hi, image.astype(np.int64)]), axis=0,
+                                return_inverse=True)[1].ravel()
+            elif n < 3_000_000_000:
                 key = lo.astype(np.int64) * n + hi
             else:  # (never in practice: the positions alone would take 72 GB) sort the pairs as tuples
                 key = np.unique(np.stack([lo, hi], axis=1), axis=0, return_inverse=True)[1].ravel()
@@ -332,7 +374,10 @@ class Snapshot:
                     first = np.flatnonzero(key == order[repeat[0]])[0]
                     a, b = int(lo[first]), int(hi[first])
                     where = np.flatnonzero((c.j >= 0) & (np.minimum(c.i, c.j) == a) & (np.maximum(c.i, c.j) == b))
-                    raise ValueError(f"contacts: expected each pair once (as (i, j, f) or (j, i, -f)), got the pair "
+                    if image is not None:
+                        where = np.flatnonzero(pairs)[np.flatnonzero(key == order[repeat[0]])]
+                    once = "each pair once" if image is None else "each pair once per periodic image (contacts.branch)"
+                    raise ValueError(f"contacts: expected {once} (as (i, j, f) or (j, i, -f)), got the pair "
                                      f"({a}, {b}) at contacts {', '.join(str(int(k)) for k in where)}")
 
     # ------------------------------------------------------------------
@@ -359,7 +404,8 @@ class Snapshot:
         """Classify contacts (docs/theory.md, "The snapshot model").
 
         Returns ``(bulk, boundary)`` dicts of arrays: bulk has i, j, force, branch
-        (r_i - r_j, minimum image), point (the contact point); boundary has i (the flowing particle), force
+        (r_i - r_j, minimum image, or ``contacts.branch`` where given), point (the contact point); boundary has i
+        (the flowing particle), force
         (on it), branch a = r_i - c (minimum image) and point c = r_i - a.
         Arrays taken unchanged from the contacts are read-only views of them.
         """
@@ -380,7 +426,10 @@ class Snapshot:
         wall = j < 0
         if not self.fixed.any() and not wall.any():
             # every contact is bulk: read-only views of the contact arrays instead of selected copies
-            r_ij = minimum_image(np.take(self.positions, i, axis=0) - np.take(self.positions, j, axis=0))
+            if c.branch is not None:
+                r_ij = c.branch.copy()
+            else:
+                r_ij = minimum_image(np.take(self.positions, i, axis=0) - np.take(self.positions, j, axis=0))
             empty = np.zeros((0, dim))
             return ({"i": _read_only(i), "j": _read_only(j), "force": _read_only(f), "branch": r_ij,
                      "point": _read_only(pt)},
@@ -392,7 +441,7 @@ class Snapshot:
         boundary_j = fixed_i & ~fixed_j & ~wall   # flip: the flowing particle is j
 
         bi, bj = i[bulk], j[bulk]
-        r_ij = minimum_image(self.positions[bi] - self.positions[bj])
+        r_ij = c.branch[bulk] if c.branch is not None else minimum_image(self.positions[bi] - self.positions[bj])
         bulk_out = {"i": bi, "j": bj, "force": f[bulk], "branch": r_ij, "point": pt[bulk]}
 
         k = np.concatenate([i[boundary_i], j[boundary_j]])

@@ -13,6 +13,7 @@ import re
 import numpy as np
 import pytest
 
+import cgbound
 from cgbound.cli import main
 from cgbound.readers import LammpsReader
 from cgbound.readers.lammps_input import read_input
@@ -162,14 +163,123 @@ def test_fast_deforming_box_is_read_and_misplaced_positions_refused(tmp_path, ca
         read_all(lammps(bad, case, check_forces=False, input=script))
 
 
+def _virial(k):
+    """LAMMPS' pair virial W / V of frame k of tests/data/lammps/thin (compute pressure ... virial: xx yy zz xy xz yz,
+    W_ab = sum r_a f_b / V over the pairs, f on the atom at r_i from j, r = r_i - r_j)."""
+    return np.loadtxt(os.path.join(LAMMPS, "thin", "virial.txt"))[k, 2:]
+
+
+def _as_virial(stress):
+    """-(sigma_xx, sigma_yy, sigma_zz, sigma_yx, sigma_zx, sigma_zy) of a contact stress sigma_ab = -sum f_a b_b / V:
+    LAMMPS' virial components (its xy is sum r_x f_y)."""
+    return -np.array([stress[0, 0], stress[1, 1], stress[2, 2], stress[1, 0], stress[2, 0], stress[2, 1]])
+
+
+@pytest.mark.parametrize("columns", ["branch", "dist"])
+def test_thin_periodic_box_reads_each_image_as_its_own_contact(columns):
+    # genuine output: a periodic box 1.5 wide, diameters 0.85..1: 12 pairs a frame touch through two images of each
+    # other and pair/local lists them once per image (with newton on). Each listing is its own contact, its
+    # branch the image its branch vector (or else 'dist', and the normal force where two images are as far) says;
+    # the box-averaged contact stress is then minus LAMMPS' virial to round-off. The minimum image gives the
+    # second listing the first's branch: sigma_xx 44% low
+    reader = lammps(None, "thin")
+    if columns == "dist":
+        names = dict(reader.pair_columns, branch=None)
+        reader = lammps(None, "thin", pair_columns=names)
+    for k, frame in enumerate(read_all(reader)):
+        snap = frame.snapshot
+        c = snap.contacts
+        key = np.minimum(c.i, c.j) * snap.n_particles + np.maximum(c.i, c.j)
+        assert len(c) == 79 and key.size - np.unique(key).size == 12 and c.branch is not None
+        grid = cgbound.Grid(snap.box, (1, 1, 1), average=("x", "y", "z"))
+        stress = np.asarray(cgbound.coarse_grain(snap, grid, cgbound.Gaussian(0.3),
+                                                 fields=("contact_stress",)).contact_stress).reshape(3, 3)
+        want = _virial(k)
+        assert np.abs(_as_virial(stress) - want).max() <= 1e-12 * np.abs(want).max(), (k, stress, want)
+        nearest = snap.box.minimum_image(snap.positions[c.i] - snap.positions[c.j])
+        wrong = -np.einsum("ma,mb->ab", c.force, nearest) / np.prod(snap.box.upper - snap.box.lower)
+        assert np.abs(_as_virial(wrong) - want).max() > 0.1 * np.abs(want).max()
+
+
+def test_thin_periodic_box_with_newton_off_is_refused_by_the_balance():
+    # the same run with 'newton off': every overlapping image is listed, but the atoms of pairs listed twice miss their
+    # dumped forces (LAMMPS evaluates such pairs from each side): the balance refuses it, its first cause named
+    directory = os.path.join(LAMMPS, "thin_newton_off")
+    reader = LammpsReader(os.path.join(directory, "atoms.dump"), os.path.join(directory, "pairs.dump"),
+                          input=os.path.join(LAMMPS, "in.thin"), variables={"newton": "off"})
+    with pytest.raises(ValueError, match=r"timestep 7300: the contact forces plus the body forces do not reproduce .*"
+                                         r"mismatch 1.3 of the RMS contact force .* Likely causes: pairs listed once per "
+                                         r"periodic image .* with 'newton off' in the input script"):
+        reader.frame(0)
+
+
+def test_thin_periodic_box_without_dist_is_refused():
+    # the positions alone cannot tell a pair's two listings apart (the minimum image would give both one branch)
+    names = dict(lammps(None, "thin").pair_columns, branch=None, dist=None)
+    with pytest.raises(ValueError, match=r"thin/atoms.dump: timestep 7300: atoms 1 and 20 are listed 2 times in "
+                                         r".*thin/pairs.dump \(the contact dump's lines 10, 11\): the periodic box "
+                                         r"length along x \(1.5\) is less than two contact distances, .* Fix: add "
+                                         r"'dist' to compute pair/local"):
+        read_all(lammps(None, "thin", pair_columns=names))
+
+
+def test_contacts_branch_is_checked():
+    # Contacts.branch: r_i - r_j plus whole box lengths along periodic axes; a pair once per image
+    box = cgbound.Box([0, 0, 0], [1.5, 4, 4], periodic=(True, True, True))
+    pos = np.array([[0.2, 1.0, 1.0], [0.9, 1.0, 1.0]])
+    f = np.array([[-1.0, 0, 0], [1.0, 0, 0]])
+
+    def snap(branch, j=(1, 1)):
+        contacts = cgbound.Contacts([0, 0], list(j), f, [[0.55, 1, 1], [1.3, 1, 1]], branch=branch)
+        return cgbound.Snapshot(pos, None, np.ones(2), box=box, radii=np.full(2, 0.45), contacts=contacts)
+
+    s = snap([[-0.7, 0, 0], [0.8, 0, 0]])
+    assert np.allclose(s.split_contacts()[0]["branch"], [[-0.7, 0, 0], [0.8, 0, 0]])
+    with pytest.raises(ValueError, match=r"contacts.branch: expected r_i - r_j plus whole box lengths .* at contact 1"):
+        snap([[-0.7, 0, 0], [0.75, 0, 0]])
+    with pytest.raises(ValueError, match=r"expected each pair once per periodic image .* got the pair \(0, 1\) at "
+                                         r"contacts 0, 1"):
+        snap([[-0.7, 0, 0], [-0.7, 0, 0]])
+    with pytest.raises(ValueError, match=r"expected each pair once \(as"):
+        snap(None)
+
+
+def test_frames_without_contacts_are_held_to_the_skin(tmp_path):
+    # jkr3d's step 0 has no contacts, so no contact geometry checks its positions: forces written as positions lay
+    # 0.086 box lengths out along z (under the 0.25 of a non-periodic axis) and were read. Such a frame's atoms
+    # may stray one skin out of a non-periodic box (genuine dumps: 0.39 skin at most, along a shrink-wrapped axis)
+    bad = relabelled(os.path.join(LAMMPS, "jkr3d", "atoms.dump"), tmp_path / "atoms.dump", "swap_f")
+    with pytest.raises(ValueError, match=r"atoms.dump: timestep 0: atom 41 \(line 58\) has z = -0.685119, outside "
+                                         r"the box \[0, 8\] along that non-periodic axis by 0.685 \(0.0856 box "
+                                         r"lengths; refused beyond one neighbor skin, 0.3: the default skin for units "
+                                         r"lj, as it has no 'neighbor' command in .*in.jkr3d\), in a frame without "
+                                         r"contacts.* Likely causes: the atoms dump's position columns are not the "
+                                         r"positions.* Fix: read the dump as LAMMPS wrote it"):
+        lammps(bad, "jkr3d", check_forces=False).frame(0)
+    # the skin from the script: its 'neighbor' command, else the units' default; not known where re-neighbouring
+    # is not checked every step
+    script = tmp_path / "in.x"
+    for text, bound in [("units si\n", 0.001), ("neighbor 0.2 bin\n", 0.2), ("neighbor v_s bin\n", None),
+                        ("units electron\n", None), ("neigh_modify delay 0 every 2 check yes\n", None),
+                        ("neigh_modify check no\n", None), ("neigh_modify delay 5\n", 0.3)]:
+        script.write_text(text)
+        assert read_input(str(script)).stray_bound() == bound, text
+
+
 def test_few_decimals_are_read_and_relabelled_refused(tmp_path):
     # genuine output written with 'format float %.2f': a distance from such positions is off by up to
     # 2 sqrt(3) 0.005, more than 1e-3 of the coordinates (< 20): the written decimals are added to the tolerance
     frames = read_all(lammps(None, "rounded", check_forces=False))
     assert len(frames[-1].snapshot.contacts) > 20
     bad = relabelled(os.path.join(LAMMPS, "rounded", "atoms.dump"), tmp_path / "atoms.dump", "shift")
+    reader = lammps(bad, "rounded", check_forces=False)
     with pytest.raises(ValueError, match=r"timestep 3000: the positions do not fit .* have a distance \('dist'"):
-        read_all(lammps(bad, "rounded", check_forces=False))
+        reader.frame(1)
+    # step 0 has no contacts: its positions only the box checks, to the skin (in.rounded: lj's default, 0.3)
+    with pytest.raises(ValueError, match=r"timestep 0: atom 8 \(line 17\) has z = -1.67, outside the box \[0, 20\] "
+                                         r"along that non-periodic axis by 1.67 \(0.0835 box lengths; refused beyond "
+                                         r"one neighbor skin, 0.3: the default skin for units lj"):
+        reader.frame(0)
 
 
 def test_tolerance_follows_the_coordinates_not_the_box_bounds(tmp_path):
@@ -179,7 +289,7 @@ def test_tolerance_follows_the_coordinates_not_the_box_bounds(tmp_path):
     bad = relabelled(os.path.join(LAMMPS, "corner", "atoms.dump"), tmp_path / "atoms.dump", "shift")
     reader = lammps(bad, "corner", check_forces=False, walls=())
     with pytest.raises(ValueError, match=r"timestep 3000: the positions do not fit .* have a distance \('dist'"):
-        read_all(reader)
+        reader.frame(1)      # (step 0, without contacts, is refused by the box check: the skin)
 
 
 def test_genuine_cohesive_frames_with_zero_rows_are_read():
@@ -244,6 +354,37 @@ def test_liggghts_misplaced_positions_are_refused(tmp_path, keep, kind, what):
     with pytest.raises(ValueError, match=r"atoms\.dump: timestep \d+: the positions do not fit the contacts of .*"
                                          + what):
         read_all(reader)
+
+
+@pytest.mark.parametrize("keep,what", [(("pos", "id", "force", "delta"), r"have positions \(pair/gran/local 'pos'"),
+                                       (("id", "force", "delta"), r"have an overlap \(pair/gran/local 'delta'")])
+def test_liggghts_fast_deforming_box_is_read_and_misplaced_positions_refused(tmp_path, keep, what):
+    # genuine LIGGGHTS output, 2e-3 strain per step (fix deform ... remap x, tests/data/liggghts/in.deform): the
+    # ghost images pair/gran/local takes for contacts across the periodic boundary keep the old box length, their
+    # 'pos' (and 'delta') off by the step's change of the box (5.9e-6 m, the box 2.9e-3 m: 11 of 33 contacts at step 40
+    # were refused); twice the box's change per step is allowed, as for LAMMPS
+    directory = os.path.join(LIGGGHTS, "deform")
+    options = dict(input=os.path.join(LIGGGHTS, "in.deform"), check_forces=False)
+    cols = {k: v for k, v in liggghts(None, directory, **options).pair_columns.items() if k in keep}
+    frames = read_all(liggghts(None, directory, pair_columns=cols, **options))
+    assert [len(f.snapshot.contacts) for f in frames] == [0, 33, 74, 81]
+    bad = misaligned(os.path.join(directory, "atoms.dump"), tmp_path / "atoms.dump")
+    with pytest.raises(ValueError, match=r"atoms\.dump: timestep 40: the positions do not fit the contacts of .*"
+                                         + what):
+        read_all(liggghts(bad, directory, pair_columns=cols, **options))
+
+
+def test_liggghts_thin_periodic_box_is_refused():
+    # genuine LIGGGHTS output (tests/data/liggghts/in.thin): a box 1.5 mm wide, diameters 0.85..1 mm; pairs listed
+    # once per periodic image, whose forces do not balance: refused, naming the pair's lines and the fix (it was
+    # refused by the Snapshot's "expected each pair once", naming neither file nor frame)
+    directory = os.path.join(LIGGGHTS, "thin")
+    reader = liggghts(None, directory, input=os.path.join(LIGGGHTS, "in.thin"))
+    with pytest.raises(ValueError, match=r"thin/atoms.dump: timestep 5300: atoms 14 and 3 are listed 2 times in .*"
+                                         r"thin/pairs.dump \(the contact dump's lines 12, 13\): the periodic box is "
+                                         r"thinner than two contact distances along x \(0.0015\), so .* Fix: make the "
+                                         r"box at least two contact distances wide"):
+        reader.frame(0)
 
 
 def test_liggghts_liquid_bridges_pull_beyond_contact_and_are_read():

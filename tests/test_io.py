@@ -255,3 +255,18 @@ def test_atomic_write_gives_ordinary_file_permissions(tmp_path):
     plain = tmp_path / "plain.txt"
     plain.write_text("x")
     assert (os.stat(target).st_mode & 0o777) == (os.stat(plain).st_mode & 0o777)
+
+
+def test_snapshot_file_keeps_contact_branches(tmp_path):
+    # Contacts.branch (a pair listed once per periodic image, tests/data/lammps/thin) is written and read back: the
+    # minimum image would give the second listing the first's branch
+    from cgbound.readers import LammpsReader
+    data = os.path.join(os.path.dirname(__file__), "data", "lammps")
+    snap = LammpsReader(os.path.join(data, "thin", "atoms.dump"), os.path.join(data, "thin", "pairs.dump"),
+                        input=os.path.join(data, "in.thin"))[0]
+    path = str(tmp_path / "thin.h5")
+    write_snapshots(path, [snap, random_snapshot(0, dim=3)])
+    back = HDF5Snapshots(path)
+    assert np.array_equal(back[0].contacts.branch, snap.contacts.branch)
+    assert np.array_equal(back[0].split_contacts()[0]["branch"], snap.split_contacts()[0]["branch"])
+    assert back[1].contacts.branch is None

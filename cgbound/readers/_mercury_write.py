@@ -66,6 +66,8 @@ def _write_fstat_frame(ff, snap, widx, fmt, vec):
     # x_i - c for walls, x_i - x_j for pairs (minimum image)
     partner = np.where(wall[:, None], c.point, snap.positions[np.where(wall, 0, c.j)])
     arms = snap.box.minimum_image(snap.positions[c.i] - partner)
+    if c.branch is not None:    # (a pair listed once per periodic image: its own branch)
+        arms = np.where(wall[:, None], arms, c.branch)
     for k in range(len(c)):
         i, j, f, p, arm = int(c.i[k]), int(c.j[k]), c.force[k], c.point[k], arms[k]
         if j < 0:

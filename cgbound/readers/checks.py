@@ -167,6 +167,40 @@ def geometry_misfits(err, scale, checked=None, lenient=None, slack=0.0):
     return None
 
 
+def box_change_per_step(lower, upper, others):
+    """How far a box that deforms (``fix deform ... remap x``) moves an atom per step: the largest change of a bound
+    or a length per step along each axis, combined over the axes (0 for a box that does not change), from the
+    frame's bounds ``lower``, ``upper`` ((D,) each) and ``others``, (lower, upper, steps apart) of its neighbouring
+    frames. The engine remaps the atoms at the end of a step but not their ghost images: a contact's geometry
+    written from a ghost is off by up to this."""
+    moved = 0.0
+    for lo, hi, steps in others:
+        change = np.maximum(np.maximum(np.abs(lo - lower), np.abs(hi - upper)), np.abs((hi - lo) - (upper - lower)))
+        moved = max(moved, float(np.sqrt(np.sum(change ** 2))) / steps)
+    return moved
+
+
+def thin_box(box, radii_sum):
+    """Whether a periodic box length is short enough for a pair to touch through two images of each other (the
+    second image is at least half a box length away; cohesive models reach 2 (r_i + r_j))."""
+    reach = 2.0 * float(radii_sum.max())
+    return any(p and 0.5 * (hi - lo) <= reach for p, lo, hi in zip(box.periodic, box.lower, box.upper))
+
+
+def repeated_pairs(i, j, n):
+    """Bools of the contacts whose pair (in either order) is listed more than once, or None if none is."""
+    key = np.minimum(i, j) * np.int64(n) + np.maximum(i, j)
+    order = np.argsort(key, kind="stable")
+    ranked = key[order]
+    same = ranked[1:] == ranked[:-1]
+    if not same.any():
+        return None
+    repeated = np.zeros(key.size, bool)
+    repeated[order[1:][same]] = True
+    repeated[order[:-1][same]] = True
+    return repeated
+
+
 def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detail, location, hints=(), checked=None,
                            touching=None):
     """The error for contacts whose geometry the dumped positions do not give (nothing is raised here).

@@ -16,6 +16,7 @@ Schema (version 1)::
         angular_velocities, torques   (N, 3) in 3D, (N,) in 2D   float64   optional
         moments_of_inertia  (N,)      float64   optional (as given to the Snapshot)
         contacts/i, contacts/j (M,) int64; contacts/force, contacts/point (M, D) float64
+        contacts/branch     (M, D)  float64   optional (Contacts.branch: pairs listed once per periodic image)
 
 Datasets are stored contiguous and uncompressed by default (the fastest to read: float64 simulation data
 compresses poorly, and decompression cost more than the rest of a frame's reading), or, with
@@ -114,6 +115,8 @@ def write_snapshots(path, snapshots, provenance=None, compression=None):
                 c = g.create_group("contacts")
                 for name in ("i", "j", "force", "point"):
                     _put(c, name, getattr(snap.contacts, name), compression)
+                if snap.contacts.branch is not None:
+                    _put(c, "branch", snap.contacts.branch, compression)
                 count += 1
             f.attrs["n_frames"] = count
 
@@ -209,6 +212,7 @@ class HDF5Snapshots(FrameSequence):
         data = {name: g[name][()] for name in _OPTIONAL if name in g}
         c = self._member(g, "contacts", where)
         arrays = [self._member(c, name, f"{where}/contacts")[()] for name in ("i", "j", "force", "point")]
+        arrays.append(c["branch"][()] if "branch" in c else None)
         time = float(_attr(g, "time", self.path, where, kind="scalar"))
         positions, masses = self._member(g, "positions", where)[()], self._member(g, "masses", where)[()]
         try:

@@ -43,7 +43,12 @@ dump's line, the likely causes and the fix):
   stray only until it re-neighbours: 0.0075 at most in genuine dumps of 14 scenes); along a shrink-wrapped
   axis (boundary ``s``/``m``, which can be far thinner than that stray: a flat layer's box 4e-4 thick) by a
   length, the largest of 0.25 of the largest box length, 4 radii and the input script's ``neighbor`` skin.
-  Unwrapped positions are not checked. This needs no contacts: it also checks an atoms dump read alone;
+  Unwrapped positions are not checked. This needs no contacts: it also checks an atoms dump read alone. A frame
+  without contacts, whose positions no contact geometry checks, is held along non-periodic and shrink-wrapped axes
+  to one ``neighbor`` skin (the input script's, else the engine's default for its units; not known where
+  ``neigh_modify`` sets ``every`` > 1 or ``check no``): an atom strays at most half a skin between
+  re-neighbourings (genuine dumps: 0.39 skin), forces written as positions lie 0.086 box lengths out
+  (tests/data/lammps/in.jkr3d at step 0, inside the 0.25);
 * the contact geometry: the dumped positions must give each contact's geometry as LAMMPS wrote it. With
   ``dist`` among the pair/local values (or ``pair granular``'s branch vector ``p10 p11 p12``), the distance
   (vector) between the two positions (minimum image) must agree to ``GEOMETRY_TOLERANCE`` (1e-3) of (the
@@ -71,6 +76,14 @@ dump's line, the likely causes and the fix):
   output (``%g`` and ``%.17g``; gran/hooke, gran/hertz/history, granular hertz/material, dmt and jkr,
   periodic and deforming boxes, walls): errors at most 3% of the tolerance; forces only within 1.000005
   (r_i + r_j) for the repulsive styles;
+* a pair listed more than once: in a periodic box thinner than two contact distances a pair can touch through two
+  periodic images of each other at once, and pair/local lists it once per image (with its own ``dist`` and branch
+  vector). Each listing is read as its own contact, its branch vector (``Contacts.branch``) the image that
+  ``p10 p11 p12`` gives, else the one its ``dist`` gives (where two images are as far, the one along the normal
+  force ``fx fy fz``); the geometry check above then holds it as any other. Without ``dist`` or the branch vector
+  (or where neither tells the images apart) the frame is refused: the minimum image would give both listings
+  one branch, a wrong stress (tests/data/lammps/in.thin: sigma_xx 44% low; read as here, the box-averaged
+  contact stress is minus LAMMPS' virial to round-off). Listings of a pair with the same image are refused;
 * wall contacts (``walls``): the contact point ``f_ID[5..7]`` (on the wall) must lie within a radius of the
   particle's centre (1.00003 radii measured, the silo's cylinder included) when the input script gives the wall
   a repulsive model, within 2 radii otherwise (``jkr``, or no script), to the same tolerance. This also checks
@@ -141,9 +154,10 @@ from ..box import Box
 from ..snapshot import Contacts, Snapshot
 from ._lammps_dump import scan_dump
 from ._sequence import FrameReader, file_name
-from .checks import (FORCE_BALANCE_TOLERANCE, check_force_balance, compute_columns, contact_geometry_error,
-                     dump_local_header, force_balance, generic_columns, geometry_misfits, row_norms,
-                     warn_repeated_frames, written_resolution)
+from .checks import (FORCE_BALANCE_TOLERANCE, GEOMETRY_TOLERANCE, box_change_per_step, check_force_balance,
+                     compute_columns, contact_geometry_error, dump_local_header, force_balance, generic_columns,
+                     geometry_misfits, repeated_pairs, row_norms, thin_box, warn_repeated_frames,
+                     written_resolution)
 
 __all__ = ["LammpsReader", "LammpsFrame", "pair_local_columns"]
 
@@ -481,6 +495,11 @@ class LammpsReader(FrameReader):
             parts.append(self._pair_contacts(pairs_offset, timestep, atoms, box))
         parts += [self._wall_contacts(fr["data"], atoms, wall, box) for wall in self.walls]
         contacts, contact_ids, overlap = _joined_contacts(parts, self.dimension)
+        if not len(contacts) and atoms.span is not None and self.input_script is not None:
+            # no contact geometry checks this frame's positions: the box, to the script's skin
+            bound = self.input_script.stray_bound()
+            if bound is not None:
+                self._check_in_box(fr["data"], atoms, box, timestep, fr["flags"], skin=bound)
         safe_masses = np.where(atoms.fixed & ~(atoms.masses > 0), 1.0, atoms.masses)
         # the internal path (no copies): columns taken as parsed were refused nan/inf by the parser; computed
         # arrays (masses, scaled positions, contacts) and the contacts' pairs are checked as for user data
@@ -491,8 +510,14 @@ class LammpsReader(FrameReader):
                                     angular_velocities=atoms.angular_velocities, torques=atoms.torques, parsed=parsed)
         frame = LammpsFrame(snap, atoms.ids, atoms.types, timestep, atoms.forces, contact_ids, overlap)
         if self.check_forces and atoms.forces is not None and pairs_offset is not None:
+            hints = self._balance_hints()
+            if contacts.branch is not None and self.input_script is not None and self.input_script.newton is False:
+                hints = ["pairs listed once per periodic image (a box thinner than two contact distances) with 'newton "
+                         "off' in the input script: LAMMPS then evaluates such pairs from each side, and the per-atom "
+                         "forces of their atoms are not those pair/local writes (tests/data/lammps/in.thin with newton "
+                         "off: 1.3 of the RMS contact force): run with 'newton on'"] + hints
             check_force_balance(frame.force_balance(), atoms.ids, self.atoms_path, timestep, FORCE_BALANCE_TOLERANCE,
-                                self._balance_hints())
+                                hints)
         return frame
 
     def _check_selection(self, types, ids, timestep):
@@ -605,13 +630,15 @@ class LammpsReader(FrameReader):
         return _Atoms(ids, order, types, pos, vel, forces, masses, radii, fixed, spin, torques, positions_parsed,
                       extent, span=span, resolution=resolution, radius_resolution=radius_resolution)
 
-    def _check_in_box(self, tab, atoms, box, timestep, flags=None):
+    def _check_in_box(self, tab, atoms, box, timestep, flags=None, skin=None):
         """Refuse positions (wrapped or scaled, not unwrapped) outside the box by more than BOX_SLACK box lengths
         (see the module docstring): LAMMPS lets an atom stray out of its box only until it next re-neighbours.
         Along a shrink-wrapped axis (boundary ``s`` or ``m``, ``flags``: the dump's BOX BOUNDS flags) the box may be
         far thinner than the stray (a flat layer: 4e-4 thick, atoms 0.04 out): there the slack is a length,
         SHRINK_SLACK of the largest box length, 4 of the largest radius or the input script's skin, whichever is
-        largest."""
+        largest. ``skin`` (a frame without contacts, whose positions no contact geometry checks; the input script's
+        :meth:`~cgbound.readers.lammps_input.InputScript.stray_bound`): along non-periodic and shrink-wrapped axes
+        the slack is that length instead (an atom strays at most half a skin between re-neighbourings)."""
         lowest, highest, xn, scaled = atoms.span
         length = box.upper - box.lower
         stray = np.maximum(box.lower - lowest, highest - box.upper)
@@ -625,6 +652,8 @@ class LammpsReader(FrameReader):
             if self.input_script is not None and self.input_script.skin is not None:
                 slack = max(slack, self.input_script.skin)
             allowed = np.where(shrink, slack, allowed)
+        if skin is not None:
+            allowed = np.where(np.asarray(box.periodic) & ~shrink, allowed, skin)
         if not np.any(stray > allowed):
             return
         axis = int(np.argmax(stray - allowed))
@@ -636,9 +665,18 @@ class LammpsReader(FrameReader):
         line = "" if atoms.first_line is None else f" (line {atoms.first_line + row})"
         kind = ("shrink-wrapped" if shrink[axis] else "periodic" if box.periodic[axis] else "non-periodic")
         shown = f"{name} = {written[row]:.9g}" + (f" ({name[0]} = {value[row]:.9g})" if scaled else "")
-        by = (f"by {stray[axis]:.3g} (refused beyond {allowed[axis]:.3g}: the largest of {SHRINK_SLACK:g} of the "
-              f"largest box length, 4 radii and the skin)" if shrink[axis] else
-              f"by {stray[axis] / length[axis]:.3g} box lengths (refused beyond {BOX_SLACK[box.periodic[axis]]:g})")
+        if skin is not None and (shrink[axis] or not box.periodic[axis]):
+            script = self.input_script
+            given = ("the skin of its 'neighbor' command" if script.neighbor_given else
+                     f"the default skin for units {script.units or 'lj'}, as it has no 'neighbor' command")
+            by = (f"by {stray[axis]:.3g} ({stray[axis] / length[axis]:.3g} box lengths; refused beyond one neighbor "
+                  f"skin, {skin:.3g}: {given} in {script.path}), in a frame without contacts, whose positions no "
+                  f"contact geometry checks (an atom strays at most half a skin between re-neighbourings)")
+        elif shrink[axis]:
+            by = (f"by {stray[axis]:.3g} (refused beyond {allowed[axis]:.3g}: the largest of {SHRINK_SLACK:g} of the "
+                  f"largest box length, 4 radii and the skin)")
+        else:
+            by = f"by {stray[axis] / length[axis]:.3g} box lengths (refused beyond {BOX_SLACK[box.periodic[axis]]:g})"
         raise ValueError(
             f"{self.atoms_path}: timestep {timestep}: atom {atom}{line} has {shown}, outside the "
             f"box [{box.lower[axis]:.9g}, {box.upper[axis]:.9g}] along that {kind} axis {by}; genuine dumps stray "
@@ -699,7 +737,7 @@ class LammpsReader(FrameReader):
         if self.wrap and any(box.periodic):
             point = box.wrap(point)
         wall_j = np.full(k.shape, -1, np.int64)
-        return k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), np.full(k.shape, np.nan)
+        return k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), np.full(k.shape, np.nan), None
 
     def _check_wall_geometry(self, wall, atoms, k, point, box):
         """Refuse wall contacts whose contact point (on the wall) is further from the particle's centre than
@@ -743,7 +781,7 @@ class LammpsReader(FrameReader):
         if fr["n"] == 0:
             dim = self.dimension
             return (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)),
-                    np.zeros((0, 2), np.int64), np.zeros(0))
+                    np.zeros((0, 2), np.int64), np.zeros(0), None)
         where = _Where(timestep, fr.get("first_line"), atoms)
         return self._pairs_from_table(fr["data"], fr["n"], timestep, atoms.ids, atoms.positions, atoms.radii, box,
                                       where)
@@ -781,6 +819,23 @@ class LammpsReader(FrameReader):
             crossed = raw[:, 0] != separation[:, 0]
             for a in range(1, raw.shape[1]):
                 crossed |= raw[:, a] != separation[:, a]
+        if radii is None:
+            raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or 'diameter' column")
+        radii_i = np.take(radii, i)
+        radii_sum = radii_i + np.take(radii, j)
+        images = None
+        if any(box.periodic) and radii_sum.size and thin_box(box, radii_sum):
+            repeated = repeated_pairs(i, j, ids.size)
+            if repeated is not None:
+                has_dist = bool(names.get("dist")) and names["dist"] in tab
+                separation, crossed = self._listed_images(
+                    where, i, j, id1, id2, separation, crossed, box, repeated, force,
+                    written_branch=self._vectors(tab, names["branch"]) if names.get("branch") else None,
+                    written_dist=tab[names["dist"]] if has_dist else None,
+                    normal=self._vectors(tab, names["force"]) if self.pair_style != "total" else None,
+                    fix=("add 'dist' to compute pair/local (pair granular: p10 p11 p12, the branch vector) and name it "
+                         "in pair_values= (--pair-values, or give the input script, --input)"))
+                images = separation.copy()     # (the snapshot's branches: the point is rebuilt in place below)
         if names.get("branch"):
             branch = self._vectors(tab, names["branch"])
             # pair granular writes zeros (force and branch) for a pair it finds not touching (JKR beyond its
@@ -793,10 +848,6 @@ class LammpsReader(FrameReader):
         else:
             branch = separation
         dist = row_norms(branch)
-        if radii is None:
-            raise ValueError(f"{self.atoms_path}: rebuilding contact points needs a 'radius' or 'diameter' column")
-        radii_i = np.take(radii, i)
-        radii_sum = radii_i + np.take(radii, j)
         if where is not None:
             self._check_pair_geometry(tab, where, i, j, id1, id2, separation, dist, branch, radii_sum, force,
                                       crossed, box)
@@ -810,6 +861,8 @@ class LammpsReader(FrameReader):
                 kept = keep
                 i, j, force, branch, dist, overlap, pos_i, radii_i = (
                     i[keep], j[keep], force[keep], branch[keep], dist[keep], overlap[keep], pos_i[keep], radii_i[keep])
+                if images is not None:
+                    images = images[keep]
         if np.any(dist == 0):
             raise ValueError(f"{path}: two atoms at the same position at timestep {timestep}")
         # point = pos[i] - (radii[i] - overlap / 2) n, n = branch / dist: the same operations, in place (over the
@@ -822,7 +875,122 @@ class LammpsReader(FrameReader):
         # ids[i], ids[j]: the contacts' own IDs (contact_indices found each one there), taken from the table
         contact_ids = np.empty((len(i), 2), np.int64)
         contact_ids[:, 0], contact_ids[:, 1] = (id1, id2) if kept is None else (id1[kept], id2[kept])
-        return i, j, force, point, contact_ids, overlap
+        return i, j, force, point, contact_ids, overlap, images
+
+    def _listed_images(self, where, i, j, id1, id2, separation, crossed, box, repeated, force, written_branch=None,
+                       written_dist=None, normal=None, fix=""):
+        """The separations of a pair listed more than once (``repeated``: bools of those rows): in a periodic box
+        thinner than two contact distances a pair can touch through two periodic images of each other at once, and
+        LAMMPS (pair/local) lists it once per image, each listing its own contact with its own branch vector. The
+        image of each such listing is the one its ``written_branch`` ((M, D): pair granular's p10-p12) gives, else
+        its ``written_dist`` ((M,): 'dist'): the nearest,
+        or where two are as near (a pair half a box length apart along an axis) the one along ``normal`` ((M, D),
+        forces along the branch: gran, granular); refused where neither tells, and without either (``fix``: how to
+        dump them). Rows without a ``force`` carry nothing and take the nearest. Returns (separations, crossed) with
+        those rows' images; the geometry check then holds them to the contact dump's values as any other. The
+        listings of one pair that carry a force must take distinct images."""
+        timestep = where.timestep
+        lengths = box.upper - box.lower
+        periodic = np.asarray(box.periodic, bool)
+        rows = np.flatnonzero(repeated)
+        s = separation[rows]
+        active = np.any(force[rows] != 0, axis=1)
+
+        def lines(ks):
+            return "" if where.pairs_line is None else \
+                f" (the contact dump's lines {', '.join(str(where.pairs_line + int(k)) for k in ks)})"
+
+        def thin():
+            # (the axes along which a second image is within the contact reach)
+            reach = (self.contact_reach or 2.0) * float(np.max(np.take(where.atoms.radii, i[rows])
+                                                               + np.take(where.atoms.radii, j[rows])))
+            axes = "xyz" if self.dimension == 3 else "xy"
+            short = [f"{axes[a]} ({lengths[a]:.6g})" for a in range(len(axes)) if periodic[a]
+                     and 0.5 * lengths[a] <= reach] or [f"{axes[a]} ({lengths[a]:.6g})" for a in range(len(axes))
+                                                        if periodic[a]]
+            return f"the periodic box length{'s' if len(short) > 1 else ''} along {', '.join(short)} " + (
+                "are" if len(short) > 1 else "is")
+
+        first = rows[0]
+        pair_rows = rows[(np.minimum(i[rows], j[rows]) == min(i[first], j[first]))
+                         & (np.maximum(i[rows], j[rows]) == max(i[first], j[first]))]
+
+        def by_dist(sub):
+            """The images of rows[sub] whose distance is their written one."""
+            written = np.take(written_dist, rows[sub])
+            axes = np.flatnonzero(periodic)
+            shifts = np.array(np.meshgrid(*[(-1.0, 0.0, 1.0)] * axes.size, indexing="ij")).reshape(axes.size, -1).T
+            steps = np.zeros((shifts.shape[0], lengths.size))
+            steps[:, axes] = shifts
+            candidates = s[sub][:, None, :] + steps[None] * lengths                 # (rows, images, D)
+            err = np.abs(np.sqrt(np.sum(candidates ** 2, axis=2)) - written[:, None])
+            best = np.argmin(err, axis=1)
+            r = np.arange(len(written))
+            near = err - err[r, best][:, None] <= GEOMETRY_TOLERANCE * (written + where.atoms.extent)[:, None]
+            if normal is not None:
+                f = normal[rows[sub]]
+                cross = np.cross(candidates, f[:, None, :]) if lengths.size == 3 else \
+                    (candidates[..., 0] * f[:, None, 1] - candidates[..., 1] * f[:, None, 0])[..., None]
+                with np.errstate(divide="ignore", invalid="ignore"):    # (rows without a force: NaN, not along)
+                    sine = np.sqrt(np.sum(cross ** 2, axis=2)) / (np.sqrt(np.sum(candidates ** 2, axis=2))
+                                                                  * row_norms(f)[:, None])
+                along = near & (sine <= GEOMETRY_TOLERANCE)
+                pick = along.any(axis=1) & active[sub]
+                best = np.where(pick, np.argmax(along, axis=1), best)
+                near = np.where(pick[:, None], along, near)
+            tie = (np.count_nonzero(near, axis=1) > 1) & active[sub]
+            if tie.any():
+                k = int(np.flatnonzero(tie)[0])
+                row = rows[sub][k]
+                raise ValueError(
+                    f"{self.atoms_path}: timestep {timestep}: atoms {int(id1[row])} and {int(id2[row])} are listed "
+                    f"more than once in {self.pairs_path}{lines([row])}, once per periodic image they touch through "
+                    f"({thin()} less than two contact distances), and two images are as far apart as the contact "
+                    f"dump says ({written[k]:.9g}){' and as much along its force' if normal is not None else ''}: "
+                    f"which one this listing is cannot be told. Fix: dump the branch vector (LAMMPS pair granular: "
+                    f"p10 p11 p12 in compute pair/local; LIGGGHTS: 'pos' in compute pair/gran/local) and name it in "
+                    f"pair_values= (--pair-values, or give the input script, --input), or make the box at least two "
+                    f"contact distances wide along its periodic axes")
+            return steps[best]
+
+        if written_branch is not None:
+            written = written_branch[rows]
+            image = np.where(periodic, np.rint((written - s) / lengths), 0.0)
+            # pair granular's zero rows (an image it finds not touching): their image from 'dist' if dumped
+            unset = np.all(written == 0, axis=1)
+            if unset.any():
+                image[unset] = by_dist(unset) if written_dist is not None else 0.0
+        elif written_dist is not None:
+            image = by_dist(np.ones(rows.size, bool))
+        else:
+            raise ValueError(
+                f"{self.atoms_path}: timestep {timestep}: atoms {int(id1[first])} and {int(id2[first])} are listed "
+                f"{pair_rows.size} times in {self.pairs_path}{lines(pair_rows)}: {thin()} less than two contact "
+                f"distances, so a pair can touch through two periodic images of each other at once, and the engine "
+                f"lists it once per image, each listing its own contact. Which image a listing is cannot be told "
+                f"from the positions alone (the minimum image would give both the same branch vector: a wrong "
+                f"stress). Fix: {fix}; or make the box at least two contact distances wide along its periodic axes")
+        separation = separation.copy()
+        separation[rows] = s + image * lengths
+        moved = np.any(image != 0, axis=1)
+        crossed = crossed.copy()
+        crossed[rows[moved]] = True
+        # the listings of one pair that carry a force: distinct images (oriented on the smaller index, as (j, i)
+        # lists the same; a listing without a force carries nothing, and drop_inactive drops it when not touching)
+        rows, image = rows[active], image[active]
+        sign = np.where(i[rows] < j[rows], 1.0, -1.0)[:, None]
+        key = np.column_stack([np.minimum(i[rows], j[rows]), np.maximum(i[rows], j[rows]),
+                               (sign * image).astype(np.int64)])
+        _, first_of, count = np.unique(key, axis=0, return_index=True, return_counts=True)
+        if np.any(count > 1):
+            k = int(first_of[np.flatnonzero(count > 1)[0]])
+            same = rows[np.all(key == key[k], axis=1)]
+            raise ValueError(
+                f"{self.atoms_path}: timestep {timestep}: atoms {int(id1[rows[k]])} and {int(id2[rows[k]])} are "
+                f"listed {same.size} times in {self.pairs_path}{lines(same)} with the same periodic image (the same "
+                f"branch vector): a contact written twice. Likely causes: contact dumps concatenated or merged, or "
+                f"'newton off' with a contact counted from both sides. Fix: read the contact dump as the engine wrote it")
+        return separation, crossed
 
     def _check_pair_geometry(self, tab, where, i, j, id1, id2, separation, dist, branch, radii_sum, force,
                              crossed=None, box=None):
@@ -877,41 +1045,44 @@ class LammpsReader(FrameReader):
         if crossed is not None and box is not None:
             np.add(scale, float(np.max(box.upper - box.lower)), out=scale, where=crossed)
         fit = (dist if names.get("branch") is None else row_norms(separation), radii_sum)
+        self._refuse_geometry_deforming(box, where, i, j, id1, id2, error, scale, what, detail, hints, lenient=crossed,
+                                        slack=slack, fit=fit)
+
+    def _refuse_geometry_deforming(self, box, where, i, j, id1, id2, error, scale, what, detail, hints, slack=0.0,
+                                   **options):
+        """:meth:`_refuse_geometry` (``error``: a function giving the errors, a new array each call) with a box that
+        deforms allowed for: atoms are remapped at the end of a step, the ghost images pair/local (LIGGGHTS:
+        pair/gran/local) takes for a contact across a periodic boundary, and on several processors the ghost copies
+        of the other processors' atoms, not; a frame refused is checked again allowing twice the box's change per
+        step (:func:`~cgbound.readers.checks.box_change_per_step`; read only when the check fails: it reads the
+        neighbouring frames' bounds)."""
         try:
-            self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, lenient=crossed,
-                                  slack=slack, fit=fit)
+            self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack, **options)
         except ValueError:
-            # a box that deforms: atoms remapped at the end of a step, their ghost copies on other processors not
-            # (the error only when the check fails: it reads a neighbouring frame)
             moved = self._remap_per_step(where.timestep, box)
             if not moved:
                 raise
-            self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, lenient=crossed,
-                                  slack=slack + 2 * moved, fit=fit)
+            self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack + 2 * moved,
+                                  **options)
 
     def _remap_per_step(self, timestep, box):
         """How far a box that deforms moves an atom per step (``remap x``), from the box bounds of this frame and its
-        neighbours in the atoms dump: the largest change of a bound or length per step along the axes, combined
-        over the axes (0 for a box that does not change). With several processors, pair/local takes the ghost
-        copies of atoms other processors own, not yet remapped at the end of the step: a contact inside the box is
-        then off by up to this (2 processors, 2e-3 strain per step: 1e-2 of the distance,
-        tests/data/lammps/deform_mpi)."""
+        neighbours in the atoms dump (:func:`~cgbound.readers.checks.box_change_per_step`). With several
+        processors, pair/local takes the ghost copies of atoms other processors own, not yet remapped at the end of
+        the step: a contact inside the box is then off by up to this (2 processors, 2e-3 strain per step: 1e-2 of
+        the distance, tests/data/lammps/deform_mpi)."""
         steps = [ts for _, ts, _ in self._frames]
         if timestep not in steps or box is None:
             return 0.0
         k = steps.index(timestep)
         axes = list(self._axes())
-        moved = 0.0
+        others = []
         for n in (k - 1, k + 1):
             if 0 <= n < len(steps) and steps[n] != timestep:
                 bounds = self._atoms_dump.read(self._frames[n][0])["bounds"]
-                if bounds is None:
-                    continue
-                lower, upper = bounds[:, 0][axes], bounds[:, 1][axes]
-                change = np.maximum(np.maximum(np.abs(lower - box.lower), np.abs(upper - box.upper)),
-                                    np.abs((upper - lower) - (box.upper - box.lower)))
-                moved = max(moved, float(np.sqrt(np.sum(change ** 2))) / abs(steps[n] - timestep))
-        return moved
+                if bounds is not None:
+                    others.append((bounds[:, 0][axes], bounds[:, 1][axes], abs(steps[n] - timestep)))
+        return box_change_per_step(box.lower, box.upper, others)
 
     def _check_reach(self, where, i, j, id1, id2, dist, radii_sum, force, hint):
         """Refuse contacts that carry a force with their particles further apart than ``contact_reach`` (r_i + r_j)."""
@@ -1039,14 +1210,21 @@ class _Atoms(NamedTuple):
 
 
 def _joined_contacts(parts, dim):
-    """Contacts, contact IDs and overlaps from the (i, j, force, point, ids, overlap) of each source."""
+    """Contacts, contact IDs and overlaps from the (i, j, force, point, ids, overlap[, branch or None]) of each
+    source."""
     if not parts:
         return Contacts.empty(dim), np.zeros((0, 2), np.int64), np.zeros(0)
+    # a source's branches (a pair listed once per periodic image), None (the minimum image): walls' rows 0
+    branches = [p[6] if len(p) > 6 else None for p in parts]
+    branch = None
+    if any(b is not None for b in branches):
+        branch = np.concatenate([b if b is not None else np.zeros((len(p[0]), dim)) for b, p in zip(branches, parts)])
     if len(parts) == 1:    # one source (the pair dump): its arrays as they are, Contacts copies them once
-        i, j, force, point, ids, overlap = parts[0]
+        i, j, force, point, ids, overlap = parts[0][:6]
     else:
-        i, j, force, point, ids, overlap = (np.concatenate(column) for column in zip(*parts))
-    return Contacts.from_reader(i, j, force.reshape(-1, dim), point.reshape(-1, dim)), ids.reshape(-1, 2), overlap
+        i, j, force, point, ids, overlap = (np.concatenate(column) for column in list(zip(*parts))[:6])
+    return (Contacts.from_reader(i, j, force.reshape(-1, dim), point.reshape(-1, dim), branch=branch),
+            ids.reshape(-1, 2), overlap)
 
 
 def _script_units(script):

@@ -116,6 +116,10 @@ class DumpSpec:
     where: str
 
 
+#: the ``neighbor`` command's default skin per units style (LAMMPS and LIGGGHTS documentation)
+_DEFAULT_SKIN = {"lj": 0.3, "real": 2.0, "metal": 2.0, "si": 0.001, "cgs": 0.1}
+
+
 @dataclass
 class InputScript:
     path: str
@@ -126,6 +130,9 @@ class InputScript:
     pair_command: tuple = ()       # the words of the pair_style line ("gran/hooke/history", "2000.0", ...)
     pair_coeffs: list = field(default_factory=list)   # the words of each pair_coeff line
     skin: float = None             # the ``neighbor`` command's skin distance, None without one
+    neighbor_given: bool = False   # a ``neighbor`` command seen (its skin may be a variable: skin None)
+    neighbor_checked: bool = True  # re-neighbouring on the default check (no ``neigh_modify`` every N > 1, check no)
+    newton: bool = None            # the ``newton`` command's pair setting (None without one: LAMMPS' default, on)
     computes: dict = field(default_factory=dict)
     dumps: list = field(default_factory=list)
     walls: tuple = ()
@@ -151,6 +158,18 @@ class InputScript:
             # LIGGGHTS "pair_style gran model hertz tangential history [cohesion sjkr|easo/capillary/viscous ...]"
             return "cohesion" in args
         return False    # LAMMPS gran/hooke, gran/hooke/history, gran/hertz/history: repulsive contact forces
+
+    def stray_bound(self):
+        """How far an atom can stray outside its box between re-neighbourings (the box check of a frame without
+        contacts): one skin, twice the re-neighbouring trigger (skin / 2 of motion, ``neigh_modify check yes``);
+        the ``neighbor`` command's skin, else the engine's default for the units (lj 0.3, real and metal 2.0, si
+        0.001, cgs 0.1; the same in LIGGGHTS). None where not known: a skin from a variable, other units, or
+        re-neighbouring not on every step's check (``neigh_modify every N`` with N > 1, or ``check no``)."""
+        if not self.neighbor_checked:
+            return None
+        if self.neighbor_given:
+            return self.skin
+        return _DEFAULT_SKIN.get(self.units or "lj")
 
     def wall_reach(self, walls):
         """How far from a particle's centre, in radii, the contact point of a wall contact of the fixes ``walls``
@@ -388,7 +407,15 @@ class _Parser:
             self.result.pair_coeffs = []
         elif cmd == "pair_coeff":
             self.result.pair_coeffs.append(tuple(w[1:]))
+        elif cmd == "newton" and len(w) > 1:
+            self.result.newton = w[1] == "on"
+        elif cmd == "neigh_modify":
+            for key, value in zip(w[1:], w[2:]):
+                if (key == "check" and value != "yes") or (key == "every" and value != "1"):
+                    self.result.neighbor_checked = False
         elif cmd == "neighbor" and len(w) > 1:
+            self.result.neighbor_given = True
+            self.result.skin = None
             try:
                 self.result.skin = float(w[1])
             except ValueError:      # (a variable: the box check then goes without the skin)

@@ -38,7 +38,15 @@ from this compute's values: ``pos`` (x_i and x_j, against the atoms dump's posit
 script's ``pair_style gran`` has no ``cohesion`` model, else 2 (r_i + r_j) (cohesion possible or not known:
 liquid bridges pull beyond contact, 1.0066 (r_i + r_j) measured on tests/data/liggghts/in.easo), and
 most contacts not overlapping by more than half of r_i + r_j (loose bounds: positions shifted by a column in a
-settled packing can pass them; dump ``pos`` to have the positions checked).
+settled packing can pass them; dump ``pos`` to have the positions checked). In a box that deforms (``fix deform
+... remap x``) the ghost image of j that pair/gran/local takes for a contact across a periodic boundary keeps the
+old box length, its ``pos`` (and ``delta``) off by the box's change in a step: a frame the check refuses is checked
+again allowing twice that change (as LAMMPS' is; tests/data/liggghts/in.deform: 2e-3 strain per step, 11 of 33
+contacts off by up to 5.9e-6 m, the box 2.9e-3 m long).
+In a periodic box thinner than two contact distances LIGGGHTS lists a pair that touches through two periodic
+images once per image, and its output for those pairs does not balance (tests/data/liggghts/in.thin: up to 0.74 of
+the RMS contact force inside ``run 0``, the contacts' virial 1-7% off compute pressure's): such a frame is refused
+(the LAMMPS reader reads LAMMPS' output of such boxes, one contact per image).
 
 Writing consistent dumps
 ------------------------
@@ -77,7 +85,7 @@ import os
 import numpy as np
 
 from .._validate import integer
-from .checks import compute_columns, dump_local_header, row_norms, written_resolution
+from .checks import compute_columns, dump_local_header, repeated_pairs, row_norms, thin_box, written_resolution
 from .lammps import LammpsReader, contact_indices
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns"]
@@ -210,6 +218,8 @@ class LiggghtsReader(LammpsReader):
             force = self._vectors(tab, names["force"])
         else:
             force = self._vectors(tab, names["force_normal"]) + self._vectors(tab, names["force_tangential"])
+        if any(box.periodic) and radii is not None and len(i):
+            self._refuse_listed_twice(where, i, j, id1, id2, ids, radii, box)
         pos_i = np.take(pos, i, axis=0)     # (np.take: 5-7 times faster than pos[i], the same values)
         branch = box.minimum_image(pos_i - np.take(pos, j, axis=0))
         dist = row_norms(branch)
@@ -236,6 +246,35 @@ class LiggghtsReader(LammpsReader):
         contact_ids = np.stack([id1, id2], axis=1)
         return i, j, force, point, contact_ids, overlap
 
+    def _refuse_listed_twice(self, where, i, j, id1, id2, ids, radii, box):
+        """Refuse a pair listed more than once: in a periodic box thinner than two contact distances LIGGGHTS lists a
+        pair once per periodic image it touches through, and its output for such pairs is not consistent (measured,
+        LIGGGHTS 3.8, tests/data/liggghts/in.thin: the atoms of such pairs miss their dumped forces by up to 0.74 of
+        the RMS contact force inside 'run 0', and the contacts' virial misses compute pressure's by 1-7%), so no
+        image reading of them can be verified."""
+        radii_sum = np.take(radii, i) + np.take(radii, j)
+        repeated = repeated_pairs(i, j, ids.size) if thin_box(box, radii_sum) else None
+        if repeated is None:
+            return
+        rows = np.flatnonzero(repeated)
+        first = rows[0]
+        same = rows[(np.minimum(i[rows], j[rows]) == min(i[first], j[first]))
+                    & (np.maximum(i[rows], j[rows]) == max(i[first], j[first]))]
+        lines = "" if where.pairs_line is None else \
+            f" (the contact dump's lines {', '.join(str(where.pairs_line + int(k)) for k in same)})"
+        lengths = box.upper - box.lower
+        axes = "xyz" if self.dimension == 3 else "xy"
+        thin = ", ".join(f"{axes[a]} ({lengths[a]:.6g})" for a in range(len(axes))
+                         if box.periodic[a] and 0.5 * lengths[a] <= self.contact_reach * float(radii_sum.max()))
+        raise ValueError(
+            f"{self.atoms_path}: timestep {where.timestep}: atoms {int(id1[first])} and {int(id2[first])} are listed "
+            f"{same.size} times in {self.pairs_path}{lines}: the periodic box is thinner than two contact distances "
+            f"along {thin}, so a pair touches through two periodic images of each other at once and LIGGGHTS lists it "
+            f"once per image; its output for such pairs does not balance (LIGGGHTS 3.8: their atoms miss the dumped "
+            f"forces by up to 0.74 of the RMS contact force, the contacts' virial misses compute pressure's by 1-7%), "
+            f"so their stress cannot be read reliably. Fix: make the box at least two contact distances wide along "
+            f"its periodic axes (LAMMPS' pair/local output of such boxes is read: one contact per image)")
+
     def _check_geometry(self, tab, where, i, j, id1, id2, pos_i, pos, dist, radii, overlap, force, box):
         """Refuse a frame whose positions do not give its contacts' geometry: the positions compute pair/gran/local
         wrote (``pos``), else its overlap (``delta``), else the reach of a contact force (see LammpsReader)."""
@@ -247,9 +286,10 @@ class LiggghtsReader(LammpsReader):
             written_j = self._vectors(tab, names["pos"][3:6])
             pos_j = np.take(pos, j, axis=0)
             # minimum image: the dump's j may be a periodic image (a ghost), and its i unwrapped by a step
-            err = np.maximum(row_norms(box.minimum_image(written_i - pos_i)),
-                             row_norms(box.minimum_image(written_j - pos_j)))
-            scale = np.full(err.shape, extent)
+            def error():
+                return np.maximum(row_norms(box.minimum_image(written_i - pos_i)),
+                                  row_norms(box.minimum_image(written_j - pos_j)))
+            scale = np.full(len(i), extent)
             slack = np.sqrt(3) * (where.atoms.resolution + written_resolution(*(tab[c] for c in names["pos"])))
             what = f"have positions (pair/gran/local 'pos', columns {' '.join(names['pos'])}) other than the atoms dump's"
 
@@ -260,7 +300,8 @@ class LiggghtsReader(LammpsReader):
                         f"and ({show(f'{v:.9g}' for v in pos_j[k])}) in the atoms dump")
         elif "delta" in names and radii is not None:
             radii_sum = np.take(radii, i) + np.take(radii, j)
-            err = np.abs(overlap - (radii_sum - dist))
+            def error():
+                return np.abs(overlap - (radii_sum - dist))
             scale = radii_sum + extent
             slack = (written_resolution(overlap) + 2 * where.atoms.radius_resolution
                      + 2 * np.sqrt(3) * where.atoms.resolution)
@@ -279,4 +320,5 @@ class LiggghtsReader(LammpsReader):
         else:
             return
         fit = None if radii is None else (dist, np.take(radii, i) + np.take(radii, j))
-        self._refuse_geometry(where, i, j, id1, id2, err, scale, what, detail, hints, slack=slack, fit=fit)
+        self._refuse_geometry_deforming(box, where, i, j, id1, id2, error, scale, what, detail, hints, slack=slack,
+                                        fit=fit)
