@@ -270,3 +270,12 @@ def test_snapshot_file_keeps_contact_branches(tmp_path):
     assert np.array_equal(back[0].contacts.branch, snap.contacts.branch)
     assert np.array_equal(back[0].split_contacts()[0]["branch"], snap.split_contacts()[0]["branch"])
     assert back[1].contacts.branch is None
+    # MercuryDPM's .fstat holds a pair once (its reader refused the writer's once-per-image output): refused, and the
+    # files that were there are kept
+    from cgbound.readers.mercury import write_mercury
+    data_path, fstat_path = tmp_path / "t.data", tmp_path / "t.fstat"
+    data_path.write_text("kept\n")
+    with pytest.raises(ValueError, match=r"write_mercury: the snapshot at time .* lists a pair once per periodic image "
+                                         r".* Write it with write_snapshots \(HDF5\)"):
+        write_mercury([snap], str(data_path), str(fstat_path))
+    assert data_path.read_text() == "kept\n" and not fstat_path.exists()

@@ -32,6 +32,7 @@ def write_mercury(snapshots, data_path, fstat_path, *, precision=17, wall_index=
             for snap in snapshots:
                 if snap.radii is None:
                     raise ValueError("write_mercury: snapshots need radii")
+                _refuse_repeated_pairs(snap)
                 _write_data_frame(fd, snap, fmt, vec)
                 widx = np.zeros(len(snap.contacts), np.int64) if wall_index is None else np.asarray(wall_index(snap))
                 _write_fstat_frame(ff, snap, widx, fmt, vec)
@@ -53,6 +54,21 @@ def _write_data_frame(fd, snap, fmt, vec):
             fd.write(f"{vec(snap.positions[k])} {vec(vel[k])} {fmt % snap.radii[k]} 0 0 0 0 0 0 {species[k]}\n")
         else:
             fd.write(f"{vec(snap.positions[k])} {vec(vel[k])} {fmt % snap.radii[k]} 0 0 {species[k]}\n")
+
+
+def _refuse_repeated_pairs(snap):
+    """A pair listed once per periodic image (``Contacts.branch``: a box thinner than two contact distances) has no
+    MercuryDPM form that its reader takes back (a pair once from each side at most, the minimum image): refused."""
+    c = snap.contacts
+    if c.branch is None:
+        return
+    pair = c.j >= 0
+    key = np.minimum(c.i[pair], c.j[pair]) * snap.n_particles + np.maximum(c.i[pair], c.j[pair])
+    if key.size != np.unique(key).size:
+        raise ValueError(f"write_mercury: the snapshot at time {snap.time:g} lists a pair once per periodic image "
+                         f"(contacts.branch: a box thinner than two contact distances), which MercuryDPM's .fstat "
+                         f"cannot hold (a pair once, the minimum image). Write it with write_snapshots (HDF5), "
+                         f"which keeps the branches")
 
 
 def _write_fstat_frame(ff, snap, widx, fmt, vec):

@@ -45,10 +45,12 @@ dump's line, the likely causes and the fix):
   length, the largest of 0.25 of the largest box length, 4 radii and the input script's ``neighbor`` skin.
   Unwrapped positions are not checked. This needs no contacts: it also checks an atoms dump read alone. A frame
   without contacts, whose positions no contact geometry checks, is held along non-periodic and shrink-wrapped axes
-  to one ``neighbor`` skin (the input script's, else the engine's default for its units; not known where
-  ``neigh_modify`` sets ``every`` > 1 or ``check no``): an atom strays at most half a skin between
-  re-neighbourings (genuine dumps: 0.39 skin), forces written as positions lie 0.086 box lengths out
-  (tests/data/lammps/in.jkr3d at step 0, inside the 0.25);
+  to one ``neighbor`` skin (the input script's, else the engine's default for its units) where the script
+  re-neighbours on every step's check without a delay (``neigh_modify delay 0``; the default delay, 10 steps in
+  LAMMPS before 2023 and in LIGGGHTS, lets an atom stray further; not either where ``neigh_modify`` sets
+  ``every`` > 1, ``check no`` or ``once yes``): an atom strays at most half a skin between re-neighbourings
+  (genuine dumps: 0.39 skin); forces written as positions lie 0.086 box lengths out (tests/data/lammps/in.jkr3d
+  at step 0, inside the 0.25);
 * the contact geometry: the dumped positions must give each contact's geometry as LAMMPS wrote it. With
   ``dist`` among the pair/local values (or ``pair granular``'s branch vector ``p10 p11 p12``), the distance
   (vector) between the two positions (minimum image) must agree to ``GEOMETRY_TOLERANCE`` (1e-3) of (the
@@ -511,11 +513,6 @@ class LammpsReader(FrameReader):
         frame = LammpsFrame(snap, atoms.ids, atoms.types, timestep, atoms.forces, contact_ids, overlap)
         if self.check_forces and atoms.forces is not None and pairs_offset is not None:
             hints = self._balance_hints()
-            if contacts.branch is not None and self.input_script is not None and self.input_script.newton is False:
-                hints = ["pairs listed once per periodic image (a box thinner than two contact distances) with 'newton "
-                         "off' in the input script: LAMMPS then evaluates such pairs from each side, and the per-atom "
-                         "forces of their atoms are not those pair/local writes (tests/data/lammps/in.thin with newton "
-                         "off: 1.3 of the RMS contact force): run with 'newton on'"] + hints
             check_force_balance(frame.force_balance(), atoms.ids, self.atoms_path, timestep, FORCE_BALANCE_TOLERANCE,
                                 hints)
         return frame
@@ -679,8 +676,8 @@ class LammpsReader(FrameReader):
             by = f"by {stray[axis] / length[axis]:.3g} box lengths (refused beyond {BOX_SLACK[box.periodic[axis]]:g})"
         raise ValueError(
             f"{self.atoms_path}: timestep {timestep}: atom {atom}{line} has {shown}, outside the "
-            f"box [{box.lower[axis]:.9g}, {box.upper[axis]:.9g}] along that {kind} axis {by}; genuine dumps stray "
-            f"0.0075 box lengths at most, as LAMMPS lets an atom stray only until it re-neighbours. Likely causes: "
+            f"box [{box.lower[axis]:.9g}, {box.upper[axis]:.9g}] along that {kind} axis {by}; LAMMPS lets an atom "
+            f"stray only until it re-neighbours. Likely causes: "
             f"the atoms dump's position columns are not the positions: its 'ITEM: ATOMS' labels swapped (e.g. "
             f"'{name}' with 'v{name[0]}') or shifted against the columns, by an edit, a merge or a converter; or the "
             f"BOX BOUNDS are not this frame's. Fix: read the dump as LAMMPS wrote it, with the positions under their "
@@ -836,6 +833,17 @@ class LammpsReader(FrameReader):
                     fix=("add 'dist' to compute pair/local (pair granular: p10 p11 p12, the branch vector) and name it "
                          "in pair_values= (--pair-values, or give the input script, --input)"))
                 images = separation.copy()     # (the snapshot's branches: the point is rebuilt in place below)
+                if self.input_script is not None and self.input_script.newton is False:
+                    # (refused whatever check_forces says: pair/local's values of such pairs do not give the stress)
+                    axis = "xyz"[int(np.argmin(np.asarray(box.lengths, float)))]
+                    raise ValueError(
+                        f"{path}: timestep {timestep}: pairs listed once per periodic image (the periodic box length "
+                        f"along {axis}, {min(box.lengths):.6g}, is less than two contact distances) with 'newton off' "
+                        f"in the input script {self.input_script.path}: LAMMPS then evaluates such pairs from each "
+                        f"side, and neither its per-atom forces nor pair/local's values give their stress "
+                        f"(tests/data/lammps/in.thin with newton off: the contacts' virial 0.4-46 % off compute "
+                        f"pressure's). Fix: run with 'newton on' (the default), or a box at least two contact "
+                        f"distances wide")
         if names.get("branch"):
             branch = self._vectors(tab, names["branch"])
             # pair granular writes zeros (force and branch) for a pair it finds not touching (JKR beyond its
@@ -947,8 +955,8 @@ class LammpsReader(FrameReader):
                     f"more than once in {self.pairs_path}{lines([row])}, once per periodic image they touch through "
                     f"({thin()} less than two contact distances), and two images are as far apart as the contact "
                     f"dump says ({written[k]:.9g}){' and as much along its force' if normal is not None else ''}: "
-                    f"which one this listing is cannot be told. Fix: dump the branch vector (LAMMPS pair granular: "
-                    f"p10 p11 p12 in compute pair/local; LIGGGHTS: 'pos' in compute pair/gran/local) and name it in "
+                    f"which one this listing is cannot be told. Fix: dump the branch vector (pair granular: p10 p11 "
+                    f"p12 in compute pair/local) and name it in "
                     f"pair_values= (--pair-values, or give the input script, --input), or make the box at least two "
                     f"contact distances wide along its periodic axes")
             return steps[best]
@@ -956,10 +964,21 @@ class LammpsReader(FrameReader):
         if written_branch is not None:
             written = written_branch[rows]
             image = np.where(periodic, np.rint((written - s) / lengths), 0.0)
-            # pair granular's zero rows (an image it finds not touching): their image from 'dist' if dumped
+            # pair granular's zero rows (an image it finds not touching): their image from 'dist' if dumped, else
+            # (it cannot be told, and they carry nothing) the farthest, which drop_inactive drops and which no
+            # listing with a force takes
             unset = np.all(written == 0, axis=1)
             if unset.any():
-                image[unset] = by_dist(unset) if written_dist is not None else 0.0
+                if written_dist is not None:
+                    image[unset] = by_dist(unset)
+                else:
+                    axes = np.flatnonzero(periodic)
+                    shifts = np.array(np.meshgrid(*[(-1.0, 0.0, 1.0)] * axes.size, indexing="ij")).reshape(
+                        axes.size, -1).T
+                    steps = np.zeros((shifts.shape[0], lengths.size))
+                    steps[:, axes] = shifts
+                    far = np.sum((s[unset][:, None, :] + steps[None] * lengths) ** 2, axis=2)
+                    image[unset] = steps[np.argmax(far, axis=1)]
         elif written_dist is not None:
             image = by_dist(np.ones(rows.size, bool))
         else:

@@ -131,7 +131,11 @@ class InputScript:
     pair_coeffs: list = field(default_factory=list)   # the words of each pair_coeff line
     skin: float = None             # the ``neighbor`` command's skin distance, None without one
     neighbor_given: bool = False   # a ``neighbor`` command seen (its skin may be a variable: skin None)
-    neighbor_checked: bool = True  # re-neighbouring on the default check (no ``neigh_modify`` every N > 1, check no)
+    neighbor_checked: bool = True  # re-neighbouring on the default check (no ``neigh_modify`` every N > 1, check no,
+                                   # once yes)
+    neighbor_delay_zero: bool = False  # ``neigh_modify delay 0`` given (the default delay is 10 in LAMMPS before
+                                       # 2023 and in LIGGGHTS, 0 in later LAMMPS: not known from the script)
+    restart_read: bool = False     # a ``read_restart`` command seen (its units not in the script)
     newton: bool = None            # the ``newton`` command's pair setting (None without one: LAMMPS' default, on)
     computes: dict = field(default_factory=dict)
     dumps: list = field(default_factory=list)
@@ -163,12 +167,17 @@ class InputScript:
         """How far an atom can stray outside its box between re-neighbourings (the box check of a frame without
         contacts): one skin, twice the re-neighbouring trigger (skin / 2 of motion, ``neigh_modify check yes``);
         the ``neighbor`` command's skin, else the engine's default for the units (lj 0.3, real and metal 2.0, si
-        0.001, cgs 0.1; the same in LIGGGHTS). None where not known: a skin from a variable, other units, or
-        re-neighbouring not on every step's check (``neigh_modify every N`` with N > 1, or ``check no``)."""
-        if not self.neighbor_checked:
+        0.001, cgs 0.1; the same in LIGGGHTS). Only where the script re-neighbours on every step's check without
+        a delay (``neigh_modify delay 0``: the default delay, 10 steps in LAMMPS before 2023 and in LIGGGHTS, lets
+        an atom stray further); None where not known: a delay, a skin from a variable, other units, units from a
+        restart file, or re-neighbouring not on every step's check (``every N`` with N > 1, ``check no``,
+        ``once yes``)."""
+        if not self.neighbor_checked or not self.neighbor_delay_zero:
             return None
         if self.neighbor_given:
             return self.skin
+        if self.units is None and self.restart_read:
+            return None
         return _DEFAULT_SKIN.get(self.units or "lj")
 
     def wall_reach(self, walls):
@@ -391,6 +400,8 @@ class _Parser:
         elif cmd == "dimension":
             self.result.dimension = self.integer(w, 1, "dimension")
             self.result.dimension_given = True
+        elif cmd == "read_restart":
+            self.result.restart_read = True
         elif cmd == "units":
             if len(w) != 2:
                 self.fail("units: expected one style (lj, real, metal, si, cgs, electron, micro, nano)")
@@ -411,8 +422,11 @@ class _Parser:
             self.result.newton = w[1] == "on"
         elif cmd == "neigh_modify":
             for key, value in zip(w[1:], w[2:]):
-                if (key == "check" and value != "yes") or (key == "every" and value != "1"):
+                if (key == "check" and value != "yes") or (key == "every" and value != "1") or \
+                        (key == "once" and value != "no"):
                     self.result.neighbor_checked = False
+                if key == "delay":
+                    self.result.neighbor_delay_zero = value == "0"
         elif cmd == "neighbor" and len(w) > 1:
             self.result.neighbor_given = True
             self.result.skin = None
