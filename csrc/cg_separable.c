@@ -1425,7 +1425,8 @@ INLINE void axis_lanes_before(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W
     const vwd v = SELECT(at_end, A * W, diff);
     const vwl ok = at_end | (SPLAT(16.0) * v >= larger);
     *val = (vwd)((vwl)v & (meets & ok));
-    *cancel = (t1 > -near) & ~(meets & ok); /* (and near misses: their exact span) */
+    /* (and near misses, their exact span: the packed entries', h > 0, not the padding's) */
+    *cancel = (t1 > -near) & (h > zero) & ~(meets & ok);
 }
 
 /* ... and beyond its end (u > L: hi >= u > L, the end is inside the ball) */
@@ -1442,7 +1443,7 @@ INLINE void axis_lanes_after(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W,
     const vwd v = SELECT(at_start, A * W, diff);
     const vwl ok = at_start | (SPLAT(16.0) * v >= larger);
     *val = (vwd)((vwl)v & (meets & ok));
-    *cancel = (L + near > t0) & ~(meets & ok);
+    *cancel = (L + near > t0) & (h > zero) & ~(meets & ok);
 }
 
 /* a plane's lanes: before, within or after the segment (where: -1, 0, 1) */
@@ -1813,6 +1814,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, Lv, near_v, &val, &cancel);
                 for (uint64_t bits = mask_bits(cancel); bits; bits &= bits - 1) {
                     const cg_index k = kw + __builtin_ctzll(bits);
+                    if (k >= k_hi) break; /* (the padding: h = 0, never flagged; kept out whatever the lanes say) */
                     if (cuts.n == CUT_BATCH) axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
                     /* the part inside the ball: its span from exact differences, in the node's coordinates
                        q (the cross entries' indices from the offset); it starts at the start where that is

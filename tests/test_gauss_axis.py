@@ -342,3 +342,23 @@ def test_axis_segments_with_many_cancelling_nodes():
             fast = scatter(box, shape, s, v, [[1.0]], w, cutoff)
             slow = scatter(box, shape, s, tilted(v), [[1.0]], w, cutoff)
             assert_values_equal(fast, slow, (length_over_w, axis))
+
+
+def test_axis_segments_ending_within_rounding_of_a_node_plane():
+    """A segment's start or end a few ulp beyond a plane of nodes (the plane lies before the start, or after the end,
+    by less than the near-miss margin 2^-40 R): the plane's near misses go to the cut batch, its packed entries only
+    (never the padding lanes past them, whose h = 0 and offsets are not nodes); against the general path."""
+    box, shape = cg.Box([0, 0, 0], [8, 8, 8]), (16, 16, 16)     # nodes at 0.25 + 0.5 k
+    w, cutoff = 0.6, 3.0
+    node = 0.25 + 0.5 * 8
+    for eps in (0.0, 2.0 ** -52, 4e-16, -4e-16, 1e-13):
+        for axis in range(3):
+            for sign in (1.0, -1.0):
+                v = np.zeros((1, 3))
+                v[0, axis] = sign * 0.7
+                for end in (False, True):
+                    s = np.array([[4.1, 3.9, 4.05]])
+                    s[0, axis] = node + eps * sign - (v[0, axis] if end else 0.0)
+                    fast = scatter(box, shape, s, v, [[1.0]], w, cutoff)
+                    slow = scatter(box, shape, s, tilted(v), [[1.0]], w, cutoff)
+                    assert_values_equal(fast, slow, (eps, axis, sign, end))
