@@ -15,7 +15,7 @@ import pytest
 
 import cgbound
 from cgbound.cli import main
-from cgbound.readers import LammpsReader
+from cgbound.readers import LammpsReader, open_dataset
 from cgbound.readers.lammps_input import read_input
 from cgbound.readers.liggghts import LiggghtsReader
 
@@ -161,6 +161,40 @@ def test_fast_deforming_box_is_read_and_misplaced_positions_refused(tmp_path, ca
     bad = misaligned(os.path.join(LAMMPS, case, "atoms.dump"), tmp_path / "atoms.dump")
     with pytest.raises(ValueError, match=r"timestep 40: the positions do not fit .* have a distance \('dist'"):
         read_all(lammps(bad, case, check_forces=False, input=script))
+
+
+def split_per_frame(src, directory, name):
+    """The frames of the dump ``src`` written one per file, ``directory/name.TIMESTEP.dump`` (as ``dump ... name.*.dump``
+    writes them)."""
+    with open(src) as fh:
+        text = fh.read()
+    for frame in text.split("ITEM: TIMESTEP\n")[1:]:
+        with open(os.path.join(directory, f"{name}.{frame.split(chr(10), 1)[0].strip()}.dump"), "w") as out:
+            out.write("ITEM: TIMESTEP\n" + frame)
+
+
+@pytest.mark.parametrize("engine,case", [("lammps", "deform_mpi"), ("liggghts", "deform")])
+def test_deforming_box_one_frame_per_file_is_read(tmp_path, engine, case):
+    # genuine output (fix deform ... remap x, 2e-3 strain per step) written one file per frame, as 'dump ...
+    # atoms.*.dump' does: each frame's allowance for the box's change per step comes from its neighbours in the other
+    # files (was 0: a genuine frame refused, the contact dump's columns blamed). A frame read alone cannot tell the
+    # change: refused, the script's fix deform named first with the fix
+    data = LAMMPS if engine == "lammps" else LIGGGHTS
+    for name in ("atoms", "pairs"):
+        split_per_frame(os.path.join(data, case, f"{name}.dump"), tmp_path, name)
+    with open(os.path.join(data, "in.deform")) as fh:     # (its dumps as 'dump ... atoms.*.dump' writes them)
+        script = re.sub(r"^(dump .* )(atoms|pairs)\.dump ", r"\1\2.*.dump ", fh.read(), flags=re.M)
+    (tmp_path / "in.deform").write_text(script)
+    options = dict(format=engine, input=str(tmp_path / "in.deform"), check_forces=False)
+    whole = open_dataset(os.path.join(data, case, "atoms.dump"), pairs=os.path.join(data, case, "pairs.dump"),
+                         **dict(options, input=os.path.join(data, "in.deform")))
+    split = open_dataset(str(tmp_path / "atoms.*.dump"), pairs=str(tmp_path / "pairs.*.dump"), **options)
+    assert len(split) == 4 and [len(s.contacts) for s in split] == [len(s.contacts) for s in whole]
+    alone = open_dataset(str(tmp_path / "atoms.40.dump"), pairs=str(tmp_path / "pairs.40.dump"), **options)
+    with pytest.raises(ValueError, match=r"timestep 40: the positions do not fit .* Likely causes: a deforming box "
+                                         r"\(fix deform def in .*in\.deform: line \d+\), its change per step unknown "
+                                         r"from one frame: .* Fix: read the frames together"):
+        alone[0]
 
 
 def _virial(k):

@@ -427,6 +427,19 @@ class LammpsReader(FrameReader):
         self._frames = self._match(list(self._atoms_dump))
         self._warn_repeated_steps()
         self._cache = None
+        self._outer = (None, None)    # the neighbouring frames in the files before and after (_link_files)
+
+    def _link_files(self, before, after):
+        """Learn the frames next to this file's in the files read before and after it (readers of the same kind, or
+        None): open_dataset reads one file per reader, and with one frame per file (``dump ... atoms.*.dump``) a
+        frame's only neighbours are in other files (:meth:`_remap_per_step`). Keeps each as (the file's DumpIndex,
+        the frame's offset, its timestep): read only when a frame's geometry check fails."""
+        def edge(reader, k):
+            if not isinstance(reader, LammpsReader) or not reader._frames or reader.dimension != self.dimension:
+                return None
+            offset, timestep, _ = reader._frames[k]
+            return reader._atoms_dump, offset, timestep
+        self._outer = (edge(before, -1), edge(after, 0))
 
     def _warn_repeated_steps(self):
         """A timestep written twice in the atoms dump (a run restarted from a restart file and appending to its dump,
@@ -1080,6 +1093,20 @@ class LammpsReader(FrameReader):
         except ValueError:
             moved = self._remap_per_step(where.timestep, box)
             if not moved:
+                deforms = [] if self.input_script is None else self.input_script.deforms
+                if not deforms:
+                    raise
+                # the script deforms the box, and no neighbouring frame tells by how much a step: say so first
+                fid, line = deforms[0]
+                first = (f"a deforming box (fix deform {fid} in {line}), its change per step unknown from one frame: "
+                         f"the engine remaps the atoms at the end of a step but not the ghost images (or, on several "
+                         f"processors, the other processors' copies) the contact dump's geometry comes from, off by "
+                         f"up to that change; cgbound allows twice it, taken from the neighbouring frames' boxes",
+                         "read the frames together (all the dump files in one open_dataset call or one cgbound "
+                         "command: a pattern such as atoms.*.dump with pairs.*.dump), so that each frame sees its "
+                         "neighbours' boxes")
+                self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack,
+                                      first=first, **options)
                 raise
             self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack + 2 * moved,
                                   **options)
@@ -1096,11 +1123,19 @@ class LammpsReader(FrameReader):
         k = steps.index(timestep)
         axes = list(self._axes())
         others = []
-        for n in (k - 1, k + 1):
-            if 0 <= n < len(steps) and steps[n] != timestep:
-                bounds = self._atoms_dump.read(self._frames[n][0])["bounds"]
+        # (a frame first or last in its file: the neighbouring file's frame, when open_dataset read them together)
+        outer = getattr(self, "_outer", (None, None))
+        for n, beyond in ((k - 1, outer[0]), (k + 1, outer[1])):
+            if 0 <= n < len(steps):
+                index, offset, step = self._atoms_dump, self._frames[n][0], steps[n]
+            elif beyond is not None:
+                index, offset, step = beyond
+            else:
+                continue
+            if step != timestep:
+                bounds = index.read(offset)["bounds"]
                 if bounds is not None:
-                    others.append((bounds[:, 0][axes], bounds[:, 1][axes], abs(steps[n] - timestep)))
+                    others.append((bounds[:, 0][axes], bounds[:, 1][axes], abs(step - timestep)))
         return box_change_per_step(box.lower, box.upper, others)
 
     def _check_reach(self, where, i, j, id1, id2, dist, radii_sum, force, hint):
@@ -1137,7 +1172,7 @@ class LammpsReader(FrameReader):
                                   what, detail, hints[:1], active, tolerance=False)
 
     def _refuse_geometry(self, where, i, j, id1, id2, err, scale, what, detail, hints, checked=None, tolerance=True,
-                         lenient=None, slack=0.0, fit=None):
+                         lenient=None, slack=0.0, fit=None, first=None):
         """Raise (contact_geometry_error) for the contacts :func:`geometry_misfits` refuses (``tolerance``: show
         each one's tolerance; ``lenient``: bools of the contacts held only to the rule for most contacts;
         ``slack``: a length the written decimals account for; ``fit``: (the positions' distances, r_i + r_j), to
@@ -1165,7 +1200,7 @@ class LammpsReader(FrameReader):
             self.atoms_path, f"the contacts of {self.pairs_path}", where.timestep, bad,
             ratio / tol, what,
             (lambda k: f"{detail(k)} (tolerance {tol * scale[k] + slack:.2g})") if tolerance else detail, location,
-            [*hints, "the two dumps are not of the same run"], checked, touching)
+            [*hints, "the two dumps are not of the same run"], checked, touching, first)
 
 
 def _contact_reach(pair_style, script):

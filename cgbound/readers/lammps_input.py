@@ -144,6 +144,7 @@ class InputScript:
     fixed_types: tuple = ()
     gravity: np.ndarray = None
     gravity_group: str = None
+    deforms: list = field(default_factory=list)   # (fix ID, "SCRIPT: line N") of each ``fix deform``: a box that changes
     variables: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
 
@@ -636,6 +637,8 @@ class _Parser:
                 self.setforce_zero.add(group)
         elif style == "gravity":
             self.gravity_fix(fid, group, args)
+        elif style == "deform":
+            self.result.deforms.append((fid, self.where))
         elif _INTEGRATORS.match(style):
             self.integrated.append(group)
 
