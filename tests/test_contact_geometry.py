@@ -197,6 +197,30 @@ def test_deforming_box_one_frame_per_file_is_read(tmp_path, engine, case):
         alone[0]
 
 
+def test_particle_touching_its_own_image_is_refused(tmp_path):
+    # genuine output (tests/data/lammps/in.self): a periodic box 0.95 wide along x, diameters 0.85..1: a particle
+    # touches its own image and pair/local lists it with itself (patom1 == patom2; was refused blaming the atoms
+    # dump's labels). Refused naming the axis, the length, the diameter, the lines and the fix
+    reader = lammps(None, "self")
+    with pytest.raises(ValueError, match=r"self/pairs\.dump: timestep 7300: atom 6 \(the atoms dump's line 11\) is "
+                                         r"listed in contact with itself, the contact dump's line 13 \(8 such rows .*"
+                                         r"the periodic length along x, 0\.95, is less than the particle's diameter "
+                                         r"\(0\.959533\), so it touches its own periodic image; cgbound does not model "
+                                         r"self-contacts .* Fix: make the box at least one diameter wide"):
+        reader.frame(0)
+    # (edited copy: the rows of a particle with itself that carry a force deleted) those without a force, its image
+    # within the cutoff but not touching, carry nothing: dropped, the frame read
+    with open(os.path.join(LAMMPS, "self", "pairs.dump")) as fh:
+        lines = fh.read().splitlines(True)
+    rows = [r for r in lines[9:] if not (r.split()[1] == r.split()[2] and any(float(v) for v in r.split()[4:10]))]
+    assert len(lines) - 9 - len(rows) == 8
+    lines[3] = f"{len(rows)}\n"
+    (tmp_path / "pairs.dump").write_text("".join(lines[:9] + rows))
+    snap = LammpsReader(os.path.join(LAMMPS, "self", "atoms.dump"), tmp_path / "pairs.dump", check_forces=False,
+                        input=os.path.join(LAMMPS, "in.self")).frame(0).snapshot
+    assert len(snap.contacts) > 0 and not np.any(snap.contacts.i == snap.contacts.j)
+
+
 def _virial(k):
     """LAMMPS' pair virial W / V of frame k of tests/data/lammps/thin (compute pressure ... virial: xx yy zz xy xz yz,
     W_ab = sum r_a f_b / V over the pairs, f on the atom at r_i from j, r = r_i - r_j)."""

@@ -154,7 +154,7 @@ import numpy as np
 from .._validate import flag, index_array, positive_number
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
-from ._lammps_dump import scan_dump
+from ._lammps_dump import Table, scan_dump
 from ._sequence import FrameReader, file_name
 from .checks import (FORCE_BALANCE_TOLERANCE, GEOMETRY_TOLERANCE, box_change_per_step, check_force_balance,
                      compute_columns, contact_geometry_error, dump_local_header, force_balance, generic_columns,
@@ -815,6 +815,9 @@ class LammpsReader(FrameReader):
         id1 = tab.integers(names["id1"])
         id2 = tab.integers(names["id2"])
         i, j = contact_indices(ids, id1, id2, path, timestep)
+        if np.any(id1 == id2):
+            tab, m, id1, id2, i, j = self._without_self_rows(
+                tab, id1, id2, i, j, [names["force"], names.get("tangential") or ()], radii, box, where, timestep)
         force = self._vectors(tab, names["force"])
         if names.get("tangential"):
             force += self._vectors(tab, names["tangential"])
@@ -897,6 +900,44 @@ class LammpsReader(FrameReader):
         contact_ids = np.empty((len(i), 2), np.int64)
         contact_ids[:, 0], contact_ids[:, 1] = (id1, id2) if kept is None else (id1[kept], id2[kept])
         return i, j, force, point, contact_ids, overlap, images
+
+    def _without_self_rows(self, tab, id1, id2, i, j, force_columns, radii, box, where, timestep):
+        """The contact rows without those of a particle paired with itself (id1 == id2): in a periodic box shorter
+        than a particle's diameter plus the neighbour skin the engine lists the particle with its own image. Such a
+        row without a force (``force_columns``: tuples of column names; the image within the cutoff, not touching)
+        carries nothing and is dropped; one with a force (the particle touches its own image: a periodic length
+        less than its diameter) is refused, as cgbound does not model self-contacts. Returns (tab, m, id1, id2, i,
+        j) of the rows kept."""
+        same = id1 == id2
+        acting = np.zeros(same.shape, bool)
+        for cols in force_columns:
+            for c in cols:
+                acting |= tab[c] != 0
+        bad = np.flatnonzero(same & acting)
+        if bad.size:
+            k = int(bad[0])
+            lengths = np.asarray(box.upper, float) - np.asarray(box.lower, float)
+            axes = "xyz"[:lengths.size]
+            periodic = [a for a in range(lengths.size) if box.periodic[a]]
+            diameter = None if radii is None else 2.0 * float(radii[i[k]])
+            short = [a for a in periodic if diameter is None or lengths[a] < diameter] or periodic
+            a = min(short, key=lambda b: lengths[b]) if short else int(np.argmin(lengths))
+            size = "its contact distance" if diameter is None else f"the particle's diameter ({diameter:.6g})"
+            atom_line = "" if where is None or where.atoms.first_line is None else \
+                f" (the atoms dump's line {where.atoms.first_line + int(where.atoms.order[i[k]])})"
+            pair_line = "" if where is None or where.pairs_line is None else \
+                f", the contact dump's line {where.pairs_line + k}"
+            raise ValueError(
+                f"{self.pairs_path}: timestep {timestep}: atom {int(id1[k])}{atom_line} is listed in contact with "
+                f"itself{pair_line} ({bad.size} such row{'s' if bad.size > 1 else ''} with a force in the frame, atoms "
+                f"dump {self.atoms_path}): the periodic length along {axes[a]}, {lengths[a]:.6g}, is less than {size}, "
+                f"so it touches its own periodic image; cgbound does not model self-contacts (a particle's force on "
+                f"itself). Fix: make the box at least one diameter wide along its periodic axes (better two contact "
+                f"distances, so that no pair touches through two images either)")
+        keep = ~same
+        rows = Table(tab.values[keep], list(tab.index))     # (its integer columns: those rows of the frame's)
+        rows.integer_columns = {c: v[keep] for c, v in tab.integer_columns.items()}
+        return rows, int(np.count_nonzero(keep)), id1[keep], id2[keep], i[keep], j[keep]
 
     def _listed_images(self, where, i, j, id1, id2, separation, crossed, box, repeated, force, written_branch=None,
                        written_dist=None, normal=None, fix=""):

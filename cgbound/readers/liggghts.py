@@ -214,6 +214,10 @@ class LiggghtsReader(LammpsReader):
         id1 = tab.integers(names["id"][0])
         id2 = tab.integers(names["id"][1])
         i, j = contact_indices(ids, id1, id2, path, timestep)
+        if np.any(id1 == id2):
+            tab, m, id1, id2, i, j = self._without_self_rows(
+                tab, id1, id2, i, j, [names[k] for k in ("force", "force_normal", "force_tangential") if k in names],
+                radii, box, where, timestep)
         if "force" in names:
             force = self._vectors(tab, names["force"])
         else:
