@@ -1132,7 +1132,11 @@ class LammpsReader(FrameReader):
         try:
             self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack, **options)
         except ValueError:
-            moved = self._remap_per_step(where.timestep, box)
+            moved = None
+            if self.input_script is not None and box is not None:
+                moved = self.input_script.deform_change(where.timestep, box.lower, box.upper, self._deform_units)
+            if not moved:
+                moved = self._remap_per_step(where.timestep, box)
             if not moved:
                 deforms = [] if self.input_script is None else self.input_script.deforms
                 if not deforms:
@@ -1142,7 +1146,9 @@ class LammpsReader(FrameReader):
                 first = (f"a deforming box (fix deform {fid} in {line}), its change per step unknown from one frame: "
                          f"the engine remaps the atoms at the end of a step but not the ghost images (or, on several "
                          f"processors, the other processors' copies) the contact dump's geometry comes from, off by "
-                         f"up to that change; cgbound allows twice it, taken from the neighbouring frames' boxes",
+                         f"up to that change; cgbound allows twice it, taken from the script's fix deform (styles "
+                         f"final, delta, scale, vel, erate, trate, in runs the script's steps tell; 'final' not at "
+                         f"its run's last step) or else from the neighbouring frames' boxes",
                          "read the frames together (all the dump files in one open_dataset call or one cgbound "
                          "command: a pattern such as atoms.*.dump with pairs.*.dump), so that each frame sees its "
                          "neighbours' boxes")
@@ -1151,6 +1157,9 @@ class LammpsReader(FrameReader):
                 raise
             self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack + 2 * moved,
                                   **options)
+
+    #: the units of fix deform's lengths without a 'units' keyword: LAMMPS' default (LIGGGHTS': box)
+    _deform_units = "lattice"
 
     def _remap_per_step(self, timestep, box):
         """How far a box that deforms moves an atom per step (``remap x``), from the box bounds of this frame and its

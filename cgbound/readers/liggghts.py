@@ -188,6 +188,10 @@ class LiggghtsReader(LammpsReader):
         script = self.input_script
         self.contact_reach = 1.0 if script is not None and script.cohesive is False else 2.0
 
+    #: fix deform's lengths without a 'units' keyword are box lengths in LIGGGHTS (tests/data/liggghts/in.deform:
+    #: 'final 0 0.0024' after 'lattice sc 0.001' ends at a box 0.0024 wide)
+    _deform_units = "box"
+
     def _balance_hints(self):
         """The causes of a force mismatch that apply to LIGGGHTS (LAMMPS's name --pair-style and --walls, which
         LIGGGHTS input does not take, and miss its walls, whose contacts this reader does not read)."""
