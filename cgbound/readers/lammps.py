@@ -1132,14 +1132,13 @@ class LammpsReader(FrameReader):
         try:
             self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack, **options)
         except ValueError:
-            moved = None
+            scripted = None      # (the script's: 0 where no fix deform acts at this step, None where not known)
             if self.input_script is not None and box is not None:
-                moved = self.input_script.deform_change(where.timestep, box.lower, box.upper, self._deform_units)
-            if not moved:
-                moved = self._remap_per_step(where.timestep, box)
+                scripted = self.input_script.deform_change(where.timestep, box.lower, box.upper, self._deform_units)
+            moved = scripted or self._remap_per_step(where.timestep, box)
             if not moved:
                 deforms = [] if self.input_script is None else self.input_script.deforms
-                if not deforms:
+                if not deforms or scripted is not None:
                     raise
                 # the script deforms the box, and no neighbouring frame tells by how much a step: say so first
                 fid, line = deforms[0]
