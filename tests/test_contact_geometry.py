@@ -202,6 +202,15 @@ def test_deforming_box_one_frame_per_file_is_read(tmp_path, engine, case):
         alone[0]
 
 
+def test_deforming_box_not_blamed_after_unfix(tmp_path):
+    # tests/data/lammps/in.thin deforms its box, then 'unfix'es it before the frames: a refused frame (positions of
+    # the wrong atoms) is not put down to the deforming box
+    bad = misaligned(os.path.join(LAMMPS, "thin", "atoms.dump"), tmp_path / "atoms.dump")
+    with pytest.raises(ValueError, match=r"timestep 7300: the positions do not fit") as refused:
+        lammps(bad, "thin").frame(0)
+    assert "deforming box" not in str(refused.value)
+
+
 def test_particle_touching_its_own_image_is_refused(tmp_path):
     # genuine output (tests/data/lammps/in.self): a periodic box 0.95 wide along x, diameters 0.85..1: a particle
     # touches its own image and pair/local lists it with itself (patom1 == patom2; was refused blaming the atoms
