@@ -164,8 +164,8 @@ def test_fast_deforming_box_is_read_and_misplaced_positions_refused(tmp_path, ca
 
 
 def split_per_frame(src, directory, name):
-    """The frames of the dump ``src`` written one per file, ``directory/name.TIMESTEP.dump`` (as ``dump ... name.*.dump``
-    writes them)."""
+    """The frames of the dump ``src`` written one per file, ``directory/name.TIMESTEP.dump`` (as ``dump ...
+    name.*.dump`` writes them)."""
     with open(src) as fh:
         text = fh.read()
     for frame in text.split("ITEM: TIMESTEP\n")[1:]:

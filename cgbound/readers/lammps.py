@@ -63,8 +63,12 @@ dump's line, the likely causes and the fix):
   deforming with ``remap x`` leaves the ghost images pair/local uses one step stale (off by the step's strain
   times the box length: 1e-2 of the distance at 2e-3 strain per step, tests/data/lammps/in.deform). On several
   processors the ghost copies of the other processors' atoms are as stale inside the box: a frame the check
-  refuses is checked again allowing twice the box's change per step (its bounds against the neighbouring
-  frames'), when it changes. Without
+  refuses is checked again allowing twice the box's change per step, when it changes: from the input script's
+  ``fix deform`` (:meth:`~cgbound.readers.lammps_input.InputScript.deform_change`), else its bounds against the
+  neighbouring frames' (in other files too, where open_dataset reads one file per frame); a frame neither tells
+  (read alone) is refused naming the script's fix deform first. A particle listed in contact with itself (a
+  periodic length shorter than its diameter: it touches its own image) is refused; such rows without a force
+  are dropped. Without
   either, a contact with a force must not join particles further apart than r_i + r_j for a repulsive model
   (``gran/*``; ``granular`` without ``jkr``, known from ``input``), or 2 (r_i + r_j) where cohesion is possible
   or not known (``pair_style="granular"``), and most contacts must not overlap by more than half of r_i + r_j.
@@ -1127,8 +1131,8 @@ class LammpsReader(FrameReader):
         deforms allowed for: atoms are remapped at the end of a step, the ghost images pair/local (LIGGGHTS:
         pair/gran/local) takes for a contact across a periodic boundary, and on several processors the ghost copies
         of the other processors' atoms, not; a frame refused is checked again allowing twice the box's change per
-        step (:func:`~cgbound.readers.checks.box_change_per_step`; read only when the check fails: it reads the
-        neighbouring frames' bounds)."""
+        step: the input script's fix deform's (InputScript.deform_change), else from the neighbouring frames' bounds
+        (:func:`~cgbound.readers.checks.box_change_per_step`; read only when the check fails)."""
         try:
             self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack, **options)
         except ValueError:

@@ -144,7 +144,8 @@ class InputScript:
     fixed_types: tuple = ()
     gravity: np.ndarray = None
     gravity_group: str = None
-    deforms: list = field(default_factory=list)   # (fix ID, "SCRIPT: line N") of each ``fix deform``: a box that changes
+    deforms: list = field(default_factory=list)   # (fix ID, "SCRIPT: line N") of each ``fix deform``: a box that
+                                                  # changes
     deform_runs: list = field(default_factory=list)   # (first step, last step, _Deform or None: not understood) of
                                                       # each run with a fix deform defined; (a step it comes after or
                                                       # None, None, None) where its steps are not known
