@@ -825,8 +825,10 @@ def _lattice_spacings(w, units, dimension):
     if style not in _LATTICES or scale <= 0:
         return None
     nbasis, edges = _LATTICES[style]
-    # lj units: the scale is a reduced density, the lattice constant (nbasis / rho)^(1/dimension)
-    a = (nbasis / scale) ** (1.0 / dimension) if (units or "lj") == "lj" else scale
+    # lj units: the scale is a reduced density, the lattice constant (nbasis / (rho volume))^(1/dimension), the unit
+    # cell's volume (area in 2D) in lattice constants
+    volume = float(np.prod(edges[:dimension]))
+    a = (nbasis / (scale * volume)) ** (1.0 / dimension) if (units or "lj") == "lj" else scale
     return tuple(a * e for e in edges)
 
 
