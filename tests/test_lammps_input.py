@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from cgbound.readers.lammps import LammpsReader
-from cgbound.readers.lammps_input import InputScriptError, read_input
+from cgbound.readers.lammps_input import InputScriptError, _lattice_spacings, read_input
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.path.join(HERE, "data")
@@ -287,3 +287,8 @@ run 10
     assert s.deform_change(455, lower, upper) is None       # (a run after a label: its steps not known)
     wiggle = read_input(script(tmp_path, "fix d all deform 1 x wiggle 0.1 1.0\nrun 10\n", "in.wiggle"))
     assert wiggle.deform_change(5, lower, upper) is None
+    # the lattice spacings LAMMPS printed (lj: a reduced density, hcp's cell sqrt(8) lattice constants cubed)
+    assert np.allclose(_lattice_spacings(["lattice", "hcp", "0.9"], "lj", 3), (1.1625835, 2.0136537, 1.8984909),
+                       rtol=1e-7)
+    assert np.allclose(_lattice_spacings(["lattice", "hex", "0.8"], "lj", 2), (1.2014057, 2.0808957, 1.2014057),
+                       rtol=1e-7)
