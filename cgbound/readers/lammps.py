@@ -1139,7 +1139,8 @@ class LammpsReader(FrameReader):
             scripted = None      # (the script's: 0 where no fix deform acts at this step, None where not known)
             if self.input_script is not None and box is not None:
                 scripted = self.input_script.deform_change(where.timestep, box.lower, box.upper, self._deform_units)
-            moved = scripted or self._remap_per_step(where.timestep, box)
+            # (the larger of the two: the neighbours' boxes measure what the script says, and were the rule before)
+            moved = max(scripted or 0.0, self._remap_per_step(where.timestep, box))
             if not moved:
                 deforms = [] if self.input_script is None else self.input_script.deforms
                 if not deforms or scripted is not None:
