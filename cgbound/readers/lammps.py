@@ -64,7 +64,7 @@ dump's line, the likely causes and the fix):
   times the box length: 1e-2 of the distance at 2e-3 strain per step, tests/data/lammps/in.deform). On several
   processors the ghost copies of the other processors' atoms are as stale inside the box: a frame the check
   refuses is checked again allowing twice the box's change per step, when it changes: from the input script's
-  ``fix deform`` (:meth:`~cgbound.readers.lammps_input.InputScript.deform_change`), else its bounds against the
+  ``fix deform`` (:meth:`~cgbound.readers.lammps_input.InputScript.deform_change`) or its bounds against the
   neighbouring frames' (in other files too, where open_dataset reads one file per frame); a frame neither tells
   (read alone) is refused naming the script's fix deform first. A particle listed in contact with itself (a
   periodic length shorter than its diameter: it touches its own image) is refused; such rows without a force
@@ -1131,7 +1131,7 @@ class LammpsReader(FrameReader):
         deforms allowed for: atoms are remapped at the end of a step, the ghost images pair/local (LIGGGHTS:
         pair/gran/local) takes for a contact across a periodic boundary, and on several processors the ghost copies
         of the other processors' atoms, not; a frame refused is checked again allowing twice the box's change per
-        step: the input script's fix deform's (InputScript.deform_change), else from the neighbouring frames' bounds
+        step: the larger of the input script's fix deform's (InputScript.deform_change) and the neighbouring frames'
         (:func:`~cgbound.readers.checks.box_change_per_step`; read only when the check fails)."""
         try:
             self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack, **options)
@@ -1152,7 +1152,7 @@ class LammpsReader(FrameReader):
                          f"processors, the other processors' copies) the contact dump's geometry comes from, off by "
                          f"up to that change; cgbound allows twice it, taken from the script's fix deform (styles "
                          f"final, delta, scale, vel, erate, trate, in runs the script's steps tell; 'final' not at "
-                         f"its run's last step) or else from the neighbouring frames' boxes",
+                         f"its run's last step) or the neighbouring frames' boxes",
                          "read the frames together (all the dump files in one open_dataset call or one cgbound "
                          "command: a pattern such as atoms.*.dump with pairs.*.dump), so that each frame sees its "
                          "neighbours' boxes")

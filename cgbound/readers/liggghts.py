@@ -42,7 +42,7 @@ settled packing can pass them; dump ``pos`` to have the positions checked). In a
 ... remap x``) the ghost image of j that pair/gran/local takes for a contact across a periodic boundary keeps the
 old box length, its ``pos`` (and ``delta``) off by the box's change in a step: a frame the check refuses is checked
 again allowing twice that change (as LAMMPS' is, from the script's fix deform, its lengths in box units by
-default in LIGGGHTS, or the neighbouring frames; tests/data/liggghts/in.deform: 2e-3 strain per step, 11 of 33
+default in LIGGGHTS, and the neighbouring frames'; tests/data/liggghts/in.deform: 2e-3 strain per step, 11 of 33
 contacts off by up to 5.9e-6 m, the box 2.9e-3 m long).
 In a periodic box thinner than two contact distances LIGGGHTS lists a pair that touches through two periodic
 images once per image, and its output for those pairs does not balance (tests/data/liggghts/in.thin: up to 0.74 of
