@@ -15,7 +15,7 @@ import pytest
 
 import cgbound
 from cgbound.cli import main
-from cgbound.readers import LammpsReader
+from cgbound.readers import LammpsReader, open_dataset
 from cgbound.readers.lammps_input import read_input
 from cgbound.readers.liggghts import LiggghtsReader
 
@@ -161,6 +161,78 @@ def test_fast_deforming_box_is_read_and_misplaced_positions_refused(tmp_path, ca
     bad = misaligned(os.path.join(LAMMPS, case, "atoms.dump"), tmp_path / "atoms.dump")
     with pytest.raises(ValueError, match=r"timestep 40: the positions do not fit .* have a distance \('dist'"):
         read_all(lammps(bad, case, check_forces=False, input=script))
+
+
+def split_per_frame(src, directory, name):
+    """The frames of the dump ``src`` written one per file, ``directory/name.TIMESTEP.dump`` (as ``dump ...
+    name.*.dump`` writes them)."""
+    with open(src) as fh:
+        text = fh.read()
+    for frame in text.split("ITEM: TIMESTEP\n")[1:]:
+        with open(os.path.join(directory, f"{name}.{frame.split(chr(10), 1)[0].strip()}.dump"), "w") as out:
+            out.write("ITEM: TIMESTEP\n" + frame)
+
+
+@pytest.mark.parametrize("engine,case", [("lammps", "deform_mpi"), ("liggghts", "deform")])
+def test_deforming_box_one_frame_per_file_is_read(tmp_path, engine, case):
+    # genuine output (fix deform ... remap x, 2e-3 strain per step) written one file per frame, as 'dump ...
+    # atoms.*.dump' does: each frame's allowance for the box's change per step comes from its neighbours in the other
+    # files (was 0: a genuine frame refused, the contact dump's columns blamed). A frame read alone takes it from the
+    # script's fix deform ('final': the box's way to its final size over the run); at the run's last step (the box
+    # final, its start not known) it cannot: refused, the script's fix deform named first with the fix
+    data = LAMMPS if engine == "lammps" else LIGGGHTS
+    for name in ("atoms", "pairs"):
+        split_per_frame(os.path.join(data, case, f"{name}.dump"), tmp_path, name)
+    with open(os.path.join(data, "in.deform")) as fh:     # (its dumps as 'dump ... atoms.*.dump' writes them)
+        script = re.sub(r"^(dump .* )(atoms|pairs)\.dump ", r"\1\2.*.dump ", fh.read(), flags=re.M)
+    (tmp_path / "in.deform").write_text(script)
+    options = dict(format=engine, input=str(tmp_path / "in.deform"), check_forces=False)
+    whole = open_dataset(os.path.join(data, case, "atoms.dump"), pairs=os.path.join(data, case, "pairs.dump"),
+                         **dict(options, input=os.path.join(data, "in.deform")))
+    split = open_dataset(str(tmp_path / "atoms.*.dump"), pairs=str(tmp_path / "pairs.*.dump"), **options)
+    assert len(split) == 4 and [len(s.contacts) for s in split] == [len(s.contacts) for s in whole]
+    for step in (40, 80):
+        alone = open_dataset(str(tmp_path / f"atoms.{step}.dump"), pairs=str(tmp_path / f"pairs.{step}.dump"),
+                             **options)
+        assert len(alone[0].contacts) == len(whole[step // 40].contacts)
+    alone = open_dataset(str(tmp_path / "atoms.120.dump"), pairs=str(tmp_path / "pairs.120.dump"), **options)
+    with pytest.raises(ValueError, match=r"timestep 120: the positions do not fit .* Likely causes: a deforming box "
+                                         r"\(fix deform def in .*in\.deform: line \d+\), its change per step unknown "
+                                         r"from one frame: .* Fix: read the frames together"):
+        alone[0]
+
+
+def test_deforming_box_not_blamed_after_unfix(tmp_path):
+    # tests/data/lammps/in.thin deforms its box, then 'unfix'es it before the frames: a refused frame (positions of
+    # the wrong atoms) is not put down to the deforming box
+    bad = misaligned(os.path.join(LAMMPS, "thin", "atoms.dump"), tmp_path / "atoms.dump")
+    with pytest.raises(ValueError, match=r"timestep 7300: the positions do not fit") as refused:
+        lammps(bad, "thin").frame(0)
+    assert "deforming box" not in str(refused.value)
+
+
+def test_particle_touching_its_own_image_is_refused(tmp_path):
+    # genuine output (tests/data/lammps/in.self): a periodic box 0.95 wide along x, diameters 0.85..1: a particle
+    # touches its own image and pair/local lists it with itself (patom1 == patom2; was refused blaming the atoms
+    # dump's labels). Refused naming the axis, the length, the diameter, the lines and the fix
+    reader = lammps(None, "self")
+    with pytest.raises(ValueError, match=r"self/pairs\.dump: timestep 7300: atom 6 \(the atoms dump's line 11\) is "
+                                         r"listed in contact with itself, the contact dump's line 13 \(8 such rows .*"
+                                         r"the periodic length along x, 0\.95, is less than the particle's diameter "
+                                         r"\(0\.959533\), so it touches its own periodic image; cgbound does not model "
+                                         r"self-contacts .* Fix: make the box at least one diameter wide"):
+        reader.frame(0)
+    # (edited copy: the rows of a particle with itself that carry a force deleted) those without a force, its image
+    # within the cutoff but not touching, carry nothing: dropped, the frame read
+    with open(os.path.join(LAMMPS, "self", "pairs.dump")) as fh:
+        lines = fh.read().splitlines(True)
+    rows = [r for r in lines[9:] if not (r.split()[1] == r.split()[2] and any(float(v) for v in r.split()[4:10]))]
+    assert len(lines) - 9 - len(rows) == 8
+    lines[3] = f"{len(rows)}\n"
+    (tmp_path / "pairs.dump").write_text("".join(lines[:9] + rows))
+    snap = LammpsReader(os.path.join(LAMMPS, "self", "atoms.dump"), tmp_path / "pairs.dump", check_forces=False,
+                        input=os.path.join(LAMMPS, "in.self")).frame(0).snapshot
+    assert len(snap.contacts) > 0 and not np.any(snap.contacts.i == snap.contacts.j)
 
 
 def _virial(k):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from cgbound.readers.lammps import LammpsReader
-from cgbound.readers.lammps_input import InputScriptError, read_input
+from cgbound.readers.lammps_input import InputScriptError, _lattice_spacings, read_input
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DATA = os.path.join(HERE, "data")
@@ -255,3 +255,40 @@ def test_wall_reach_of_the_wall_fixes(tmp_path):
     assert s.wall_reach(("a",)) == 1.0          # repulsive
     assert s.wall_reach(("a", "b")) == 2.0      # jkr pulls beyond contact
     assert s.wall_reach(("c",)) == 2.0          # not in the script: not known
+
+
+def test_fix_deform_change_per_step(tmp_path):
+    # the box's change per step as LAMMPS' fix deform defines it (the allowance of a frame read alone in a deforming
+    # box): delta over the run, vel and erate per time step size, every N steps N times that, 'final' from the
+    # frame's box to the final one over the run's remaining steps (lattice units by default in LAMMPS, box in
+    # LIGGGHTS); 0 without a fix deform at that step; None where the script does not tell
+    path = script(tmp_path, """units lj
+lattice fcc 0.8
+timestep 0.002
+run 100
+fix d all deform 2 x delta -1 1 y vel 0.5 z erate 0.01 units box remap x
+run 200
+unfix d
+run 50
+fix d2 all deform 1 x final 0 3
+run 100
+label again
+run 10
+""")
+    s = read_input(path)
+    lower, upper = np.zeros(3), np.array([4.0, 4.0, 4.0])
+    assert s.deform_change(150, lower, upper) == pytest.approx(
+        2 * np.sqrt(0.01 ** 2 + 0.001 ** 2 + (2e-5 * 4 / 1.001) ** 2), rel=1e-12)
+    assert s.deform_change(50, lower, upper) == 0.0 and s.deform_change(320, lower, upper) == 0.0
+    a = (4 / 0.8) ** (1 / 3)
+    assert s.deform_change(400, lower, upper) == pytest.approx(abs(3 * a - 4) / 50, rel=1e-12)
+    assert s.deform_change(400, lower, upper, "box") == pytest.approx(1 / 50, rel=1e-12)
+    assert s.deform_change(450, lower, upper) is None       # (the final box: its start not known from the frame)
+    assert s.deform_change(455, lower, upper) is None       # (a run after a label: its steps not known)
+    wiggle = read_input(script(tmp_path, "fix d all deform 1 x wiggle 0.1 1.0\nrun 10\n", "in.wiggle"))
+    assert wiggle.deform_change(5, lower, upper) is None
+    # the lattice spacings LAMMPS printed (lj: a reduced density, hcp's cell sqrt(8) lattice constants cubed)
+    assert np.allclose(_lattice_spacings(["lattice", "hcp", "0.9"], "lj", 3), (1.1625835, 2.0136537, 1.8984909),
+                       rtol=1e-7)
+    assert np.allclose(_lattice_spacings(["lattice", "hex", "0.8"], "lj", 2), (1.2014057, 2.0808957, 1.2014057),
+                       rtol=1e-7)

@@ -202,7 +202,7 @@ def repeated_pairs(i, j, n):
 
 
 def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detail, location, hints=(), checked=None,
-                           touching=None):
+                           touching=None, first=None):
     """The error for contacts whose geometry the dumped positions do not give (nothing is raised here).
 
     ``source``: the contacts' origin ("the contacts of PAIRS"); ``bad``: (M,) bools of the contacts refused;
@@ -211,7 +211,8 @@ def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detai
     (its atoms, their lines); ``hints``: other likely causes, as text naming the reader's option; ``checked``:
     bools of the contacts checked (default all); ``touching``: the fraction of the checked contacts whose positions
     are as far apart as touching particles are (0.7 to 1.01 r_i + r_j), or None: from 0.9 on the positions look
-    right, and the contact dump's own columns (``hints``, first: their order) lead the causes.
+    right, and the contact dump's own columns (``hints``, first: their order) lead the causes; ``first``: (cause,
+    fix) known to lead them all (a deforming box whose change per step is not known).
     """
     rows = np.flatnonzero(bad)
     total = bad.size if checked is None else int(np.count_nonzero(checked))
@@ -231,6 +232,10 @@ def contact_geometry_error(atoms_path, source, timestep, bad, score, what, detai
                "--pair-values; or give the input script, --input); else " + fix)
     else:
         causes = "; ".join([causes, *hints])
+    if first is not None:
+        lead = ""
+        causes = f"{first[0]}; else {causes}"
+        fix = f"{first[1]}; else {fix}"
     return ValueError(
         f"{atoms_path}: timestep {timestep}: the positions do not fit {source}: {rows.size} of {total} contacts "
         f"{what}. The worst: {location(k)}: {detail(k)}. {lead}Likely causes: {causes}. Fix: {fix}")

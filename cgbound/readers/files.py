@@ -103,6 +103,11 @@ class ConcatenatedFrames(FrameSequence):
         self.readers = list(readers)
         self._frames = [(r, k) for r, reader in enumerate(self.readers) for k in range(len(reader))]
         self._check_order(name)
+        # readers that check a frame against its neighbours' boxes (LAMMPS, LIGGGHTS: a deforming box) see across files
+        for k, reader in enumerate(self.readers):
+            link = getattr(reader, "_link_files", None)
+            if link is not None:
+                link(self.readers[k - 1] if k else None, self.readers[k + 1] if k + 1 < len(self.readers) else None)
 
     def _check_order(self, name):
         """Each file's frames must come after the previous file's (timesteps, or else times, from the readers' own

@@ -63,8 +63,12 @@ dump's line, the likely causes and the fix):
   deforming with ``remap x`` leaves the ghost images pair/local uses one step stale (off by the step's strain
   times the box length: 1e-2 of the distance at 2e-3 strain per step, tests/data/lammps/in.deform). On several
   processors the ghost copies of the other processors' atoms are as stale inside the box: a frame the check
-  refuses is checked again allowing twice the box's change per step (its bounds against the neighbouring
-  frames'), when it changes. Without
+  refuses is checked again allowing twice the box's change per step, when it changes: from the input script's
+  ``fix deform`` (:meth:`~cgbound.readers.lammps_input.InputScript.deform_change`) or its bounds against the
+  neighbouring frames' (in other files too, where open_dataset reads one file per frame); a frame neither tells
+  (read alone) is refused naming the script's fix deform first. A particle listed in contact with itself (a
+  periodic length shorter than its diameter: it touches its own image) is refused; such rows without a force
+  are dropped. Without
   either, a contact with a force must not join particles further apart than r_i + r_j for a repulsive model
   (``gran/*``; ``granular`` without ``jkr``, known from ``input``), or 2 (r_i + r_j) where cohesion is possible
   or not known (``pair_style="granular"``), and most contacts must not overlap by more than half of r_i + r_j.
@@ -154,7 +158,7 @@ import numpy as np
 from .._validate import flag, index_array, positive_number
 from ..box import Box
 from ..snapshot import Contacts, Snapshot
-from ._lammps_dump import scan_dump
+from ._lammps_dump import Table, scan_dump
 from ._sequence import FrameReader, file_name
 from .checks import (FORCE_BALANCE_TOLERANCE, GEOMETRY_TOLERANCE, box_change_per_step, check_force_balance,
                      compute_columns, contact_geometry_error, dump_local_header, force_balance, generic_columns,
@@ -427,6 +431,19 @@ class LammpsReader(FrameReader):
         self._frames = self._match(list(self._atoms_dump))
         self._warn_repeated_steps()
         self._cache = None
+        self._outer = (None, None)    # the neighbouring frames in the files before and after (_link_files)
+
+    def _link_files(self, before, after):
+        """Learn the frames next to this file's in the files read before and after it (readers of the same kind, or
+        None): open_dataset reads one file per reader, and with one frame per file (``dump ... atoms.*.dump``) a
+        frame's only neighbours are in other files (:meth:`_remap_per_step`). Keeps each as (the file's DumpIndex,
+        the frame's offset, its timestep): read only when a frame's geometry check fails."""
+        def edge(reader, k):
+            if not isinstance(reader, LammpsReader) or not reader._frames or reader.dimension != self.dimension:
+                return None
+            offset, timestep, _ = reader._frames[k]
+            return reader._atoms_dump, offset, timestep
+        self._outer = (edge(before, -1), edge(after, 0))
 
     def _warn_repeated_steps(self):
         """A timestep written twice in the atoms dump (a run restarted from a restart file and appending to its dump,
@@ -802,6 +819,9 @@ class LammpsReader(FrameReader):
         id1 = tab.integers(names["id1"])
         id2 = tab.integers(names["id2"])
         i, j = contact_indices(ids, id1, id2, path, timestep)
+        if np.any(id1 == id2):
+            tab, m, id1, id2, i, j = self._without_self_rows(
+                tab, id1, id2, i, j, [names["force"], names.get("tangential") or ()], radii, box, where, timestep)
         force = self._vectors(tab, names["force"])
         if names.get("tangential"):
             force += self._vectors(tab, names["tangential"])
@@ -884,6 +904,44 @@ class LammpsReader(FrameReader):
         contact_ids = np.empty((len(i), 2), np.int64)
         contact_ids[:, 0], contact_ids[:, 1] = (id1, id2) if kept is None else (id1[kept], id2[kept])
         return i, j, force, point, contact_ids, overlap, images
+
+    def _without_self_rows(self, tab, id1, id2, i, j, force_columns, radii, box, where, timestep):
+        """The contact rows without those of a particle paired with itself (id1 == id2): in a periodic box shorter
+        than a particle's diameter plus the neighbour skin the engine lists the particle with its own image. Such a
+        row without a force (``force_columns``: tuples of column names; the image within the cutoff, not touching)
+        carries nothing and is dropped; one with a force (the particle touches its own image: a periodic length
+        less than its diameter) is refused, as cgbound does not model self-contacts. Returns (tab, m, id1, id2, i,
+        j) of the rows kept."""
+        same = id1 == id2
+        acting = np.zeros(same.shape, bool)
+        for cols in force_columns:
+            for c in cols:
+                acting |= tab[c] != 0
+        bad = np.flatnonzero(same & acting)
+        if bad.size:
+            k = int(bad[0])
+            lengths = np.asarray(box.upper, float) - np.asarray(box.lower, float)
+            axes = "xyz"[:lengths.size]
+            periodic = [a for a in range(lengths.size) if box.periodic[a]]
+            diameter = None if radii is None else 2.0 * float(radii[i[k]])
+            short = [a for a in periodic if diameter is None or lengths[a] < diameter] or periodic
+            a = min(short, key=lambda b: lengths[b]) if short else int(np.argmin(lengths))
+            size = "its contact distance" if diameter is None else f"the particle's diameter ({diameter:.6g})"
+            atom_line = "" if where is None or where.atoms.first_line is None else \
+                f" (the atoms dump's line {where.atoms.first_line + int(where.atoms.order[i[k]])})"
+            pair_line = "" if where is None or where.pairs_line is None else \
+                f", the contact dump's line {where.pairs_line + k}"
+            raise ValueError(
+                f"{self.pairs_path}: timestep {timestep}: atom {int(id1[k])}{atom_line} is listed in contact with "
+                f"itself{pair_line} ({bad.size} such row{'s' if bad.size > 1 else ''} with a force in the frame, atoms "
+                f"dump {self.atoms_path}): the periodic length along {axes[a]}, {lengths[a]:.6g}, is less than {size}, "
+                f"so it touches its own periodic image; cgbound does not model self-contacts (a particle's force on "
+                f"itself). Fix: make the box at least one diameter wide along its periodic axes (better two contact "
+                f"distances, so that no pair touches through two images either)")
+        keep = ~same
+        rows = Table(tab.values[keep], list(tab.index))     # (its integer columns: those rows of the frame's)
+        rows.integer_columns = {c: v[keep] for c, v in tab.integer_columns.items()}
+        return rows, int(np.count_nonzero(keep)), id1[keep], id2[keep], i[keep], j[keep]
 
     def _listed_images(self, where, i, j, id1, id2, separation, crossed, box, repeated, force, written_branch=None,
                        written_dist=None, normal=None, fix=""):
@@ -1073,16 +1131,39 @@ class LammpsReader(FrameReader):
         deforms allowed for: atoms are remapped at the end of a step, the ghost images pair/local (LIGGGHTS:
         pair/gran/local) takes for a contact across a periodic boundary, and on several processors the ghost copies
         of the other processors' atoms, not; a frame refused is checked again allowing twice the box's change per
-        step (:func:`~cgbound.readers.checks.box_change_per_step`; read only when the check fails: it reads the
-        neighbouring frames' bounds)."""
+        step: the larger of the input script's fix deform's (InputScript.deform_change) and the neighbouring frames'
+        (:func:`~cgbound.readers.checks.box_change_per_step`; read only when the check fails)."""
         try:
             self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack, **options)
         except ValueError:
-            moved = self._remap_per_step(where.timestep, box)
+            scripted = None      # (the script's: 0 where no fix deform acts at this step, None where not known)
+            if self.input_script is not None and box is not None:
+                scripted = self.input_script.deform_change(where.timestep, box.lower, box.upper, self._deform_units)
+            # (the larger of the two: the neighbours' boxes measure what the script says, and were the rule before)
+            moved = max(scripted or 0.0, self._remap_per_step(where.timestep, box))
             if not moved:
+                deforms = [] if self.input_script is None else self.input_script.deforms
+                if not deforms or scripted is not None:
+                    raise
+                # the script deforms the box, and no neighbouring frame tells by how much a step: say so first
+                fid, line = deforms[0]
+                first = (f"a deforming box (fix deform {fid} in {line}), its change per step unknown from one frame: "
+                         f"the engine remaps the atoms at the end of a step but not the ghost images (or, on several "
+                         f"processors, the other processors' copies) the contact dump's geometry comes from, off by "
+                         f"up to that change; cgbound allows twice it, taken from the script's fix deform (styles "
+                         f"final, delta, scale, vel, erate, trate, in runs the script's steps tell; 'final' not at "
+                         f"its run's last step) or the neighbouring frames' boxes",
+                         "read the frames together (all the dump files in one open_dataset call or one cgbound "
+                         "command: a pattern such as atoms.*.dump with pairs.*.dump), so that each frame sees its "
+                         "neighbours' boxes")
+                self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack,
+                                      first=first, **options)
                 raise
             self._refuse_geometry(where, i, j, id1, id2, error(), scale, what, detail, hints, slack=slack + 2 * moved,
                                   **options)
+
+    #: the units of fix deform's lengths without a 'units' keyword: LAMMPS' default (LIGGGHTS': box)
+    _deform_units = "lattice"
 
     def _remap_per_step(self, timestep, box):
         """How far a box that deforms moves an atom per step (``remap x``), from the box bounds of this frame and its
@@ -1096,11 +1177,19 @@ class LammpsReader(FrameReader):
         k = steps.index(timestep)
         axes = list(self._axes())
         others = []
-        for n in (k - 1, k + 1):
-            if 0 <= n < len(steps) and steps[n] != timestep:
-                bounds = self._atoms_dump.read(self._frames[n][0])["bounds"]
+        # (a frame first or last in its file: the neighbouring file's frame, when open_dataset read them together)
+        outer = getattr(self, "_outer", (None, None))
+        for n, beyond in ((k - 1, outer[0]), (k + 1, outer[1])):
+            if 0 <= n < len(steps):
+                index, offset, step = self._atoms_dump, self._frames[n][0], steps[n]
+            elif beyond is not None:
+                index, offset, step = beyond
+            else:
+                continue
+            if step != timestep:
+                bounds = index.read(offset)["bounds"]
                 if bounds is not None:
-                    others.append((bounds[:, 0][axes], bounds[:, 1][axes], abs(steps[n] - timestep)))
+                    others.append((bounds[:, 0][axes], bounds[:, 1][axes], abs(step - timestep)))
         return box_change_per_step(box.lower, box.upper, others)
 
     def _check_reach(self, where, i, j, id1, id2, dist, radii_sum, force, hint):
@@ -1137,7 +1226,7 @@ class LammpsReader(FrameReader):
                                   what, detail, hints[:1], active, tolerance=False)
 
     def _refuse_geometry(self, where, i, j, id1, id2, err, scale, what, detail, hints, checked=None, tolerance=True,
-                         lenient=None, slack=0.0, fit=None):
+                         lenient=None, slack=0.0, fit=None, first=None):
         """Raise (contact_geometry_error) for the contacts :func:`geometry_misfits` refuses (``tolerance``: show
         each one's tolerance; ``lenient``: bools of the contacts held only to the rule for most contacts;
         ``slack``: a length the written decimals account for; ``fit``: (the positions' distances, r_i + r_j), to
@@ -1165,7 +1254,7 @@ class LammpsReader(FrameReader):
             self.atoms_path, f"the contacts of {self.pairs_path}", where.timestep, bad,
             ratio / tol, what,
             (lambda k: f"{detail(k)} (tolerance {tol * scale[k] + slack:.2g})") if tolerance else detail, location,
-            [*hints, "the two dumps are not of the same run"], checked, touching)
+            [*hints, "the two dumps are not of the same run"], checked, touching, first)
 
 
 def _contact_reach(pair_style, script):

@@ -144,6 +144,11 @@ class InputScript:
     fixed_types: tuple = ()
     gravity: np.ndarray = None
     gravity_group: str = None
+    deforms: list = field(default_factory=list)   # (fix ID, "SCRIPT: line N") of each ``fix deform``: a box that
+                                                  # changes
+    deform_runs: list = field(default_factory=list)   # (first step, last step, _Deform or None: not understood) of
+                                                      # each run with a fix deform defined; (a step it comes after or
+                                                      # None, None, None) where its steps are not known
     variables: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
 
@@ -179,6 +184,29 @@ class InputScript:
         if self.units is None and self.restart_read:
             return None
         return _DEFAULT_SKIN.get(self.units or "lj")
+
+    def deform_change(self, timestep, lower, upper, default_units="lattice"):
+        """How far the box's bounds move per step at ``timestep`` (the largest change of a bound or a length per step
+        along each axis, combined over the axes; deformed every N steps: N times that), from the script's ``fix
+        deform`` (styles final, delta, scale, vel, erate, trate; ``units lattice`` with the lattice spacing of a
+        ``lattice`` command without orient/spacing/a1-a3 keywords; ``default_units``: the engine's default, "lattice"
+        for LAMMPS, "box" for LIGGGHTS); ``lower``, ``upper``: the frame's box (D,).
+        0.0 where no fix deform acts at that step; None where the script does not tell (a style not understood, runs
+        in a loop, after a restart or a minimisation, a frame at a run's last step of a ``final`` deformation)."""
+        if not self.deforms:
+            return 0.0
+        known = [r for r in self.deform_runs if r[1] is not None]
+        runs = [r for r in known if r[0] < timestep <= r[1]] or [r for r in known if r[0] == timestep]
+        if not runs:
+            # a run whose steps are not known (after a loop's label, a restart ...) after step r[0] (None: any)
+            if any(r[1] is None and (r[0] is None or timestep > r[0]) for r in self.deform_runs):
+                return None
+            return 0.0
+        run = runs[0]
+        if run[2] is None:
+            return None
+        return run[2].change(timestep, run[0], run[1], np.asarray(lower, float), np.asarray(upper, float),
+                             default_units)
 
     def wall_reach(self, walls):
         """How far from a particle's centre, in radii, the contact point of a wall contact of the fixes ``walls``
@@ -261,6 +289,11 @@ class _Parser:
         self.walls = {}
         self.where = ""
         self.include_depth = 0
+        self.step = 0              # the timestep (None: not known: a restart, a minimisation, a loop)
+        self.known_step = 0        # the last step known (later steps come after it; None: not even that)
+        self.dt = None             # the ``timestep`` command's size (None: the units' default)
+        self.lattice = (1.0, 1.0, 1.0)   # the lattice spacings (None: not understood)
+        self.deform = {}           # fix ID -> _Deform or None (not understood) of the fix deform defined
 
     def fail(self, what):
         raise InputScriptError(f"{self.where}: {what}")
@@ -402,6 +435,25 @@ class _Parser:
             self.result.dimension_given = True
         elif cmd == "read_restart":
             self.result.restart_read = True
+            self.step = self.known_step = None
+        elif cmd in ("minimize", "read_dump", "rerun", "label", "jump", "next"):
+            self.step = None       # (steps taken not known, or runs not followed: a loop)
+        elif cmd == "reset_timestep" and len(w) > 1:
+            try:
+                self.step = int(w[1])
+            except ValueError:
+                self.step = None
+            self.known_step = self.step if self.known_step is not None and self.step is not None \
+                and self.step >= self.known_step else None     # (steps may go back: any step)
+        elif cmd == "timestep" and len(w) > 1:
+            try:
+                self.dt = float(w[1])
+            except ValueError:
+                self.dt = None
+        elif cmd == "lattice":
+            self.lattice = _lattice_spacings(w, self.result.units, self.result.dimension)
+        elif cmd == "run":
+            self.run(w)
         elif cmd == "units":
             if len(w) != 2:
                 self.fail("units: expected one style (lj, real, metal, si, cgs, electron, micro, nano)")
@@ -447,6 +499,7 @@ class _Parser:
         elif cmd == "unfix":
             if len(w) == 2:
                 self.gravity.pop(w[1], None)
+                self.deform.pop(w[1], None)
         elif cmd == "velocity":
             if len(w) >= 6 and w[2] == "set" and all(self.is_zero(x) for x in w[3:6]):
                 self.velocity_zero.add(w[1])
@@ -636,8 +689,33 @@ class _Parser:
                 self.setforce_zero.add(group)
         elif style == "gravity":
             self.gravity_fix(fid, group, args)
+        elif style == "deform":
+            self.result.deforms.append((fid, self.where))
+            self.deform[fid] = _Deform.parse(args, self.lattice, self.dt if self.dt is not None else
+                                             _DEFAULT_DT.get(self.result.units or "lj"))
+        elif fid in self.deform:
+            self.deform.pop(fid)     # (the ID redefined as another fix)
         elif _INTEGRATORS.match(style):
             self.integrated.append(group)
+
+    def run(self, w):
+        """A ``run N`` advances the timestep by N (``upto``: to N); each fix deform defined deforms over it."""
+        try:
+            n = int(float(w[1]))
+        except (IndexError, ValueError):
+            n = None
+        rest = w[2:]
+        if n is None or self.step is None or any(k in rest for k in ("start", "stop")):
+            if self.deform:
+                self.result.deform_runs.append((self.known_step, None, None))
+            self.step = None
+            return
+        first, last = self.step, (n if "upto" in rest else self.step + n)
+        self.known_step = last
+        if self.deform:
+            fixes = list(self.deform.values())
+            self.result.deform_runs.append((first, last, fixes[0] if len(fixes) == 1 else None))
+        self.step = last
 
     def gravity_fix(self, fid, group, args):
         if self.gravity:
@@ -722,3 +800,127 @@ def read_input(path, variables=None):
     parser = _Parser(path, variables)
     parser.run_file(path)
     return parser.finish()
+
+
+#: LAMMPS' default time step per units style (the ``timestep`` command's doc)
+_DEFAULT_DT = {"lj": 0.005, "real": 1.0, "metal": 0.001, "si": 1e-8, "cgs": 1e-8, "electron": 0.001, "micro": 2.0,
+               "nano": 0.00045}
+#: basis atoms per unit cell and the cell's edges in lattice constants, of LAMMPS' lattice styles
+_LATTICES = {"sc": (1, (1, 1, 1)), "bcc": (2, (1, 1, 1)), "fcc": (4, (1, 1, 1)), "diamond": (8, (1, 1, 1)),
+             "hcp": (4, (1, math.sqrt(3), math.sqrt(8 / 3))), "sq": (1, (1, 1, 1)), "sq2": (2, (1, 1, 1)),
+             "hex": (2, (1, math.sqrt(3), 1))}
+
+
+def _lattice_spacings(w, units, dimension):
+    """The x, y, z lattice spacings of a ``lattice`` command (as LAMMPS computes them for units lattice), or None
+    where not understood (custom, orient, spacing, a1-a3 keywords)."""
+    try:
+        style, scale = w[1], float(w[2])
+    except (IndexError, ValueError):
+        return None
+    if any(k in w[3:] for k in ("orient", "spacing", "a1", "a2", "a3", "basis")):
+        return None
+    if style == "none":
+        return (scale, scale, scale)
+    if style not in _LATTICES or scale <= 0:
+        return None
+    nbasis, edges = _LATTICES[style]
+    # lj units: the scale is a reduced density, the lattice constant (nbasis / (rho volume))^(1/dimension), the unit
+    # cell's volume (area in 2D) in lattice constants
+    volume = float(np.prod(edges[:dimension]))
+    a = (nbasis / (scale * volume)) ** (1.0 / dimension) if (units or "lj") == "lj" else scale
+    return tuple(a * e for e in edges)
+
+
+class _Deform:
+    """The box change of a ``fix deform`` over a run, per axis (x y z with styles final, delta, scale, vel,
+    erate, trate), as LAMMPS' fix deform defines them."""
+
+    def __init__(self, every, axes, units, lattice):
+        # axes: {axis: (style, values)}, per step (vel, erate, trate); units: "box", "lattice" or None (the engine's
+        # default: lattice in LAMMPS, box in LIGGGHTS, whose genuine in.deform gives 'final' in box units)
+        self.every, self.axes, self.units, self.lattice = every, axes, units, lattice
+
+    @classmethod
+    def parse(cls, args, lattice, dt):
+        """From the words after ``fix ID group deform``; None where not understood (the change then not known)."""
+        try:
+            every = int(args[0])
+        except (IndexError, ValueError):
+            return None
+        sizes = {"final": 2, "delta": 2, "scale": 1, "vel": 1, "erate": 1, "trate": 1}
+        axes, k, units = {}, 1, None
+        raw = {}
+        while k < len(args):
+            key = args[k]
+            if key in ("x", "y", "z"):
+                style = args[k + 1] if k + 1 < len(args) else None
+                if style not in sizes:
+                    return None      # (volume, wiggle, variable, pressure ...: not known here)
+                try:
+                    raw[key] = (style, [float(v) for v in args[k + 2:k + 2 + sizes[style]]])
+                except ValueError:
+                    return None
+                if len(raw[key][1]) != sizes[style]:
+                    return None
+                k += 2 + sizes[style]
+            elif key in ("xy", "xz", "yz"):
+                return None
+            elif key in ("remap", "flip", "couple", "vol/balance/p", "max/rate", "normalize/pressure"):
+                k += 2
+            elif key == "units":
+                units = args[k + 1] if k + 1 < len(args) else None
+                k += 2
+            else:
+                return None
+        if units not in ("box", "lattice", None) or not raw:
+            return None
+        for key, (style, values) in raw.items():
+            a = "xyz".index(key)
+            if style in ("vel", "erate", "trate"):
+                if dt is None:
+                    return None
+                values = [v * dt for v in values]     # (per step)
+            axes[a] = (style, values)
+        return cls(every, axes, units, lattice)
+
+    def change(self, timestep, first, last, lower, upper, default_units="lattice"):
+        """The bounds' change per step at ``timestep`` of a run from step ``first`` to ``last`` (see
+        InputScript.deform_change), the frame's box ``lower``, ``upper``; None where not known."""
+        units = self.units or default_units
+        if units == "lattice" and self.lattice is None and any(st in ("final", "delta", "vel")
+                                                               for st, _ in self.axes.values()):
+            return None
+        span = last - first
+        if span <= 0:
+            return 0.0
+        done = timestep - first
+        moved = np.zeros(lower.size)
+        for a, (style, values) in self.axes.items():
+            if a >= lower.size:
+                continue
+            lo, hi = lower[a], upper[a]
+            length = hi - lo
+            if style in ("final", "delta", "vel") and units == "lattice":
+                values = [v * self.lattice[a] for v in values]
+            if style == "final":
+                if timestep >= last:
+                    return None       # (the box is the final one: its start not known from this frame)
+                d_lo, d_hi = (values[0] - lo) / (last - timestep), (values[1] - hi) / (last - timestep)
+            elif style == "delta":
+                d_lo, d_hi = values[0] / span, values[1] / span
+            elif style == "scale":
+                start = length / (1.0 + (values[0] - 1.0) * done / span)
+                d_hi = 0.5 * (values[0] - 1.0) * start / span
+                d_lo = -d_hi
+            elif style == "vel":
+                d_hi, d_lo = 0.5 * values[0], -0.5 * values[0]
+            elif style == "erate":
+                start = length / (1.0 + values[0] * done)
+                d_hi = 0.5 * values[0] * start
+                d_lo = -d_hi
+            else:    # trate: L0 exp(rate t); per step at most rate L e^|rate|
+                d_hi = 0.5 * abs(values[0]) * length * math.exp(abs(values[0]))
+                d_lo = -d_hi
+            moved[a] = max(abs(d_lo), abs(d_hi), abs(d_hi - d_lo))
+        return self.every * float(np.sqrt(np.sum(moved ** 2)))

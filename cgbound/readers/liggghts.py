@@ -41,7 +41,8 @@ most contacts not overlapping by more than half of r_i + r_j (loose bounds: posi
 settled packing can pass them; dump ``pos`` to have the positions checked). In a box that deforms (``fix deform
 ... remap x``) the ghost image of j that pair/gran/local takes for a contact across a periodic boundary keeps the
 old box length, its ``pos`` (and ``delta``) off by the box's change in a step: a frame the check refuses is checked
-again allowing twice that change (as LAMMPS' is; tests/data/liggghts/in.deform: 2e-3 strain per step, 11 of 33
+again allowing twice that change (as LAMMPS' is, from the script's fix deform, its lengths in box units by
+default in LIGGGHTS, and the neighbouring frames'; tests/data/liggghts/in.deform: 2e-3 strain per step, 11 of 33
 contacts off by up to 5.9e-6 m, the box 2.9e-3 m long).
 In a periodic box thinner than two contact distances LIGGGHTS lists a pair that touches through two periodic
 images once per image, and its output for those pairs does not balance (tests/data/liggghts/in.thin: up to 0.74 of
@@ -188,6 +189,10 @@ class LiggghtsReader(LammpsReader):
         script = self.input_script
         self.contact_reach = 1.0 if script is not None and script.cohesive is False else 2.0
 
+    #: fix deform's lengths without a 'units' keyword are box lengths in LIGGGHTS (tests/data/liggghts/in.deform:
+    #: 'final 0 0.0024' after 'lattice sc 0.001' ends at a box 0.0024 wide)
+    _deform_units = "box"
+
     def _balance_hints(self):
         """The causes of a force mismatch that apply to LIGGGHTS (LAMMPS's name --pair-style and --walls, which
         LIGGGHTS input does not take, and miss its walls, whose contacts this reader does not read)."""
@@ -214,6 +219,10 @@ class LiggghtsReader(LammpsReader):
         id1 = tab.integers(names["id"][0])
         id2 = tab.integers(names["id"][1])
         i, j = contact_indices(ids, id1, id2, path, timestep)
+        if np.any(id1 == id2):
+            tab, m, id1, id2, i, j = self._without_self_rows(
+                tab, id1, id2, i, j, [names[k] for k in ("force", "force_normal", "force_tangential") if k in names],
+                radii, box, where, timestep)
         if "force" in names:
             force = self._vectors(tab, names["force"])
         else:
