@@ -1388,7 +1388,7 @@ HOT_CLONES static int visit_point(const job *jb, double *out, cg_index obj, cons
 
 /* one VW-lane step of a row: val = the bracket (0 where the ball misses the segment or the terms cancel:
    cancel's lanes), from the along entries u, Es, Ee, W and the cross entries h, A, Pc */
-INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *in, vwl *cancel)
+INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *cancel)
 {
     const vwd zero = {0.0};
     const vwd lo = u - h, hi = u + h;
@@ -1406,7 +1406,6 @@ INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L
     v = SELECT(both, A * W, v);
     const vwl ok = both | (SPLAT(16.0) * v >= largest);
     *val = (vwd)((vwl)v & (meets & ok));
-    *in = meets;
     *cancel = (meets & ~ok) | (~meets & (h > zero)); /* (and a chord lost to rounding: its exact span) */
 }
 
@@ -1450,13 +1449,23 @@ INLINE void axis_lanes_after(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W,
 INLINE void axis_plane_lanes(int where, vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd near,
                              vwd *val, vwl *cancel)
 {
-    vwl in;
     if (where < 0)
         axis_lanes_before(u, h, A, Pc, Es, Ee, W, L, near, val, cancel);
     else if (where > 0)
         axis_lanes_after(u, h, A, Pc, Es, Ee, W, L, near, val, cancel);
     else
-        axis_lanes(u, h, A, Pc, Es, Ee, W, L, val, &in, cancel);
+        axis_lanes(u, h, A, Pc, Es, Ee, W, L, val, cancel);
+}
+
+/* axis_plane_lanes of the packed entries kw .. kw + VW (their h, A and Pc) */
+INLINE void axis_packed_lanes(int where, vwd u, const double *PH, const double *PA, const double *PP, cg_index kw,
+                              vwd Es, vwd Ee, vwd W, vwd L, vwd near, vwd *val, vwl *cancel)
+{
+    vwd h, A, Pc;
+    memcpy(&h, PH + kw, sizeof h);
+    memcpy(&A, PA + kw, sizeof A);
+    memcpy(&Pc, PP + kw, sizeof Pc);
+    axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, L, near, val, cancel);
 }
 
 /* the AVX-512 build packs lanes by its compress instructions (the 4-wide, lane by lane: the same values) */
@@ -1486,6 +1495,17 @@ INLINE void scatter_add_picked(double *restrict o, double scale, const double *r
     }
     for (cg_index k = 0; k < n; ++k)
         if (w[k] != 0.0) block_add_picked(o + at[k], scale, w + k, 1, v, nv, p);
+}
+
+/* a plane's n values w added at their nodes' offsets at (out: the plane's first output; one: a single picked value,
+   the values already times it and the scale) */
+INLINE void add_plane(double *out, const double *restrict w, const cg_index *restrict at, cg_index n, double scale,
+                      int one, const double *restrict values, int nv, const picked *pick)
+{
+    if (one)
+        scatter_add_one(out + pick->at[0], w, at, n);
+    else
+        scatter_add_picked(out, scale, w, at, n, values, nv, pick);
 }
 
 /* visit_axis's cancelling nodes (and those whose sphere misses an end of the segment, or the segment, by less
@@ -1602,7 +1622,9 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        index over the cross slots) and output offset; whole vectors of two (padding: h = 0, which meets
        no segment) */
     const cg_index width = jb->out_width;
-    const cg_index sa_c = stride[c1], sb_c = stride[c2], node0c = first[c1] * sa_c + first[c2] * sb_c;
+    /* the cross slots' strides (sb > 0: slot c2 is resolved; sa = 0 where slot c1 is not, its one entry 0) and the
+       node of their first entries */
+    const cg_index sa = stride[c1], sb = stride[c2], node0 = first[c1] * sa + first[c2] * sb;
     /* the packed rows (cross entries along slot c2 of one entry along c1): their first entries, and their
        entries' largest h */
     cg_index npk = 0, n_rows = 0, row_start[65], npad;
@@ -1617,7 +1639,6 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             qb[b] = b < nb ? q[c2][b] : 0.0;
             gb[b] = b < nb ? g[c2][b] : 0.0;
         }
-        const cg_index sa = stride[c1], sb = stride[c2], node0 = first[c1] * sa + first[c2] * sb;
         const vwd R2v = SPLAT(R2), isw = SPLAT(inv_sqrt2w), zero = {0.0};
         const cg_index sbw = sb * width;
 #if AXIS_COMPRESS
@@ -1760,7 +1781,6 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const vwd near_v = SPLAT(near);
     cg_cut_span_frame span_frame;
     int have_frame = 0;
-    double *const out0 = out + (one ? pick->at[0] : 0);
     for (cg_index i = u_lo; i < u_hi; ++i) {
         const double ui = U[i];
         /* beyond an end, the rows whose h is too short to reach the segment, or nearly (u + h <= -near or
@@ -1781,22 +1801,17 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         double *restrict pv = planebufs[parity];
         vwl any_cancel = {0};
         for (cg_index kw = k_lo / VW * VW; kw < k_hi; kw += VW) {
-            vwd h, A, Pc, val;
+            vwd val;
             vwl cancel;
-            memcpy(&h, PH + kw, sizeof h);
-            memcpy(&A, PA + kw, sizeof A);
-            memcpy(&Pc, PP + kw, sizeof Pc);
-            axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, Lv, near_v, &val, &cancel);
+            axis_packed_lanes(where, u, PH, PA, PP, kw, Es, Ee, W, Lv, near_v, &val, &cancel);
             if (one) val = (factor_v * val) * v0_v; /* (block_add_picked's products) */
             memcpy(pv + kw, &val, sizeof val);
             any_cancel |= cancel;
         }
         /* (the plane's nodes that miss the ball, or cancel, are 0 in pv, and add +-0) */
-        if (pending && one)
-            scatter_add_one(out0 + pending_at, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo);
-        else if (pending)
-            scatter_add_picked(out + pending_at, factor, pending + pending_lo, PO + pending_lo,
-                               pending_hi - pending_lo, values, nv, pick);
+        if (pending)
+            add_plane(out + pending_at, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo, factor, one,
+                      values, nv, pick);
         pending = pv;
         pending_lo = k_lo;
         pending_hi = k_hi;
@@ -1806,12 +1821,9 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         if (mask_bits(any_cancel)) {
             /* the cancelling nodes (few: their lanes again, as above), gathered for axis_cut_flush */
             for (cg_index kw = k_lo / VW * VW; kw < k_hi; kw += VW) {
-                vwd h, A, Pc, val;
+                vwd val;
                 vwl cancel;
-                memcpy(&h, PH + kw, sizeof h);
-                memcpy(&A, PA + kw, sizeof A);
-                memcpy(&Pc, PP + kw, sizeof Pc);
-                axis_plane_lanes(where, u, h, A, Pc, Es, Ee, W, Lv, near_v, &val, &cancel);
+                axis_packed_lanes(where, u, PH, PA, PP, kw, Es, Ee, W, Lv, near_v, &val, &cancel);
                 for (uint64_t bits = mask_bits(cancel); bits; bits &= bits - 1) {
                     const cg_index k = kw + __builtin_ctzll(bits);
                     if (k >= k_hi) break; /* (the padding: h = 0, never flagged; kept out whatever the lanes say) */
@@ -1824,9 +1836,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                         cg_cut_span_frame_of(es, R, &span_frame);
                         have_frame = 1;
                     }
-                    const cg_index cross = PO[k] / width - node0c;
-                    const cg_index ia = sa_c > sb_c ? cross / sa_c : (sa_c ? cross % sb_c / sa_c : 0);
-                    const cg_index ib = sa_c > sb_c ? (sb_c ? cross % sa_c / sb_c : 0) : (sb_c ? cross / sb_c : 0);
+                    const cg_index cross = PO[k] / width - node0; /* ia sa + ib sb, ib sb < sa */
+                    const cg_index ia = sa ? cross / sa : 0, ib = (cross - ia * sa) / sb;
                     double qn[3];
                     qn[m] = q[m][i];
                     qn[c1] = q[c1][ia];
@@ -1843,11 +1854,9 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
         }
     }
-    if (pending && one)
-        scatter_add_one(out0 + pending_at, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo);
-    else if (pending)
-        scatter_add_picked(out + pending_at, factor, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo,
-                           values, nv, pick);
+    if (pending)
+        add_plane(out + pending_at, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo, factor, one, values,
+                  nv, pick);
     axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
     return 1;
 }
