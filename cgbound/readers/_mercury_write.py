@@ -4,6 +4,7 @@ import os
 import numpy as np
 
 from .._atomic import atomic_write
+from .checks import repeated_pairs
 
 __all__ = ["write_mercury"]
 
@@ -63,8 +64,7 @@ def _refuse_repeated_pairs(snap):
     if c.branch is None:
         return
     pair = c.j >= 0
-    key = np.minimum(c.i[pair], c.j[pair]) * snap.n_particles + np.maximum(c.i[pair], c.j[pair])
-    if key.size != np.unique(key).size:
+    if repeated_pairs(c.i[pair], c.j[pair], snap.n_particles) is not None:
         raise ValueError(f"write_mercury: the snapshot at time {snap.time:g} lists a pair once per periodic image "
                          f"(contacts.branch: a box thinner than two contact distances), which MercuryDPM's .fstat "
                          f"cannot hold (a pair once, the minimum image). Write it with write_snapshots (HDF5), "

@@ -977,6 +977,12 @@ class LammpsReader(FrameReader):
             return f"the periodic box length{'s' if len(short) > 1 else ''} along {', '.join(short)} " + (
                 "are" if len(short) > 1 else "is")
 
+        # the candidate images: -1, 0 or 1 box lengths along each periodic axis
+        axes = np.flatnonzero(periodic)
+        shifts = np.array(np.meshgrid(*[(-1.0, 0.0, 1.0)] * axes.size, indexing="ij")).reshape(axes.size, -1).T
+        steps = np.zeros((shifts.shape[0], lengths.size))
+        steps[:, axes] = shifts
+
         first = rows[0]
         pair_rows = rows[(np.minimum(i[rows], j[rows]) == min(i[first], j[first]))
                          & (np.maximum(i[rows], j[rows]) == max(i[first], j[first]))]
@@ -984,10 +990,6 @@ class LammpsReader(FrameReader):
         def by_dist(sub):
             """The images of rows[sub] whose distance is their written one."""
             written = np.take(written_dist, rows[sub])
-            axes = np.flatnonzero(periodic)
-            shifts = np.array(np.meshgrid(*[(-1.0, 0.0, 1.0)] * axes.size, indexing="ij")).reshape(axes.size, -1).T
-            steps = np.zeros((shifts.shape[0], lengths.size))
-            steps[:, axes] = shifts
             candidates = s[sub][:, None, :] + steps[None] * lengths                 # (rows, images, D)
             err = np.abs(np.sqrt(np.sum(candidates ** 2, axis=2)) - written[:, None])
             best = np.argmin(err, axis=1)
@@ -1030,11 +1032,6 @@ class LammpsReader(FrameReader):
                 if written_dist is not None:
                     image[unset] = by_dist(unset)
                 else:
-                    axes = np.flatnonzero(periodic)
-                    shifts = np.array(np.meshgrid(*[(-1.0, 0.0, 1.0)] * axes.size, indexing="ij")).reshape(
-                        axes.size, -1).T
-                    steps = np.zeros((shifts.shape[0], lengths.size))
-                    steps[:, axes] = shifts
                     far = np.sum((s[unset][:, None, :] + steps[None] * lengths) ** 2, axis=2)
                     image[unset] = steps[np.argmax(far, axis=1)]
         elif written_dist is not None:
