@@ -356,9 +356,11 @@ int cg_gaussian_roundoff_points(double L, double w)
 /* ------------------------------------------------------------------ */
 /* line integrals                                                        */
 
-/* int_{s0}^{s1} exp(-t(s)^2 / 2w^2) ds, stable for every length and position; span_s: s1 - s0 from exact
-   differences (cg_cut_span_lane: a sliver of the segment inside the ball keeps its digits) */
-static double gaussian_segment_integral(const segment_frame *f, double w, double s0, double s1, double span_s)
+/* int_{s0}^{s1} exp(-t(s)^2 / 2w^2) ds, stable for every length and position; on a short interval its length
+   s1 - s0 from exact differences (cg_cut_span_lane of the node q3 and the segment e3, 3 slots, in the cutoff
+   ball R: a sliver of the segment inside the ball keeps its digits) */
+static double gaussian_segment_integral(const segment_frame *f, double w, double s0, double s1, const double *q3,
+                                        const double *e3, double R)
 {
     const double t0 = t_at(f, s0), t1 = t_at(f, s1); /* t0 >= t1 */
     const double span = (s1 - s0) * f->L;
@@ -367,7 +369,9 @@ static double gaussian_segment_integral(const segment_frame *f, double w, double
     if (span * (tmax + w) < w * w) {
         /* the integrand varies little over the interval: Gauss-Legendre is
            exact to round-off and avoids the erf(a) - erf(b) cancellation */
-        const double half = 0.5 * span_s, mid = s0 + half;
+        cg_cut_span_frame cf;
+        cg_cut_span_frame_of(e3, R, &cf);
+        const double half = 0.5 * cg_cut_span_lane(q3[0], q3[1], q3[2], &cf), mid = s0 + half;
         double sum = 0.0;
         for (int k = 0; k < 6; ++k) {
             const double ta = f->u - (mid + half * GL12_X[k]) * f->L;
@@ -627,10 +631,7 @@ double cg_kernel_line_rule(const cg_kernel *k, const double *q, const double *e,
             q3[d] = q[d];
             e3[d] = e[d];
         }
-        cg_cut_span_frame cf;
-        cg_cut_span_frame_of(e3, R, &cf);
-        const double span_s = cg_cut_span_lane(q3[0], q3[1], q3[2], &cf);
-        const double psi = amp * gaussian_segment_integral(&f, w, s0, s1, span_s);
+        const double psi = amp * gaussian_segment_integral(&f, w, s0, s1, q3, e3, R);
         if (grad) {
             /* grad psi = -q_perp psi / w^2 + n [E(t0) - E(t1)] / L, with
                E(t0) - E(t1) = -E(t0) expm1((t0 - t1)(t0 + t1) / 2w^2) */
