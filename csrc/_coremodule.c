@@ -416,12 +416,14 @@ static void raise_status(cg_status st)
     }
 }
 
-/* output array of shape (P, extra...) filled with zeros */
-static PyArrayObject *zeros(npy_intp P, int n_extra, const npy_intp *extra)
+/* output array of shape (P, extra...), not yet filled: zeroed by cg_fill_zero with the GIL released (not
+   PyArray_ZEROS: calloc's fresh pages were then first touched in the kernels, a fault per 4 kB page at ~3 us on
+   a virtual machine, and more of them per frame) */
+static PyArrayObject *output_array(npy_intp P, int n_extra, const npy_intp *extra)
 {
     npy_intp shape[4] = {P, 1, 1, 1};
     for (int i = 0; i < n_extra; ++i) shape[1 + i] = extra[i];
-    return (PyArrayObject *)PyArray_ZEROS(1 + n_extra, shape, NPY_DOUBLE, 0);
+    return (PyArrayObject *)PyArray_EMPTY(1 + n_extra, shape, NPY_DOUBLE, 0);
 }
 
 /* ------------------------------------------------------------------ */
@@ -473,12 +475,13 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
     const int n_values = (int)(segments == 3 ? n_columns * ct.dim : n_columns);
     ct.target.n_threads = n_threads;
     npy_intp extra[2] = {n_values, ct.target.n_resolved};
-    out = zeros(ct.size, gradient ? 2 : 1, extra);
+    out = output_array(ct.size, gradient ? 2 : 1, extra);
     if (!out) goto done;
     cg_status st;
     sigint_guard guard;
     ct.target.interrupt = sigint_begin(&guard);
     Py_BEGIN_ALLOW_THREADS
+    cg_fill_zero(PyArray_DATA(out), (cg_index)PyArray_SIZE(out), n_threads);
     if (segments == 2)
         st = cg_scatter_segment_moments(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec),
                                         n_values, array_data(&val), gradient, PyArray_DATA(out));
@@ -552,12 +555,13 @@ static PyObject *py_scatter_fluctuation(PyObject *self, PyObject *args, PyObject
         goto done;
     ct.target.n_threads = n_threads;
     const npy_intp extra[2] = {ct.dim, ct.dim};
-    out = zeros(ct.size, 2, extra);
+    out = output_array(ct.size, 2, extra);
     if (!out) goto done;
     cg_status st;
     sigint_guard guard;
     ct.target.interrupt = sigint_begin(&guard);
     Py_BEGIN_ALLOW_THREADS
+    cg_fill_zero(PyArray_DATA(out), (cg_index)PyArray_SIZE(out), n_threads);
     st = cg_scatter_fluctuation(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&mass),
                                 array_data(&vel), array_data(&nodev), PyArray_DATA(out));
     Py_END_ALLOW_THREADS

@@ -185,6 +185,10 @@ typedef struct cg_target {
    grid with no resolved axis, or n_points). */
 cg_index cg_target_size(const cg_target *target);
 
+/* out[0..n) = +0.0 on up to n_threads threads (0: OpenMP's default), each zeroing a contiguous part: a new
+   output array's pages are then first touched, and mapped, by several threads at once */
+void cg_fill_zero(double *out, cg_index n, int n_threads);
+
 /*
  * Point objects:  out[p, k] += sum_o values[o, k] * M(node_p - x_o)
  * positions: n x D, values: n x n_values.

@@ -35,6 +35,24 @@ cg_index cg_target_size(const cg_target *t)
     return size;
 }
 
+void cg_fill_zero(double *out, cg_index n, int n_threads)
+{
+#ifdef _OPENMP
+    /* below 1 MB one thread (the region costs more than it saves) */
+    int nt = n_threads > 0 ? n_threads : omp_get_max_threads();
+    if (n < (cg_index)1 << 17) nt = 1;
+#pragma omp parallel num_threads(nt) if (nt > 1)
+    {
+        const cg_index t = omp_get_thread_num(), T = omp_get_num_threads();
+        const cg_index lo = n * t / T, hi = n * (t + 1) / T;
+        memset(out + lo, 0, (size_t)(hi - lo) * sizeof *out);
+    }
+#else
+    (void)n_threads;
+    memset(out, 0, (size_t)n * sizeof *out);
+#endif
+}
+
 void cg_minimum_image(cg_index n, int dim, double *vecs, const int *periodic, const double *period)
 {
     for (int d = 0; d < dim; ++d) {
