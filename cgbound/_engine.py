@@ -70,6 +70,17 @@ def scatter_points(target, kernel, positions, values, gradient=False, n_threads=
     return _core.scatter_points(target, kernel, positions, values, gradient=gradient, n_threads=n_threads)
 
 
+#: the parts of scatter_points_kinetic's values (csrc/cg.h's CG_KINETIC_*), in their order
+KINETIC_MASS, KINETIC_MOMENTUM, KINETIC_FLUX = 1, 2, 4
+
+
+def scatter_points_kinetic(target, kernel, positions, masses, velocities, u_ref, parts, n_threads=0):
+    """scatter_points with each particle's values formed in the core: the ``parts`` (a mask of KINETIC_*) of
+    [m, m (v - u_ref), m v (x) v] in that order, shape (P, K); no (n, K) array of values."""
+    return _core.scatter_points_kinetic(target, kernel, positions, masses, velocities, u_ref, parts,
+                                        n_threads=n_threads)
+
+
 def scatter_segments(target, kernel, starts, vectors, values, ray=False, gradient=False, n_threads=0):
     """sum_c values_c times the kernel integrated along starts_c + s vectors_c, s in [0, 1]
     (``ray``: s >= 0), or its gradient."""

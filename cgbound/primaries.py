@@ -13,7 +13,8 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from ._engine import (core_kernel, core_target, scatter_fluctuation, scatter_points, scatter_segment_moments,
+from ._engine import (KINETIC_FLUX, KINETIC_MASS, KINETIC_MOMENTUM, core_kernel, core_target, scatter_fluctuation,
+                      scatter_points, scatter_points_kinetic, scatter_segment_moments,
                       scatter_segments, scatter_segments_outer)
 from ._threads import get_num_threads
 
@@ -202,13 +203,10 @@ def longest_branch(bulk, boundary):
                 for part in (bulk, boundary) if part["branch"].shape[0]), default=0.0)
 
 
-def _particle_columns(snapshot, needed, u_ref):
-    """The values summed over the flowing particles' positions, side by side in one (n, K) block.
-
-    Returns the block and [(primary, first column, number of columns, shape per node)]. Each
-    column is formed in place with the same floating-point operations as on its own. Primaries
-    whose data the snapshot lacks (velocities, body force) are left out.
-    """
+def _particle_layout(snapshot, needed):
+    """The columns of the values summed over the flowing particles' positions: [(primary, first column, number
+    of columns, shape per node)], side by side in PRIMARIES' order. Primaries whose data the snapshot lacks
+    (velocities, body force) are left out."""
     dim = snapshot.dim
     present = {"p_w": snapshot.velocities, "k": snapshot.velocities, "b": snapshot.body_force}
     wanted = [name for name, p in PRIMARIES.items()
@@ -219,8 +217,20 @@ def _particle_columns(snapshot, needed, u_ref):
         size = dim ** PRIMARIES[name].rank
         layout.append((name, width, size, shape))
         width += size
+    return layout
+
+
+def _particle_columns(snapshot, needed, u_ref):
+    """The values summed over the flowing particles' positions, side by side in one (n, K) block.
+
+    Returns the block and its layout (_particle_layout). Each column is formed in place with the same
+    floating-point operations as on its own.
+    """
+    dim = snapshot.dim
+    layout = _particle_layout(snapshot, needed)
     if not layout:
         return None, layout
+    width = layout[-1][1] + layout[-1][2]
     m = flowing_rows(snapshot, snapshot.masses)
     block = np.empty((m.shape[0], width))
     # column by column: NumPy's loops over a short last axis cost more than the arithmetic
@@ -257,15 +267,37 @@ def _zeros(name, P, dim):
     return np.zeros((P,) + (dim,) * PRIMARIES[name].rank)
 
 
+#: the primaries whose columns the core can form itself from masses and velocities (scatter_points_kinetic: the
+#: same values, in _particle_layout's order)
+KINETIC_PARTS = {"rho": KINETIC_MASS, "p_w": KINETIC_MOMENTUM, "k": KINETIC_FLUX}
+
+
+def _kinetic_parts(snapshot, layout):
+    """The KINETIC_* mask of the layout's primaries if the core can form all of them (with velocities), else 0."""
+    names = [name for name, *_ in layout]
+    if not names or snapshot.velocities is None or not set(names) <= set(KINETIC_PARTS):
+        return 0
+    return sum(KINETIC_PARTS[name] for name in names)
+
+
 def particle_sums(snapshot, needed, u_ref, target, kernel, P, nt):
     """Source PARTICLES: one scatter with all the needed columns (the stencil and weights are
     computed once; each column is summed exactly as on its own). Primaries whose data the
-    snapshot lacks are zero."""
+    snapshot lacks are zero. Mass, momentum and momentum flux alone are formed in the core particle by particle
+    (the same values as _particle_columns', without its (n, K) block)."""
     out = {}
-    block, layout = _particle_columns(snapshot, needed, u_ref)
-    if layout:
-        summed = scatter_points(target, kernel, flowing_rows(snapshot, snapshot.positions), block, n_threads=nt)
+    layout = _particle_layout(snapshot, needed)
+    parts = _kinetic_parts(snapshot, layout)
+    pos = flowing_rows(snapshot, snapshot.positions)
+    if parts:
+        summed = scatter_points_kinetic(target, kernel, pos, flowing_rows(snapshot, snapshot.masses),
+                                        flowing_rows(snapshot, snapshot.velocities), np.asarray(u_ref, float), parts,
+                                        n_threads=nt)
+    else:
+        block, _ = _particle_columns(snapshot, needed, u_ref)
+        summed = scatter_points(target, kernel, pos, block, n_threads=nt) if layout else None
         del block
+    if layout:
         for name, start, size, shape in layout:
             out[name] = summed[:, start:start + size].reshape((P,) + shape)
     for name in ("p_w", "k", "b"):

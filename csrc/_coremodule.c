@@ -537,6 +537,76 @@ static PyObject *py_scatter_segment_moments(PyObject *self, PyObject *args, PyOb
     return py_scatter(args, kwds, 2);
 }
 
+static PyObject *py_scatter_points_kinetic(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    (void)self;
+    static char *kw[] = {"target", "kernel", "positions", "masses", "velocities", "u_ref", "parts", "n_threads", NULL};
+    converted_target ct = {0};
+    kernel_arg ka = {.target = &ct};
+    input_array pos = {.name = "positions", .ndim = 2, .length = {NULL, &ct.dim}};
+    input_array mass = {.name = "masses", .ndim = 1, .length = {&pos.rows, NULL}};
+    input_array vel = {.name = "velocities", .ndim = 2, .length = {&pos.rows, &ct.dim}};
+    input_array uref = {.name = "u_ref", .ndim = 1, .length = {&ct.dim, NULL}};
+    int parts = 0, n_threads = 0;
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&O&i|O&", kw, target_converter, &ct, kernel_converter,
+                                     &ka, array_converter, &pos, array_converter, &mass, array_converter, &vel,
+                                     array_converter, &uref, &parts, threads_converter, &n_threads))
+        goto done;
+    const int all = CG_KINETIC_MASS | CG_KINETIC_MOMENTUM | CG_KINETIC_FLUX, D = (int)ct.dim;
+    if (parts <= 0 || parts > all) {
+        PyErr_Format(PyExc_ValueError, "parts: expected a nonzero mask of CG_KINETIC_MASS (1), _MOMENTUM (2) and "
+                     "_FLUX (4), got %d", parts);
+        goto done;
+    }
+    {
+        /* the values the core forms must be finite, as a values array's are (the products may overflow): by
+           monotone rounding every m (v_r v_c) is at most m (v_max v_max) in magnitude */
+        const double *m = array_data(&mass), *v = array_data(&vel), *u = array_data(&uref);
+        for (npy_intp o = 0; o < pos.rows; ++o) {
+            int finite = 1;
+            double vmax = 0.0;
+            for (int r = 0; r < D; ++r) {
+                const double vr = v[o * D + r];
+                if (parts & CG_KINETIC_MOMENTUM) finite &= isfinite(m[o] * (vr - u[r])) != 0;
+                vmax = fabs(vr) > vmax ? fabs(vr) : vmax;
+            }
+            if (parts & CG_KINETIC_FLUX) finite &= isfinite(m[o] * (vmax * vmax)) != 0;
+            if (!finite) {
+                PyErr_Format(PyExc_ValueError, "velocities: expected the momentum m (v - u_ref) and the momentum "
+                             "flux m v v of each particle in the floating-point range, got an overflow at particle "
+                             "%zd", (Py_ssize_t)o);
+                goto done;
+            }
+        }
+    }
+    ct.target.n_threads = n_threads;
+    const npy_intp n_values = ((parts & CG_KINETIC_MASS) ? 1 : 0) + ((parts & CG_KINETIC_MOMENTUM) ? D : 0) +
+                              ((parts & CG_KINETIC_FLUX) ? D * D : 0);
+    out = output_array(ct.size, 1, &n_values);
+    if (!out) goto done;
+    cg_status st;
+    sigint_guard guard;
+    ct.target.interrupt = sigint_begin(&guard);
+    Py_BEGIN_ALLOW_THREADS
+    cg_fill_zero(PyArray_DATA(out), (cg_index)PyArray_SIZE(out), n_threads);
+    st = cg_scatter_points_kinetic(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&mass),
+                                   array_data(&vel), array_data(&uref), parts, PyArray_DATA(out));
+    Py_END_ALLOW_THREADS
+    sigint_end(&guard);
+    if (st != CG_OK) {
+        raise_status(st);
+        Py_CLEAR(out);
+    }
+done:
+    release_target(&ct);
+    release_array(&pos);
+    release_array(&mass);
+    release_array(&vel);
+    release_array(&uref);
+    return (PyObject *)out;
+}
+
 static PyObject *py_scatter_fluctuation(PyObject *self, PyObject *args, PyObject *kwds)
 {
     (void)self;
@@ -1490,6 +1560,10 @@ static PyMethodDef methods[] = {
     {"scatter_segment_moments", (PyCFunction)(void (*)(void))py_scatter_segment_moments, METH_VARARGS | METH_KEYWORDS,
      "scatter_segment_moments(target, kernel, starts, vectors, values, gradient=False, n_threads=0)\n\n"
      "Sum of values[o] * int_0^1 s M(node - starts[o] - s vectors[o]) ds (the kernel's first moment)."},
+    {"scatter_points_kinetic", (PyCFunction)(void (*)(void))py_scatter_points_kinetic, METH_VARARGS | METH_KEYWORDS,
+     "scatter_points_kinetic(target, kernel, positions, masses, velocities, u_ref, parts, n_threads=0) -> (P, K)\n\n"
+     "scatter_points with values[o] the parts (mask: 1 m, 2 m (v - u_ref), 4 m v v) formed in the core per particle "
+     "(cg_scatter_points_kinetic)."},
     {"scatter_fluctuation", (PyCFunction)(void (*)(void))py_scatter_fluctuation, METH_VARARGS | METH_KEYWORDS,
      "scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity, n_threads=0) -> (P, D, D)\n\n"
      "Kinetic stress -sum m (v - V(node)) (v - V(node)) M(node - x) in fluctuation form."},

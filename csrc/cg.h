@@ -202,6 +202,24 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
                             int gradient, double *out);
 
 /*
+ * Point objects whose values are a particle's mass, momentum and momentum
+ * flux, formed per particle as the sums need them (no n x n_values array):
+ * cg_scatter_points (gradient = 0) with values[o] the parts of mask parts,
+ * in this order: CG_KINETIC_MASS m_o; CG_KINETIC_MOMENTUM m_o (v_or - u_r),
+ * r < D; CG_KINETIC_FLUX m_o (v_or v_oc), r, c < D (row-major). masses: n,
+ * velocities: n x D, u_ref: D (a reference velocity). out is P x n_values,
+ * n_values = [1] + [D] + [D^2] for the parts present. parts: a nonzero mask
+ * of these bits (CG_ERR_ARGUMENT otherwise).
+ */
+#define CG_KINETIC_MASS 1
+#define CG_KINETIC_MOMENTUM 2
+#define CG_KINETIC_FLUX 4
+cg_status cg_scatter_points_kinetic(const cg_target *target, const cg_kernel *kernel,
+                                    cg_index n, const double *positions,
+                                    const double *masses, const double *velocities,
+                                    const double *u_ref, int parts, double *out);
+
+/*
  * Segment objects: out[p, k] += sum_o values[o, k] * psi_o(node_p) with
  * psi_o(r) = int_0^S M(r - start_o - s vec_o) ds; S = 1, or infinity if ray.
  * starts, vecs: n x D; values: n x n_values; gradient as for points, but

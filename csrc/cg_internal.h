@@ -29,6 +29,19 @@ static inline void cg_outer_values(int nf, int D, const double *f, const double 
         for (int c = 0; c < D; ++c) values[r * D + c] = 0.0 + f[r] * v[c];
 }
 
+/* a particle's values for cg_scatter_points_kinetic (parts: CG_KINETIC_* bits): m; m (v_r - u_r); m (v_r v_c),
+   the products in the order NumPy's columns take them (cgbound.primaries: the same bits) */
+static inline void cg_kinetic_values(int parts, int D, double m, const double *v, const double *u, double *values)
+{
+    int k = 0;
+    if (parts & CG_KINETIC_MASS) values[k++] = m;
+    if (parts & CG_KINETIC_MOMENTUM)
+        for (int r = 0; r < D; ++r) values[k++] = m * (v[r] - u[r]);
+    if (parts & CG_KINETIC_FLUX)
+        for (int r = 0; r < D; ++r)
+            for (int c = 0; c < D; ++c) values[k++] = m * (v[r] * v[c]);
+}
+
 /* Lucy's profile (1 + 3x)(1 - x)^3, x = r/R (cg_kernel_value and the batched
    point values of cg_lucy_line.c: one formula, the same bits) */
 static inline double cg_lucy_profile(double x)
@@ -283,8 +296,11 @@ typedef struct job {
     const double *factors;     /* or NULL; else values are factors (x) vecs, formed per object
                                   (cg_scatter_segments_outer): n x n_factors */
     int n_factors;
-    const double *masses;      /* fluctuation */
-    const double *velocities;  /* fluctuation, n x D */
+    int kinetic;               /* or 0; else (cg_scatter_points_kinetic) values formed per object from masses,
+                                  velocities and u_ref: the parts CG_KINETIC_* of this mask, in that order */
+    double u_ref[3];
+    const double *masses;      /* fluctuation, kinetic */
+    const double *velocities;  /* fluctuation, kinetic: n x D */
     const double *node_velocity; /* fluctuation, P x D */
     int out_width;             /* doubles per node in out */
     double lo[3], hi[3];       /* extent of the nodes along each resolved axis */
@@ -313,6 +329,23 @@ typedef struct job {
     int moment;                /* segments weighted by the kernel's first moment (cg_moment.c) */
     int any_periodic;          /* a resolved axis is periodic (else no images to look for) */
 } job;
+
+/* an object's values formed just before it is visited (factors (x) vecs, or a particle's kinetic values): the
+   visits then read them from a row of the caller's, not from jb->values */
+static inline int cg_forms_values(const job *jb)
+{
+    return jb->factors != NULL || jb->kinetic != 0;
+}
+
+/* object obj's values into values (n_values of them), where cg_forms_values */
+static inline void cg_form_values(const job *jb, cg_index obj, double *values)
+{
+    const int D = jb->target->dim;
+    if (jb->factors)
+        cg_outer_values(jb->n_factors, D, jb->factors + obj * jb->n_factors, jb->vecs + obj * D, values);
+    else
+        cg_kinetic_values(jb->kinetic, D, jb->masses[obj], jb->velocities + obj * D, jb->u_ref, values);
+}
 
 struct lucy_batch;
 

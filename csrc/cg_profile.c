@@ -883,11 +883,12 @@ PROFILE_CLONES void cg_visit_profile_objects(const job *jb, double *out, const c
     const cg_index n0 = t->shape[0];
     const double c0 = z[0], h = jb->spacing[0];
     const int whole = n0 == 1 || h == 0.0; /* stencil_range takes every node */
-    /* with factors, the objects' values formed here, a row per object of the block */
+    /* values formed per object (cg_forms_values): formed here, a row per object of the block */
     double rows[CG_PROFILE_OBJECTS * CG_MAX_OUTER_VALUES];
     job own;
     const job *jv = jb;
-    if (jb->factors) {
+    const int formed = cg_forms_values(jb);
+    if (formed) {
         own = *jb;
         own.values = rows;
         jv = &own;
@@ -921,9 +922,9 @@ PROFILE_CLONES void cg_visit_profile_objects(const job *jb, double *out, const c
             last = (cg_index)l;
         }
         const double *val;
-        if (jb->factors) {
+        if (formed) {
             double *r = rows + b * nv;
-            cg_outer_values(jb->n_factors, D, jb->factors + obj * jb->n_factors, jb->vecs + obj * D, r);
+            cg_form_values(jb, obj, r);
             val = r;
         } else {
             val = jb->values + obj * nv;
@@ -960,7 +961,7 @@ PROFILE_CLONES void cg_visit_profile_objects(const job *jb, double *out, const c
             flush_block(jb, &B, out);
             if (count > PROFILE_PAIRS) { /* a long stencil alone, in batches */
                 double xs[3] = {x, 0.0, 0.0}, es[3] = {ez, 0.0, 0.0};
-                cg_visit_profile(jv, out, jb->factors ? b : obj, xs, es, 1.0);
+                cg_visit_profile(jv, out, formed ? b : obj, xs, es, 1.0);
                 continue;
             }
         }

@@ -264,11 +264,11 @@ static int ray_length(const job *jb, const double *x, const double *e, double *s
 }
 
 /* One object: resolve its coordinates, turn a ray into a finite segment, and
-   visit all periodic images that can reach the target. With factors, its
-   values are the thread's row 0 (visit_range formed them). */
+   visit all periodic images that can reach the target. With values formed
+   per object, they are the thread's row 0 (visit_range formed them). */
 static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_index obj)
 {
-    const cg_index row = jb->factors ? 0 : obj;
+    const cg_index row = cg_forms_values(jb) ? 0 : obj;
     const cg_target *t = jb->target;
     const int nr = t->n_resolved, D = t->dim;
     const double R = jb->kernel->radius;
@@ -536,25 +536,18 @@ static cg_index *spatial_order(const job *jb, cg_index **ends)
     return order;
 }
 
-/* values[r * D + c] = 0.0 + factors[r] * vec[c] (einsum's "ni,nj->nij": a zero is +0) */
-static void outer_values(const job *jb, cg_index obj, double *values)
-{
-    const int D = jb->target->dim, nf = jb->n_factors;
-    cg_outer_values(nf, D, jb->factors + obj * nf, jb->vecs + obj * D, values);
-}
-
 /* Objects order[begin..end) (or begin..end) into out, one thread; stops at the
-   first error of any thread (recorded in *failed). With factors, each
-   object's values are formed in this thread's row of values (a copy of the
-   job pointing at it) just before the object is visited. Leaves sc->lucy
-   empty (freed). */
+   first error of any thread (recorded in *failed). With values formed per
+   object (cg_forms_values), each object's are formed in this thread's row of
+   values (a copy of the job pointing at it) just before the object is
+   visited. Leaves sc->lucy empty (freed). */
 static void visit_range(const job *shared, double *out, scratch *sc, const cg_index *order, cg_index begin,
                         cg_index end, int *failed)
 {
     job own;
     double values[CG_MAX_OUTER_VALUES];
     const job *jb = shared;
-    if (shared->factors) {
+    if (cg_forms_values(shared)) {
         own = *shared;
         own.values = values;
         jb = &own;
@@ -578,6 +571,9 @@ static void visit_range(const job *shared, double *out, scratch *sc, const cg_in
             __builtin_prefetch(jb->positions + next * jb->target->dim);
             if (jb->factors) {
                 __builtin_prefetch(jb->factors + next * jb->n_factors);
+            } else if (jb->kinetic) {
+                __builtin_prefetch(jb->masses + next);
+                __builtin_prefetch(jb->velocities + next * jb->target->dim);
             } else if (jb->values) {
                 __builtin_prefetch(jb->values + next * jb->n_values);
                 __builtin_prefetch(jb->values + next * jb->n_values + jb->n_values - 1); /* may span two lines */
@@ -586,7 +582,7 @@ static void visit_range(const job *shared, double *out, scratch *sc, const cg_in
         }
 #endif
         const cg_index obj = order ? order[o] : o;
-        if (jb->factors) outer_values(jb, obj, values);
+        if (cg_forms_values(jb)) cg_form_values(jb, obj, values);
         const cg_status s = scatter_object(jb, out, sc, obj);
         if (s != CG_OK) { store_status(failed, s); break; }
     }
@@ -954,6 +950,32 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
                             int gradient, double *out)
 {
     return scatter_values(target, kernel, n, positions, 0, NULL, 0, n_values, values, NULL, 0, gradient, out, 0);
+}
+
+cg_status cg_scatter_points_kinetic(const cg_target *target, const cg_kernel *kernel,
+                                    cg_index n, const double *positions,
+                                    const double *masses, const double *velocities,
+                                    const double *u_ref, int parts, double *out)
+{
+    const int D = target->dim;
+    if (n < 0 || parts <= 0 || parts > (CG_KINETIC_MASS | CG_KINETIC_MOMENTUM | CG_KINETIC_FLUX) || D < 1 || D > 3)
+        return CG_ERR_ARGUMENT;
+    const int n_values = (parts & CG_KINETIC_MASS ? 1 : 0) + (parts & CG_KINETIC_MOMENTUM ? D : 0) +
+                         (parts & CG_KINETIC_FLUX ? D * D : 0);
+    job jb;
+    memset(&jb, 0, sizeof jb);
+    jb.target = target;
+    jb.kernel = kernel;
+    jb.mode = MODE_VALUE;
+    jb.n = n;
+    jb.positions = positions;
+    jb.n_values = n_values;
+    jb.kinetic = parts;
+    for (int d = 0; d < D; ++d) jb.u_ref[d] = u_ref[d];
+    jb.masses = masses;
+    jb.velocities = velocities;
+    jb.out_width = n_values;
+    return run(&jb, out);
 }
 
 cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,

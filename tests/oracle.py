@@ -964,6 +964,20 @@ def oracle_outer_values(factors, vectors):
     return (0.0 + factors[:, :, None] * vectors[:, None, :]).reshape(factors.shape[0], -1)
 
 
+def oracle_kinetic_values(masses, velocities, u_ref, parts):
+    """Twin of the values _core.scatter_points_kinetic forms per particle: the parts (1 m, 2 m (v - u_ref), 4
+    m (v_r v_c)) side by side, flat (n, K), each product as NumPy rounds it."""
+    m, v, u = np.asarray(masses, float), np.asarray(velocities, float), np.asarray(u_ref, float)
+    cols = []
+    if parts & 1:
+        cols.append(m[:, None])
+    if parts & 2:
+        cols.append(m[:, None] * (v - u))
+    if parts & 4:
+        cols.append(m[:, None] * (v[:, :, None] * v[:, None, :]).reshape(len(m), -1))
+    return np.hstack(cols)
+
+
 def oracle_one_listing_per_pair(i, jraw, force, point, radii, fixed, rtol):
     """Twin of MercuryReader's .fstat pairing (cgbound/readers/mercury.py): which lines to keep (N bools; wall
     lines False), or the ValueError's kind ("too many", "inconsistent", "once") for the pair whose first line

@@ -23,8 +23,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path[:0] = [ROOT, os.path.join(ROOT, "benchmarks")]
 
 # --dump-after takes no wildcards
-ENTRY_POINTS = ("cg_scatter_points", "cg_scatter_segments", "cg_scatter_segments_outer", "cg_scatter_segment_moments",
-                "cg_scatter_fluctuation")
+ENTRY_POINTS = ("cg_scatter_points", "cg_scatter_points_kinetic", "cg_scatter_segments", "cg_scatter_segments_outer",
+                "cg_scatter_segment_moments", "cg_scatter_fluctuation")
 
 WORKER = r"""
 import pickle, sys
