@@ -88,11 +88,13 @@ def scatter_segments(target, kernel, starts, vectors, values, ray=False, gradien
                                   n_threads=n_threads)
 
 
-def scatter_segments_outer(target, kernel, starts, vectors, factors, ray=False, gradient=False, n_threads=0):
+def scatter_segments_outer(target, kernel, starts, vectors, factors, ray=False, gradient=False, n_threads=0,
+                           negate=False):
     """scatter_segments with the values factors_c (x) vectors_c (flat (n, F*D), each 0.0 + a product), formed in
-    the core segment by segment instead of as an (n, F*D) array."""
+    the core segment by segment instead of as an (n, F*D) array; ``negate``: the vectors are -vectors (exactly,
+    as np.negative gives them, without an (n, D) array of them)."""
     return _core.scatter_segments_outer(target, kernel, starts, vectors, factors, ray=ray, gradient=gradient,
-                                        n_threads=n_threads)
+                                        n_threads=n_threads, negate=negate)
 
 
 def scatter_segment_moments(target, kernel, starts, vectors, values, gradient=False, n_threads=0):

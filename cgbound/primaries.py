@@ -360,17 +360,21 @@ def segment_sum(snapshot, part, target, kernel, P, nt, ray=False):
     dim = snapshot.dim
     if not part["i"].size:
         return np.zeros((P, dim, dim))
-    # the values -f a = f (x) (-a) ((-f) a is -(f a) exactly), formed by the core segment by segment: the
-    # values of segment_sources without its (n, D*D) array
-    start, vector = segment_geometry(snapshot, part)
-    return scatter_segments_outer(target, kernel, start, vector, part["force"], ray=ray,
-                                  n_threads=nt).reshape(P, dim, dim)
+    # the values -f a = f (x) (-a) ((-f) a is -(f a) exactly) along -a, formed by the core segment by segment:
+    # segment_sources' segments and values without its (n, D*D) array, nor an (n, D) one of -a (negate)
+    return scatter_segments_outer(target, kernel, segment_starts(snapshot, part), part["branch"], part["force"],
+                                  ray=ray, n_threads=nt, negate=True).reshape(P, dim, dim)
+
+
+def segment_starts(snapshot, part):
+    """The starts of the segments of ``part`` (of split_contacts): the flowing particles' centres."""
+    return np.take(snapshot.positions, part["i"], axis=0)
 
 
 def segment_geometry(snapshot, part):
-    """The segments of ``part`` (of split_contacts): starts (the flowing particle's centre) and vectors (-a, to
-    its partner or contact point)."""
-    return np.take(snapshot.positions, part["i"], axis=0), np.negative(part["branch"])
+    """The segments of ``part`` (of split_contacts): starts (:func:`segment_starts`) and vectors (-a, to the
+    partner or contact point)."""
+    return segment_starts(snapshot, part), np.negative(part["branch"])
 
 
 def segment_sources(snapshot, part):

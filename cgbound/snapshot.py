@@ -429,7 +429,10 @@ class Snapshot:
             if c.branch is not None:
                 r_ij = c.branch.copy()
             else:
-                r_ij = minimum_image(np.take(self.positions, i, axis=0) - np.take(self.positions, j, axis=0))
+                # (in place: one (n, D) array fewer, new memory each frame)
+                r_ij = np.take(self.positions, i, axis=0)
+                np.subtract(r_ij, np.take(self.positions, j, axis=0), out=r_ij)
+                r_ij = minimum_image(r_ij)
             empty = np.zeros((0, dim))
             return ({"i": _read_only(i), "j": _read_only(j), "force": _read_only(f), "branch": r_ij,
                      "point": _read_only(pt)},

@@ -437,21 +437,26 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
                                   NULL};
     static char *kw_moments[] = {"target", "kernel", "starts", "vectors", "values", "gradient", "n_threads", NULL};
     static char *kw_outer[] = {"target", "kernel", "starts", "vectors", "factors", "ray", "gradient", "n_threads",
-                               NULL};
+                               "negate", NULL};
     converted_target ct = {0};
     kernel_arg ka = {.target = &ct};
     input_array pos = {.name = segments ? "starts" : "positions", .ndim = 2, .length = {NULL, &ct.dim}};
     input_array vec = {.name = "vectors", .ndim = 2, .length = {&pos.rows, &ct.dim}};
     input_array val = {.name = segments == 3 ? "factors" : "values", .ndim = 2, .length = {&pos.rows, NULL}};
-    int ray = 0, gradient = 0, n_threads = 0;
+    int ray = 0, gradient = 0, n_threads = 0, negate = 0;
     PyArrayObject *out = NULL;
     int parsed;
     if (segments == 2)   /* first moments along segments */
         parsed = PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&|pO&", kw_moments, target_converter, &ct,
                                              kernel_converter, &ka, array_converter, &pos, array_converter, &vec,
                                              array_converter, &val, &gradient, threads_converter, &n_threads);
+    else if (segments == 3) /* (negate: the vectors are -vectors) */
+        parsed = PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&|ppO&p", kw_outer, target_converter, &ct,
+                                             kernel_converter, &ka, array_converter, &pos, array_converter, &vec,
+                                             array_converter, &val, &ray, &gradient, threads_converter, &n_threads,
+                                             &negate);
     else if (segments)
-        parsed = PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&|ppO&", segments == 3 ? kw_outer : kw_segments,
+        parsed = PyArg_ParseTupleAndKeywords(args, kwds, "O&O&O&O&O&|ppO&", kw_segments,
                                              target_converter, &ct,
                                              kernel_converter, &ka, array_converter, &pos, array_converter, &vec,
                                              array_converter, &val, &ray, &gradient, threads_converter, &n_threads);
@@ -486,7 +491,7 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
         st = cg_scatter_segment_moments(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec),
                                         n_values, array_data(&val), gradient, PyArray_DATA(out));
     else if (segments == 3)
-        st = cg_scatter_segments_outer(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec), ray,
+        st = cg_scatter_segments_outer(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec), negate, ray,
                                        (int)n_columns, array_data(&val), gradient, PyArray_DATA(out));
     else if (segments)
         st = cg_scatter_segments(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec), ray,
@@ -1554,9 +1559,10 @@ static PyMethodDef methods[] = {
      "scatter_segments(target, kernel, starts, vectors, values, ray=False, gradient=False, n_threads=0)\n\n"
      "Sum of values[o] * int_0^S M(node - starts[o] - s vectors[o]) ds, S = 1 or infinity (ray)."},
     {"scatter_segments_outer", (PyCFunction)(void (*)(void))py_scatter_segments_outer, METH_VARARGS | METH_KEYWORDS,
-     "scatter_segments_outer(target, kernel, starts, vectors, factors, ray=False, gradient=False, n_threads=0)\n\n"
+     "scatter_segments_outer(target, kernel, starts, vectors, factors, ray=False, gradient=False, n_threads=0, "
+     "negate=False)\n\n"
      "scatter_segments with values[o] = factors[o] (x) vectors[o] (flat, 0.0 + each product), formed in the core "
-     "per segment (cg_scatter_segments_outer)."},
+     "per segment (cg_scatter_segments_outer); negate: the vectors are -vectors (exactly)."},
     {"scatter_segment_moments", (PyCFunction)(void (*)(void))py_scatter_segment_moments, METH_VARARGS | METH_KEYWORDS,
      "scatter_segment_moments(target, kernel, starts, vectors, values, gradient=False, n_threads=0)\n\n"
      "Sum of values[o] * int_0^1 s M(node - starts[o] - s vectors[o]) ds (the kernel's first moment)."},

@@ -237,14 +237,15 @@ cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
  * as cg_scatter_segments with values[o, r * D + c] = 0.0 + factors[o, r] *
  * vecs[o, c] (r < n_factors, c < D; the 0.0 + makes a zero +0, as NumPy's
  * einsum "ni,nj->nij" does), formed per object as the sums need them: no
- * n x (n_factors D) array. The contact stress -f (x) b along -b is
- * factors = f, vecs = -b ((-f) b = f (-b) exactly). n_factors D <=
- * CG_MAX_OUTER_VALUES (CG_ERR_ARGUMENT otherwise); out as for
- * cg_scatter_segments with n_values = n_factors D.
+ * n x (n_factors D) array. negate != 0: every vector is -vecs[o] instead
+ * (exactly, as if negated beforehand: no n x D array of them). The contact
+ * stress -f (x) b along -b is factors = f, vecs = b, negate = 1 ((-f) b =
+ * f (-b) exactly). n_factors D <= CG_MAX_OUTER_VALUES (CG_ERR_ARGUMENT
+ * otherwise); out as for cg_scatter_segments with n_values = n_factors D.
  */
 #define CG_MAX_OUTER_VALUES 27
 cg_status cg_scatter_segments_outer(const cg_target *target, const cg_kernel *kernel,
-                                    cg_index n, const double *starts, const double *vecs,
+                                    cg_index n, const double *starts, const double *vecs, int negate,
                                     int ray, int n_factors, const double *factors,
                                     int gradient, double *out);
 

@@ -291,6 +291,7 @@ typedef struct job {
     cg_index n;
     const double *positions;   /* n x D: point or segment start */
     const double *vecs;        /* n x D or NULL */
+    int negate_vecs;           /* the segments' vectors are -vecs (cg_vec_of; cg_scatter_segments_outer's negate) */
     int n_values;
     const double *values;      /* n x n_values */
     const double *factors;     /* or NULL; else values are factors (x) vecs, formed per object
@@ -337,13 +338,23 @@ static inline int cg_forms_values(const job *jb)
     return jb->factors != NULL || jb->kinetic != 0;
 }
 
+/* component axis of segment obj's vector, negated where negate_vecs (unary minus: exact, zeros' signs too, as
+   np.negative) */
+static inline double cg_vec_of(const job *jb, cg_index obj, int axis)
+{
+    const double e = jb->vecs[obj * jb->target->dim + axis];
+    return jb->negate_vecs ? -e : e;
+}
+
 /* object obj's values into values (n_values of them), where cg_forms_values */
 static inline void cg_form_values(const job *jb, cg_index obj, double *values)
 {
     const int D = jb->target->dim;
-    if (jb->factors)
-        cg_outer_values(jb->n_factors, D, jb->factors + obj * jb->n_factors, jb->vecs + obj * D, values);
-    else
+    if (jb->factors) {
+        double vec[3];
+        for (int d = 0; d < D; ++d) vec[d] = cg_vec_of(jb, obj, d);
+        cg_outer_values(jb->n_factors, D, jb->factors + obj * jb->n_factors, vec, values);
+    } else
         cg_kinetic_values(jb->kinetic, D, jb->masses[obj], jb->velocities + obj * D, jb->u_ref, values);
 }
 

@@ -901,7 +901,7 @@ PROFILE_CLONES void cg_visit_profile_objects(const job *jb, double *out, const c
         const double x = jb->positions[obj * D + a0];
         double ez = 0.0, L = 0.0, unit = 0.0;
         if (jb->is_segment) {
-            ez = jb->vecs[obj * D + a0];
+            ez = cg_vec_of(jb, obj, a0);
             const double L2 = 0.0 + ez * ez;
             if (L2 != 0.0) {
                 L = sqrt(L2);

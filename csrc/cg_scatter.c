@@ -275,7 +275,7 @@ static cg_status scatter_object(const job *jb, double *out, scratch *sc, cg_inde
     double x[3] = {0.0, 0.0, 0.0}, e[3] = {0.0, 0.0, 0.0}, scale = 1.0;
     for (int a = 0; a < nr; ++a) {
         x[a] = jb->positions[obj * D + t->axes[a]];
-        if (jb->is_segment) e[a] = jb->vecs[obj * D + t->axes[a]];
+        if (jb->is_segment) e[a] = cg_vec_of(jb, obj, t->axes[a]);
     }
     if (nr == 0) {
         /* the kernel is constant: every node (one for a grid, all of a
@@ -436,7 +436,7 @@ static cg_status check_rays(const job *jb)
         double x[3], e[3], s;
         for (int a = 0; a < nr; ++a) {
             x[a] = jb->positions[o * D + t->axes[a]];
-            e[a] = jb->vecs[o * D + t->axes[a]];
+            e[a] = cg_vec_of(jb, o, t->axes[a]);
         }
         if (ray_length(jb, x, e, &s) < 0) return CG_ERR_DIVERGENT;
     }
@@ -497,6 +497,23 @@ static double stencil_estimate(const job *jb)
    when not worth it or when memory is short (the input order is as right).
    *ends (if not NULL on return; the caller frees it): where each bucket's
    objects end in the order, min(P, n) of them. */
+/* object o's bucket of spatial_order: its nearest node (row-major index) among P, in `buckets` */
+static cg_index bucket_of(const job *jb, cg_index o, cg_index buckets, cg_index P)
+{
+    const cg_target *t = jb->target;
+    const int D = t->dim;
+    cg_index node = 0;
+    for (int a = 0; a < t->n_resolved; ++a) {
+        const double x = jb->positions[o * D + t->axes[a]];
+        const cg_index m = t->shape[a];
+        double k = jb->spacing[a] > 0.0 ? (x - jb->lo[a]) / jb->spacing[a] + 0.5 : 0.0;
+        k = k < 0.0 ? 0.0 : (k > (double)(m - 1) ? (double)(m - 1) : k); /* also maps NaN-free far images */
+        node = node * m + (cg_index)k;
+    }
+    const cg_index b = (cg_index)((double)node * (double)buckets / (double)P);
+    return b >= buckets ? buckets - 1 : b;
+}
+
 static cg_index *spatial_order(const job *jb, cg_index **ends)
 {
     *ends = NULL;
@@ -506,32 +523,17 @@ static cg_index *spatial_order(const job *jb, cg_index **ends)
     const cg_index P = cg_target_size(t);
     const cg_index buckets = P < n ? P : n;
     cg_index *order = malloc((size_t)n * sizeof *order);
-    cg_index *bucket_of = malloc((size_t)n * sizeof *bucket_of);
     cg_index *start = calloc((size_t)buckets + 1, sizeof *start);
-    if (!order || !bucket_of || !start) {
+    if (!order || !start) {
         free(order);
-        free(bucket_of);
         free(start);
         return NULL;
     }
-    const int D = t->dim;
-    for (cg_index o = 0; o < n; ++o) {
-        cg_index node = 0;
-        for (int a = 0; a < t->n_resolved; ++a) {
-            const double x = jb->positions[o * D + t->axes[a]];
-            const cg_index m = t->shape[a];
-            double k = jb->spacing[a] > 0.0 ? (x - jb->lo[a]) / jb->spacing[a] + 0.5 : 0.0;
-            k = k < 0.0 ? 0.0 : (k > (double)(m - 1) ? (double)(m - 1) : k); /* also maps NaN-free far images */
-            node = node * m + (cg_index)k;
-        }
-        cg_index b = (cg_index)((double)node * (double)buckets / (double)P);
-        if (b >= buckets) b = buckets - 1;
-        bucket_of[o] = b;
-        ++start[b + 1];
-    }
+    /* the buckets counted, then computed again as the objects are placed (an n-array of them would be new memory
+       each call: a page fault per 4 kB, ~3 us each on a virtual machine, more than the arithmetic) */
+    for (cg_index o = 0; o < n; ++o) ++start[bucket_of(jb, o, buckets, P) + 1];
     for (cg_index b = 0; b < buckets; ++b) start[b + 1] += start[b];
-    for (cg_index o = 0; o < n; ++o) order[start[bucket_of[o]]++] = o;
-    free(bucket_of);
+    for (cg_index o = 0; o < n; ++o) order[start[bucket_of(jb, o, buckets, P)]++] = o;
     *ends = start; /* each start[b] has moved to the end of bucket b */
     return order;
 }
@@ -918,7 +920,7 @@ static cg_status run_objects(job *jb, double *out, cg_index P, size_t width, int
 static cg_status scatter_values(const cg_target *target, const cg_kernel *kernel, cg_index n,
                                 const double *positions, int is_segment, const double *vecs, int ray,
                                 int n_values, const double *values, const double *factors, int n_factors,
-                                int gradient, double *out, int moment)
+                                int gradient, double *out, int moment, int negate_vecs)
 {
     if (factors) {
         if (n_factors < 1 || n_factors * target->dim > CG_MAX_OUTER_VALUES) return CG_ERR_ARGUMENT;
@@ -935,6 +937,7 @@ static cg_status scatter_values(const cg_target *target, const cg_kernel *kernel
     jb.n = n;
     jb.positions = positions;
     jb.vecs = vecs;
+    jb.negate_vecs = negate_vecs;
     jb.n_values = n_values;
     jb.values = values;
     jb.factors = factors;
@@ -949,7 +952,7 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
                             int n_values, const double *values,
                             int gradient, double *out)
 {
-    return scatter_values(target, kernel, n, positions, 0, NULL, 0, n_values, values, NULL, 0, gradient, out, 0);
+    return scatter_values(target, kernel, n, positions, 0, NULL, 0, n_values, values, NULL, 0, gradient, out, 0, 0);
 }
 
 cg_status cg_scatter_points_kinetic(const cg_target *target, const cg_kernel *kernel,
@@ -983,16 +986,17 @@ cg_status cg_scatter_segments(const cg_target *target, const cg_kernel *kernel,
                               int ray, int n_values, const double *values,
                               int gradient, double *out)
 {
-    return scatter_values(target, kernel, n, starts, 1, vecs, ray, n_values, values, NULL, 0, gradient, out, 0);
+    return scatter_values(target, kernel, n, starts, 1, vecs, ray, n_values, values, NULL, 0, gradient, out, 0, 0);
 }
 
 cg_status cg_scatter_segments_outer(const cg_target *target, const cg_kernel *kernel,
-                                    cg_index n, const double *starts, const double *vecs,
+                                    cg_index n, const double *starts, const double *vecs, int negate,
                                     int ray, int n_factors, const double *factors,
                                     int gradient, double *out)
 {
     if (!factors) return CG_ERR_ARGUMENT;
-    return scatter_values(target, kernel, n, starts, 1, vecs, ray, 0, NULL, factors, n_factors, gradient, out, 0);
+    return scatter_values(target, kernel, n, starts, 1, vecs, ray, 0, NULL, factors, n_factors, gradient, out, 0,
+                          negate != 0);
 }
 
 cg_status cg_scatter_segment_moments(const cg_target *target, const cg_kernel *kernel,
@@ -1000,7 +1004,7 @@ cg_status cg_scatter_segment_moments(const cg_target *target, const cg_kernel *k
                                      int n_values, const double *values,
                                      int gradient, double *out)
 {
-    return scatter_values(target, kernel, n, starts, 1, vecs, 0, n_values, values, NULL, 0, gradient, out, 1);
+    return scatter_values(target, kernel, n, starts, 1, vecs, 0, n_values, values, NULL, 0, gradient, out, 1, 0);
 }
 
 cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kernel,

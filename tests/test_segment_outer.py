@@ -56,6 +56,12 @@ def test_outer_equals_values_path(case, kernel, n_factors):
     out = _core.scatter_segments_outer(target, core_kernel, starts, vectors, factors)
     assert out.shape == (tgt[0].shape[0], n_factors * dim)
     assert same_bits(out, _core.scatter_segments(target, core_kernel, starts, vectors, values))
+    # negate: the vectors negated in the core, as np.negative gives them (zeros' signs too)
+    negated = np.negative(vectors)
+    negated[::3, 0] = -0.0
+    assert same_bits(_core.scatter_segments_outer(target, core_kernel, starts, np.negative(negated), factors,
+                                                  negate=True),
+                     _core.scatter_segments_outer(target, core_kernel, starts, negated, factors))
     if n_factors == 3 and kernel in ("lucy", "gaussian", "heaviside"):
         assert_fields_close(out, oracle_scatter_segments(ref_kernel, tgt, starts, vectors, values), RTOL,
                             "scatter_segments_outer")
@@ -65,9 +71,14 @@ def test_outer_equals_values_path(case, kernel, n_factors):
         ray_out = _core.scatter_segments_outer(target, core_kernel, starts[far], vectors[far], factors[far], ray=True)
         assert same_bits(ray_out, _core.scatter_segments(target, core_kernel, starts[far], vectors[far],
                                                          values[far], ray=True))
+        assert same_bits(ray_out, _core.scatter_segments_outer(target, core_kernel, starts[far],
+                                                               np.negative(vectors[far]), factors[far], ray=True,
+                                                               negate=True))
     if supports_gradient(KERNELS[kernel][0], dim, len(tgt[1]), segments=True):
         grad = _core.scatter_segments_outer(target, core_kernel, starts, vectors, factors, gradient=True)
         assert same_bits(grad, _core.scatter_segments(target, core_kernel, starts, vectors, values, gradient=True))
+        assert same_bits(grad, _core.scatter_segments_outer(target, core_kernel, starts, np.negative(vectors),
+                                                            factors, gradient=True, negate=True))
 
 
 def lattice_segments(n, spacing=1.0):
@@ -98,6 +109,8 @@ def test_lattice_threads_and_builds_bit_for_bit(kind):
     target, ck = _engine.core_target(grid, box), _engine.core_kernel(kernel, 1.0)
     runs = [_core.scatter_segments_outer(target, ck, starts, vectors, forces, n_threads=t) for t in (1, 2, 3)]
     runs.append(narrow_build(lambda: _core.scatter_segments_outer(target, ck, starts, vectors, forces, n_threads=2)))
+    runs += [_core.scatter_segments_outer(target, ck, starts, np.negative(vectors), forces, n_threads=t, negate=True)
+             for t in (1, 2)]
     reference = _core.scatter_segments(target, ck, starts, vectors, oracle_outer_values(forces, vectors), n_threads=1)
     assert np.count_nonzero(reference) > 0.5 * reference.size
     for i, run in enumerate(runs):
