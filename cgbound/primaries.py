@@ -220,14 +220,15 @@ def _particle_layout(snapshot, needed):
     return layout
 
 
-def _particle_columns(snapshot, needed, u_ref):
+def _particle_columns(snapshot, needed, u_ref, layout=None):
     """The values summed over the flowing particles' positions, side by side in one (n, K) block.
 
-    Returns the block and its layout (_particle_layout). Each column is formed in place with the same
-    floating-point operations as on its own.
+    Returns the block and its layout (_particle_layout, or ``layout`` if given). Each column is formed in place
+    with the same floating-point operations as on its own.
     """
     dim = snapshot.dim
-    layout = _particle_layout(snapshot, needed)
+    if layout is None:
+        layout = _particle_layout(snapshot, needed)
     if not layout:
         return None, layout
     width = layout[-1][1] + layout[-1][2]
@@ -294,7 +295,7 @@ def particle_sums(snapshot, needed, u_ref, target, kernel, P, nt):
                                         flowing_rows(snapshot, snapshot.velocities), np.asarray(u_ref, float), parts,
                                         n_threads=nt)
     else:
-        block, _ = _particle_columns(snapshot, needed, u_ref)
+        block, _ = _particle_columns(snapshot, needed, u_ref, layout)
         summed = scatter_points(target, kernel, pos, block, n_threads=nt) if layout else None
         del block
     if layout:

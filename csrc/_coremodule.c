@@ -491,8 +491,8 @@ static PyObject *py_scatter(PyObject *args, PyObject *kwds, int segments)
         st = cg_scatter_segment_moments(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec),
                                         n_values, array_data(&val), gradient, PyArray_DATA(out));
     else if (segments == 3)
-        st = cg_scatter_segments_outer(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec), negate, ray,
-                                       (int)n_columns, array_data(&val), gradient, PyArray_DATA(out));
+        st = cg_scatter_segments_outer(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec), negate,
+                                       ray, (int)n_columns, array_data(&val), gradient, PyArray_DATA(out));
     else if (segments)
         st = cg_scatter_segments(&ct.target, &ka.kernel, pos.rows, array_data(&pos), array_data(&vec), ray,
                                  n_values, array_data(&val), gradient, PyArray_DATA(out));
@@ -558,8 +558,9 @@ static PyObject *py_scatter_points_kinetic(PyObject *self, PyObject *args, PyObj
                                      &ka, array_converter, &pos, array_converter, &mass, array_converter, &vel,
                                      array_converter, &uref, &parts, threads_converter, &n_threads))
         goto done;
-    const int all = CG_KINETIC_MASS | CG_KINETIC_MOMENTUM | CG_KINETIC_FLUX, D = (int)ct.dim;
-    if (parts <= 0 || parts > all) {
+    const int D = (int)ct.dim;
+    const npy_intp n_values = cg_kinetic_values_count(parts, D);
+    if (n_values == 0) {
         PyErr_Format(PyExc_ValueError, "parts: expected a nonzero mask of CG_KINETIC_MASS (1), _MOMENTUM (2) and "
                      "_FLUX (4), got %d", parts);
         goto done;
@@ -586,8 +587,6 @@ static PyObject *py_scatter_points_kinetic(PyObject *self, PyObject *args, PyObj
         }
     }
     ct.target.n_threads = n_threads;
-    const npy_intp n_values = ((parts & CG_KINETIC_MASS) ? 1 : 0) + ((parts & CG_KINETIC_MOMENTUM) ? D : 0) +
-                              ((parts & CG_KINETIC_FLUX) ? D * D : 0);
     out = output_array(ct.size, 1, &n_values);
     if (!out) goto done;
     cg_status st;

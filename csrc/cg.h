@@ -208,12 +208,15 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
  * in this order: CG_KINETIC_MASS m_o; CG_KINETIC_MOMENTUM m_o (v_or - u_r),
  * r < D; CG_KINETIC_FLUX m_o (v_or v_oc), r, c < D (row-major). masses: n,
  * velocities: n x D, u_ref: D (a reference velocity). out is P x n_values,
- * n_values = [1] + [D] + [D^2] for the parts present. parts: a nonzero mask
- * of these bits (CG_ERR_ARGUMENT otherwise).
+ * n_values = cg_kinetic_values_count(parts, D). parts: a nonzero mask of
+ * these bits (CG_ERR_ARGUMENT otherwise).
  */
 #define CG_KINETIC_MASS 1
 #define CG_KINETIC_MOMENTUM 2
 #define CG_KINETIC_FLUX 4
+/* [1] + [dim] + [dim^2] for the parts present; 0 for a mask that is not a nonzero mask of CG_KINETIC_* bits or a
+   dim outside 1..3 */
+int cg_kinetic_values_count(int parts, int dim);
 cg_status cg_scatter_points_kinetic(const cg_target *target, const cg_kernel *kernel,
                                     cg_index n, const double *positions,
                                     const double *masses, const double *velocities,

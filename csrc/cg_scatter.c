@@ -489,14 +489,6 @@ static double stencil_estimate(const job *jb)
 /* objects fewer than this are visited in input order */
 #define MIN_OBJECTS_TO_SORT 4096
 
-/* An order of the objects by the grid node nearest to their start (row-major
-   node index, in at most n buckets; a stable counting sort, so the order
-   depends only on the input): consecutive objects then write to the same
-   rows of the output, which stays in cache. Input order in unsorted data can
-   make every object a cache miss (4x slower at 1e6 particles). Returns NULL
-   when not worth it or when memory is short (the input order is as right).
-   *ends (if not NULL on return; the caller frees it): where each bucket's
-   objects end in the order, min(P, n) of them. */
 /* object o's bucket of spatial_order: its nearest node (row-major index) among P, in `buckets` */
 static cg_index bucket_of(const job *jb, cg_index o, cg_index buckets, cg_index P)
 {
@@ -514,6 +506,14 @@ static cg_index bucket_of(const job *jb, cg_index o, cg_index buckets, cg_index 
     return b >= buckets ? buckets - 1 : b;
 }
 
+/* An order of the objects by the grid node nearest to their start (row-major
+   node index, in at most n buckets; a stable counting sort, so the order
+   depends only on the input): consecutive objects then write to the same
+   rows of the output, which stays in cache. Input order in unsorted data can
+   make every object a cache miss (4x slower at 1e6 particles). Returns NULL
+   when not worth it or when memory is short (the input order is as right).
+   *ends (if not NULL on return; the caller frees it): where each bucket's
+   objects end in the order, min(P, n) of them. */
 static cg_index *spatial_order(const job *jb, cg_index **ends)
 {
     *ends = NULL;
@@ -915,6 +915,22 @@ static cg_status run_objects(job *jb, double *out, cg_index P, size_t width, int
     return (cg_status)failed;
 }
 
+/* a job of n objects at positions, everything else zero (NULL, none) */
+static job new_job(const cg_target *target, const cg_kernel *kernel, scatter_mode mode, cg_index n,
+                   const double *positions, int n_values, int out_width)
+{
+    job jb;
+    memset(&jb, 0, sizeof jb);
+    jb.target = target;
+    jb.kernel = kernel;
+    jb.mode = mode;
+    jb.n = n;
+    jb.positions = positions;
+    jb.n_values = n_values;
+    jb.out_width = out_width;
+    return jb;
+}
+
 /* points and segments share one job layout; with factors (n_factors per
    object) the values are formed per segment as factors (x) vecs */
 static cg_status scatter_values(const cg_target *target, const cg_kernel *kernel, cg_index n,
@@ -927,22 +943,15 @@ static cg_status scatter_values(const cg_target *target, const cg_kernel *kernel
         n_values = n_factors * target->dim;
     }
     if (n < 0 || n_values < 1) return CG_ERR_ARGUMENT;
-    job jb;
-    memset(&jb, 0, sizeof jb);
-    jb.target = target;
-    jb.kernel = kernel;
-    jb.mode = gradient ? MODE_GRADIENT : MODE_VALUE;
+    job jb = new_job(target, kernel, gradient ? MODE_GRADIENT : MODE_VALUE, n, positions, n_values,
+                     gradient ? n_values * target->n_resolved : n_values);
     jb.is_segment = is_segment;
     jb.ray = ray;
-    jb.n = n;
-    jb.positions = positions;
     jb.vecs = vecs;
     jb.negate_vecs = negate_vecs;
-    jb.n_values = n_values;
     jb.values = values;
     jb.factors = factors;
     jb.n_factors = factors ? n_factors : 0;
-    jb.out_width = gradient ? n_values * target->n_resolved : n_values;
     jb.moment = moment;
     return run(&jb, out);
 }
@@ -955,29 +964,26 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
     return scatter_values(target, kernel, n, positions, 0, NULL, 0, n_values, values, NULL, 0, gradient, out, 0, 0);
 }
 
+int cg_kinetic_values_count(int parts, int dim)
+{
+    const int all = CG_KINETIC_MASS | CG_KINETIC_MOMENTUM | CG_KINETIC_FLUX;
+    if (parts <= 0 || parts > all || dim < 1 || dim > 3) return 0;
+    return (parts & CG_KINETIC_MASS ? 1 : 0) + (parts & CG_KINETIC_MOMENTUM ? dim : 0) +
+           (parts & CG_KINETIC_FLUX ? dim * dim : 0);
+}
+
 cg_status cg_scatter_points_kinetic(const cg_target *target, const cg_kernel *kernel,
                                     cg_index n, const double *positions,
                                     const double *masses, const double *velocities,
                                     const double *u_ref, int parts, double *out)
 {
-    const int D = target->dim;
-    if (n < 0 || parts <= 0 || parts > (CG_KINETIC_MASS | CG_KINETIC_MOMENTUM | CG_KINETIC_FLUX) || D < 1 || D > 3)
-        return CG_ERR_ARGUMENT;
-    const int n_values = (parts & CG_KINETIC_MASS ? 1 : 0) + (parts & CG_KINETIC_MOMENTUM ? D : 0) +
-                         (parts & CG_KINETIC_FLUX ? D * D : 0);
-    job jb;
-    memset(&jb, 0, sizeof jb);
-    jb.target = target;
-    jb.kernel = kernel;
-    jb.mode = MODE_VALUE;
-    jb.n = n;
-    jb.positions = positions;
-    jb.n_values = n_values;
+    const int n_values = cg_kinetic_values_count(parts, target->dim);
+    if (n < 0 || n_values == 0) return CG_ERR_ARGUMENT;
+    job jb = new_job(target, kernel, MODE_VALUE, n, positions, n_values, n_values);
     jb.kinetic = parts;
-    for (int d = 0; d < D; ++d) jb.u_ref[d] = u_ref[d];
+    for (int d = 0; d < target->dim; ++d) jb.u_ref[d] = u_ref[d];
     jb.masses = masses;
     jb.velocities = velocities;
-    jb.out_width = n_values;
     return run(&jb, out);
 }
 
@@ -1013,17 +1019,9 @@ cg_status cg_scatter_fluctuation(const cg_target *target, const cg_kernel *kerne
                                  const double *node_velocity, double *out)
 {
     if (n < 0) return CG_ERR_ARGUMENT;
-    job jb;
-    memset(&jb, 0, sizeof jb);
-    jb.target = target;
-    jb.kernel = kernel;
-    jb.mode = MODE_FLUCTUATION;
-    jb.n = n;
-    jb.positions = positions;
-    jb.n_values = 1;
+    job jb = new_job(target, kernel, MODE_FLUCTUATION, n, positions, 1, target->dim * target->dim);
     jb.masses = masses;
     jb.velocities = velocities;
     jb.node_velocity = node_velocity;
-    jb.out_width = target->dim * target->dim;
     return run(&jb, out);
 }
