@@ -523,12 +523,15 @@ static cg_index *spatial_order(const job *jb, cg_index **ends)
     const cg_index P = cg_target_size(t);
     const cg_index buckets = P < n ? P : n;
     cg_index *order = malloc((size_t)n * sizeof *order);
-    cg_index *start = calloc((size_t)buckets + 1, sizeof *start);
+    cg_index *start = malloc(((size_t)buckets + 1) * sizeof *start);
     if (!order || !start) {
         free(order);
         free(start);
         return NULL;
     }
+    /* zeroed by writing (calloc's fresh pages, read first by the counts, were the shared zero page: each page then
+       faulted twice, the second time with a TLB flush on every core the process runs on) */
+    memset(start, 0, ((size_t)buckets + 1) * sizeof *start);
     /* the buckets counted, then computed again as the objects are placed (an n-array of them would be new memory
        each call: a page fault per 4 kB, ~3 us each on a virtual machine, more than the arithmetic) */
     for (cg_index o = 0; o < n; ++o) ++start[bucket_of(jb, o, buckets, P) + 1];
@@ -688,6 +691,47 @@ static int plan_slabs(const job *jb, cg_index **order_owned, const cg_index *end
     free(slab_of);
     plan->n_slabs = n_slabs;
     return 1;
+}
+
+/* The per-thread copies' memory (run_objects), kept from one call to the next while at most SPARE_MAX bytes: a loop
+   over frames then reuses its pages instead of faulting in fresh ones (~3 us per 4 kB page on a virtual machine,
+   1,700 pages a copy of W1's stress) and unmapping them (a TLB flush on every core). One call at a time holds it
+   (the bindings release the GIL); another allocates its own. */
+#define SPARE_MAX ((size_t)256 << 20)
+static double *spare_memory;
+static size_t spare_bytes;
+static int spare_held;
+
+static double *copies_alloc(size_t bytes, int *held)
+{
+    *held = 0;
+#if defined(__GNUC__)
+    if (bytes <= SPARE_MAX && !__atomic_exchange_n(&spare_held, 1, __ATOMIC_ACQUIRE)) {
+        if (spare_bytes < bytes) {
+            free(spare_memory);
+            spare_memory = malloc(bytes);
+            spare_bytes = spare_memory ? bytes : 0;
+        }
+        if (spare_memory) {
+            *held = 1;
+            return spare_memory;
+        }
+        __atomic_store_n(&spare_held, 0, __ATOMIC_RELEASE);
+    }
+#endif
+    return malloc(bytes);
+}
+
+static void copies_free(double *memory, int held)
+{
+#if defined(__GNUC__)
+    if (held) {
+        __atomic_store_n(&spare_held, 0, __ATOMIC_RELEASE);
+        return;
+    }
+#endif
+    (void)held;
+    free(memory);
 }
 
 /* a pause while another thread finishes a slab this one needs */
@@ -884,33 +928,47 @@ static cg_status run_objects(job *jb, double *out, cg_index P, size_t width, int
         free_slabs(&plan);
         return (cg_status)failed;
     }
+    /* Per-thread copies of the output: thread 0 sums into out, thread t > 0 into copy t - 1, then each thread adds
+       the copies' share of a slice of the nodes to out (every node in copy order: the sums are the same whatever
+       the slicing). A copy is zeroed by its own thread by writing (calloc's fresh pages, read first by the adds,
+       were the shared zero page: each page then faulted twice, the second time with a TLB flush on both cores). */
+    const size_t total = (size_t)P * width;
     double *buffers = NULL;
+    int held = 0;
     if (n_threads > 1) {
-        buffers = calloc((size_t)(n_threads - 1) * (size_t)P * width, sizeof(double));
+        buffers = total <= SIZE_MAX / sizeof(double) / (size_t)(n_threads - 1)
+                      ? copies_alloc((size_t)(n_threads - 1) * total * sizeof(double), &held)
+                      : NULL;
         if (!buffers) n_threads = 1; /* fall back to one thread rather than fail */
     }
 #ifdef _OPENMP
 #pragma omp parallel num_threads(n_threads) if (n_threads > 1)
 #endif
     {
-        int tid = 0;
+        int tid = 0, team = 1;
 #ifdef _OPENMP
         tid = omp_get_thread_num();
+        team = omp_get_num_threads(); /* (the team may be smaller than asked for) */
 #endif
-        double *mine = tid == 0 ? out : buffers + (size_t)(tid - 1) * (size_t)P * width;
-        const cg_index begin = jb->n * tid / n_threads, end = jb->n * (tid + 1) / n_threads;
+        double *mine = tid == 0 ? out : buffers + (size_t)(tid - 1) * total;
+        if (tid > 0) memset(mine, 0, total * sizeof *mine);
+        const cg_index begin = jb->n * tid / team, end = jb->n * (tid + 1) / team;
         scratch sc = {NULL, 0, NULL};
         visit_range(jb, mine, &sc, order, begin, end, &failed);
         free(sc.buf);
-    }
-    if (buffers) {
-        const size_t total = (size_t)P * width;
-        for (int tid = 1; tid < n_threads; ++tid) {
-            const double *b = buffers + (size_t)(tid - 1) * total;
-            for (size_t i = 0; i < total; ++i) out[i] += b[i];
+        if (team > 1) {
+#ifdef _OPENMP
+#pragma omp barrier
+#endif
+            const size_t lo = total * (size_t)tid / (size_t)team, hi = total * (size_t)(tid + 1) / (size_t)team;
+            for (int c = 1; c < team; ++c) {
+                const double *restrict b = buffers + (size_t)(c - 1) * total;
+                double *restrict o = out;
+                for (size_t i = lo; i < hi; ++i) o[i] += b[i];
+            }
         }
-        free(buffers);
     }
+    copies_free(buffers, held);
     free(order);
     return (cg_status)failed;
 }

@@ -117,3 +117,47 @@ def test_slabs_sum_in_the_same_order_for_any_thread_count(line_quadrature):
     ref = oracle_coarse_grain(snap, grid, kernel, fields)
     for name in fields:
         assert_fields_close(one[name].reshape(ref[name].shape), ref[name], 1e-10, name)
+
+
+@pytest.mark.skipif(not cg.have_openmp(), reason="serial build")
+def test_per_thread_copies_start_from_zero_when_their_memory_is_reused():
+    """Where slabs do not apply (here: a periodic first axis), threads other than the first sum into copies of the
+    output whose memory the core keeps from one call to the next. Each call must start them from zero: the same
+    call repeated, after calls on larger and smaller grids, gives the same sums to the bit, close to one thread's."""
+    snap = packing()
+    kernel = cg.Gaussian(0.5, cutoff=1.5)
+    fields = ("density", "momentum_flux", "contact_stress")
+    grids = [cg.Grid(snap.box, shape) for shape in ((12, 10, 8), (24, 20, 16), (6, 5, 4))]
+    with cg.threads(1):
+        one = [cg.coarse_grain(snap, grid, kernel, fields=fields) for grid in grids]
+    for n in (2, 3):
+        with cg.threads(n):
+            first = [cg.coarse_grain(snap, grid, kernel, fields=fields) for grid in grids]
+            again = [cg.coarse_grain(snap, grid, kernel, fields=fields) for grid in reversed(grids)][::-1]
+        for k, grid in enumerate(grids):
+            for name in fields:
+                np.testing.assert_array_equal(again[k][name], first[k][name],
+                                              err_msg=f"{name} on {grid.shape} with {n} threads, repeated")
+                assert_fields_close(first[k][name], one[k][name], 1e-12, f"{name} on {grid.shape} with {n} threads")
+
+
+@pytest.mark.skipif(not cg.have_openmp(), reason="serial build")
+def test_concurrent_calls_do_not_share_per_thread_copies():
+    """Calls from several Python threads at once (the GIL is released in the core) each get their own per-thread
+    copies: every result equals the same call's made alone, to the bit."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    snap = packing()
+    kernel = cg.Gaussian(0.5, cutoff=2.0)   # the core's work long enough for the calls to overlap
+    grid = cg.Grid(snap.box, (40, 40, 40))
+    with cg.threads(2):
+        alone = cg.coarse_grain(snap, grid, kernel, fields=("contact_stress",))["contact_stress"]
+
+        def run(_):
+            with cg.threads(2):
+                return cg.coarse_grain(snap, grid, kernel, fields=("contact_stress",))["contact_stress"]
+
+        with ThreadPoolExecutor(4) as pool:
+            results = list(pool.map(run, range(8)))
+    for k, result in enumerate(results):
+        np.testing.assert_array_equal(result, alone, err_msg=f"call {k}")
