@@ -76,9 +76,21 @@ KINETIC_MASS, KINETIC_MOMENTUM, KINETIC_FLUX = 1, 2, 4
 
 def scatter_points_kinetic(target, kernel, positions, masses, velocities, u_ref, parts, n_threads=0):
     """scatter_points with each particle's values formed in the core: the ``parts`` (a mask of KINETIC_*) of
-    [m, m (v - u_ref), m v (x) v] in that order, shape (P, K); no (n, K) array of values."""
+    [m, m (v - u_ref), m v (x) v] in that order, shape (P, K); no (n, K) array of values. The flux is symmetric:
+    its D (D + 1) / 2 entries r <= c, row by row (the whole of it: ``[..., symmetric_index(D)]``)."""
     return _core.scatter_points_kinetic(target, kernel, positions, masses, velocities, u_ref, parts,
                                         n_threads=n_threads)
+
+
+def symmetric_index(dim):
+    """The column of each entry (r, c) of a symmetric D x D matrix, row-major, among its entries r <= c packed row
+    by row (scatter_points_kinetic's flux): the whole matrix is ``packed[..., symmetric_index(D)]``."""
+    column, k = {}, 0
+    for r in range(dim):
+        for c in range(r, dim):
+            column[r, c] = column[c, r] = k
+            k += 1
+    return tuple(column[r, c] for r in range(dim) for c in range(dim))
 
 
 def scatter_segments(target, kernel, starts, vectors, values, ray=False, gradient=False, n_threads=0):

@@ -15,7 +15,7 @@ import numpy as np
 
 from ._engine import (KINETIC_FLUX, KINETIC_MASS, KINETIC_MOMENTUM, core_kernel, core_target, scatter_fluctuation,
                       scatter_points, scatter_points_kinetic, scatter_segment_moments,
-                      scatter_segments, scatter_segments_outer)
+                      scatter_segments, scatter_segments_outer, symmetric_index)
 from ._threads import get_num_threads
 
 #: what a primary sums over
@@ -285,7 +285,8 @@ def particle_sums(snapshot, needed, u_ref, target, kernel, P, nt):
     """Source PARTICLES: one scatter with all the needed columns (the stencil and weights are
     computed once; each column is summed exactly as on its own). Primaries whose data the
     snapshot lacks are zero. Mass, momentum and momentum flux alone are formed in the core particle by particle
-    (the same values as _particle_columns', without its (n, K) block)."""
+    (the same values as _particle_columns', without its (n, K) block; the flux's upper triangle only, mirrored
+    here: m v_r v_c = m v_c v_r exactly)."""
     out = {}
     layout = _particle_layout(snapshot, needed)
     parts = _kinetic_parts(snapshot, layout)
@@ -294,11 +295,18 @@ def particle_sums(snapshot, needed, u_ref, target, kernel, P, nt):
         summed = scatter_points_kinetic(target, kernel, pos, flowing_rows(snapshot, snapshot.masses),
                                         flowing_rows(snapshot, snapshot.velocities), np.asarray(u_ref, float), parts,
                                         n_threads=nt)
-    else:
+        start, dim = 0, snapshot.dim
+        for name, _, size, shape in layout:     # the flux as its upper triangle: mirrored (a C-contiguous copy)
+            if name == "k":
+                out[name] = np.take(summed, [start + c for c in symmetric_index(dim)], axis=1).reshape((P,) + shape)
+                size = dim * (dim + 1) // 2
+            else:
+                out[name] = summed[:, start:start + size].reshape((P,) + shape)
+            start += size
+    elif layout:
         block, _ = _particle_columns(snapshot, needed, u_ref, layout)
-        summed = scatter_points(target, kernel, pos, block, n_threads=nt) if layout else None
+        summed = scatter_points(target, kernel, pos, block, n_threads=nt)
         del block
-    if layout:
         for name, start, size, shape in layout:
             out[name] = summed[:, start:start + size].reshape((P,) + shape)
     for name in ("p_w", "k", "b"):

@@ -1567,8 +1567,8 @@ static PyMethodDef methods[] = {
      "Sum of values[o] * int_0^1 s M(node - starts[o] - s vectors[o]) ds (the kernel's first moment)."},
     {"scatter_points_kinetic", (PyCFunction)(void (*)(void))py_scatter_points_kinetic, METH_VARARGS | METH_KEYWORDS,
      "scatter_points_kinetic(target, kernel, positions, masses, velocities, u_ref, parts, n_threads=0) -> (P, K)\n\n"
-     "scatter_points with values[o] the parts (mask: 1 m, 2 m (v - u_ref), 4 m v v) formed in the core per particle "
-     "(cg_scatter_points_kinetic)."},
+     "scatter_points with values[o] the parts (mask: 1 m, 2 m (v - u_ref), 4 m v_r v_c for r <= c: the symmetric flux's "
+     "upper triangle, row by row) formed in the core per particle (cg_scatter_points_kinetic)."},
     {"scatter_fluctuation", (PyCFunction)(void (*)(void))py_scatter_fluctuation, METH_VARARGS | METH_KEYWORDS,
      "scatter_fluctuation(target, kernel, positions, masses, velocities, node_velocity, n_threads=0) -> (P, D, D)\n\n"
      "Kinetic stress -sum m (v - V(node)) (v - V(node)) M(node - x) in fluctuation form."},

@@ -206,7 +206,8 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
  * flux, formed per particle as the sums need them (no n x n_values array):
  * cg_scatter_points (gradient = 0) with values[o] the parts of mask parts,
  * in this order: CG_KINETIC_MASS m_o; CG_KINETIC_MOMENTUM m_o (v_or - u_r),
- * r < D; CG_KINETIC_FLUX m_o (v_or v_oc), r, c < D (row-major). masses: n,
+ * r < D; CG_KINETIC_FLUX m_o (v_or v_oc), r <= c < D (the upper triangle,
+ * row by row: the flux is symmetric, v_r v_c = v_c v_r exactly). masses: n,
  * velocities: n x D, u_ref: D (a reference velocity). out is P x n_values,
  * n_values = cg_kinetic_values_count(parts, D). parts: a nonzero mask of
  * these bits (CG_ERR_ARGUMENT otherwise).
@@ -214,7 +215,7 @@ cg_status cg_scatter_points(const cg_target *target, const cg_kernel *kernel,
 #define CG_KINETIC_MASS 1
 #define CG_KINETIC_MOMENTUM 2
 #define CG_KINETIC_FLUX 4
-/* [1] + [dim] + [dim^2] for the parts present; 0 for a mask that is not a nonzero mask of CG_KINETIC_* bits or a
+/* [1] + [dim] + [dim (dim + 1) / 2] for the parts present; 0 for a mask that is not a nonzero mask of CG_KINETIC_* bits or a
    dim outside 1..3 */
 int cg_kinetic_values_count(int parts, int dim);
 cg_status cg_scatter_points_kinetic(const cg_target *target, const cg_kernel *kernel,

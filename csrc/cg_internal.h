@@ -29,8 +29,8 @@ static inline void cg_outer_values(int nf, int D, const double *f, const double 
         for (int c = 0; c < D; ++c) values[r * D + c] = 0.0 + f[r] * v[c];
 }
 
-/* a particle's values for cg_scatter_points_kinetic (parts: CG_KINETIC_* bits): m; m (v_r - u_r); m (v_r v_c),
-   the products in the order NumPy's columns take them (cgbound.primaries: the same bits) */
+/* a particle's values for cg_scatter_points_kinetic (parts: CG_KINETIC_* bits): m; m (v_r - u_r); m (v_r v_c) for
+   r <= c, the products in the order NumPy's columns take them (cgbound.primaries: the same bits) */
 static inline void cg_kinetic_values(int parts, int D, double m, const double *v, const double *u, double *values)
 {
     int k = 0;
@@ -39,7 +39,7 @@ static inline void cg_kinetic_values(int parts, int D, double m, const double *v
         for (int r = 0; r < D; ++r) values[k++] = m * (v[r] - u[r]);
     if (parts & CG_KINETIC_FLUX)
         for (int r = 0; r < D; ++r)
-            for (int c = 0; c < D; ++c) values[k++] = m * (v[r] * v[c]);
+            for (int c = r; c < D; ++c) values[k++] = m * (v[r] * v[c]);
 }
 
 /* Lucy's profile (1 + 3x)(1 - x)^3, x = r/R (cg_kernel_value and the batched

@@ -411,7 +411,7 @@ int cg_visit_profile(const job *jb, double *out, cg_index obj, const double *x, 
 
 /* o[c] += wi * v[c], c < nv: 4 at a time in vectors (element-wise products and
    sums, no FMA in ISO C mode: the scalar loop's bits; the compiler leaves that
-   loop scalar, its 13 values per pair the larger part of a Gaussian's pair) */
+   loop scalar, its 10 values per pair the larger part of a Gaussian's pair) */
 INLINE void add_row(double *restrict o, double wi, const double *restrict v, int nv)
 {
     int c = 0;
@@ -456,13 +456,13 @@ INLINE void pairs_add_gradient_body(int count, const double *restrict v, const d
 INLINE void pairs_add_any(int count, const double *v, const double *w, const cg_index *node,
                           const double *const *val, int width, int nv, double *out)
 {
-    /* fixed widths: the rows' loops unrolled (the Gaussian's points: 13 values, its contacts' stress: 9,
+    /* fixed widths: the rows' loops unrolled (the Gaussian's points: 10 values, its contacts' stress: 9,
        with v) */
-    if (v && nv == 13 && width == 13) pairs_add_gradient_body(count, v, w, node, val, 13, 13, out);
+    if (v && nv == 10 && width == 10) pairs_add_gradient_body(count, v, w, node, val, 10, 10, out);
     else if (v && nv == 9 && width == 9) pairs_add_gradient_body(count, v, w, node, val, 9, 9, out); /* stress */
     else if (v) pairs_add_gradient_body(count, v, w, node, val, width, nv, out);
     else if (nv == 9 && width == 9) pairs_add_body(count, w, node, val, 9, 9, out); /* a stress */
-    else if (nv == 13 && width == 13) pairs_add_body(count, w, node, val, 13, 13, out); /* density to flux */
+    else if (nv == 10 && width == 10) pairs_add_body(count, w, node, val, 10, 10, out); /* density to flux */
     else pairs_add_body(count, w, node, val, width, nv, out);
 }
 

@@ -1026,7 +1026,7 @@ int cg_kinetic_values_count(int parts, int dim)
     const int all = CG_KINETIC_MASS | CG_KINETIC_MOMENTUM | CG_KINETIC_FLUX;
     if (parts <= 0 || parts > all || dim < 1 || dim > 3) return 0;
     return (parts & CG_KINETIC_MASS ? 1 : 0) + (parts & CG_KINETIC_MOMENTUM ? dim : 0) +
-           (parts & CG_KINETIC_FLUX ? dim * dim : 0);
+           (parts & CG_KINETIC_FLUX ? dim * (dim + 1) / 2 : 0);
 }
 
 cg_status cg_scatter_points_kinetic(const cg_target *target, const cg_kernel *kernel,

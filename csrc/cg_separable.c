@@ -264,9 +264,9 @@ INLINE void block_add_picked(double *restrict o, double scale, const double *res
     case PLAIN + 2: block_add_n(o, scale, w, nk, v, 2); return;
     case PLAIN + 3: block_add_n(o, scale, w, nk, v, 3); return;
     case PLAIN + 4: block_add_n(o, scale, w, nk, v, 4); return;
-    case PLAIN + 7: block_add_n(o, scale, w, nk, v, 7); return; /* 2D density, momentum and momentum flux at once */
+    case PLAIN + 6: block_add_n(o, scale, w, nk, v, 6); return; /* 2D density, momentum and momentum flux at once */
     case PLAIN + 9: block_add_n(o, scale, w, nk, v, 9); return;   /* 3D stress tensors */
-    case PLAIN + 13: block_add_n(o, scale, w, nk, v, 13); return; /* 3D density, momentum and momentum flux */
+    case PLAIN + 10: block_add_n(o, scale, w, nk, v, 10); return; /* 3D density, momentum and momentum flux */
     default: block_add_n(o, scale, w, nk, v, nv); return;
     }
 }

@@ -966,7 +966,7 @@ def oracle_outer_values(factors, vectors):
 
 def oracle_kinetic_values(masses, velocities, u_ref, parts):
     """Twin of the values _core.scatter_points_kinetic forms per particle: the parts (1 m, 2 m (v - u_ref), 4
-    m (v_r v_c)) side by side, flat (n, K), each product as NumPy rounds it."""
+    m (v_r v_c) for r <= c, row by row) side by side, flat (n, K), each product as NumPy rounds it."""
     m, v, u = np.asarray(masses, float), np.asarray(velocities, float), np.asarray(u_ref, float)
     cols = []
     if parts & 1:
@@ -974,7 +974,8 @@ def oracle_kinetic_values(masses, velocities, u_ref, parts):
     if parts & 2:
         cols.append(m[:, None] * (v - u))
     if parts & 4:
-        cols.append(m[:, None] * (v[:, :, None] * v[:, None, :]).reshape(len(m), -1))
+        rows, columns = np.triu_indices(v.shape[1])
+        cols.append(m[:, None] * (v[:, :, None] * v[:, None, :])[:, rows, columns])
     return np.hstack(cols)
 
 

@@ -35,14 +35,29 @@ def particles(n, dim, seed):
     return m, v, rng.normal(size=dim)
 
 
-def test_twin_is_the_pipelines_columns():
-    """The twin's values are those primaries._particle_columns forms with NumPy (rho, p_w, k), to the bit."""
-    snap = random_snapshot(3)
-    u_ref = np.array([0.3, -0.2, 0.1])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_twin_is_the_pipelines_columns(dim):
+    """The twin's values are those primaries._particle_columns forms with NumPy (rho, p_w, and of k the entries
+    r <= c), to the bit; k's other entries equal their mirror images to the bit."""
+    snap = random_snapshot(3, dim=dim)
+    u_ref = np.array([0.3, -0.2, 0.1][:dim])
     block, layout = _particle_columns(snap, {"rho", "p_w", "k"}, u_ref)
     assert [name for name, *_ in layout] == ["rho", "p_w", "k"]
+    rows, columns = np.triu_indices(dim)
+    k = block[:, 1 + dim:].reshape(-1, dim, dim)
+    assert same_bits(k, k.transpose(0, 2, 1))
     flowing = snap.flowing
-    assert same_bits(oracle_kinetic_values(snap.masses[flowing], snap.velocities[flowing], u_ref, 7), block)
+    assert same_bits(oracle_kinetic_values(snap.masses[flowing], snap.velocities[flowing], u_ref, 7),
+                     np.hstack([block[:, :1 + dim], k[:, rows, columns]]))
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_symmetric_index_mirrors_the_upper_triangle(dim):
+    packed = np.arange(dim * (dim + 1) // 2) + 10.0
+    full = np.zeros((dim, dim))
+    full[np.triu_indices(dim)] = packed
+    full = np.where(full == 0.0, full.T, full)
+    np.testing.assert_array_equal(packed[list(_engine.symmetric_index(dim))].reshape(dim, dim), full)
 
 
 @pytest.mark.parametrize("kernel", sorted(KERNELS))
@@ -87,16 +102,17 @@ def test_lattice_threads_and_builds_bit_for_bit(kind):
 
 @pytest.mark.parametrize("fields", [("density",), ("momentum",), ("density", "momentum", "momentum_flux"),
                                     ("momentum_flux", "body_force_density")])
-def test_particle_primaries_as_numpy_columns(fields):
+@pytest.mark.parametrize("dim", [2, 3])
+def test_particle_primaries_as_numpy_columns(fields, dim):
     """The particle primaries of compute_primaries: the same bits as summing the NumPy columns with scatter_points
-    (the kinetic path where only rho, p_w and k are needed, the columns' block otherwise), fixed particles left
-    out, for 1 and 2 threads."""
-    snap = random_snapshot(5)
+    (the kinetic path where only rho, p_w and k are needed, its flux's upper triangle mirrored; the columns' block
+    otherwise), fixed particles left out, for 1 and 2 threads."""
+    snap = random_snapshot(5, dim=dim)
     assert snap.fixed.any()
-    grid = cg.Grid(snap.box, (5, 4, 6))
+    grid = cg.Grid(snap.box, (5, 4, 6)[:dim])
     kernel = cg.Gaussian(0.4)
     needed = cg.fields.needed_primaries(fields) & {"rho", "p_w", "k", "b"}
-    u_ref = np.array([0.1, 0.2, -0.3])
+    u_ref = np.array([0.1, 0.2, -0.3][:dim])
     block, layout = _particle_columns(snap, needed, u_ref)
     target = _engine.core_target(grid, snap.box)
     for nt in (1, 2):
