@@ -161,3 +161,30 @@ def test_concurrent_calls_do_not_share_per_thread_copies():
             results = list(pool.map(run, range(8)))
     for k, result in enumerate(results):
         np.testing.assert_array_equal(result, alone, err_msg=f"call {k}")
+
+
+@pytest.mark.skipif(not cg.have_openmp(), reason="serial build")
+def test_spatial_order_on_several_threads_is_the_serial_one():
+    """With enough objects (32,768 per thread) the core counts and places them in spatial order on several
+    threads; the order must be the one-thread order, or the slabs' sums (bit for bit for any thread count) would
+    change: random particles and contacts in a long non-periodic box, 1, 2 and 3 threads."""
+    rng = np.random.default_rng(11)
+    m = 40_000                                          # triples of particles, each with its 3 contacts
+    box = cg.Box([0, 0, 0], [60, 6, 6])
+    centres = rng.uniform(0.5, np.asarray(box.lengths) - 0.5, (m, 3))
+    pos = np.concatenate([centres + rng.uniform(-0.3, 0.3, (m, 3)) for _ in range(3)])
+    n = len(pos)
+    a, b, c = np.arange(m), np.arange(m) + m, np.arange(m) + 2 * m
+    i, j = np.concatenate([a, a, b]), np.concatenate([b, c, c])
+    contacts = cg.Contacts(i, j, rng.normal(size=(i.size, 3)), 0.5 * (pos[i] + pos[j]))
+    snap = cg.Snapshot(pos, rng.normal(size=(n, 3)), rng.uniform(0.5, 2, n), box=box, contacts=contacts)
+    grid = cg.Grid(box, (120, 12, 12))
+    kernel = cg.Gaussian(0.25, cutoff=0.75)
+    fields = ("density", "momentum_flux", "contact_stress")
+    with cg.threads(1):
+        one = cg.coarse_grain(snap, grid, kernel, fields=fields)
+    for nt in (2, 3):
+        with cg.threads(nt):
+            many = cg.coarse_grain(snap, grid, kernel, fields=fields)
+        for name in fields:
+            np.testing.assert_array_equal(many[name], one[name], err_msg=f"{name} with {nt} threads")
