@@ -6,7 +6,7 @@
 
 Workloads on the 46^3 lattice (97,336 particles, 285,660 contacts): W2, the Z profile of 100 nodes
 (x and y averaged); P100, 100 random points (a point target); W1, the 46^3 XYZ grid. Field sets:
-``stress`` (density, momentum, momentum flux, contact stress: one particle scatter of 13 values and one
+``stress`` (density, momentum, momentum flux, contact stress: one particle scatter of 10 values and one
 contact scatter) and ``gradient`` (density_gradient: one gradient scatter of the particles).
 
 For every scatter call that ``coarse_grain`` makes, the same call is timed alone with the kernel as given

@@ -3,7 +3,7 @@
 Checked against the node-by-node path bit for bit (the bytes, signed zeros included): lattice contacts (two
 thirds of them of zero length along the resolved axis), random segments and points, segments through nodes and
 ending on them, near-zero lengths, coordinates near 1e6, stencils longer than a batch, periodic axes, rays, the
-contact stress's outer-product form (9 values), 1 and 13 values, Lucy's point gradients; both vector builds and thread counts bit for
+contact stress's outer-product form (9 values), 1, 10 (the particle fields, a fixed width) and 13 values, Lucy's point gradients; both vector builds and thread counts bit for
 bit. (The slow twin at 1e-12: tests/test_core_sweep.py, whose grids average every combination of axes.)"""
 import numpy as np
 import pytest
@@ -82,7 +82,7 @@ def test_random_segments_and_points(kernel, seed):
     vectors[::9] *= 1e-12                                # near-zero lengths
     vectors[1::9, 2] = 0.0                               # zero along the resolved axis
     vectors[2::9] *= 8.0                                 # long: stencils of more than a batch
-    for nv in (9, 13, 1):
+    for nv in (9, 10, 13, 1):
         values = rng.normal(size=(len(starts), nv))
         assert_same_bits(box, 150, "z", KERNELS[kernel], 1.3, starts, vectors, values, f"segments {nv}")
         assert_same_bits(box, 150, "z", KERNELS[kernel], 1.3, starts, None, values, f"points {nv}")
@@ -240,7 +240,7 @@ def test_gaussian_segments(far):
     takes (those of a rule, at most 4.6 w along the axis: checked against it on a periodic copy of the profile,
     which it takes object by object), the closed form at every node for longer ones (the node-by-node erf
     form's values to 1e-12 of the largest and of each value above 1e-3 of it); far: a cutoff of 6 w (nodes far
-    beyond an end take the closed form), 25 nodes a stencil. 9 values, the outer form's 3 factors, 13 and 1
+    beyond an end take the closed form), 25 nodes a stencil. 9 values, the outer form's 3 factors, 10, 13 and 1
     value; near 1e6; the separable path where stencils are longer; both vector builds and thread counts bit
     for bit."""
     rng = np.random.default_rng(23 + far)
@@ -255,7 +255,7 @@ def test_gaussian_segments(far):
         # add zeros)
         s_ruled = np.concatenate([starts[ruled], [box.lower - [0, 0, 3 * box.lengths[2]]]])
         v_ruled = np.concatenate([vectors[ruled], [[0.0, 0.0, box.lengths[2]]]])
-        for nv, outer in ((9, False), (3, True), (13, False), (1, False)):
+        for nv, outer in ((9, False), (3, True), (10, False), (13, False), (1, False)):
             values = rng.normal(size=(len(s_ruled), nv))
             values[-1] = 0.0
             kw = dict(outer=outer)
