@@ -758,7 +758,7 @@ static int plan_slabs(const job *jb, cg_index **order_owned, const cg_index *end
    over frames then reuses its pages instead of faulting in fresh ones (~3 us per 4 kB page on a virtual machine,
    1,700 pages a copy of W1's stress) and unmapping them (a TLB flush on every core). One call at a time holds it
    (the bindings release the GIL); another allocates its own. */
-#define SPARE_MAX ((size_t)256 << 20)
+#define SPARE_MAX ((size_t)64 << 20) /* (a W1 copy: 7 MB; larger grids take seconds a frame, where faults matter less) */
 static double *spare_memory;
 static size_t spare_bytes;
 static int spare_held;
