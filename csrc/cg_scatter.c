@@ -537,11 +537,11 @@ static cg_index *spatial_order(const job *jb, cg_index **ends, int n_threads)
     (void)n_threads;
 #endif
     cg_index *order = malloc((size_t)n * sizeof *order);
-    /* start: bucket b's first place (then its end); per further thread, its count in b, then its next place
-       (zeroed by writing, each thread its own row: calloc's fresh pages, read first by the counts, would be the
-       shared zero page, each page faulting twice, the second time with a TLB flush on both cores) */
-    cg_index *start = T == 1 ? calloc((size_t)buckets + 1, sizeof *start)
-                             : malloc(((size_t)buckets + 1) * (size_t)T * sizeof *start);
+    /* start: per thread a row of buckets + 1: its count in each bucket (thread 0's at b + 1), then its next place
+       there; zeroed by each thread by writing (calloc's fresh pages, read first by the counts, would be the shared
+       zero page: each page faulting twice, the second time with a TLB flush on every core) */
+    const size_t stride = (size_t)buckets + 1;
+    cg_index *start = malloc(stride * (size_t)T * sizeof *start);
     if (!order || !start) {
         free(order);
         free(start);
@@ -549,34 +549,32 @@ static cg_index *spatial_order(const job *jb, cg_index **ends, int n_threads)
     }
     /* the buckets counted, then computed again as the objects are placed (an n-array of them would be new memory
        each call: a page fault per 4 kB, ~3 us each on a virtual machine, more than the arithmetic) */
-    if (T == 1) {
-        for (cg_index o = 0; o < n; ++o) ++start[bucket_of(jb, o, buckets, P) + 1];
-        for (cg_index b = 0; b < buckets; ++b) start[b + 1] += start[b];
-        for (cg_index o = 0; o < n; ++o) order[start[bucket_of(jb, o, buckets, P)]++] = o;
-        *ends = start; /* each start[b] has moved to the end of bucket b */
-        return order;
-    }
-#ifdef _OPENMP
-    const size_t stride = (size_t)buckets + 1;
     int team = 1;
-#pragma omp parallel num_threads(T)
+#ifdef _OPENMP
+#pragma omp parallel num_threads(T) if (T > 1)
+#endif
     {
-        const int k = omp_get_thread_num();
+        int k = 0;
+#ifdef _OPENMP
+        k = omp_get_thread_num();
 #pragma omp single
         team = omp_get_num_threads(); /* (the team may be smaller than asked for) */
+#endif
         const cg_index lo = n * k / team, hi = n * (k + 1) / team;
-        cg_index *mine = start + (size_t)k * stride; /* thread 0: counts at b + 1, as on one thread */
+        cg_index *mine = start + (size_t)k * stride;
         const cg_index shift = k == 0 ? 1 : 0;
         memset(mine, 0, stride * sizeof *mine);
         for (cg_index o = lo; o < hi; ++o) ++mine[bucket_of(jb, o, buckets, P) + shift];
+#ifdef _OPENMP
 #pragma omp barrier
 #pragma omp single
+#endif
         {
             /* bucket b's places: those of thread 0's objects, then thread 1's, ...; start[b] (thread 0's row)
                becomes b's first place, thread k's row its objects' first place */
             cg_index at = 0;
             for (cg_index b = 0; b < buckets; ++b) {
-                cg_index here = start[b + 1]; /* thread 0's count in b */
+                const cg_index here = start[b + 1]; /* thread 0's count in b */
                 start[b] = at;
                 at += here;
                 for (int m = 1; m < team; ++m) {
@@ -591,15 +589,11 @@ static cg_index *spatial_order(const job *jb, cg_index **ends, int n_threads)
         /* (single's barrier: every place known) */
         for (cg_index o = lo; o < hi; ++o) order[mine[bucket_of(jb, o, buckets, P)]++] = o;
     }
-    /* bucket b ends where bucket b + 1 begins: thread 0's first place in b + 1 (moved on by its objects), so from
-       the places before they moved: the last thread's row has moved to the end of its part of b */
+    /* bucket b's end: where the last thread's place in b has moved to (on one thread, start[b] itself) */
     const cg_index *last = start + (size_t)(team - 1) * stride;
     for (cg_index b = 0; b < buckets; ++b) start[b] = last[b];
     *ends = start;
     return order;
-#else
-    return order;
-#endif
 }
 
 /* Objects order[begin..end) (or begin..end) into out, one thread; stops at the
