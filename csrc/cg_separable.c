@@ -319,12 +319,40 @@ static const double ERFCX_SHORT_POLY[ERFCX_SHORT_TERMS] = {
     4.237149035268989e-12,  -7.501044565500683e-13,  -1.0942463637153306e-13,
 };
 
+/* p <- the short polynomial at v (p, v: scalars or GCC vectors of doubles, p's type that of the temporaries):
+   a0 + v (a1 + v Z) with Z = sum_k a_k v^(k-2) for k = 2..18 in three parts, Z = Zlo + v^6 (Zmid + v^5 Zhi)
+   (k = 2..7, 8..12 and 13..18), each in Horner form: three chains of 4 or 5 steps side by side, then 4, instead
+   of one chain of 18 (a step waits for the previous one's result, so one long chain left the units idle). The
+   last steps are Horner's, and so is the rounding of the value (the coefficients fall to 2e-5 by k = 8):
+   within 2.4 ulp of the exact value on [0, 4], as one chain. */
+#define ERFCX_SHORT_HORNER(p, v)                                                                    \
+    do {                                                                                            \
+        const __typeof__(p) v2_ = (v) * (v), v4_ = v2_ * v2_, v5_ = v4_ * (v), v6_ = v4_ * v2_;     \
+        __typeof__(p) lo_ = (v) * ERFCX_SHORT_POLY[7] + ERFCX_SHORT_POLY[6];                        \
+        __typeof__(p) mid_ = (v) * ERFCX_SHORT_POLY[12] + ERFCX_SHORT_POLY[11];                     \
+        __typeof__(p) hi_ = (v) * ERFCX_SHORT_POLY[18] + ERFCX_SHORT_POLY[17];                      \
+        lo_ = lo_ * (v) + ERFCX_SHORT_POLY[5];                                                      \
+        mid_ = mid_ * (v) + ERFCX_SHORT_POLY[10];                                                   \
+        hi_ = hi_ * (v) + ERFCX_SHORT_POLY[16];                                                     \
+        lo_ = lo_ * (v) + ERFCX_SHORT_POLY[4];                                                      \
+        mid_ = mid_ * (v) + ERFCX_SHORT_POLY[9];                                                    \
+        hi_ = hi_ * (v) + ERFCX_SHORT_POLY[15];                                                     \
+        lo_ = lo_ * (v) + ERFCX_SHORT_POLY[3];                                                      \
+        mid_ = mid_ * (v) + ERFCX_SHORT_POLY[8];                                                    \
+        hi_ = hi_ * (v) + ERFCX_SHORT_POLY[14];                                                     \
+        lo_ = lo_ * (v) + ERFCX_SHORT_POLY[2];                                                      \
+        hi_ = hi_ * (v) + ERFCX_SHORT_POLY[13];                                                     \
+        p = lo_ + v6_ * (mid_ + v5_ * hi_);                                                         \
+        p = p * (v) + ERFCX_SHORT_POLY[1];                                                          \
+        p = p * (v) + ERFCX_SHORT_POLY[0];                                                          \
+    } while (0)
+
 INLINE double erfcx_one(double x)
 {
     if (!(x > ERFCX_SHORT_MAX)) {
         const double v = (3.0 * x - 4.0) / (x + 4.0);
-        double p = ERFCX_SHORT_POLY[ERFCX_SHORT_TERMS - 1];
-        for (int j = ERFCX_SHORT_TERMS - 2; j >= 0; --j) p = p * v + ERFCX_SHORT_POLY[j];
+        double p;
+        ERFCX_SHORT_HORNER(p, v);
         return p;
     }
     const double y = (x - 4.0) / (x + 4.0), y2 = y + y;
@@ -359,9 +387,8 @@ INLINE void chebyshev_series(vwd t, const double *coef, int terms, vwd *sum)
 INLINE void erfcx_short(vwd x, vwd *out)
 {
     const vwd v = (SPLAT(3.0) * x - SPLAT(4.0)) / (x + SPLAT(4.0));
-    vwd p = SPLAT(ERFCX_SHORT_POLY[ERFCX_SHORT_TERMS - 1]);
-#pragma GCC unroll 32
-    for (int j = ERFCX_SHORT_TERMS - 2; j >= 0; --j) p = p * v + ERFCX_SHORT_POLY[j];
+    vwd p;
+    ERFCX_SHORT_HORNER(p, v);
     *out = p;
 }
 
@@ -465,74 +492,34 @@ INLINE void sqrt_lanes(vwd x, vwd *out)
     *out = r;
 }
 
-/* CG_EXP_TAYLOR13's coefficients in the order its steps add them (the same constants; a drift between the two
-   fails tests/test_profile_rows.py::test_gaussian_segments, which compares cg_profile.c's exponentials, by
-   cg_exp_in_place, with these bit for bit) */
-static const double EXP_TAYLOR_STEPS[13] = {
-    1.0 / 479001600.0, 1.0 / 39916800.0, 1.0 / 3628800.0, 1.0 / 362880.0, 1.0 / 40320.0, 1.0 / 5040.0, 1.0 / 720.0,
-    1.0 / 120.0,       1.0 / 24.0,       1.0 / 6.0,       0.5,           1.0,           1.0,
-};
-
 /* at most this many vectors of lanes per call of cut_lanes_fused (see there) */
 #define CUT_ILP 2
-
-/* x stays a value in a register where it stands (no instruction, so no bit changes): GCC's
-   expansion to RTL otherwise regroups single-use results into one expression per chain (TER),
-   which puts interleaved chains back one after the other. The AVX-512 build only: in the
-   narrow file's baseline clone a 32-byte vector has no register. */
-#if defined(CG_SEPARABLE_WIDE) && defined(__GNUC__) && !defined(__clang__)
-#define IN_REGISTER(x) __asm__("" : "+v"(x))
-#else
-#define IN_REGISTER(x) ((void)0)
-#endif
 
 /* exp of ne vectors xe (cg_exp_in_place's operations, the same bits, for x <= 0 or NaN: the
    callers' exponents are minus sums of squares times a positive constant, where its clamp to 0
    from above changes nothing) and erfcx_short of nc vectors xc (ne <= 3 CUT_ILP, nc <= 2 CUT_ILP,
-   constants after inlining), the same operations per lane, their Horner steps interleaved: each
-   chain waits for its previous step's result (the steps' latency, not the units' throughput,
-   bounds one chain), so side by side they are in flight together; the exponentials' 13 steps
-   run beside the last 13 of erfcx's 18 */
+   constants after inlining), the same operations per lane; their chains are independent, in flight
+   together */
 INLINE void exp_erfcx_lanes(int ne, const vwd *xe, vwd *oe, int nc, const vwd *xc, vwd *oc)
 {
     const vwd log2e = SPLAT(1.4426950408889634), shifter = SPLAT(0x1.8p52);
     const vwd ln2_hi = SPLAT(6.93147180369123816490e-01), ln2_lo = SPLAT(1.90821492927058770002e-10);
-    vwl below[3 * CUT_ILP];
-    vwd shifted[3 * CUT_ILP], r[3 * CUT_ILP], pe[3 * CUT_ILP], v[2 * CUT_ILP], pc[2 * CUT_ILP];
 #pragma GCC unroll 8
     for (int k = 0; k < nc; ++k) {
-        v[k] = (SPLAT(3.0) * xc[k] - SPLAT(4.0)) / (xc[k] + SPLAT(4.0));
-        pc[k] = SPLAT(ERFCX_SHORT_POLY[ERFCX_SHORT_TERMS - 1]);
+        const vwd v = (SPLAT(3.0) * xc[k] - SPLAT(4.0)) / (xc[k] + SPLAT(4.0));
+        ERFCX_SHORT_HORNER(oc[k], v);
     }
 #pragma GCC unroll 8
     for (int k = 0; k < ne; ++k) {
-        below[k] = xe[k] < SPLAT(-708.0);
-        const vwd x = SELECT(below[k], SPLAT(-708.0), xe[k]);
-        shifted[k] = x * log2e + shifter; /* k in the low bits of the mantissa */
-        const vwd kd = shifted[k] - shifter;
-        r[k] = (x - kd * ln2_hi) - kd * ln2_lo;
-        pe[k] = SPLAT(1.0 / 6227020800.0);
-    }
-#pragma GCC unroll 32
-    for (int j = ERFCX_SHORT_TERMS - 2; j >= 0; --j) {
-#pragma GCC unroll 8
-        for (int k = 0; k < nc; ++k) {
-            pc[k] = pc[k] * v[k] + ERFCX_SHORT_POLY[j];
-            IN_REGISTER(pc[k]);
-        }
-        if (j < 13)
-#pragma GCC unroll 8
-            for (int k = 0; k < ne; ++k) {
-                pe[k] = pe[k] * r[k] + EXP_TAYLOR_STEPS[12 - j];
-                IN_REGISTER(pe[k]);
-            }
-    }
-#pragma GCC unroll 8
-    for (int k = 0; k < nc; ++k) oc[k] = pc[k];
-#pragma GCC unroll 8
-    for (int k = 0; k < ne; ++k) {
-        const vwu bits = ((vwu)shifted[k] - UINT64_C(0x4338000000000000) + 1023) << 52; /* 2^k */
-        oe[k] = (vwd)((vwl)(pe[k] * (vwd)bits) & ~below[k]);
+        const vwl below = xe[k] < SPLAT(-708.0);
+        const vwd x = SELECT(below, SPLAT(-708.0), xe[k]);
+        const vwd shifted = x * log2e + shifter; /* k in the low bits of the mantissa */
+        const vwd kd = shifted - shifter;
+        const vwd r = (x - kd * ln2_hi) - kd * ln2_lo;
+        vwd p;
+        CG_EXP_TAYLOR13(p, r);
+        const vwu bits = ((vwu)shifted - UINT64_C(0x4338000000000000) + 1023) << 52; /* 2^k */
+        oe[k] = (vwd)((vwl)(p * (vwd)bits) & ~below);
     }
 }
 
