@@ -376,8 +376,10 @@ def segment_sum(snapshot, part, target, kernel, P, nt, ray=False):
 
 
 def segment_starts(snapshot, part):
-    """The starts of the segments of ``part`` (of split_contacts): the flowing particles' centres."""
-    return np.take(snapshot.positions, part["i"], axis=0)
+    """The starts of the segments of ``part`` (of split_contacts): the flowing particles' centres (its start,
+    gathered there; parts built otherwise, with i only, are gathered here)."""
+    start = part.get("start")
+    return np.take(snapshot.positions, part["i"], axis=0) if start is None else start
 
 
 def segment_geometry(snapshot, part):

@@ -406,7 +406,8 @@ class Snapshot:
         Returns ``(bulk, boundary)`` dicts of arrays: bulk has i, j, force, branch
         (r_i - r_j, minimum image, or ``contacts.branch`` where given), point (the contact point); boundary has i
         (the flowing particle), force
-        (on it), branch a = r_i - c (minimum image) and point c = r_i - a.
+        (on it), branch a = r_i - c (minimum image) and point c = r_i - a. Both have start: r_i, the centres of
+        their particles i (the contact segments' starts, gathered once).
         Arrays taken unchanged from the contacts are read-only views of them.
         """
         c = self.contacts
@@ -415,8 +416,8 @@ class Snapshot:
         if len(c) == 0:
             empty = np.zeros((0, dim))
             idx = np.zeros(0, np.int64)
-            return ({"i": idx, "j": idx, "force": empty, "branch": empty, "point": empty},
-                    {"i": idx, "force": empty, "branch": empty, "point": empty})
+            return ({"i": idx, "j": idx, "force": empty, "branch": empty, "point": empty, "start": empty},
+                    {"i": idx, "force": empty, "branch": empty, "point": empty, "start": empty})
         i, j, f, pt = c.i, c.j, c.force, c.point
         periodic, lengths = list(box.periodic), [float(x) for x in box.lengths]
 
@@ -426,17 +427,18 @@ class Snapshot:
         wall = j < 0
         if not self.fixed.any() and not wall.any():
             # every contact is bulk: read-only views of the contact arrays instead of selected copies
+            start = np.take(self.positions, i, axis=0)
             if c.branch is not None:
                 r_ij = c.branch.copy()
             else:
                 # (in place: one (n, D) array fewer, new memory each frame)
-                r_ij = np.take(self.positions, i, axis=0)
-                np.subtract(r_ij, np.take(self.positions, j, axis=0), out=r_ij)
+                r_ij = np.take(self.positions, j, axis=0)
+                np.subtract(start, r_ij, out=r_ij)
                 r_ij = minimum_image(r_ij)
             empty = np.zeros((0, dim))
             return ({"i": _read_only(i), "j": _read_only(j), "force": _read_only(f), "branch": r_ij,
-                     "point": _read_only(pt)},
-                    {"i": np.zeros(0, np.int64), "force": empty, "branch": empty, "point": empty})
+                     "point": _read_only(pt), "start": start},
+                    {"i": np.zeros(0, np.int64), "force": empty, "branch": empty, "point": empty, "start": empty})
         fixed_i = self.fixed[i]
         fixed_j = np.where(wall, True, self.fixed[np.where(wall, 0, j)])
         bulk = ~fixed_i & ~fixed_j
@@ -444,14 +446,16 @@ class Snapshot:
         boundary_j = fixed_i & ~fixed_j & ~wall   # flip: the flowing particle is j
 
         bi, bj = i[bulk], j[bulk]
-        r_ij = c.branch[bulk] if c.branch is not None else minimum_image(self.positions[bi] - self.positions[bj])
-        bulk_out = {"i": bi, "j": bj, "force": f[bulk], "branch": r_ij, "point": pt[bulk]}
+        start = self.positions[bi]
+        r_ij = c.branch[bulk] if c.branch is not None else minimum_image(start - self.positions[bj])
+        bulk_out = {"i": bi, "j": bj, "force": f[bulk], "branch": r_ij, "point": pt[bulk], "start": start}
 
         k = np.concatenate([i[boundary_i], j[boundary_j]])
         fk = np.concatenate([f[boundary_i], -f[boundary_j]])
         ck = np.concatenate([pt[boundary_i], pt[boundary_j]])
-        a = minimum_image(self.positions[k] - ck)
-        boundary_out = {"i": k, "force": fk, "branch": a, "point": self.positions[k] - a}
+        start_k = self.positions[k]
+        a = minimum_image(start_k - ck)
+        boundary_out = {"i": k, "force": fk, "branch": a, "point": start_k - a, "start": start_k}
         return bulk_out, boundary_out
 
     def inertia(self, why="the spin density"):

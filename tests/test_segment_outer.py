@@ -9,7 +9,7 @@ import pytest
 
 import cgbound as cg
 from cgbound import _core, _engine
-from cgbound.primaries import compute_primaries, longest_branch, negated_outer, segment_sources
+from cgbound.primaries import compute_primaries, longest_branch, negated_outer, segment_sources, segment_starts
 from helpers import assert_fields_close, narrow_build, random_snapshot
 from oracle import OracleKernel, oracle_outer_values, oracle_scatter_segments
 from test_core_sweep import KERNELS, LUCY, case_id, cases, make_kernel, make_target, objects, seed_of, \
@@ -140,6 +140,25 @@ def test_stress_primaries_as_numpy_values(kernel, seed):
             expected = _core.scatter_segments(target, line_kernel, starts, vectors, values, ray=ray, n_threads=nt)
             assert same_bits(sums[name].reshape(expected.shape), expected), (name, nt)
         assert same_bits(res["contact_stress"].reshape(-1, 3, 3), sums["sb"].reshape(-1, 3, 3)), nt
+
+
+@pytest.mark.parametrize("all_bulk", [False, True])
+def test_split_contacts_starts_are_the_particles_centres(all_bulk):
+    """split_contacts' start (the segments' starts, gathered once) is r_i of each part's particles, in the
+    all-bulk path and the general one; segment_starts takes it, and gathers r_i for parts without it."""
+    snap = random_snapshot(0)
+    if all_bulk:
+        c = snap.contacts
+        keep = (c.j >= 0) & ~snap.fixed[c.i] & ~snap.fixed[np.maximum(c.j, 0)]
+        snap = cg.Snapshot(snap.positions, snap.velocities, snap.masses, box=snap.box,
+                           contacts=cg.Contacts(c.i[keep], c.j[keep], c.force[keep], c.point[keep]))
+    bulk, boundary = snap.split_contacts()
+    assert bulk["i"].size and (boundary["i"].size or all_bulk)
+    for part in (bulk, boundary):
+        assert np.array_equal(part["start"], snap.positions[part["i"]])
+        assert segment_starts(snap, part) is part["start"]
+        without = {key: value for key, value in part.items() if key != "start"}
+        assert np.array_equal(segment_starts(snap, without), part["start"])
 
 
 def test_bad_factors_are_refused():
