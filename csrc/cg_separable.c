@@ -102,6 +102,13 @@ typedef v4d vwd;
 #define SPLAT(x) ((vwd){(x), (x), (x), (x)})
 #endif
 
+/* the lanes' indices, 0 .. VW - 1 (an initializer of an int64_t vector of VW lanes) */
+#if VW == 8
+#define LANE_INDEX {0, 1, 2, 3, 4, 5, 6, 7}
+#else
+#define LANE_INDEX {0, 1, 2, 3}
+#endif
+
 /* factor 2: f[i] = sum_g gw[g] tab_g[i], the points in order from 0.0 (tab_g = tab + g n, or
    one table `same` for every point); i in blocks of 4 up to n rounded up: f and the tables
    must have room for (and tolerate) 3 more values */
@@ -1548,7 +1555,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const int c1 = m == 0 ? 1 : 0, c2 = m == 2 ? 1 : 2; /* the cross slots */
     const cg_index n0 = count[0], n1 = count[1], n2 = count[2], nm = count[m], na = count[c1], nb = count[c2];
     const cg_index nbp = (nb + VW - 1) / VW * VW; /* a cross row in whole vectors */
-    const size_t nmp = (size_t)(nm + VW - 1) / VW * VW, nsp = AXIS_UP(n0 + n1 + n2);
+    /* (q: room for a vector read from any entry, ge: for the cross slots' entries in whole EXP_PAD) */
+    const size_t nmp = (size_t)(nm + VW - 1) / VW * VW, nsp = AXIS_UP(n0 + n1 + n2 + EXP_PAD);
     const size_t npx = AXIS_UP(na * nb + VW); /* the packed cross entries, at most, and room for a vector */
     /* node - x per slot; the cross slots' exponentials; along: u, Es, Ee, W and two work arrays (2 nmp
        for the exponentials); the cross rows' A, h and erfcx argument; packed: A, h, Pc, offset; two planes'
@@ -1576,6 +1584,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         const double xs_s = x[s - pad];
         for (cg_index k = 0; k < count[s]; ++k) q[s][k] = c[k] - xs_s;
     }
+    for (size_t k = (size_t)(n0 + n1 + n2); k < nsp; ++k) buf[k] = 0.0; /* (read, not used: whole vectors) */
     /* The exponentials in one batch (the cross slots' 1-D Gaussians, the along entries' halved exponents),
        and the erfcx (the along entries' ends, the packed cross entries' crossings) in two loops back to
        back, after the packing: a few vectors each, whose chains overlap (a batch per table, each followed by
@@ -1585,23 +1594,41 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        entries' exponents e0 and e1 */
     const cg_index g_lo = m == 0 ? n0 : 0, g_hi = m == 2 ? n0 + n1 : n0 + n1 + n2;
     const cg_index g_n = (g_hi - g_lo + EXP_PAD - 1) / EXP_PAD * EXP_PAD;
-    for (cg_index k = g_lo; k < g_hi; ++k) ge[k] = -(q[0][k] * q[0][k]) * inv2w2;
-    for (cg_index k = g_hi; k < g_lo + g_n; ++k) ge[k] = 0.0;
     double *restrict e0 = ge + g_lo + g_n, *restrict e1 = e0 + nmp;
-    /* along: u, the ends' erfc as (E erfcx) E with E the halved exponent's exponential */
-    int erfcx_beyond = 0; /* (some along argument beyond erfcx's short polynomial) */
+    int erfcx_beyond; /* (some along argument beyond erfcx's short polynomial) */
     {
-        const double *restrict qm = q[m];
-        for (cg_index a = 0; a < nm; ++a) {
-            const double u = sgn * qm[a], v = u - L;
-            U[a] = u;
-            e0[a] = -(u * u) * q4;
-            e1[a] = -(v * v) * q4;
-            ES[a] = (u < 0.0 ? -u : u) * inv_sqrt2w;
-            EE[a] = (v < 0.0 ? -v : v) * inv_sqrt2w;
-            erfcx_beyond |= (ES[a] > ERFCX_SHORT_MAX) | (EE[a] > ERFCX_SHORT_MAX);
+        /* in whole vectors (short loops of a few: element by element, their set-up and exits cost more than
+           their arithmetic), the lanes beyond the entries 0; the same operations per entry */
+        const vwl lane = LANE_INDEX;
+        const vwd zero = {0.0}, i2 = SPLAT(inv2w2);
+        for (cg_index k = g_lo; k < g_lo + g_n; k += VW) {
+            vwd qk;
+            memcpy(&qk, q[0] + k, sizeof qk);
+            const vwd arg = -(qk * qk) * i2;
+            const vwd val = SELECT(lane + k < g_hi, arg, zero);
+            memcpy(ge + k, &val, sizeof val);
         }
-        for (size_t a = (size_t)nm; a < nmp; ++a) U[a] = e0[a] = e1[a] = ES[a] = EE[a] = 0.0;
+        /* along: u, the ends' erfc as (E erfcx) E with E the halved exponent's exponential */
+        const double *qm = q[m];
+        const vwd sg = SPLAT(sgn), Lv = SPLAT(L), q4v = SPLAT(q4), isw = SPLAT(inv_sqrt2w);
+        const vwd limit = SPLAT(ERFCX_SHORT_MAX);
+        vwl beyond = {0};
+        for (size_t a = 0; a < nmp; a += VW) {
+            vwd qa;
+            memcpy(&qa, qm + a, sizeof qa);
+            const vwl in = lane + (int64_t)a < nm;
+            const vwd u = sg * qa, v = u - Lv;
+            const vwd su = SELECT(u < zero, -u, u) * isw, sv = SELECT(v < zero, -v, v) * isw;
+            const vwd ua = SELECT(in, u, zero), e0a = SELECT(in, -(u * u) * q4v, zero);
+            const vwd e1a = SELECT(in, -(v * v) * q4v, zero), esa = SELECT(in, su, zero), eea = SELECT(in, sv, zero);
+            memcpy(U + a, &ua, sizeof ua);
+            memcpy(e0 + a, &e0a, sizeof e0a);
+            memcpy(e1 + a, &e1a, sizeof e1a);
+            memcpy(ES + a, &esa, sizeof esa);
+            memcpy(EE + a, &eea, sizeof eea);
+            beyond |= (esa > limit) | (eea > limit);
+        }
+        erfcx_beyond = mask_bits(beyond) != 0;
     }
     cg_exp_in_place(ge + g_lo, g_n + (cg_index)(2 * nmp));
     /* cross: the entries whose line meets the ball (rho^2 < R^2: h > 0), packed (row by row, in order):
