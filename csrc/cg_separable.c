@@ -1648,12 +1648,21 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     double row_h[64];
     {
         const double *restrict qa = q[c1], *restrict ga = g[c1];
-        double qb[64 + VW], gb[64 + VW];
-        for (cg_index b = 0; b < nbp; ++b) {
-            qb[b] = b < nb ? q[c2][b] : 0.0;
-            gb[b] = b < nb ? g[c2][b] : 0.0;
-        }
         const vwd R2v = SPLAT(R2), isw = SPLAT(inv_sqrt2w), zero = {0.0};
+        double qb[64 + VW], gb[64 + VW];
+        {
+            const vwl lane = LANE_INDEX;
+            for (cg_index b = 0; b < nbp; b += VW) {
+                vwd qv, gv;
+                memcpy(&qv, q[c2] + b, sizeof qv);
+                memcpy(&gv, g[c2] + b, sizeof gv);
+                const vwl in = lane + b < nb;
+                qv = SELECT(in, qv, zero);
+                gv = SELECT(in, gv, zero);
+                memcpy(qb + b, &qv, sizeof qv);
+                memcpy(gb + b, &gv, sizeof gv);
+            }
+        }
         const cg_index sbw = sb * width;
 #if AXIS_COMPRESS
         cg_index lane_offsets[8];
@@ -1738,18 +1747,27 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     }
     /* along: the ends' terms and the bracket where both ends are inside, W */
     {
-        int cancels = 0;
-        for (size_t a = 0; a < nmp; ++a) {
-            const double es_a = (e0[a] * ES[a]) * e0[a], ee_a = (e1[a] * EE[a]) * e1[a], u = U[a];
-            ES[a] = es_a;
-            EE[a] = ee_a;
-            const int straddle = (u > 0.0) & (u < L);
-            const double larger = es_a > ee_a ? es_a : ee_a, diff = es_a > ee_a ? es_a - ee_a : ee_a - es_a;
-            const double v = straddle ? (2.0 - es_a) - ee_a : diff, largest = straddle ? 2.0 : larger;
-            WW[a] = v;
-            cancels |= !(16.0 * v >= largest) & (a < (size_t)nm);
+        /* (in whole vectors, as the along entries above) */
+        const vwl lane = LANE_INDEX;
+        const vwd zero = {0.0}, two = SPLAT(2.0), sixteen = SPLAT(16.0), Lv = SPLAT(L);
+        vwl cancels = {0};
+        for (size_t a = 0; a < nmp; a += VW) {
+            vwd e0a, esa, e1a, eea, u;
+            memcpy(&e0a, e0 + a, sizeof e0a);
+            memcpy(&esa, ES + a, sizeof esa);
+            memcpy(&e1a, e1 + a, sizeof e1a);
+            memcpy(&eea, EE + a, sizeof eea);
+            memcpy(&u, U + a, sizeof u);
+            const vwd es_a = (e0a * esa) * e0a, ee_a = (e1a * eea) * e1a;
+            memcpy(ES + a, &es_a, sizeof es_a);
+            memcpy(EE + a, &ee_a, sizeof ee_a);
+            const vwl straddle = (u > zero) & (u < Lv), first = es_a > ee_a;
+            const vwd larger = SELECT(first, es_a, ee_a), diff = SELECT(first, es_a - ee_a, ee_a - es_a);
+            const vwd v = SELECT(straddle, (two - es_a) - ee_a, diff), largest = SELECT(straddle, two, larger);
+            memcpy(WW + a, &v, sizeof v);
+            cancels |= ~(sixteen * v >= largest) & (lane + (int64_t)a < nm);
         }
-        if (cancels) {
+        if (mask_bits(cancels)) {
             double gx[CUT_FALLBACK_POINTS], gw[CUT_FALLBACK_POINTS];
             cg_gauss_legendre01(CUT_FALLBACK_POINTS, gx, gw);
             const double scale_back = L / (1.2533141373155003 * w); /* W is in units of factor */
@@ -1774,10 +1792,22 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     const double *values = jb->values + obj * nv;
     const vwd Lv = SPLAT(L);
     /* the along entries within R of the segment's line range, [u_lo, u_hi) (u is monotone along its slot) */
-    cg_index u_lo = 0, u_hi;
-    while (u_lo < nm && !(U[u_lo] > -R && U[u_lo] < L + R)) ++u_lo;
-    u_hi = u_lo;
-    while (u_hi < nm && U[u_hi] > -R && U[u_hi] < L + R) ++u_hi;
+    cg_index u_lo = nm, u_hi = nm;
+    {
+        /* (a bit per entry, nm <= 64: the set bits are one run) */
+        const vwl lane = LANE_INDEX;
+        const vwd lo = SPLAT(-R), hi = SPLAT(L + R);
+        uint64_t within = 0;
+        for (size_t a = 0; a < nmp; a += VW) {
+            vwd u;
+            memcpy(&u, U + a, sizeof u);
+            within |= mask_bits((u > lo) & (u < hi) & (lane + (int64_t)a < nm)) << a;
+        }
+        if (within) {
+            u_lo = __builtin_ctzll(within);
+            u_hi = 64 - __builtin_clzll(within);
+        }
+    }
     /* Plane by plane (an along entry): every packed entry's value in one vector loop, then added at its node.
        A plane's update of the output waits for the next plane's values (read right after their vector
        stores, the values would stall store forwarding). */
