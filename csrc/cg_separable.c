@@ -1608,17 +1608,23 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             const vwd val = SELECT(lane + k < g_hi, arg, zero);
             memcpy(ge + k, &val, sizeof val);
         }
-        /* along: u, the ends' erfc as (E erfcx) E with E the halved exponent's exponential */
+        /* along: u, the ends' erfc as (E erfcx) E with E the halved exponent's exponential. An end's term is
+           read only where the end is inside a node's ball (|u| or |u - L| at most h <= R, as the lanes round
+           it: sqrt(R^2 - rho^2) within an ulp of R); elsewhere its value does not matter, so its argument is
+           clamped at R / sqrt2 w (and a margin): on the short polynomial for cutoffs up to 5.6 w, where the
+           far ends of the along entries (|u - L| up to R + L) took the long series */
         const double *qm = q[m];
         const vwd sg = SPLAT(sgn), Lv = SPLAT(L), q4v = SPLAT(q4), isw = SPLAT(inv_sqrt2w);
-        const vwd limit = SPLAT(ERFCX_SHORT_MAX);
+        const vwd limit = SPLAT(ERFCX_SHORT_MAX), reach = SPLAT(R * inv_sqrt2w * (1.0 + 0x1p-20));
         vwl beyond = {0};
         for (size_t a = 0; a < nmp; a += VW) {
             vwd qa;
             memcpy(&qa, qm + a, sizeof qa);
             const vwl in = lane + (int64_t)a < nm;
             const vwd u = sg * qa, v = u - Lv;
-            const vwd su = SELECT(u < zero, -u, u) * isw, sv = SELECT(v < zero, -v, v) * isw;
+            vwd su = SELECT(u < zero, -u, u) * isw, sv = SELECT(v < zero, -v, v) * isw;
+            su = SELECT(su > reach, reach, su);
+            sv = SELECT(sv > reach, reach, sv);
             const vwd ua = SELECT(in, u, zero), e0a = SELECT(in, -(u * u) * q4v, zero);
             const vwd e1a = SELECT(in, -(v * v) * q4v, zero), esa = SELECT(in, su, zero), eea = SELECT(in, sv, zero);
             memcpy(U + a, &ua, sizeof ua);
