@@ -191,6 +191,11 @@ def gaussian_erfcx(x):
     return _core.gaussian_erfcx(x)
 
 
+def gaussian_exp(x):
+    """Tests: exp(x) for x <= 0 (a 1-D array), as every Gaussian path evaluates its weights (0 below -708)."""
+    return _core.gaussian_exp(x)
+
+
 def ring_kernel(kernel):
     """The core's description of ``kernel`` as the full 3-D kernel (the ring entry points)."""
     return CoreKernel(kernel.kind, float(kernel.width if kernel.width is not None else kernel.radius),

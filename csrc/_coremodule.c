@@ -1114,6 +1114,34 @@ static PyObject *py_gaussian_erfcx(PyObject *self, PyObject *arg)
     return (PyObject *)out;
 }
 
+static PyObject *py_gaussian_exp(PyObject *self, PyObject *arg)
+{
+    (void)self;
+    const npy_intp shape[1] = {-1};
+    PyArrayObject *x = as_array(arg, "x", 1, shape);
+    if (!x) return NULL;
+    const npy_intp n = PyArray_DIM(x, 0);
+    const double *xs = (const double *)PyArray_DATA(x);
+    for (npy_intp i = 0; i < n; ++i)
+        if (!(xs[i] <= 0.0)) {
+            PyErr_Format(PyExc_ValueError,
+                         "x: expected values <= 0 (a Gaussian's exponents), got a positive value or NaN at index %zd",
+                         (Py_ssize_t)i);
+            Py_DECREF(x);
+            return NULL;
+        }
+    PyArrayObject *out = (PyArrayObject *)PyArray_SimpleNew(1, &n, NPY_DOUBLE);
+    if (!out) {
+        Py_DECREF(x);
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    cg_gaussian_exp((const double *)PyArray_DATA(x), (double *)PyArray_DATA(out), (cg_index)n);
+    Py_END_ALLOW_THREADS
+    Py_DECREF(x);
+    return (PyObject *)out;
+}
+
 /* ================================================================== */
 /* text parsing (cg_text.h): owned by the text-parser work; one block,  */
 /* its entries in the method table come from CG_TEXT_METHODS below.     */
@@ -1602,6 +1630,7 @@ static PyMethodDef methods[] = {
      "results; for tests and benchmarks), True restores the default. Returns the previous setting."},
     {"wide_vectors", py_wide_vectors, METH_NOARGS, "Internal: whether the Gaussian on grids runs its AVX-512 build."},
     {"gaussian_erfcx", py_gaussian_erfcx, METH_O, "Internal: erfcx(x) for x >= 0 as the exact Gaussian line integrals evaluate it."},
+    {"gaussian_exp", py_gaussian_exp, METH_O, "Internal: exp(x) for x <= 0 as the Gaussian paths evaluate it."},
     {"default_threads", default_threads, METH_NOARGS,
      "Threads a call with n_threads=0 may use (omp_get_max_threads(); 1 without OpenMP)."},
     CG_TEXT_METHODS

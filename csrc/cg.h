@@ -94,6 +94,11 @@ int cg_wide_vectors(void);
    one gives the same bits); for tests. out may be x. */
 void cg_gaussian_erfcx(const double *x, double *out, cg_index n);
 
+/* out[i] = exp(x[i]) for x[i] <= 0, as every Gaussian path evaluates its
+   weights (cg_vmath.h's cg_exp_in_place: 0 below -708); for tests. out may
+   be x. */
+void cg_gaussian_exp(const double *x, double *out, cg_index n);
+
 typedef enum cg_kernel_type {
     CG_KERNEL_GAUSSIAN = 0,
     CG_KERNEL_LUCY = 1,

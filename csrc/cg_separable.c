@@ -2480,6 +2480,14 @@ void cg_gaussian_erfcx(const double *x, double *out, cg_index n)
     }
 }
 
+void cg_gaussian_exp(const double *x, double *out, cg_index n)
+{
+    /* cg_exp_in_place works in place: on a copy */
+    if (out != x)
+        for (cg_index i = 0; i < n; ++i) out[i] = x[i];
+    cg_exp_in_place(out, n);
+}
+
 HOT_CLONES void cg_erfcx_in_place2(double *x, double *z, cg_index n, int may_exceed)
 {
     erfcx_in_place2(x, z, n, may_exceed);

@@ -49,8 +49,8 @@
    r = x - k ln 2 (two-part ln 2, exact products) in [-0.347, 0.347] and
    exp(r) by its Taylor polynomial of degree 13 (CG_EXP_TAYLOR13; remainder
    < 5e-18); 2^k is built in the exponent bits from the rounding shifter's
-   mantissa. Within 2 ulp of the exact value; 0 below -708 (where exp is
-   subnormal). */
+   mantissa. Within 1 ulp of the exact value (tests/test_gauss_exact_fast.py,
+   against mpmath); 0 below -708 (where exp is subnormal). */
 CG_VMATH_INLINE void cg_exp_in_place(double *restrict x, cg_index n)
 {
     const double log2e = 1.4426950408889634, shifter = 0x1.8p52;
