@@ -1087,18 +1087,19 @@ static PyObject *py_wide_vectors(PyObject *self, PyObject *args)
     return PyBool_FromLong(cg_wide_vectors());
 }
 
-static PyObject *py_gaussian_erfcx(PyObject *self, PyObject *arg)
+/* the tests' element-wise functions (x a 1-D array): out = fn(x), where every value is >= 0 (nonnegative) or
+   <= 0; otherwise refused as "x: expected <expected> at index i" */
+static PyObject *elementwise(PyObject *arg, int nonnegative, const char *expected,
+                             void (*fn)(const double *, double *, cg_index))
 {
-    (void)self;
     const npy_intp shape[1] = {-1};
     PyArrayObject *x = as_array(arg, "x", 1, shape);
     if (!x) return NULL;
     const npy_intp n = PyArray_DIM(x, 0);
     const double *xs = (const double *)PyArray_DATA(x);
     for (npy_intp i = 0; i < n; ++i)
-        if (!(xs[i] >= 0.0)) {
-            PyErr_Format(PyExc_ValueError, "x: expected values >= 0, got a negative value at index %zd",
-                         (Py_ssize_t)i);
+        if (!(nonnegative ? xs[i] >= 0.0 : xs[i] <= 0.0)) {
+            PyErr_Format(PyExc_ValueError, "x: expected %s at index %zd", expected, (Py_ssize_t)i);
             Py_DECREF(x);
             return NULL;
         }
@@ -1108,38 +1109,22 @@ static PyObject *py_gaussian_erfcx(PyObject *self, PyObject *arg)
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
-    cg_gaussian_erfcx((const double *)PyArray_DATA(x), (double *)PyArray_DATA(out), (cg_index)n);
+    fn(xs, (double *)PyArray_DATA(out), (cg_index)n);
     Py_END_ALLOW_THREADS
     Py_DECREF(x);
     return (PyObject *)out;
 }
 
+static PyObject *py_gaussian_erfcx(PyObject *self, PyObject *arg)
+{
+    (void)self;
+    return elementwise(arg, 1, "values >= 0, got a negative value", cg_gaussian_erfcx);
+}
+
 static PyObject *py_gaussian_exp(PyObject *self, PyObject *arg)
 {
     (void)self;
-    const npy_intp shape[1] = {-1};
-    PyArrayObject *x = as_array(arg, "x", 1, shape);
-    if (!x) return NULL;
-    const npy_intp n = PyArray_DIM(x, 0);
-    const double *xs = (const double *)PyArray_DATA(x);
-    for (npy_intp i = 0; i < n; ++i)
-        if (!(xs[i] <= 0.0)) {
-            PyErr_Format(PyExc_ValueError,
-                         "x: expected values <= 0 (a Gaussian's exponents), got a positive value or NaN at index %zd",
-                         (Py_ssize_t)i);
-            Py_DECREF(x);
-            return NULL;
-        }
-    PyArrayObject *out = (PyArrayObject *)PyArray_SimpleNew(1, &n, NPY_DOUBLE);
-    if (!out) {
-        Py_DECREF(x);
-        return NULL;
-    }
-    Py_BEGIN_ALLOW_THREADS
-    cg_gaussian_exp((const double *)PyArray_DATA(x), (double *)PyArray_DATA(out), (cg_index)n);
-    Py_END_ALLOW_THREADS
-    Py_DECREF(x);
-    return (PyObject *)out;
+    return elementwise(arg, 0, "values <= 0 (a Gaussian's exponents), got a positive value or NaN", cg_gaussian_exp);
 }
 
 /* ================================================================== */

@@ -1575,6 +1575,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     double *const planebufs[2] = {(double *)(void *)(PO + npx), (double *)(void *)(PO + npx) + npx};
     cut_batch cuts;
     cut_batch_init(&cuts, planebufs[1] + npx);
+    const vwl lane = LANE_INDEX; /* (the loops in whole vectors: which lanes hold entries) */
     for (int s = 0; s < 3; ++s) {
         if (s < pad) {
             q[s][0] = 0.0;
@@ -1599,7 +1600,6 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     {
         /* in whole vectors (short loops of a few: element by element, their set-up and exits cost more than
            their arithmetic), the lanes beyond the entries 0; the same operations per entry */
-        const vwl lane = LANE_INDEX;
         const vwd zero = {0.0}, i2 = SPLAT(inv2w2);
         for (cg_index k = g_lo; k < g_lo + g_n; k += VW) {
             vwd qk;
@@ -1656,18 +1656,15 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         const double *restrict qa = q[c1], *restrict ga = g[c1];
         const vwd R2v = SPLAT(R2), isw = SPLAT(inv_sqrt2w), zero = {0.0};
         double qb[64 + VW], gb[64 + VW];
-        {
-            const vwl lane = LANE_INDEX;
-            for (cg_index b = 0; b < nbp; b += VW) {
-                vwd qv, gv;
-                memcpy(&qv, q[c2] + b, sizeof qv);
-                memcpy(&gv, g[c2] + b, sizeof gv);
-                const vwl in = lane + b < nb;
-                qv = SELECT(in, qv, zero);
-                gv = SELECT(in, gv, zero);
-                memcpy(qb + b, &qv, sizeof qv);
-                memcpy(gb + b, &gv, sizeof gv);
-            }
+        for (cg_index b = 0; b < nbp; b += VW) {
+            vwd qv, gv;
+            memcpy(&qv, q[c2] + b, sizeof qv);
+            memcpy(&gv, g[c2] + b, sizeof gv);
+            const vwl in = lane + b < nb;
+            qv = SELECT(in, qv, zero);
+            gv = SELECT(in, gv, zero);
+            memcpy(qb + b, &qv, sizeof qv);
+            memcpy(gb + b, &gv, sizeof gv);
         }
         const cg_index sbw = sb * width;
 #if AXIS_COMPRESS
@@ -1754,7 +1751,6 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     /* along: the ends' terms and the bracket where both ends are inside, W */
     {
         /* (in whole vectors, as the along entries above) */
-        const vwl lane = LANE_INDEX;
         const vwd zero = {0.0}, two = SPLAT(2.0), sixteen = SPLAT(16.0), Lv = SPLAT(L);
         vwl cancels = {0};
         for (size_t a = 0; a < nmp; a += VW) {
@@ -1801,7 +1797,6 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     cg_index u_lo = nm, u_hi = nm;
     {
         /* (a bit per entry, nm <= 64: the set bits are one run) */
-        const vwl lane = LANE_INDEX;
         const vwd lo = SPLAT(-R), hi = SPLAT(L + R);
         uint64_t within = 0;
         for (size_t a = 0; a < nmp; a += VW) {
