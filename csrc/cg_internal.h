@@ -359,12 +359,14 @@ static inline void cg_form_values(const job *jb, cg_index obj, double *values)
 }
 
 struct lucy_batch;
+struct axis_sums;
 
 /* per-thread scratch memory of the separable path, grown on demand */
 typedef struct scratch {
     double *buf;
     size_t cap;
     struct lucy_batch *lucy; /* cg_visit_lucy's segments waiting for their values (cg_lucy_batch_flush) */
+    struct axis_sums *sums;  /* the separable path's sums of one output value (cg_separable_flush) */
 } scratch;
 
 /* out[node] += the contribution of object obj with the given weight (or
@@ -483,6 +485,12 @@ static inline int stencil_next(cg_index *idx, const cg_index *first, const cg_in
    exact) and returns 1, or -1 if scratch memory could not be had. */
 int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
                        double scale);
+
+/* The separable path's sums of one output value kept apart (segments along a
+   grid axis, added row by row as vectors): added into out. Before a range of
+   objects counts as done; cg_separable_release frees them (with sc's thread). */
+void cg_separable_flush(scratch *sc);
+void cg_separable_release(scratch *sc);
 
 /* Lucy's segments on grids (full-dimensional kernel, values): the nodes of
    each row of the stencil with the segment's axis computed once; the same

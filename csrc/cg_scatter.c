@@ -646,8 +646,9 @@ static void visit_range(const job *shared, double *out, scratch *sc, const cg_in
         const cg_status s = scatter_object(jb, out, sc, obj);
         if (s != CG_OK) { store_status(failed, s); break; }
     }
-    /* Lucy's segments still waiting for their values (cg_visit_lucy): into
-       out before this range counts as done */
+    /* the sums kept apart and Lucy's segments still waiting for their values (cg_visit_separable,
+       cg_visit_lucy): into out before this range counts as done */
+    cg_separable_flush(sc);
     cg_lucy_batch_flush(sc);
 }
 
@@ -944,7 +945,7 @@ static cg_status run_objects(job *jb, double *out, cg_index P, size_t width, int
 #pragma omp parallel num_threads(n_threads) if (n_threads > 1)
 #endif
         {
-            scratch sc = {NULL, 0, NULL};
+            scratch sc = {NULL, 0, NULL, NULL};
             for (;;) {
                 cg_index i;
 #ifdef _OPENMP
@@ -977,6 +978,7 @@ static cg_status run_objects(job *jb, double *out, cg_index P, size_t width, int
                 store_status(done + s, part + 1);
             }
             free(sc.buf);
+            cg_separable_release(&sc);
         }
         free(task);
         free(done);
@@ -1008,9 +1010,10 @@ static cg_status run_objects(job *jb, double *out, cg_index P, size_t width, int
         double *mine = tid == 0 ? out : buffers + (size_t)(tid - 1) * total;
         if (tid > 0) memset(mine, 0, total * sizeof *mine);
         const cg_index begin = jb->n * tid / team, end = jb->n * (tid + 1) / team;
-        scratch sc = {NULL, 0, NULL};
+        scratch sc = {NULL, 0, NULL, NULL};
         visit_range(jb, mine, &sc, order, begin, end, &failed);
         free(sc.buf);
+        cg_separable_release(&sc);
         if (team > 1) {
 #ifdef _OPENMP
 #pragma omp barrier

@@ -109,6 +109,125 @@ typedef v4d vwd;
 #define LANE_INDEX {0, 1, 2, 3}
 #endif
 
+
+/* One output value of the segments along a grid axis (visit_axis with one picked value) held apart from out:
+   node-major, so that a row of nodes along slot 2 is contiguous and a plane's values are added to it as vectors (in
+   out a node's values are contiguous: a row's value of one kind is a node apart, each add its own cache line; those
+   adds were a quarter of W1's contact stress at 5 w). The held values are out's own: a node's is copied from out
+   when first asked for and copied back by cg_separable_flush, which runs before any other object's visit writes to
+   out and at the end of a range of objects. So every term is added to the same sum in the same order as straight
+   into out: the same bits. Each value's window of nodes grows (copied) to take the nodes asked for. */
+#define AXIS_SUMS_VALUES 16
+typedef struct axis_sum {
+    double *sum;                /* nodes [base, base + cap) */
+    cg_index base, cap, lo, hi; /* [lo, hi): the nodes held (lo >= hi: none) */
+} axis_sum;
+struct axis_sums {
+    double *out; /* (the range's output) */
+    cg_index width, nodes;
+    int held; /* some nodes held */
+    axis_sum of[AXIS_SUMS_VALUES]; /* per value of a node */
+};
+
+#ifndef CG_SEPARABLE_WIDE
+void cg_separable_flush(scratch *sc)
+{
+    struct axis_sums *a = sc->sums;
+    if (!a || !a->held) return;
+    const cg_index width = a->width;
+    for (int c = 0; c < AXIS_SUMS_VALUES; ++c) {
+        axis_sum *v = &a->of[c];
+        if (v->lo >= v->hi) continue;
+        const double *restrict sum = v->sum + (v->lo - v->base);
+        double *restrict o = a->out + v->lo * width + c;
+        for (cg_index n = 0; n < v->hi - v->lo; ++n) o[n * width] = sum[n];
+        v->lo = v->hi = 0;
+    }
+    a->held = 0;
+}
+
+void cg_separable_release(scratch *sc)
+{
+    struct axis_sums *a = sc->sums;
+    if (!a) return;
+    cg_separable_flush(sc);
+    for (int c = 0; c < AXIS_SUMS_VALUES; ++c) free(a->of[c].sum);
+    free(a);
+    sc->sums = NULL;
+}
+#endif
+
+/* out's value c held for nodes [lo, hi) (and those held already): *at such that sums[node - at] is node's; NULL
+   where not held (value c beyond AXIS_SUMS_VALUES, no memory: then the terms go straight to out) */
+static double *axis_sums_of(scratch *sc, const job *jb, double *out, int c, cg_index lo, cg_index hi, cg_index *at)
+{
+    if (c >= AXIS_SUMS_VALUES) return NULL;
+    struct axis_sums *a = sc->sums;
+    if (a && a->out != out) {
+        cg_separable_flush(sc); /* (another output: another job on this scratch) */
+        a->out = out;
+        a->width = jb->out_width;
+        a->nodes = cg_target_size(jb->target);
+    }
+    if (!a) {
+        a = sc->sums = calloc(1, sizeof *a);
+        if (!a) return NULL;
+        a->out = out;
+        a->width = jb->out_width;
+        a->nodes = cg_target_size(jb->target);
+    }
+    axis_sum *v = &a->of[c];
+    const int empty = v->lo >= v->hi;
+    const cg_index new_lo = empty || lo < v->lo ? lo : v->lo, new_hi = empty || hi > v->hi ? hi : v->hi;
+    if (!(v->sum && new_lo >= v->base && new_hi <= v->base + v->cap)) {
+        if (empty && v->sum && new_hi - new_lo <= v->cap) {
+            /* (nothing held: the window moves) */
+            v->base = new_lo + v->cap <= a->nodes ? new_lo : (a->nodes - v->cap > 0 ? a->nodes - v->cap : 0);
+        } else {
+            /* a window of the nodes held and asked for, and half as many again around them */
+            const cg_index margin = (new_hi - new_lo) / 4 + 64;
+            const cg_index base = new_lo - margin > 0 ? new_lo - margin : 0;
+            const cg_index top = new_hi + margin < a->nodes ? new_hi + margin : a->nodes;
+            double *sum = malloc((size_t)(top - base) * sizeof *sum);
+            if (!sum) {
+                cg_separable_flush(sc); /* (what is held back in out, as if never held) */
+                return NULL;
+            }
+            if (!empty) memcpy(sum + (v->lo - base), v->sum + (v->lo - v->base), (size_t)(v->hi - v->lo) * sizeof *sum);
+            free(v->sum);
+            v->sum = sum;
+            v->base = base;
+            v->cap = top - base;
+        }
+    }
+    /* the nodes newly held: out's values */
+    const cg_index width = a->width, base = v->base;
+    const double *restrict o = out + c;
+    double *restrict sum = v->sum;
+    if (empty) {
+        for (cg_index n = new_lo; n < new_hi; ++n) sum[n - base] = o[n * width];
+    } else {
+        for (cg_index n = new_lo; n < v->lo; ++n) sum[n - base] = o[n * width];
+        for (cg_index n = v->hi; n < new_hi; ++n) sum[n - base] = o[n * width];
+    }
+    v->lo = new_lo;
+    v->hi = new_hi;
+    a->held = 1;
+    *at = v->base;
+    return v->sum;
+}
+
+/* out's values held apart back in out before an object's visit may write to it (no object but a segment along one
+   axis in MODE_VALUE keeps them held: visit_axis then decides) */
+INLINE void axis_sums_release_for(scratch *sc, const job *jb, const double *e)
+{
+    if (!sc->sums || !sc->sums->held) return;
+    int along = 0;
+    if (jb->is_segment && jb->mode == MODE_VALUE && e)
+        for (int a = 0; a < jb->target->n_resolved; ++a) along += e[a] != 0.0;
+    if (along != 1) cg_separable_flush(sc);
+}
+
 /* factor 2: f[i] = sum_g gw[g] tab_g[i], the points in order from 0.0 (tab_g = tab + g n, or
    one table `same` for every point); i in blocks of 4 up to n rounded up: f and the tables
    must have room for (and tolerate) 3 more values */
@@ -1491,6 +1610,34 @@ INLINE void scatter_add_picked(double *restrict o, double scale, const double *r
         if (w[k] != 0.0) block_add_picked(o + at[k], scale, w + k, 1, v, nv, p);
 }
 
+/* a plane's values w added to the sums kept apart (sum[at + node] is a node's): the packed rows [r0, r1) (row r:
+   entries [start[r], start[r + 1]), contiguous nodes from at + node[r]) as vectors, or (add_plane_nodes) the
+   entries [0, n) at nodes at + node[k] */
+INLINE void add_plane_rows(double *restrict sum, cg_index at, const double *restrict w, const cg_index *restrict start,
+                           const cg_index *restrict node, cg_index r0, cg_index r1)
+{
+    for (cg_index r = r0; r < r1; ++r) {
+        const cg_index k0 = start[r], n = start[r + 1] - k0;
+        double *restrict d = sum + (at + node[r]);
+        const double *restrict v = w + k0;
+#if AXIS_COMPRESS
+        for (cg_index j = 0; j < n; j += 8) {
+            const __mmask8 in = n - j >= 8 ? (__mmask8)0xff : (__mmask8)((1u << (n - j)) - 1u);
+            _mm512_mask_storeu_pd(d + j, in,
+                                  _mm512_add_pd(_mm512_maskz_loadu_pd(in, d + j), _mm512_maskz_loadu_pd(in, v + j)));
+        }
+#else
+        for (cg_index j = 0; j < n; ++j) d[j] += v[j];
+#endif
+    }
+}
+
+INLINE void add_plane_nodes(double *restrict sum, cg_index at, const double *restrict w, const cg_index *restrict node,
+                            cg_index n)
+{
+    for (cg_index k = 0; k < n; ++k) sum[at + node[k]] += w[k];
+}
+
 /* a plane's n values w added at their nodes' offsets at (out: the plane's first output; one: a single picked value,
    the values already times it and the scale) */
 INLINE void add_plane(double *out, const double *restrict w, const cg_index *restrict at, cg_index n, double scale,
@@ -1511,7 +1658,7 @@ INLINE void add_plane(double *out, const double *restrict w, const cg_index *res
      value = amp / L  A span sum_g gw_g exp(-(d0 + gx_g span)^2 / 2w^2)
    (A times an exponential is normal: rho^2 + d^2 <= R^2 inside the ball, R^2 / 2w^2 < AXIS_EXPONENT_MAX). */
 static void axis_cut_flush(cut_batch *b, const job *jb, double *out, cg_index obj, double L, double w, double amp,
-                           const picked *pick)
+                           const picked *pick, double *sums, cg_index sums_at)
 {
     const int n = b->n;
     b->n = 0;
@@ -1533,7 +1680,10 @@ static void axis_cut_flush(cut_batch *b, const job *jb, double *out, cg_index ob
         for (int g = 0; g < CUT_FALLBACK_POINTS; ++g) sum += gw[g] * arg[g * n + i];
         b->value[i] = (b->q[0][i] * sum) * (b->q[2][i] * per_length);
     }
-    cut_batch_add(b, n, jb, out, obj, pick);
+    if (sums) /* (one picked value held apart: cut_batch_add's terms) */
+        for (int i = 0; i < n; ++i) sums[b->node[i] - sums_at] += b->value[i] * pick->v[0];
+    else
+        cut_batch_add(b, n, jb, out, obj, pick);
 }
 
 /* (round-up to a multiple of 2 VW) */
@@ -1562,7 +1712,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        for the exponentials); the cross rows' A, h and erfcx argument; packed: A, h, Pc, offset; two planes'
        values; a cut batch */
     const size_t nrx = (size_t)na * (size_t)nbp; /* the cross rows, whole vectors each */
-    const size_t need = nsp + nsp + EXP_PAD + 6 * nmp + 3 * nrx + 6 * npx + CUT_BATCH_DOUBLES;
+    const size_t need = nsp + nsp + EXP_PAD + 6 * nmp + 3 * nrx + 7 * npx + CUT_BATCH_DOUBLES;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *q[3] = {buf, buf + n0, buf + n0 + n1};
@@ -1573,8 +1723,9 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     double *PA = RP + nrx, *PH = PA + npx;
     cg_index *PO = (cg_index *)(void *)(PH + npx); /* (cg_index and double are both 8 bytes) */
     double *const planebufs[2] = {(double *)(void *)(PO + npx), (double *)(void *)(PO + npx) + npx};
+    cg_index *PN = (cg_index *)(void *)(planebufs[1] + npx); /* the packed entries' nodes (the sums kept apart) */
     cut_batch cuts;
-    cut_batch_init(&cuts, planebufs[1] + npx);
+    cut_batch_init(&cuts, planebufs[1] + 2 * npx);
     const vwl lane = LANE_INDEX; /* (the loops in whole vectors: which lanes hold entries) */
     for (int s = 0; s < 3; ++s) {
         if (s < pad) {
@@ -1739,6 +1890,25 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         npad = (cg_index)AXIS_UP(npk);
         for (cg_index k = npk; k < npad; ++k) PA[k] = PH[k] = PP[k] = 0.0;
     }
+    /* one picked value (slot 2 of stride 1): its sums kept apart. Across rows along slot 2 they take a plane's rows
+       as vectors (row r from node row_node[r] of the plane); along slot 2, a plane's entries at their nodes PN, a
+       plane's node next to the previous plane's (in out, 9 values apart: a cache line each) */
+    double *sums = NULL;
+    cg_index row_node[64], sums_at = 0;
+    if (pick->kind != 1 || stride[2] != 1) cg_separable_flush(sc); /* (this segment writes to out) */
+    if (pick->kind == 1 && stride[2] == 1) {
+        cg_index lo = 0, hi = 1;
+        for (int s = 0; s < 3; ++s) {
+            lo += first[s] * stride[s];
+            hi += (count[s] - 1) * stride[s];
+        }
+        sums = axis_sums_of(sc, jb, out, pick->at[0], lo, lo + hi, &sums_at);
+        if (sums && m != 2)
+            for (cg_index r = 0; r < n_rows; ++r)
+                row_node[r] = row_start[r] < row_start[r + 1] ? PO[row_start[r]] / width : 0;
+        else if (sums)
+            for (cg_index k = 0; k < npk; ++k) PN[k] = PO[k] / width;
+    }
     {
         /* (two loops, one after the other, the along ends paired: only their vectors may need the long
            series, the crossings' arguments h / sqrt2 w being at most R / sqrt2 w, beyond 4 only where
@@ -1813,7 +1983,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        A plane's update of the output waits for the next plane's values (read right after their vector
        stores, the values would stall store forwarding). */
     const double *pending = NULL;
-    cg_index pending_at = 0, pending_lo = 0, pending_hi = 0;
+    cg_index pending_at = 0, pending_lo = 0, pending_hi = 0, pending_r0 = 0, pending_r1 = 0;
     int parity = 0;
     const cg_index sm = stride[m];
     /* one picked value: the plane's values times it and the scale in the vector loop, added as they are */
@@ -1854,14 +2024,20 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             any_cancel |= cancel;
         }
         /* (the plane's nodes that miss the ball, or cancel, are 0 in pv, and add +-0) */
-        if (pending)
-            add_plane(out + pending_at, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo, factor, one,
-                      values, nv, pick);
+        if (pending && sums && m == 2)
+            add_plane_nodes(sums, pending_at, pending + pending_lo, PN + pending_lo, pending_hi - pending_lo);
+        else if (pending && sums)
+            add_plane_rows(sums, pending_at, pending, row_start, row_node, pending_r0, pending_r1);
+        else if (pending)
+            add_plane(out + pending_at * width, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo, factor,
+                      one, values, nv, pick);
         pending = pv;
         pending_lo = k_lo;
         pending_hi = k_hi;
+        pending_r0 = r0;
+        pending_r1 = r1;
         const cg_index plane_node = (first[m] + i) * sm;
-        pending_at = plane_node * width;
+        pending_at = plane_node - sums_at; /* (sums_at 0 where out takes the terms) */
         parity ^= 1;
         if (mask_bits(any_cancel)) {
             /* the cancelling nodes (few: their lanes again, as above), gathered for axis_cut_flush */
@@ -1872,7 +2048,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 for (uint64_t bits = mask_bits(cancel); bits; bits &= bits - 1) {
                     const cg_index k = kw + __builtin_ctzll(bits);
                     if (k >= k_hi) break; /* (the padding: h = 0, never flagged; kept out whatever the lanes say) */
-                    if (cuts.n == CUT_BATCH) axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
+                    if (cuts.n == CUT_BATCH) axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick, sums, sums_at);
                     /* the part inside the ball: its span from exact differences, in the node's coordinates
                        q (the cross entries' indices from the offset); it starts at the start where that is
                        inside (as the lanes round it), ends at the end where that is, else is the chord
@@ -1899,10 +2075,14 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
         }
     }
-    if (pending)
-        add_plane(out + pending_at, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo, factor, one, values,
-                  nv, pick);
-    axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick);
+    if (pending && sums && m == 2)
+        add_plane_nodes(sums, pending_at, pending + pending_lo, PN + pending_lo, pending_hi - pending_lo);
+    else if (pending && sums)
+        add_plane_rows(sums, pending_at, pending, row_start, row_node, pending_r0, pending_r1);
+    else if (pending)
+        add_plane(out + pending_at * width, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo, factor, one,
+                  values, nv, pick);
+    axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick, sums, sums_at);
     return 1;
 }
 #endif
@@ -1918,6 +2098,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
     const cg_kernel *kn = jb->kernel;
     const int nr = t->n_resolved, pad = 3 - nr;
     const double R = kn->radius, R2 = R * R, w = kn->width, inv2w2 = 0.5 / (w * w);
+    axis_sums_release_for(sc, jb, e);
 #ifdef HAVE_V4D
     if (!jb->is_segment && jb->mode == MODE_VALUE && visit_point(jb, out, obj, x)) return 1;
 #endif
@@ -1931,7 +2112,10 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
         G = jb->ray ? 0 : jb->line_points;
         if (G == 0) {
             G = cg_gaussian_roundoff_points(sqrt(L2), w);
-            if (G == 0) return 0; /* too long: the node-by-node erf form */
+            if (G == 0) {
+                cg_separable_flush(sc); /* (before the node-by-node visit writes to out) */
+                return 0;                /* too long: the node-by-node erf form */
+            }
             hybrid = 1;
         }
     } else {
@@ -1978,6 +2162,7 @@ int VISIT_SEPARABLE(const job *jb, double *out, scratch *sc, cg_index obj, const
                                       amp, L2, &pick);
     }
 #endif
+    cg_separable_flush(sc); /* (the values held apart back in out before this visit writes to it) */
     if (jb->is_segment) { /* (the rule: after visit_axis's dispatch, which needs none) */
         cg_gauss_legendre01(G, gx, gw);
         for (int g = 0; g < G; ++g) gw[g] *= scale * kn->prefactor;

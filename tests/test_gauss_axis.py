@@ -153,9 +153,10 @@ def test_axis_segments_in_periodic_boxes_and_planar_grids():
 @pytest.mark.skipif(not cg.have_openmp(), reason="serial build")
 @pytest.mark.parametrize("cutoff", [3.0, 5.0])
 def test_axis_segments_bit_for_bit_across_builds_and_threads(cutoff):
-    """Axis segments with one value, three picked of nine (a force across the branch) and nine, with a few tilted
-    ones among them (the general path beside the axis one): the same bits from both vector builds and from 1, 2
-    and 3 threads."""
+    """Axis segments with one value, three picked of nine (a force across the branch), one picked (a force along
+    it: its sums kept apart, added to the output at the end of each slab's part) and nine, with a few tilted ones
+    among them (the general path beside the axis one): the same bits from both vector builds and from 1, 2 and 3
+    threads."""
     rng = np.random.default_rng(11)
     w = 0.5
     box = cg.Box([0, 0, 0], [48, 4, 4])   # long along x: the threads' slabs (cg_scatter.c) equal across counts
@@ -164,8 +165,9 @@ def test_axis_segments_bit_for_bit_across_builds_and_threads(cutoff):
     vectors[::17] = tilted(vectors[::17])
     branch = vectors / np.linalg.norm(vectors, axis=1)[:, None]
     force = rng.normal(size=(240, 3))
+    along = rng.uniform(0.5, 1.5, size=(240, 1)) * branch   # one value picked: its sums kept apart
     for values in (rng.normal(size=(240, 1)), np.einsum("ni,nj->nij", force, branch).reshape(240, 9),
-                   rng.normal(size=(240, 9))):
+                   np.einsum("ni,nj->nij", along, branch).reshape(240, 9), rng.normal(size=(240, 9))):
         def run(n_threads):
             return scatter(box, (192, 16, 16), starts, vectors, values, w, cutoff, n_threads=n_threads)
 
@@ -225,6 +227,40 @@ def test_axis_segments_with_picked_values():
         fast = scatter(BOX3, SHAPE3, starts, vectors, values, w, cutoff)
         slow = scatter(BOX3, SHAPE3, starts, tilted(vectors), values, w, cutoff)
         assert_values_equal(fast, slow, "picked values")
+
+
+@pytest.mark.parametrize("cutoff", [3.0, 5.0])
+def test_axis_segments_one_picked_value_held_apart(cutoff):
+    """One picked value (a force along the branch): visit_axis holds the output's value of that kind apart, node-major,
+    over a window of nodes copied from the output as the segments ask for more, and copied back before any other
+    visit writes. Segments along each axis in input order (too few to be sorted), jumping back and forth along x so
+    that each window grows on both sides and moves what it holds, with tilted ones among them (the general path:
+    the values go back first), long ones (node by node: the same) and other values' segments (three picked). The same bits as the plain update (every
+    value added straight to the output: 9 more columns of ones), and the general path's values to 1e-12."""
+    rng = np.random.default_rng(17)
+    w = 0.5
+    box = cg.Box([0, 0, 0], [12, 10, 8])
+    shape = (25, 21, 17)
+    starts, vectors = axis_segments(rng, 3, 90, 0.9, False, 1.0, 7.0)
+    starts[:, 0] = rng.uniform(0.5, 11.5, size=90)
+    starts[::2, 0] = np.where(starts[::2, 0] < 6.0, starts[::2, 0] + 5.5, starts[::2, 0] - 5.5)
+    branch = vectors / np.linalg.norm(vectors, axis=1)[:, None]
+    force = rng.uniform(0.5, 1.5, size=(90, 1)) * branch
+    force[::7] += 0.3 * np.roll(branch[::7], 1, axis=1)   # across the branch too: three picked
+    values = 0.0 + np.einsum("ni,nj->nij", force, branch).reshape(90, 9)
+    mixed = vectors.copy()
+    mixed[::11] = tilted(mixed[::11])
+    mixed[5::13] *= 2.6 / 0.9   # longer than the exact path's rules (4.6 w): node by node
+    padded = np.concatenate([values, np.ones_like(values)], axis=1)
+    for build in (lambda f: f(), narrow_build):
+        # (one thread: the thread count chosen for a job depends on its number of values; the grid is too short
+        # along x for slabs at 5 w, whose terms per node are in the same order on any count)
+        held = build(lambda: scatter(box, shape, starts, mixed, values, w, cutoff, n_threads=1))
+        plain = build(lambda: scatter(box, shape, starts, mixed, padded, w, cutoff, n_threads=1))[:, :9]
+        assert np.count_nonzero(held[:, [0, 4, 8]]) > 0
+        assert np.array_equal(held.view(np.uint64), plain.view(np.uint64))
+    slow = scatter(box, shape, starts, tilted(mixed), values, w, cutoff)
+    assert_values_equal(held, slow, "one picked value")
 
 
 @pytest.mark.parametrize("cutoff", [12.0, 20.0, 34.6])
