@@ -1723,7 +1723,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     double *PA = RP + nrx, *PH = PA + npx;
     cg_index *PO = (cg_index *)(void *)(PH + npx); /* (cg_index and double are both 8 bytes) */
     double *const planebufs[2] = {(double *)(void *)(PO + npx), (double *)(void *)(PO + npx) + npx};
-    cg_index *PN = (cg_index *)(void *)(planebufs[1] + npx); /* the packed entries' nodes (the sums kept apart) */
+    cg_index *PN = (cg_index *)(void *)(planebufs[1] + npx); /* the packed entries' nodes over the cross slots */
     cut_batch cuts;
     cut_batch_init(&cuts, planebufs[1] + 2 * npx);
     const vwl lane = LANE_INDEX; /* (the loops in whole vectors: which lanes hold entries) */
@@ -1822,12 +1822,14 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         cg_index lane_offsets[8];
         for (int l = 0; l < 8; ++l) lane_offsets[l] = l * sbw;
         const __m512i lane_at = _mm512_loadu_si512(lane_offsets);
+        for (int l = 0; l < 8; ++l) lane_offsets[l] = l * sb;
+        const __m512i lane_node = _mm512_loadu_si512(lane_offsets);
 #endif
         for (cg_index a = 0; a < na; ++a) {
             if (!(qa[a] * qa[a] < R2)) continue;
             double *ra = RA + n_rows * nbp, *rh = RH + n_rows * nbp, *rp = RP + n_rows * nbp;
 #if AXIS_COMPRESS
-            const cg_index row_at = (node0 + a * sa) * width;
+            const cg_index row_node0 = node0 + a * sa, row_at = row_node0 * width;
             __m512d h_max = _mm512_setzero_pd();
             row_start[n_rows] = npk;
             ++n_rows;
@@ -1852,6 +1854,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 _mm512_storeu_pd(PH + npk, _mm512_maskz_compress_pd(keep, (__m512d)h));
                 _mm512_storeu_pd(PP + npk, _mm512_maskz_compress_pd(keep, (__m512d)arg));
                 _mm512_storeu_si512(PO + npk, _mm512_maskz_compress_epi64(keep, at));
+                const __m512i node = _mm512_add_epi64(_mm512_set1_epi64(row_node0 + bw * sb), lane_node);
+                _mm512_storeu_si512(PN + npk, _mm512_maskz_compress_epi64(keep, node));
                 npk += __builtin_popcount(keep);
                 h_max = _mm512_max_pd(h_max, _mm512_maskz_mov_pd(keep, (__m512d)h));
 #else
@@ -1871,7 +1875,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
            ball */
         for (cg_index r = 0; r < n_rows; ++r) {
             const double *ra = RA + r * nbp, *rh = RH + r * nbp, *rp = RP + r * nbp;
-            const cg_index row_at = (node0 + row_a[r] * sa) * width;
+            const cg_index row_node0 = node0 + row_a[r] * sa, row_at = row_node0 * width;
             double h_max = 0.0;
             row_start[r] = npk;
             for (cg_index b = 0; b < nb; ++b) {
@@ -1880,6 +1884,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 PH[npk] = h;
                 PP[npk] = rp[b];
                 PO[npk] = row_at + b * sbw;
+                PN[npk] = row_node0 + b * sb;
                 npk += h > 0.0;
                 h_max = h > h_max ? h : h_max;
             }
@@ -1905,9 +1910,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         sums = axis_sums_of(sc, jb, out, pick->at[0], lo, lo + hi, &sums_at);
         if (sums && m != 2)
             for (cg_index r = 0; r < n_rows; ++r)
-                row_node[r] = row_start[r] < row_start[r + 1] ? PO[row_start[r]] / width : 0;
-        else if (sums)
-            for (cg_index k = 0; k < npk; ++k) PN[k] = PO[k] / width;
+                row_node[r] = row_start[r] < row_start[r + 1] ? PN[row_start[r]] : 0;
     }
     {
         /* (two loops, one after the other, the along ends paired: only their vectors may need the long
@@ -2057,7 +2060,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                         cg_cut_span_frame_of(es, R, &span_frame);
                         have_frame = 1;
                     }
-                    const cg_index cross = PO[k] / width - node0; /* ia sa + ib sb, ib sb < sa */
+                    const cg_index cross = PN[k] - node0; /* ia sa + ib sb, ib sb < sa */
                     const cg_index ia = sa ? cross / sa : 0, ib = (cross - ia * sa) / sb;
                     double qn[3];
                     qn[m] = q[m][i];
@@ -2070,7 +2073,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                     cuts.q[0][n] = PA[k];
                     cuts.q[1][n] = at_start ? -uu : (at_end ? (L - uu) - span : -0.5 * span);
                     cuts.q[2][n] = span;
-                    cuts.node[n] = plane_node + PO[k] / width;
+                    cuts.node[n] = plane_node + PN[k];
                 }
             }
         }
