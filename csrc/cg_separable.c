@@ -1499,6 +1499,9 @@ HOT_CLONES static int visit_point(const job *jb, double *out, cg_index obj, cons
    L >= 1e-20 w in the dispatch keeps log off every other segment's way: 600 + 46 < 700) */
 #define AXIS_VALUE_EXPONENT_MAX 700.0
 
+/* |x| (the sign bit cleared): |P0 - P1| is P1 - P0 where P1 > P0 (a difference rounds symmetrically) */
+#define ABS_LANES(x) ((vwd)((vwl)(x) & ((vwl){0} | INT64_MAX)))
+
 /* one VW-lane step of a row: val = the bracket (0 where the ball misses the segment or the terms cancel:
    cancel's lanes), from the along entries u, Es, Ee, W and the cross entries h, A, Pc */
 INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L, vwd *val, vwl *cancel)
@@ -1512,7 +1515,7 @@ INLINE void axis_lanes(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W, vwd L
     const vwl straddle = (t0 < u) & (t1 > u);
     const vwd twoA = A + A;
     const vwl first = P0 > P1;
-    const vwd diff = SELECT(first, P0 - P1, P1 - P0), larger = SELECT(first, P0, P1);
+    const vwd diff = ABS_LANES(P0 - P1), larger = SELECT(first, P0, P1);
     vwd v = SELECT(straddle, (twoA - P0) - P1, diff);
     const vwd largest = SELECT(straddle, twoA, larger);
     const vwl both = at_start & at_end;
@@ -1533,7 +1536,7 @@ INLINE void axis_lanes_before(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W
     const vwl meets = t1 > zero;
     const vwd P0 = A * Es, P1 = SELECT(at_end, A * Ee, Pc);
     const vwl first = P0 > P1;
-    const vwd diff = SELECT(first, P0 - P1, P1 - P0), larger = SELECT(first, P0, P1);
+    const vwd diff = ABS_LANES(P0 - P1), larger = SELECT(first, P0, P1);
     const vwd v = SELECT(at_end, A * W, diff);
     const vwl ok = at_end | (SPLAT(16.0) * v >= larger);
     *val = (vwd)((vwl)v & (meets & ok));
@@ -1551,7 +1554,7 @@ INLINE void axis_lanes_after(vwd u, vwd h, vwd A, vwd Pc, vwd Es, vwd Ee, vwd W,
     const vwl meets = L > t0;
     const vwd P0 = SELECT(at_start, A * Es, Pc), P1 = A * Ee;
     const vwl first = P0 > P1;
-    const vwd diff = SELECT(first, P0 - P1, P1 - P0), larger = SELECT(first, P0, P1);
+    const vwd diff = ABS_LANES(P0 - P1), larger = SELECT(first, P0, P1);
     const vwd v = SELECT(at_start, A * W, diff);
     const vwl ok = at_start | (SPLAT(16.0) * v >= larger);
     *val = (vwd)((vwl)v & (meets & ok));
