@@ -1623,56 +1623,9 @@ INLINE void add_plane_rows(double *restrict sum, cg_index at, const double *rest
         const cg_index k0 = start[r], n = start[r + 1] - k0;
         double *restrict d = sum + (at + node[r]);
         const double *restrict v = w + k0;
-#if AXIS_COMPRESS
-        for (cg_index j = 0; j < n; j += 8) {
-            const __mmask8 in = n - j >= 8 ? (__mmask8)0xff : (__mmask8)((1u << (n - j)) - 1u);
-            _mm512_mask_storeu_pd(d + j, in,
-                                  _mm512_add_pd(_mm512_maskz_loadu_pd(in, d + j), _mm512_maskz_loadu_pd(in, v + j)));
-        }
-#else
+        /* (the compiler's vectors: masked vectors of 8 per row were 3 % slower at 3 w on W1, 2 % at 5 w) */
         for (cg_index j = 0; j < n; ++j) d[j] += v[j];
-#endif
     }
-}
-
-/* two planes' values, v0's and v1's (the next plane's: each node's neighbour along slot 2), added to the sums kept
-   apart at once for the entries [lo, hi): entry k's two nodes at + node[k] and the next, one vector of 2 (the
-   entries beyond a plane's range are 0 in its values) */
-INLINE void add_plane_pairs(double *restrict sum, cg_index at, const double *restrict v0, const double *restrict v1,
-                            const cg_index *restrict node, cg_index lo, cg_index hi)
-{
-#if AXIS_COMPRESS
-    cg_index k = lo;
-    for (; k + 8 <= hi; k += 8) {
-        const __m512d a = _mm512_loadu_pd(v0 + k), b = _mm512_loadu_pd(v1 + k);
-        const __m512 even = _mm512_castpd_ps(_mm512_unpacklo_pd(a, b)), odd = _mm512_castpd_ps(_mm512_unpackhi_pd(a, b));
-#define PAIR_ADD(j, from, lane)                                                                                        \
-    {                                                                                                                  \
-        double *d = sum + (at + node[k + (j)]);                                                                        \
-        _mm_storeu_pd(d, _mm_add_pd(_mm_loadu_pd(d), _mm_castps_pd(_mm512_extractf32x4_ps(from, lane))));             \
-    }
-        PAIR_ADD(0, even, 0)
-        PAIR_ADD(1, odd, 0)
-        PAIR_ADD(2, even, 1)
-        PAIR_ADD(3, odd, 1)
-        PAIR_ADD(4, even, 2)
-        PAIR_ADD(5, odd, 2)
-        PAIR_ADD(6, even, 3)
-        PAIR_ADD(7, odd, 3)
-#undef PAIR_ADD
-    }
-    for (; k < hi; ++k) {
-        double *d = sum + (at + node[k]);
-        d[0] += v0[k];
-        d[1] += v1[k];
-    }
-#else
-    for (cg_index k = lo; k < hi; ++k) {
-        double *d = sum + (at + node[k]);
-        d[0] += v0[k];
-        d[1] += v1[k];
-    }
-#endif
 }
 
 INLINE void add_plane_nodes(double *restrict sum, cg_index at, const double *restrict w, const cg_index *restrict node,
@@ -1755,7 +1708,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        for the exponentials); the cross rows' A, h and erfcx argument; packed: A, h, Pc, offset; two planes'
        values; a cut batch */
     const size_t nrx = (size_t)na * (size_t)nbp; /* the cross rows, whole vectors each */
-    const size_t need = nsp + nsp + EXP_PAD + 6 * nmp + 3 * nrx + 9 * npx + CUT_BATCH_DOUBLES;
+    const size_t need = nsp + nsp + EXP_PAD + 6 * nmp + 3 * nrx + 7 * npx + CUT_BATCH_DOUBLES;
     double *buf = scratch_get(sc, need);
     if (!buf) return -1;
     double *q[3] = {buf, buf + n0, buf + n0 + n1};
@@ -1769,9 +1722,6 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     cg_index *PN = (cg_index *)(void *)(planebufs[1] + npx); /* the packed entries' nodes over the cross slots */
     cut_batch cuts;
     cut_batch_init(&cuts, planebufs[1] + 2 * npx);
-    /* (pairs of planes, below: four planes' values in turn, the two of planebufs and two more) */
-    double *const planes4[4] = {planebufs[0], planebufs[1], planebufs[1] + 2 * npx + CUT_BATCH_DOUBLES,
-                                planebufs[1] + 3 * npx + CUT_BATCH_DOUBLES};
     const vwl lane = LANE_INDEX; /* (the loops in whole vectors: which lanes hold entries) */
     for (int s = 0; s < 3; ++s) {
         if (s < pad) {
@@ -2033,24 +1983,6 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        stores, the values would stall store forwarding). */
     const double *pending = NULL;
     cg_index pending_at = 0, pending_lo = 0, pending_hi = 0, pending_r0 = 0, pending_r1 = 0;
-    /* one picked value along slot 2, held apart: a node's neighbour along the segment is the next double of the sums,
-       so two planes' values go to them as vectors of 2 (pairs of planes t, t + 1, t even; the ranges of entries
-       their values cover, as their vector loops wrote them) */
-    const int pairs = sums && m == 2;
-    cg_index pair_lo[4] = {0, 0, 0, 0}, pair_hi[4] = {0, 0, 0, 0};
-#define add_pair_of_planes(t0)                                                                                         \
-    do {                                                                                                               \
-        const int p0 = (int)((t0) & 3), p1 = (int)(((t0) + 1) & 3);                                                    \
-        double *const v0 = planes4[p0], *const v1 = planes4[p1];                                                       \
-        const cg_index lo = pair_lo[p0] < pair_lo[p1] ? pair_lo[p0] : pair_lo[p1];                                     \
-        cg_index hi = pair_hi[p0] > pair_hi[p1] ? pair_hi[p0] : pair_hi[p1];                                           \
-        hi = hi < npk ? hi : npk;                                                                                      \
-        for (cg_index k = lo; k < pair_lo[p0] && k < hi; ++k) v0[k] = 0.0;                                             \
-        for (cg_index k = pair_hi[p0] > lo ? pair_hi[p0] : lo; k < hi; ++k) v0[k] = 0.0;                               \
-        for (cg_index k = lo; k < pair_lo[p1] && k < hi; ++k) v1[k] = 0.0;                                             \
-        for (cg_index k = pair_hi[p1] > lo ? pair_hi[p1] : lo; k < hi; ++k) v1[k] = 0.0;                               \
-        add_plane_pairs(sums, (first[m] + u_lo + (t0)) * sm - sums_at, v0, v1, PN, lo, hi);                           \
-    } while (0)
     int parity = 0;
     const cg_index sm = stride[m];
     /* one picked value: the plane's values times it and the scale in the vector loop, added as they are */
@@ -2080,8 +2012,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         const cg_index k_lo = row_start[r0], k_hi = row_start[r1];
         const int where = ui < 0.0 ? -1 : ui > L;
         const vwd u = SPLAT(ui), Es = SPLAT(ES[i]), Ee = SPLAT(EE[i]), W = SPLAT(WW[i]);
-        const cg_index t = i - u_lo; /* (pairs: plane t's values in planes4[t % 4]) */
-        double *restrict pv = pairs ? planes4[t & 3] : planebufs[parity];
+        double *restrict pv = planebufs[parity];
         vwl any_cancel = {0};
         for (cg_index kw = k_lo / VW * VW; kw < k_hi; kw += VW) {
             vwd val;
@@ -2092,13 +2023,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             any_cancel |= cancel;
         }
         /* (the plane's nodes that miss the ball, or cancel, are 0 in pv, and add +-0) */
-        if (pairs) {
-            /* planes t - 2 and t - 1 (their values read a plane after their stores, as pending's), over both
-               ranges of entries: each 0 beyond its own */
-            pair_lo[t & 3] = k_lo < k_hi ? k_lo / VW * VW : npad;
-            pair_hi[t & 3] = k_lo < k_hi ? (k_hi + VW - 1) / VW * VW : 0;
-            if (t >= 2 && (t & 1) == 0) add_pair_of_planes(t - 2);
-        } else if (pending && sums && m == 2)
+        if (pending && sums && m == 2)
             add_plane_nodes(sums, pending_at, pending + pending_lo, PN + pending_lo, pending_hi - pending_lo);
         else if (pending && sums)
             add_plane_rows(sums, pending_at, pending, row_start, row_node, pending_r0, pending_r1);
@@ -2149,13 +2074,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
         }
     }
-    if (pairs) {
-        const cg_index n_planes = u_hi - u_lo;
-        if (n_planes >= 2 && (n_planes & 1) == 0)
-            add_pair_of_planes(n_planes - 2);
-        else if (pending)
-            add_plane_nodes(sums, pending_at, pending + pending_lo, PN + pending_lo, pending_hi - pending_lo);
-    } else if (pending && sums && m == 2)
+    if (pending && sums && m == 2)
         add_plane_nodes(sums, pending_at, pending + pending_lo, PN + pending_lo, pending_hi - pending_lo);
     else if (pending && sums)
         add_plane_rows(sums, pending_at, pending, row_start, row_node, pending_r0, pending_r1);
@@ -2163,7 +2082,6 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         add_plane(out + pending_at * width, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo, factor, one,
                   values, nv, pick);
     axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick, sums, sums_at);
-#undef add_pair_of_planes
     return 1;
 }
 #endif
