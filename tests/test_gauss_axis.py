@@ -229,9 +229,10 @@ def test_axis_segments_with_picked_values():
         assert_values_equal(fast, slow, "picked values")
 
 
-@pytest.mark.parametrize("cutoff", [3.0, 5.0])
+@pytest.mark.parametrize("cutoff", [4.5, 6.0])   # 4.7 and 6.2 node spacings: held from 4 (HOLD_REACH)
 def test_axis_segments_one_picked_value_held_apart(cutoff):
-    """One picked value (a force along the branch): visit_axis holds the output's value of that kind apart, node-major,
+    """One picked value (a force along the branch): with a cutoff of 4 node spacings or more visit_axis holds the
+    output's value of that kind apart, node-major,
     over a window of nodes copied from the output as the segments ask for more, and copied back before any other
     visit writes. Segments along each axis in input order (too few to be sorted), jumping back and forth along x so
     that each window grows on both sides and moves what it holds, with tilted ones among them (the general path:
