@@ -31,7 +31,9 @@
  * along the segment and a packed table of its cross-section (no transcendental
  * per node, no rule), plane by plane across the segment, the few nodes whose
  * tail terms cancel by Gauss-Legendre on their part of the segment
- * (axis_cut_flush).
+ * (axis_cut_flush). With one value of the object's not 0 (a central contact
+ * force) and a cutoff of a few node spacings, that value of the output is
+ * held apart, node-major, so that rows of nodes take vectors (axis_sums).
  *
  * Resolved axes are placed in three "slots", right-aligned: the last
  * resolved axis (stride 1 in the output) is always slot 2; missing slots
@@ -1900,7 +1902,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     double *sums = NULL;
     cg_index row_node[64], sums_at = 0;
     int hold = pick->kind == 1 && stride[2] == 1;
-    for (int a = 0; a < t->n_resolved; ++a) hold &= !(R < HOLD_REACH * jb->spacing[a]); /* (the job's, not the segment's: no flush between segments) */
+    for (int a = 0; a < t->n_resolved; ++a) /* (the job's rule, not the segment's: no flush between its segments) */
+        hold &= !(R < HOLD_REACH * jb->spacing[a]);
     if (!hold) cg_separable_flush(sc); /* (this segment writes to out) */
     if (hold) {
         cg_index lo = 0, hi = 1;
@@ -1998,6 +2001,19 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
        lanes do */
     const double near = 0x1p-40 * R;
     const vwd near_v = SPLAT(near);
+    /* the pending plane's values added: held apart (along slot 2 at their nodes, across it by rows), else to out */
+#define ADD_PENDING_PLANE()                                                                                            \
+    do {                                                                                                               \
+        if (!pending)                                                                                                  \
+            break;                                                                                                     \
+        if (sums && m == 2)                                                                                            \
+            add_plane_nodes(sums, pending_at, pending + pending_lo, PN + pending_lo, pending_hi - pending_lo);         \
+        else if (sums)                                                                                                 \
+            add_plane_rows(sums, pending_at, pending, row_start, row_node, pending_r0, pending_r1);                    \
+        else                                                                                                           \
+            add_plane(out + pending_at * width, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo,        \
+                      factor, one, values, nv, pick);                                                                  \
+    } while (0)
     cg_cut_span_frame span_frame;
     int have_frame = 0;
     for (cg_index i = u_lo; i < u_hi; ++i) {
@@ -2028,13 +2044,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             any_cancel |= cancel;
         }
         /* (the plane's nodes that miss the ball, or cancel, are 0 in pv, and add +-0) */
-        if (pending && sums && m == 2)
-            add_plane_nodes(sums, pending_at, pending + pending_lo, PN + pending_lo, pending_hi - pending_lo);
-        else if (pending && sums)
-            add_plane_rows(sums, pending_at, pending, row_start, row_node, pending_r0, pending_r1);
-        else if (pending)
-            add_plane(out + pending_at * width, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo, factor,
-                      one, values, nv, pick);
+        ADD_PENDING_PLANE();
         pending = pv;
         pending_lo = k_lo;
         pending_hi = k_hi;
@@ -2079,13 +2089,8 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             }
         }
     }
-    if (pending && sums && m == 2)
-        add_plane_nodes(sums, pending_at, pending + pending_lo, PN + pending_lo, pending_hi - pending_lo);
-    else if (pending && sums)
-        add_plane_rows(sums, pending_at, pending, row_start, row_node, pending_r0, pending_r1);
-    else if (pending)
-        add_plane(out + pending_at * width, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo, factor, one,
-                  values, nv, pick);
+    ADD_PENDING_PLANE();
+#undef ADD_PENDING_PLANE
     axis_cut_flush(&cuts, jb, out, obj, L, w, amp, pick, sums, sums_at);
     return 1;
 }
