@@ -366,7 +366,7 @@ typedef struct scratch {
     double *buf;
     size_t cap;
     struct lucy_batch *lucy; /* cg_visit_lucy's segments waiting for their values (cg_lucy_batch_flush) */
-    struct axis_sums *sums;  /* the separable path's sums of one output value (cg_separable_flush) */
+    struct axis_sums *sums;  /* out's values of one kind held apart by the separable path (cg_separable_flush) */
 } scratch;
 
 /* out[node] += the contribution of object obj with the given weight (or
@@ -486,9 +486,10 @@ static inline int stencil_next(cg_index *idx, const cg_index *first, const cg_in
 int cg_visit_separable(const job *jb, double *out, scratch *sc, cg_index obj, const double *x, const double *e,
                        double scale);
 
-/* The separable path's sums of one output value kept apart (segments along a
-   grid axis, added row by row as vectors): added into out. Before a range of
-   objects counts as done; cg_separable_release frees them (with sc's thread). */
+/* out's values of one kind held apart by the separable path (segments along a
+   grid axis, their rows added as vectors): copied back into out. Before a
+   range of objects counts as done; cg_separable_release (with sc's thread)
+   copies them back and frees them. */
 void cg_separable_flush(scratch *sc);
 void cg_separable_release(scratch *sc);
 

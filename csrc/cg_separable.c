@@ -167,15 +167,9 @@ static double *axis_sums_of(scratch *sc, const job *jb, double *out, int c, cg_i
 {
     if (c >= AXIS_SUMS_VALUES) return NULL;
     struct axis_sums *a = sc->sums;
-    if (a && a->out != out) {
+    if (!a && !(a = sc->sums = calloc(1, sizeof *a))) return NULL;
+    if (a->out != out) {
         cg_separable_flush(sc); /* (another output: another job on this scratch) */
-        a->out = out;
-        a->width = jb->out_width;
-        a->nodes = cg_target_size(jb->target);
-    }
-    if (!a) {
-        a = sc->sums = calloc(1, sizeof *a);
-        if (!a) return NULL;
         a->out = out;
         a->width = jb->out_width;
         a->nodes = cg_target_size(jb->target);
@@ -1617,25 +1611,18 @@ INLINE void scatter_add_picked(double *restrict o, double scale, const double *r
         if (w[k] != 0.0) block_add_picked(o + at[k], scale, w + k, 1, v, nv, p);
 }
 
-/* a plane's values w added to the sums kept apart (sum[at + node] is a node's): the packed rows [r0, r1) (row r:
-   entries [start[r], start[r + 1]), contiguous nodes from at + node[r]) as vectors, or (add_plane_nodes) the
-   entries [0, n) at nodes at + node[k] */
-INLINE void add_plane_rows(double *restrict sum, cg_index at, const double *restrict w, const cg_index *restrict start,
+/* a plane's values w added to the values held apart by rows (sum: the plane's first node): the packed rows
+   [r0, r1) (row r: entries [start[r], start[r + 1]), contiguous nodes from sum + node[r]) */
+INLINE void add_plane_rows(double *restrict sum, const double *restrict w, const cg_index *restrict start,
                            const cg_index *restrict node, cg_index r0, cg_index r1)
 {
     for (cg_index r = r0; r < r1; ++r) {
         const cg_index k0 = start[r], n = start[r + 1] - k0;
-        double *restrict d = sum + (at + node[r]);
+        double *restrict d = sum + node[r];
         const double *restrict v = w + k0;
         /* (the compiler's vectors: masked vectors of 8 per row were 3 % slower at 3 w on W1, 2 % at 5 w) */
         for (cg_index j = 0; j < n; ++j) d[j] += v[j];
     }
-}
-
-INLINE void add_plane_nodes(double *restrict sum, cg_index at, const double *restrict w, const cg_index *restrict node,
-                            cg_index n)
-{
-    for (cg_index k = 0; k < n; ++k) sum[at + node[k]] += w[k];
 }
 
 /* a plane's n values w added at their nodes' offsets at (out: the plane's first output; one: a single picked value,
@@ -1723,7 +1710,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
     double *PA = RP + nrx, *PH = PA + npx;
     cg_index *PO = (cg_index *)(void *)(PH + npx); /* (cg_index and double are both 8 bytes) */
     double *const planebufs[2] = {(double *)(void *)(PO + npx), (double *)(void *)(PO + npx) + npx};
-    cg_index *PN = (cg_index *)(void *)(planebufs[1] + npx); /* the packed entries' nodes over the cross slots */
+    cg_index *PN = (cg_index *)(void *)(planebufs[1] + npx); /* the packed entries' nodes from node0 (below) */
     cut_batch cuts;
     cut_batch_init(&cuts, planebufs[1] + 2 * npx);
     const vwl lane = LANE_INDEX; /* (the loops in whole vectors: which lanes hold entries) */
@@ -1829,7 +1816,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
             if (!(qa[a] * qa[a] < R2)) continue;
             double *ra = RA + n_rows * nbp, *rh = RH + n_rows * nbp, *rp = RP + n_rows * nbp;
 #if AXIS_COMPRESS
-            const cg_index row_node0 = node0 + a * sa, row_at = row_node0 * width;
+            const cg_index row_at = (node0 + a * sa) * width;
             __m512d h_max = _mm512_setzero_pd();
             row_start[n_rows] = npk;
             ++n_rows;
@@ -1854,7 +1841,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 _mm512_storeu_pd(PH + npk, _mm512_maskz_compress_pd(keep, (__m512d)h));
                 _mm512_storeu_pd(PP + npk, _mm512_maskz_compress_pd(keep, (__m512d)arg));
                 _mm512_storeu_si512(PO + npk, _mm512_maskz_compress_epi64(keep, at));
-                const __m512i node = _mm512_add_epi64(_mm512_set1_epi64(row_node0 + bw * sb), lane_node);
+                const __m512i node = _mm512_add_epi64(_mm512_set1_epi64(a * sa + bw * sb), lane_node);
                 _mm512_storeu_si512(PN + npk, _mm512_maskz_compress_epi64(keep, node));
                 npk += __builtin_popcount(keep);
                 h_max = _mm512_max_pd(h_max, _mm512_maskz_mov_pd(keep, (__m512d)h));
@@ -1875,7 +1862,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
            ball */
         for (cg_index r = 0; r < n_rows; ++r) {
             const double *ra = RA + r * nbp, *rh = RH + r * nbp, *rp = RP + r * nbp;
-            const cg_index row_node0 = node0 + row_a[r] * sa, row_at = row_node0 * width;
+            const cg_index row_at = (node0 + row_a[r] * sa) * width;
             double h_max = 0.0;
             row_start[r] = npk;
             for (cg_index b = 0; b < nb; ++b) {
@@ -1884,7 +1871,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                 PH[npk] = h;
                 PP[npk] = rp[b];
                 PO[npk] = row_at + b * sbw;
-                PN[npk] = row_node0 + b * sb;
+                PN[npk] = row_a[r] * sa + b * sb;
                 npk += h > 0.0;
                 h_max = h > h_max ? h : h_max;
             }
@@ -1895,13 +1882,13 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         npad = (cg_index)AXIS_UP(npk);
         for (cg_index k = npk; k < npad; ++k) PA[k] = PH[k] = PP[k] = 0.0;
     }
-    /* one picked value (slot 2 of stride 1) and a cutoff of HOLD_REACH node spacings or more: its values held
-       apart. Across rows along slot 2 they take a plane's rows as vectors (row r from node row_node[r] of the
-       plane); along slot 2, a plane's entries at their nodes PN, a plane's node next to the previous plane's (in out,
-       9 values apart: a cache line each) */
+    /* one picked value and a cutoff of HOLD_REACH node spacings or more: its values held apart. Across rows along
+       slot 2 (stride 1) they take a plane's rows as vectors (row r from node0 + row_node[r] of the plane); along
+       slot 2, a plane's entries at their nodes PN, a plane's node next to the previous plane's (in out, 9 values
+       apart: a cache line each) */
     double *sums = NULL;
     cg_index row_node[64], sums_at = 0;
-    int hold = pick->kind == 1 && stride[2] == 1;
+    int hold = pick->kind == 1;
     for (int a = 0; a < t->n_resolved; ++a) /* (the job's rule, not the segment's: no flush between its segments) */
         hold &= !(R < HOLD_REACH * jb->spacing[a]);
     if (!hold) cg_separable_flush(sc); /* (this segment writes to out) */
@@ -2007,9 +1994,11 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         if (!pending)                                                                                                  \
             break;                                                                                                     \
         if (sums && m == 2)                                                                                            \
-            add_plane_nodes(sums, pending_at, pending + pending_lo, PN + pending_lo, pending_hi - pending_lo);         \
+            scatter_add_one(sums + (pending_at + node0 - sums_at), pending + pending_lo, PN + pending_lo,              \
+                            pending_hi - pending_lo);                                                                  \
         else if (sums)                                                                                                 \
-            add_plane_rows(sums, pending_at, pending, row_start, row_node, pending_r0, pending_r1);                    \
+            add_plane_rows(sums + (pending_at + node0 - sums_at), pending, row_start, row_node, pending_r0,            \
+                           pending_r1);                                                                                \
         else                                                                                                           \
             add_plane(out + pending_at * width, pending + pending_lo, PO + pending_lo, pending_hi - pending_lo,        \
                       factor, one, values, nv, pick);                                                                  \
@@ -2051,7 +2040,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
         pending_r0 = r0;
         pending_r1 = r1;
         const cg_index plane_node = (first[m] + i) * sm;
-        pending_at = plane_node - sums_at; /* (sums_at 0 where out takes the terms) */
+        pending_at = plane_node; /* (its node with cross index 0; the held values' index from node0 on) */
         parity ^= 1;
         if (mask_bits(any_cancel)) {
             /* the cancelling nodes (few: their lanes again, as above), gathered for axis_cut_flush */
@@ -2071,7 +2060,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                         cg_cut_span_frame_of(es, R, &span_frame);
                         have_frame = 1;
                     }
-                    const cg_index cross = PN[k] - node0; /* ia sa + ib sb, ib sb < sa */
+                    const cg_index cross = PN[k]; /* ia sa + ib sb, ib sb < sa */
                     const cg_index ia = sa ? cross / sa : 0, ib = (cross - ia * sa) / sb;
                     double qn[3];
                     qn[m] = q[m][i];
@@ -2084,7 +2073,7 @@ HOT_CLONES static int visit_axis(const job *jb, double *out, scratch *sc, cg_ind
                     cuts.q[0][n] = PA[k];
                     cuts.q[1][n] = at_start ? -uu : (at_end ? (L - uu) - span : -0.5 * span);
                     cuts.q[2][n] = span;
-                    cuts.node[n] = plane_node + PN[k];
+                    cuts.node[n] = plane_node + node0 + PN[k];
                 }
             }
         }
