@@ -232,12 +232,12 @@ def test_axis_segments_with_picked_values():
 @pytest.mark.parametrize("cutoff", [4.5, 6.0])   # 4.7 and 6.2 node spacings: held from 4 (HOLD_REACH)
 def test_axis_segments_one_picked_value_held_apart(cutoff):
     """One picked value (a force along the branch): with a cutoff of 4 node spacings or more visit_axis holds the
-    output's value of that kind apart, node-major,
-    over a window of nodes copied from the output as the segments ask for more, and copied back before any other
-    visit writes. Segments along each axis in input order (too few to be sorted), jumping back and forth along x so
-    that each window grows on both sides and moves what it holds, with tilted ones among them (the general path:
-    the values go back first), long ones (node by node: the same) and other values' segments (three picked). The same bits as the plain update (every
-    value added straight to the output: 9 more columns of ones), and the general path's values to 1e-12."""
+    output's value of that kind apart, node-major, over a window of nodes copied from the output as the segments ask
+    for more, and copied back before any other visit writes. Segments along each axis in input order (too few to be
+    sorted), jumping back and forth along x so that each window grows on both sides and moves what it holds, with
+    tilted ones among them (the general path: the values go back first), long ones (node by node: the same) and
+    other values' segments (three picked). The same bits as the plain update (every value added straight to the
+    output: 9 more columns of ones), and the general path's values to 1e-12."""
     rng = np.random.default_rng(17)
     w = 0.5
     box = cg.Box([0, 0, 0], [12, 10, 8])
@@ -353,9 +353,10 @@ def test_axis_contact_stress_integrates_to_minus_f_outer_b(cutoff):
     table or the crossing term breaks it."""
     w, box = 0.5, cg.Box([0, 0, 0], [6, 6, 6])
     mass = math.erf(cutoff / math.sqrt(2)) - math.sqrt(2 / math.pi) * cutoff * math.exp(-cutoff ** 2 / 2)
-    force = np.array([0.3, -0.2, 1.0])
     grid = cg.Grid(box, (48, 48, 48))
-    for axis in range(3):
+    # a general force (three values of nine), and a central one (one value: held apart, 12-20 node spacings)
+    forces = [(a, np.array([0.3, -0.2, 1.0])) for a in range(3)] + [(a, -0.7 * np.eye(3)[a]) for a in range(3)]
+    for axis, force in forces:
         p = np.full((2, 3), 3.03)
         p[1, axis] += 0.97
         snap = cg.Snapshot(p, np.zeros((2, 3)), np.ones(2), box=box, radii=np.full(2, 0.5),
