@@ -90,12 +90,14 @@ def test_core_gradient_matches_the_oracle_on_grids(dim, average, name, periodic)
 def test_gradient_rows_equal_node_by_node_bit_for_bit(dim, average, name, periodic):
     """Gradients of points on grids visit only the support ball's rows (cg_gradient_rows.c, the full kernels'
     factors a row at a time): the same sums as every node of the stencil box evaluated on its own, bit for bit,
-    on fine and coarse grids (a support of many and of few nodes) and nodes exactly on particles."""
+    on fine and coarse grids (a support of many and of few nodes: batches of nodes full within an object) and
+    nodes exactly on particles; 1 to 9 values (in 3-D, groups of four values are added as vectors, the rest one
+    by one)."""
     box = small_box(dim, [periodic] * (dim - 1) + [False])
     kernel = KERNELS[name]
-    for n in (4, 23):
+    for n, width in ((4, 3), (23, 3), (4, 9), (23, 4), (11, 1), (11, 5)):
         grid = cg.Grid(box, n, average=average)
-        pos, vals = random_objects(box, 40, 11 + dim + n, width=3)
+        pos, vals = random_objects(box, 40, 11 + dim + n + width, width=width)
         nodes = np.stack(np.meshgrid(*grid.axis_coordinates, indexing="ij"), -1).reshape(-1, dim)
         pos[:3] = nodes[[0, len(nodes) // 2, -1]]
         target = _engine.core_target(grid, box)
@@ -108,7 +110,7 @@ def test_gradient_rows_equal_node_by_node_bit_for_bit(dim, average, name, period
             finally:
                 kernel._per_node = False
         assert np.count_nonzero(results[1]) > 0
-        assert np.array_equal(results[0], results[1]), (name, average, n)
+        assert np.array_equal(results[0], results[1]), (name, average, n, width)
 
 
 @pytest.mark.parametrize("dim", [2, 3])
