@@ -104,7 +104,7 @@ from .._validate import integer
 from ._lammps_dump import scan_dump
 from .checks import (compute_columns, contact_geometry_error, dump_local_header, geometry_misfits, repeated_pairs,
                      row_norms, thin_box, written_resolution)
-from .lammps import LammpsReader, _Where, contact_indices
+from .lammps import LammpsReader, contact_indices
 from .lammps_input import LIGGGHTS_WALL_LAYOUT
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns", "wall_gran_local_columns"]
