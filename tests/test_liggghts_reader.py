@@ -53,6 +53,10 @@ def test_column_layout_is_fixed_order():
     assert a["delta"] == ("c_pgl[16]",) and a["contactPoint"][-1] == "c_pgl[19]"
     full = pair_gran_local_columns("x", ("pos", "vel", "id", "force", "torque", "delta", "contactPoint"))
     assert full["contactPoint"] == ("c_x[23]", "c_x[24]", "c_x[25]")
+    # heat flux is always the last value (LIGGGHTS' ComputePairGranLocal::add_heat writes it at nvalues - 1): after
+    # the contact point, whatever the keywords' order
+    heat = pair_gran_local_columns("h", ("heatFlux", "id", "force", "contactPoint"))
+    assert heat["contactPoint"] == ("c_h[7]", "c_h[8]", "c_h[9]") and heat["heatFlux"] == ("c_h[10]",)
     with pytest.raises(ValueError, match="unknown"):
         pair_gran_local_columns("pgl", ("pos", "bogus"))
     with pytest.raises(ValueError, match="history"):

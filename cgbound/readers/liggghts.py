@@ -105,19 +105,18 @@ from ._lammps_dump import scan_dump
 from .checks import (compute_columns, contact_geometry_error, dump_local_header, geometry_misfits, repeated_pairs,
                      row_norms, thin_box, written_resolution)
 from .lammps import LammpsReader, contact_indices
-from .lammps_input import LIGGGHTS_WALL_LAYOUT
+from .lammps_input import LIGGGHTS_LAYOUT, LIGGGHTS_WALL_LAYOUT
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns", "wall_gran_local_columns"]
 
-# (keyword, number of values) in the order LIGGGHTS 3.8 writes them; history's count is set by the caller
-_LAYOUT = (("pos", 6), ("vel", 6), ("id", 3), ("force", 3), ("force_normal", 3), ("force_tangential", 3),
-           ("torque", 3), ("history", None), ("contactArea", 1), ("delta", 1), ("heatFlux", 1),
-           ("contactPoint", 3))
+# (keyword, number of values) in the order LIGGGHTS 3.8 writes them (the input script parser's table, one place);
+# history's count is set by the caller
+_LAYOUT = tuple((k, None if m is None else len(m)) for k, m in LIGGGHTS_LAYOUT)
 KEYWORDS = tuple(k for k, _ in _LAYOUT)
 DEFAULT_VALUES = ("pos", "vel", "id", "force", "torque", "delta", "contactPoint")
 
 
-# compute wall/gran/local: (keyword, number of values), the same fixed order with torque_normal/torque_tangential
+# compute wall/gran/local: (keyword, number of values), likewise
 _WALL_LAYOUT = tuple((k, None if m is None else len(m)) for k, m in LIGGGHTS_WALL_LAYOUT)
 WALL_KEYWORDS = tuple(k for k, _ in _WALL_LAYOUT)
 DEFAULT_WALL_VALUES = ("pos", "id", "force")
