@@ -7,6 +7,7 @@ import os
 import pickle
 import shutil
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -52,6 +53,10 @@ def test_column_layout_is_fixed_order():
     assert a["delta"] == ("c_pgl[16]",) and a["contactPoint"][-1] == "c_pgl[19]"
     full = pair_gran_local_columns("x", ("pos", "vel", "id", "force", "torque", "delta", "contactPoint"))
     assert full["contactPoint"] == ("c_x[23]", "c_x[24]", "c_x[25]")
+    # heat flux is always the last value (LIGGGHTS' ComputePairGranLocal::add_heat writes it at nvalues - 1): after
+    # the contact point, whatever the keywords' order
+    heat = pair_gran_local_columns("h", ("heatFlux", "id", "force", "contactPoint"))
+    assert heat["contactPoint"] == ("c_h[7]", "c_h[8]", "c_h[9]") and heat["heatFlux"] == ("c_h[10]",)
     with pytest.raises(ValueError, match="unknown"):
         pair_gran_local_columns("pgl", ("pos", "bogus"))
     with pytest.raises(ValueError, match="history"):
@@ -240,7 +245,125 @@ def test_a_run_with_walls_fails_the_force_check_naming_the_walls():
     frames = LiggghtsReader(os.path.join(d, "atoms.dump"), os.path.join(d, "pairs.dump"), pair_values=VALUES,
                             body_force=G)
     with pytest.raises(ValueError, match=r"timestep 22500: the contact forces plus the body forces do not reproduce .* "
-                                         r"the run has walls \(fix wall/gran, primitive or mesh\): this reader does not "
-                                         r"read LIGGGHTS wall contacts") as info:
+                                         r"the run has walls \(fix wall/gran\) whose contacts are not given: .*"
+                                         r"--wall-contacts.*primitive walls are not read") as info:
         frames[0]
     assert "--pair-style" not in str(info.value) and "--walls" not in str(info.value)
+
+
+# ---- wall contacts (compute wall/gran/local, mesh walls): tests/data/liggghts/mesh/in.mesh, settled at rest ----
+MESH = os.path.join(DATA, "mesh")
+WALL_VALUES = ("pos", "vel", "id", "force", "force_normal", "force_tangential", "torque", "delta", "contactArea")
+
+
+def mesh_reader(walls="walls.dump", **extra):
+    return LiggghtsReader(os.path.join(MESH, "atoms.dump"), os.path.join(MESH, "pairs.dump"),
+                          wall_contacts=None if walls is None else os.path.join(MESH, walls),
+                          input=os.path.join(MESH, "in.mesh"), **extra)
+
+
+def test_mesh_wall_contacts_balance_every_particle():
+    frames = mesh_reader()
+    assert frames.wall_values == WALL_VALUES        # from the script's compute wall/gran/local line
+    for k in range(len(frames)):
+        assert frames.force_mismatch(k) < TOL
+        contacts = frames[k].contacts
+        assert np.count_nonzero(contacts.j < 0) == 31
+
+
+def test_mesh_wall_force_of_a_packing_at_rest_is_its_weight_and_the_ifd_integrates_to_it():
+    snap = mesh_reader(wall_values=WALL_VALUES)[0]
+    wall = snap.contacts.j < 0
+    weight = snap.masses.sum() * 9.81
+    np.testing.assert_allclose(snap.contacts.force[wall].sum(axis=0), [0, 0, weight], rtol=0, atol=1e-5 * weight)   # at rest to 1e-6
+    # the contact points lie on the floor z = 0
+    np.testing.assert_array_equal(snap.contacts.point[wall][:, 2], 0.0)
+    box = cg.Box((0, 0, -0.002), (0.006, 0.006, 0.002), (True, True, False))
+    shape = (24, 24, 80)
+    fields = cg.coarse_grain(snap, cg.Grid(box, shape), cg.Lucy(0.0008), fields=("interaction_force_density",))
+    cell = np.prod((np.array(box.upper) - np.array(box.lower)) / np.array(shape))
+    integral = fields.interaction_force_density.reshape(-1, 3).sum(axis=0) * cell
+    np.testing.assert_allclose(integral, [0, 0, weight], rtol=0, atol=2e-3 * weight)
+
+
+def test_a_mesh_run_without_its_wall_dump_fails_the_force_check_naming_the_option():
+    with pytest.raises(ValueError, match=r"timestep 302500: the contact forces .* whose contacts are not given: "
+                                         r".*wall/gran/local .*wall_contacts=, --wall-contacts"):
+        mesh_reader(walls=None)[0]
+
+
+def test_wrong_wall_keywords_are_refused_naming_the_file_and_the_flag():
+    with pytest.raises(ValueError, match=r"wall_values: the keywords pos id force make 12 columns but the wall "
+                                         r"contact dump .*walls.dump holds 29 columns .*--wall-values"):
+        mesh_reader(wall_values=("pos", "id", "force"))
+
+
+def test_wall_values_without_a_wall_dump_or_keywords_are_refused():
+    with pytest.raises(ValueError, match="wall_values: given without wall_contacts"):
+        mesh_reader(walls=None, wall_values=WALL_VALUES)
+    with pytest.raises(ValueError, match=r"wall_values: .*needs 'pos'"):
+        mesh_reader(wall_values=("vel", "id", "force", "force_normal", "force_tangential", "torque", "delta",
+                                 "contactArea"))
+
+
+def damaged(tmp_path, edit):
+    text = open(os.path.join(MESH, "walls.dump")).read().splitlines(keepends=True)
+    edit(text)
+    path = tmp_path / "walls.dump"
+    path.write_text("".join(text))
+    return LiggghtsReader(os.path.join(MESH, "atoms.dump"), os.path.join(MESH, "pairs.dump"), wall_contacts=path,
+                          wall_values=WALL_VALUES, input=os.path.join(MESH, "in.mesh"))
+
+
+def test_a_wall_contact_on_the_wrong_particle_is_refused_with_its_line(tmp_path):
+    def swap_particle(lines):
+        words = lines[9].split()
+        words[14] = "3" if words[14] != "3" else "4"     # the particle's ID (id's third value)
+        lines[9] = " ".join(words) + "\n"
+    with pytest.raises(ValueError, match=r"timestep 302500: the positions do not fit the wall contacts of .*walls.dump"
+                                         r": .*particle centre .*line 10.*--wall-values"):
+        damaged(tmp_path, swap_particle)[0]
+
+
+def test_a_wall_contact_of_an_absent_particle_is_refused(tmp_path):
+    def absent(lines):
+        words = lines[9].split()
+        words[14] = "999"
+        lines[9] = " ".join(words) + "\n"
+    with pytest.raises(ValueError, match=r"walls.dump: contact between atom IDs 999 and 999 at timestep 302500: an ID "
+                                         r"is not in the atoms dump"):
+        damaged(tmp_path, absent)[0]
+
+
+def test_a_contact_point_off_the_wall_is_refused(tmp_path):
+    def lift(lines):
+        words = lines[9].split()
+        words[2] = repr(float(words[5]) + 0.002)       # the contact point 2 mm above the centre
+        lines[9] = " ".join(words) + "\n"
+    with pytest.raises(ValueError, match=r"timestep 302500: .*contact point .*further than the radius"):
+        damaged(tmp_path, lift)[0]
+
+
+def test_a_wall_dump_of_other_timesteps_is_refused(tmp_path):
+    def shift(lines):
+        for k, line in enumerate(lines):
+            if line.strip() == "302500":
+                lines[k] = "302499\n"
+    with pytest.raises(ValueError, match=r"wall_contacts: no frame for timestep\(s\) \[302500\] of the atoms dump .* "
+                                         r"in the wall contact dump .*walls.dump.*dump both at the same steps"):
+        damaged(tmp_path, shift)
+
+
+def test_cli_reads_mesh_walls_and_refuses_wrong_keywords(tmp_path):
+    base = [sys.executable, "-m", "cgbound", "run", os.path.join(MESH, "atoms.dump"), "--format", "liggghts",
+            "--pairs", os.path.join(MESH, "pairs.dump"), "--input", os.path.join(MESH, "in.mesh"),
+            "--wall-contacts", os.path.join(MESH, "walls.dump"), "--grid", "2,2,4", "--kernel", "lucy",
+            "--width", "0.001", "--fields", "density,boundary_stress"]
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(os.path.abspath(cg.__file__))))
+    good = subprocess.run(base + ["-o", str(tmp_path / "out.npz")], capture_output=True, text=True, env=env)
+    assert good.returncode == 0, good.stderr
+    assert (tmp_path / "out.npz").exists()
+    bad = subprocess.run(base + ["--wall-values", "pos,id,force", "-o", str(tmp_path / "bad.npz")],
+                         capture_output=True, text=True, env=env)
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr
+    assert "--wall-values: the keywords pos id force make 12 columns" in bad.stderr

@@ -20,6 +20,7 @@ API_FLAGS = {
     "fixed_types": "--fixed-types", "fixed_ids": "--fixed-ids", "fixed": "--fixed-ids", "walls": "--walls",
     "masses": "--masses", "dt": "--dt", "dimension": "--dimension", "dim": "--dimension",
     "density": "--density", "pair_values": "--pair-values", "pair_compute": "--pair-compute",
+    "wall_contacts": "--wall-contacts", "wall_values": "--wall-values", "wall_compute": "--wall-compute",
     "pair_style": "--pair-style", "species": "--species", "lower": "--lower", "upper": "--upper",
     "paths": "PATH", "check_forces": "--no-check-forces",
     "couple_stress_form": "--couple-stress-form",

@@ -25,7 +25,8 @@ FLAG_FORMATS = {
     "no_check_forces": ("lammps", "liggghts", "yade"), "input": ("lammps", "liggghts"), "var": ("lammps", "liggghts"),
     "pair_compute": ("lammps", "liggghts"), "pair_values": ("lammps", "liggghts"),
     "fixed_types": ("lammps", "liggghts"), "fixed_ids": ("lammps", "liggghts", "mercury", "yade"),
-    "walls": ("lammps",), "masses": ("lammps", "liggghts"), "dt": ("lammps", "liggghts"),
+    "walls": ("lammps",), "wall_contacts": ("liggghts",), "wall_compute": ("liggghts",),
+    "wall_values": ("liggghts",), "masses": ("lammps", "liggghts"), "dt": ("lammps", "liggghts"),
     "dimension": ("lammps", "liggghts"), "restart": ("mercury",), "density": ("mercury",),
     "gravity": ("lammps", "liggghts", "mercury", "yade"), "gravity_override": ("mercury", "yade"),
 }
@@ -90,6 +91,12 @@ def add_parser(sub):
     g.add_argument("--fixed-ids", metavar="LIST",
                    help="atom IDs (lammps/liggghts) or particle indices (mercury) of fixed particles")
     g.add_argument("--walls", metavar="LIST", help="lammps: IDs of fix wall/gran ... contacts, e.g. floor")
+    g.add_argument("--wall-contacts", metavar="PATH",
+                   help="liggghts: the dump local of compute wall/gran/local (mesh walls' contacts; its keywords from "
+                        "--wall-values or --input)")
+    g.add_argument("--wall-compute", metavar="ID", help="liggghts: the ID of compute wall/gran/local (default wgl)")
+    g.add_argument("--wall-values", metavar="LIST",
+                   help="liggghts: the keywords of compute wall/gran/local, e.g. pos,id,force")
     g.add_argument("--gravity", metavar="VECTOR", help="body force per unit mass on flowing particles, e.g. 0,0,-1 "
                                                        "(mercury, yade: default the run's gravity, which it must match "
                                                        "unless that is 0 or --gravity-override is given)")
@@ -208,6 +215,7 @@ def check(args):
     args.fixed_ids = None if args.fixed_ids is None else integers(args.fixed_ids, "--fixed-ids")
     args.walls = None if args.walls is None else split_list(args.walls)
     args.pair_values = None if args.pair_values is None else split_list(args.pair_values)
+    args.wall_values = None if args.wall_values is None else split_list(args.wall_values)
     args.masses = None if args.masses is None else type_masses(args.masses)
     args.dt = None if args.dt is None else positive_number(args.dt, "--dt")
     args.density = None if args.density is None else positive_number(args.density, "--density")
@@ -217,7 +225,7 @@ def check(args):
         raise UsageError("--var", "given without --input (variables are the input script's)")
     if ext == ".stat":
         stat_kernel_check(args)
-    for name in ("restart", "input"):
+    for name in ("restart", "input", "wall_contacts"):
         if getattr(args, name):
             existing_file(getattr(args, name), "--" + name.replace("_", "-"))
 
@@ -356,6 +364,10 @@ def reader_options(args, fmt, paths):
                 options["pair_style"] = args.pair_style
             if args.walls is not None:
                 options["walls"] = args.walls
+        else:
+            for name in ("wall_contacts", "wall_compute", "wall_values"):
+                if getattr(args, name) is not None:
+                    options[name] = getattr(args, name)
     elif fmt == "yade":
         if args.fixed_ids is not None:
             options["fixed_ids"] = args.fixed_ids
@@ -402,7 +414,8 @@ def open_data(args):
             print(f"cgbound: fixed particles, densities, periodic axes and gravity from {os.path.basename(restart)}",
                   file=sys.stderr)
         options["restart_path"] = restart
-    output_not_input(args.output, read_files(paths, contacts, options.get("restart_path"), args.input), "--output")
+    output_not_input(args.output, read_files(paths, contacts, options.get("restart_path"), args.input)
+                     + ([args.wall_contacts] if getattr(args, "wall_contacts", None) else []), "--output")
     replaceable_output(args.output, "--output")
     with as_usage("PATH"):
         try:

@@ -513,6 +513,7 @@ class LammpsReader(FrameReader):
         if pairs_offset is not None:
             parts.append(self._pair_contacts(pairs_offset, timestep, atoms, box))
         parts += [self._wall_contacts(fr["data"], atoms, wall, box) for wall in self.walls]
+        parts += self._dumped_wall_contacts(atoms_offset, timestep, atoms, box)
         contacts, contact_ids, overlap = _joined_contacts(parts, self.dimension)
         if not len(contacts) and atoms.span is not None and self.input_script is not None:
             # no contact geometry checks this frame's positions: the box, to the script's skin
@@ -528,11 +529,19 @@ class LammpsReader(FrameReader):
                                     body_force=self.body_force, radii=atoms.radii, time=self._time(timestep, fr),
                                     angular_velocities=atoms.angular_velocities, torques=atoms.torques, parsed=parsed)
         frame = LammpsFrame(snap, atoms.ids, atoms.types, timestep, atoms.forces, contact_ids, overlap)
-        if self.check_forces and atoms.forces is not None and pairs_offset is not None:
+        if self.check_forces and atoms.forces is not None and (pairs_offset is not None or self._wall_dump is not None):
             hints = self._balance_hints()
             check_force_balance(frame.force_balance(), atoms.ids, self.atoms_path, timestep, FORCE_BALANCE_TOLERANCE,
                                 hints)
         return frame
+
+    #: the dump of a wall-contact compute (a LIGGGHTS reader's wall/gran/local), None: LAMMPS has its walls' contacts
+    #: in the atoms dump
+    _wall_dump = None
+
+    def _dumped_wall_contacts(self, atoms_offset, timestep, atoms, box):
+        """The contacts of a wall-contact dump at this frame (a list of contact parts; none for LAMMPS)."""
+        return []
 
     def _check_selection(self, types, ids, timestep):
         """Fixed types and IDs that select no particle are errors (a typo must not read as 'no boundary')."""

@@ -51,7 +51,8 @@ import numpy as np
 
 from .files import decode_text
 
-__all__ = ["InputScript", "InputScriptError", "ComputeSpec", "DumpSpec", "read_input", "LIGGGHTS_LAYOUT"]
+__all__ = ["InputScript", "InputScriptError", "ComputeSpec", "DumpSpec", "read_input", "LIGGGHTS_LAYOUT",
+           "LIGGGHTS_WALL_LAYOUT"]
 
 #: compute pair/gran/local: (keyword, meanings of its columns) in the order LIGGGHTS writes them
 LIGGGHTS_LAYOUT = (
@@ -66,6 +67,26 @@ LIGGGHTS_LAYOUT = (
     ("contactArea", ("contactArea",)),
     ("delta", ("delta",)),
     ("contactPoint", ("cpx", "cpy", "cpz")),
+    ("heatFlux", ("heatFlux",)),
+)
+#: compute wall/gran/local: the same fixed order, other meanings (LIGGGHTS 3.8's ComputePairGranLocal::add_wall_1/2,
+#: and its output, tests/data/liggghts/mesh): pos is the contact point on the wall then the particle's centre, vel the
+#: wall's velocity then the particle's, id the mesh's index in the fix's 'meshes' list, the triangle's ID, then the
+#: particle's ID; delta is r - |x - contact point|; contactPoint is counted but not written for walls (left unset)
+LIGGGHTS_WALL_LAYOUT = (
+    ("pos", ("cpx", "cpy", "cpz", "x", "y", "z")),
+    ("vel", ("wvx", "wvy", "wvz", "vx", "vy", "vz")),
+    ("id", ("mesh", "triangle", "id")),
+    ("force", ("fx", "fy", "fz")),
+    ("force_normal", ("fnx", "fny", "fnz")),
+    ("force_tangential", ("ftx", "fty", "ftz")),
+    ("torque", ("tqx", "tqy", "tqz")),
+    ("torque_normal", ("tqnx", "tqny", "tqnz")),
+    ("torque_tangential", ("tqtx", "tqty", "tqtz")),
+    ("history", None),
+    ("contactArea", ("contactArea",)),
+    ("delta", ("delta",)),
+    ("contactPoint", ("unset1", "unset2", "unset3")),
     ("heatFlux", ("heatFlux",)),
 )
 _LIGGGHTS_DEFAULT = ("pos", "vel", "id", "force", "torque", "history", "contactArea")
@@ -141,6 +162,7 @@ class InputScript:
     dumps: list = field(default_factory=list)
     walls: tuple = ()
     wall_models: dict = field(default_factory=dict)   # wall fix ID -> the words after its style ("hooke", ...)
+    gran_walls: dict = field(default_factory=dict)    # every fix wall/gran(/region) ID -> the words after its style
     fixed_types: tuple = ()
     gravity: np.ndarray = None
     gravity_group: str = None
@@ -240,6 +262,17 @@ class InputScript:
         if len(specs) != 1:
             raise InputScriptError(f"{self.path}: {dump.where}: expected the dump of {dump.file!r} to hold one "
                                    f"pair/local or pair/gran/local compute, got {len(specs)}")
+        return specs[0]
+
+    def wall_compute_for(self, path):
+        """The wall/gran/local :class:`ComputeSpec` whose columns the dump of ``path`` holds."""
+        dump = self.dump_for(path)
+        ids = {m.split(":", 1)[0] for m in dump.meanings if m and ":" in m}
+        specs = [self.computes[i] for i in sorted(ids) if i in self.computes
+                 and self.computes[i].style == "wall/gran/local"]
+        if len(specs) != 1:
+            raise InputScriptError(f"{self.path}: {dump.where}: expected the dump of {dump.file!r} to hold one "
+                                   f"wall/gran/local compute, got {len(specs)}")
         return specs[0]
 
     def pair_columns(self, path):
@@ -581,8 +614,6 @@ class _Parser:
         cid, style, args = w[1], w[3], w[4:]
         if style not in ("pair/local", "property/local", "pair/gran/local", "wall/gran/local"):
             return
-        if style == "wall/gran/local":
-            self.fail("compute wall/gran/local (mesh walls) is not read by cgbound's readers")
         if style in ("pair/local", "property/local"):
             values = []
             k = 0
@@ -598,12 +629,13 @@ class _Parser:
             columns = tuple(values)
         else:
             keywords = tuple(args) if args else _LIGGGHTS_DEFAULT
-            known = {k for k, _ in LIGGGHTS_LAYOUT}
+            layout = LIGGGHTS_WALL_LAYOUT if style == "wall/gran/local" else LIGGGHTS_LAYOUT
+            known = {k for k, _ in layout}
             for k in keywords:
                 if k not in known:
-                    self.fail(f"compute pair/gran/local: unknown keyword {k!r}")
+                    self.fail(f"compute {style}: unknown keyword {k!r}")
             columns = []
-            for key, meanings in LIGGGHTS_LAYOUT:
+            for key, meanings in layout:
                 if key not in keywords:
                     continue
                 if meanings is None:
@@ -642,7 +674,7 @@ class _Parser:
             if spec is None:
                 if style == "local":
                     self.fail(f"dump {did}: {tok} names compute {ident!r}, which is not a pair/local, "
-                              "property/local or pair/gran/local compute defined before this line")
+                              "property/local, pair/gran/local or wall/gran/local compute defined before this line")
                 names.append(tok)
                 meanings.append(tok)
                 continue
@@ -679,6 +711,7 @@ class _Parser:
             return
         fid, group, style, args = w[1], w[2], w[3], w[4:]
         if style in _WALL_FIXES:
+            self.result.gran_walls[fid] = tuple(args)
             if "contacts" in args:
                 self.walls[fid] = self.where
                 self.result.wall_models[fid] = tuple(args)

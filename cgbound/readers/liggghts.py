@@ -77,26 +77,49 @@ a box length; the dump holds one of the two); 0.1..1.4 for frames dumped during 
 
 Walls
 -----
-``compute wall/gran/local`` only reports MESH walls (LIGGGHTS refuses primitive walls); wall
-contacts are not read by this reader yet. Use fixed particles for boundaries, or add the wall
-contacts yourself.
+Mesh walls' contacts are read from a ``dump local`` of ``compute ID all wall/gran/local KEYWORDS`` given as
+``wall_contacts=`` (keywords from ``input=`` or ``wall_values=``; ``pos``, ``id`` and ``force`` or both of its
+parts needed). They become boundary contacts (``j = -1``): the force on the particle, the contact point on the
+wall. The values come in pair/gran/local's fixed order with other meanings (LIGGGHTS-PUBLIC 3.8's
+``ComputePairGranLocal::add_wall_1/2`` and ``fix_wall_gran_base.h``; run on tests/data/liggghts/mesh/in.mesh):
+``pos`` is the contact point on the wall (x - delta vector) then the particle's centre, ``vel`` the wall's
+velocity then the particle's, ``id`` the mesh's index in the fix's ``meshes`` list, the triangle's ID and the
+particle's ID; ``torque_normal``/``torque_tangential`` (3 each) follow ``torque``; ``delta`` is r - |x - contact
+point| and ``contactArea`` pi (r^2 - |x - contact point|^2); ``contactPoint`` is counted but never written for a wall
+(not read). Checked: the dump's column count against the keywords, its timesteps against the atoms dump's, the
+particle IDs, the centre it wrote against the atoms dump's, the contact point within a radius of the centre (2 for a
+wall model with ``cohesion`` or without ``input=``). Measured on the mesh scene: every particle balances to 2e-12 of
+the RMS contact force; at rest the wall force is the weight to 1e-6.
+
+LIGGGHTS reports the mesh walls of one ``fix wall/gran`` only (the last defined; a second compute is refused) and
+never primitive walls (``primitive ... zplane``: a warning, no rows). Their contacts stay missing, and the force
+check refuses such frames naming them. (``fix wall/gran ... store_force yes`` writes a primitive wall's force on each
+particle as ``f_force_ID[1..3]``, verified on LIGGGHTS 3.8; reading it is not implemented.)
 """
 import os
 
 import numpy as np
 
 from .._validate import integer
-from .checks import compute_columns, dump_local_header, repeated_pairs, row_norms, thin_box, written_resolution
+from ._lammps_dump import scan_dump
+from .checks import (compute_columns, contact_geometry_error, dump_local_header, geometry_misfits, repeated_pairs,
+                     row_norms, thin_box, written_resolution)
 from .lammps import LammpsReader, contact_indices
+from .lammps_input import LIGGGHTS_LAYOUT, LIGGGHTS_WALL_LAYOUT
 
-__all__ = ["LiggghtsReader", "pair_gran_local_columns"]
+__all__ = ["LiggghtsReader", "pair_gran_local_columns", "wall_gran_local_columns"]
 
-# (keyword, number of values) in the order LIGGGHTS 3.8 writes them; history's count is set by the caller
-_LAYOUT = (("pos", 6), ("vel", 6), ("id", 3), ("force", 3), ("force_normal", 3), ("force_tangential", 3),
-           ("torque", 3), ("history", None), ("contactArea", 1), ("delta", 1), ("heatFlux", 1),
-           ("contactPoint", 3))
+# (keyword, number of values) in the order LIGGGHTS 3.8 writes them (the input script parser's table, one place);
+# history's count is set by the caller
+_LAYOUT = tuple((k, None if m is None else len(m)) for k, m in LIGGGHTS_LAYOUT)
 KEYWORDS = tuple(k for k, _ in _LAYOUT)
 DEFAULT_VALUES = ("pos", "vel", "id", "force", "torque", "delta", "contactPoint")
+
+
+# compute wall/gran/local: (keyword, number of values), likewise
+_WALL_LAYOUT = tuple((k, None if m is None else len(m)) for k, m in LIGGGHTS_WALL_LAYOUT)
+WALL_KEYWORDS = tuple(k for k, _ in _WALL_LAYOUT)
+DEFAULT_WALL_VALUES = ("pos", "id", "force")
 
 
 def pair_gran_local_columns(compute="pgl", values=DEFAULT_VALUES, history=0):
@@ -106,17 +129,30 @@ def pair_gran_local_columns(compute="pgl", values=DEFAULT_VALUES, history=0):
     ``values`` are the keywords given to the compute (any order: LIGGGHTS writes a fixed order).
     ``history`` is the number of history values when ``history`` is among them.
     """
+    return _layout_columns(_LAYOUT, "pair/gran/local", compute, values, history, "values")
+
+
+def wall_gran_local_columns(compute="wgl", values=DEFAULT_WALL_VALUES, history=0):
+    """Column names of each keyword of ``compute ID all wall/gran/local VALUES`` dumped as ``c_ID[1] c_ID[2] ...``
+    (the module docstring: ``pos`` is the contact point then the particle's centre, ``id`` the mesh, the triangle,
+    then the particle): a dict keyword -> tuple of names."""
+    return _layout_columns(_WALL_LAYOUT, "wall/gran/local", compute, values, history, "wall_values")
+
+
+def _layout_columns(layout, style, compute, values, history, argument):
+    """The ``c_ID[k]`` names of each keyword of ``values`` in ``layout``'s fixed order."""
     values = list(values)
-    unknown = [v for v in values if v not in KEYWORDS]
+    keywords = tuple(k for k, _ in layout)
+    unknown = [v for v in values if v not in keywords]
     if unknown:
-        raise ValueError(f"values: unknown pair/gran/local keyword(s) {unknown}; expected some of {KEYWORDS}")
+        raise ValueError(f"{argument}: unknown {style} keyword(s) {unknown}; expected some of {keywords}")
     if not values:
-        raise ValueError("values: give the compute's keywords explicitly (LIGGGHTS' default set has "
+        raise ValueError(f"{argument}: give the compute's keywords explicitly (LIGGGHTS' default set has "
                          "pair-style dependent history columns)")
     if "history" in values and integer(history, "history") <= 0:
         raise ValueError(f"history: expected the number of history values (> 0), got {history!r}")
     out, k = {}, 1
-    for key, count in _LAYOUT:
+    for key, count in layout:
         if key not in values:
             continue
         count = int(history) if count is None else count
@@ -143,6 +179,15 @@ class LiggghtsReader(LammpsReader):
         Number of history values when ``history`` is among ``pair_values``.
     pair_columns : dict, optional
         Explicit column names per keyword (as returned by :func:`pair_gran_local_columns`).
+    wall_contacts : path, optional
+        ``dump local`` of ``compute wall/gran/local`` (mesh walls; see the module docstring), all timesteps of the
+        atoms dump in one file.
+    wall_compute : str
+        Its compute's ID (default ``"wgl"``).
+    wall_values : sequence of str, optional
+        Its compute's keywords (default: from ``input``'s compute wall/gran/local line); ``pos`` and ``id`` needed.
+    wall_history : int
+        Number of history values when ``history`` is among ``wall_values``.
     fixed_types, fixed_ids, body_force, masses, dimension, dt, wrap, input, variables, check_forces :
         As for :class:`LammpsReader` (every frame's force balance is checked by default; with ``input``
         the compute's ID and keywords come from the script's ``compute pair/gran/local`` line).
@@ -154,8 +199,11 @@ class LiggghtsReader(LammpsReader):
     """
 
     def __init__(self, atoms, pairs=None, *, pair_compute="pgl", pair_values=None, history=0,
-                 pair_columns=None, fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=None,
+                 pair_columns=None, wall_contacts=None, wall_compute="wgl", wall_values=None, wall_history=0,
+                 fixed_types=(), fixed_ids=(), body_force=None, masses=None, dimension=None,
                  dt=None, wrap=True, input=None, variables=None, check_forces=True, units=None):
+        # the wall dump's arguments first: a wrong keyword list is refused before any file is scanned
+        wall_spec = self._wall_spec(wall_contacts, wall_compute, wall_values, wall_history, input, variables)
         if input is not None and pairs is not None and pair_values is None and pair_columns is None:
             from .lammps_input import read_input
             spec = read_input(input, variables).compute_for(pairs)
@@ -188,6 +236,67 @@ class LiggghtsReader(LammpsReader):
         # r_i + r_j is refused (1: the script's model has no cohesion; 2 where it may have: no model reaches that)
         script = self.input_script
         self.contact_reach = 1.0 if script is not None and script.cohesive is False else 2.0
+        self.wall_contacts_path = self.wall_columns = None
+        self.wall_compute, self.wall_values = wall_spec[:2] if wall_spec else (wall_compute, wall_values)
+        if wall_spec:
+            self._open_wall_dump(*wall_spec)
+
+    @staticmethod
+    def _wall_spec(path, compute, values, history, input, variables):
+        """(compute ID, keywords, column names, path) of the wall-contact dump, or None without one; the keywords
+        from the input script's compute wall/gran/local line when not given."""
+        if path is None:
+            if values is not None:
+                raise ValueError("wall_values: given without wall_contacts (--wall-contacts), the dump they describe")
+            return None
+        path = os.path.abspath(os.fspath(path))
+        if values is None and input is not None:
+            from .lammps_input import read_input
+            spec = read_input(input, variables).wall_compute_for(path)
+            compute, values = spec.id, spec.values
+        if values is None:
+            raise ValueError(f"wall_values: the keywords of the 'compute {compute} all wall/gran/local' line that "
+                             f"wrote {path} are needed (wall_values=, --wall-values; or the input script, --input)")
+        values = tuple(str(v) for v in values)
+        columns = wall_gran_local_columns(compute, values, history)
+        if "id" not in columns or not ("force" in columns or {"force_normal", "force_tangential"} <= set(columns)):
+            raise ValueError(f"wall_values: compute wall/gran/local needs 'id' (the particle's ID) and 'force' (or "
+                             f"both 'force_normal' and 'force_tangential'), got {' '.join(values)}")
+        if "pos" not in columns:
+            raise ValueError(f"wall_values: compute wall/gran/local needs 'pos' (its first three values are the "
+                             f"contact point on the wall, which no other keyword gives), got {' '.join(values)}")
+        found = compute_columns(dump_local_header(path), compute)
+        expected = sum(len(v) for v in columns.values())
+        if len(found) != expected:
+            raise ValueError(f"wall_values: the keywords {' '.join(values)} make {expected} columns but the wall "
+                             f"contact dump {path} holds {len(found)} columns of compute {compute!r}; give the "
+                             f"keywords of that compute's line (--wall-values) and its ID (--wall-compute)")
+        return compute, values, columns, path
+
+    def _open_wall_dump(self, compute, values, columns, path):
+        """Scan the wall-contact dump and pair each atoms frame with its frame of the same timestep (k-th with
+        k-th, as the pair dump's); the wall model's reach from the script's fix wall/gran lines."""
+        self.wall_contacts_path, self.wall_columns = path, columns
+        self._wall_dump = scan_dump(path, "local")
+        by_step = {}
+        for off, ts in self._wall_dump:
+            by_step.setdefault(ts, []).append(off)
+        self._wall_offsets, missing = {}, []
+        for off, ts, _ in self._frames:
+            offsets = by_step.get(ts, [])
+            if offsets:
+                self._wall_offsets[off] = offsets.pop(0)
+            else:
+                missing.append(ts)
+        if missing:
+            raise ValueError(f"wall_contacts: no frame for timestep(s) {missing[:10]} of the atoms dump "
+                             f"{self.atoms_path} in the wall contact dump {path} (it has timesteps "
+                             f"{sorted(set(ts for _, ts in self._wall_dump))[:10]}); dump both at the same steps, "
+                             f"each frame inside its own 'run 0' (see the module docstring)")
+        script = self.input_script
+        models = [] if script is None else list(script.gran_walls.values())
+        # repulsive wall models touch within a radius; a cohesive one (or one not known) may pull from further
+        self.wall_contact_reach = 1.0 if models and not any("cohesion" in m for m in models) else 2.0
 
     #: fix deform's lengths without a 'units' keyword are box lengths in LIGGGHTS (tests/data/liggghts/in.deform:
     #: 'final 0 0.0024' after 'lattice sc 0.001' ends at a box 0.0024 wide)
@@ -200,9 +309,105 @@ class LiggghtsReader(LammpsReader):
                 f"keywords of the 'compute pair/gran/local' line",
                 "a body force is missing or wrong (body_force=, --gravity)",
                 "fixed particles are not marked (fixed_types=, fixed_ids=; --fixed-types, --fixed-ids)",
-                "the run has walls (fix wall/gran, primitive or mesh): this reader does not read LIGGGHTS wall "
-                "contacts, so their forces are missing; make the boundary of fixed particles, or read anyway "
-                "(check_forces=False, --no-check-forces) knowing that the walls' forces are missing from every field"]
+                self._walls_hint()]
+
+    def _walls_hint(self):
+        """The cause 'walls' of a force mismatch: their contacts not given, or not all of them in the dump given."""
+        if self._wall_dump is None:
+            return ("the run has walls (fix wall/gran) whose contacts are not given: for mesh walls dump "
+                    "'compute ID all wall/gran/local pos id force' and give that dump (wall_contacts=, "
+                    "--wall-contacts; its keywords wall_values=, --wall-values, or --input); primitive walls are not "
+                    "read (LIGGGHTS' wall/gran/local reports mesh walls only): make them meshes or a boundary of fixed "
+                    "particles, or read anyway (check_forces=False, --no-check-forces) knowing that the walls' forces "
+                    "are missing from every field")
+        return (f"a wall's contacts are not in the wall contact dump {self.wall_contacts_path}: LIGGGHTS' "
+                f"wall/gran/local reports the mesh walls of one fix wall/gran only (the last defined), never "
+                f"primitive walls; put every mesh in that fix's 'meshes' list, or check that the dump is this run's")
+
+    def _dumped_wall_contacts(self, atoms_offset, timestep, atoms, box):
+        """The wall contacts of this frame from the wall/gran/local dump: boundary contacts (j = -1), the force on
+        the particle, the contact point on the wall."""
+        if self._wall_dump is None:
+            return []
+        path, names = self.wall_contacts_path, self.wall_columns
+        fr = self._wall_dump.read(self._wall_offsets[atoms_offset], (), (names["id"][2],))
+        dim = self.dimension
+        if fr["n"] == 0:
+            return [(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, dim)), np.zeros((0, dim)),
+                     np.zeros((0, 2), np.int64), np.zeros(0), None)]
+        tab = fr["data"]
+        missing = [c for cols in names.values() for c in cols if c not in tab]
+        if missing:
+            raise ValueError(f"{path}: timestep {timestep}: expected columns {missing} in the wall contact dump (has "
+                             f"{list(tab.index)}); set wall_compute/wall_values (--wall-compute, --wall-values) to "
+                             f"the ID and keywords of its compute wall/gran/local")
+        particle = tab.integers(names["id"][2])
+        k, _ = contact_indices(atoms.ids, particle, particle, path, timestep)
+        if "force" in names:
+            force = self._vectors(tab, names["force"])
+        else:
+            force = self._vectors(tab, names["force_normal"]) + self._vectors(tab, names["force_tangential"])
+        point = self._vectors(tab, names["pos"][:3])
+        written = self._vectors(tab, names["pos"][3:6])
+        self._check_wall_rows(tab, fr.get("first_line"), timestep, atoms, box, k, point, written)
+        if self.wrap and any(box.periodic):
+            point = box.wrap(point)
+        wall_j = np.full(k.shape, -1, np.int64)
+        overlap = tab[names["delta"][0]].copy() if "delta" in names else np.full(k.shape, np.nan)
+        return [(k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), overlap, None)]
+
+    def _check_wall_rows(self, tab, first_line, timestep, atoms, box, k, point, written):
+        """Refuse wall contacts whose geometry the atoms dump does not give: the particle's centre as the wall dump
+        wrote it ('pos' values 4-6) against the atoms dump's, and the contact point within the wall model's reach
+        (a radius for a repulsive model) of the centre."""
+        names, path = self.wall_columns, self.wall_contacts_path
+        centre = np.take(atoms.positions, k, axis=0)
+        off = row_norms(box.minimum_image(written - centre))
+        slack = np.sqrt(3) * (atoms.resolution + written_resolution(*(tab[c] for c in names["pos"][3:6])))
+        scale = np.full(k.shape, atoms.extent)
+        what = (f"have a particle centre (wall/gran/local 'pos' values 4-6, columns {' '.join(names['pos'][3:6])}) "
+                "other than the atoms dump's")
+        hints = [f"the wall contact dump's columns are not what wall_values={' '.join(self.wall_values)} says "
+                 f"(--wall-values): check the keywords of the 'compute wall/gran/local' line"]
+
+        def centres(j):
+            show = ", ".join
+            return (f"the wall dump has ({show(f'{v:.9g}' for v in written[j])}), the atoms dump "
+                    f"({show(f'{v:.9g}' for v in centre[j])})")
+        self._refuse_wall_misfits(off, scale, slack, timestep, first_line, atoms, k, what, centres, hints)
+        if atoms.radii is None:
+            return
+        reach = self.wall_contact_reach
+        radii = np.take(atoms.radii, k)
+        dist = row_norms(box.minimum_image(centre - point))
+        slack = (np.sqrt(3) * (atoms.resolution + written_resolution(*(tab[c] for c in names["pos"][:3])))
+                 + reach * atoms.radius_resolution)
+        what = (f"have their contact point (wall/gran/local 'pos' values 1-3, columns {' '.join(names['pos'][:3])}) "
+                + ("further than the radius from the particle's centre, which a repulsive wall model cannot"
+                   if reach == 1 else f"further than {reach:g} radii from the particle's centre, which no wall "
+                                      "model can"))
+        hints = hints + ["the radius (diameter) column is not the radii"]
+        if reach == 1:
+            hints.append("the wall model pulls beyond contact (fix wall/gran ... cohesion): give the input script "
+                         "(--input) that says so")
+
+        def reaches(j):
+            return (f"the contact point is {dist[j]:.9g} from the centre, {dist[j] / radii[j]:.6g} radii "
+                    f"(r = {radii[j]:.6g})")
+        self._refuse_wall_misfits(dist - reach * radii, radii + atoms.extent, slack, timestep, first_line, atoms, k,
+                                  what, reaches, hints)
+
+    def _refuse_wall_misfits(self, err, scale, slack, timestep, first_line, atoms, k, what, detail, hints):
+        found = geometry_misfits(err, scale, slack=slack)
+        if found is None:
+            return
+        bad, tol, ratio = found
+
+        def location(j):
+            line = "" if first_line is None else f" (the wall contact dump's line {first_line + j})"
+            return f"atom {int(atoms.ids[k[j]])}'s wall contact{line}"
+        raise contact_geometry_error(self.atoms_path, f"the wall contacts of {self.wall_contacts_path}", timestep,
+                                     bad, ratio / tol, what, detail, location, hints)
 
     def _pair_id_columns(self):
         return self.pair_columns["id"][:2]
