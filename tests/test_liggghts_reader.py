@@ -251,6 +251,22 @@ def test_a_run_with_walls_fails_the_force_check_naming_the_walls():
     assert "--pair-style" not in str(info.value) and "--walls" not in str(info.value)
 
 
+
+def test_a_type_the_script_declares_for_a_wall_material_only_is_no_boundary_and_no_error():
+    # in.wall's 'create_box 2' declares type 2 for the wall's material; no particle has it and only type 1 is
+    # integrated, so the script makes type 2 boundary. Reading with input= refused every frame ("fixed_types: type(s)
+    # [2] select no particle"), an argument the user never gave; a type the user names is still refused
+    d = os.path.join(DATA, "wall")
+    atoms, pairs, script = (os.path.join(d, f) for f in ("atoms.dump", "pairs.dump", "in.wall"))
+    frames = LiggghtsReader(atoms, pairs, input=script)
+    assert frames.fixed_types == (2,)
+    with pytest.raises(ValueError, match=r"the run has walls \(fix wall/gran\) whose contacts are not given"):
+        frames[0]                      # its primitive wall's contacts are in no dump: the force check, not the types
+    snap = LiggghtsReader(atoms, pairs, input=script, check_forces=False)[0]
+    assert not snap.fixed.any() and len(snap.positions) == 50
+    with pytest.raises(ValueError, match=r"fixed_types: type\(s\) \[2\] select no particle .*types present: \[1\]"):
+        LiggghtsReader(atoms, pairs, input=script, fixed_types=[2], check_forces=False)[0]
+
 # ---- wall contacts (compute wall/gran/local, mesh walls): tests/data/liggghts/mesh/in.mesh, settled at rest ----
 MESH = os.path.join(DATA, "mesh")
 WALL_VALUES = ("pos", "vel", "id", "force", "force_normal", "force_tangential", "torque", "delta", "contactArea")

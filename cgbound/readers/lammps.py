@@ -370,6 +370,7 @@ class LammpsReader(FrameReader):
                  dt=None, wrap=True, drop_inactive=True, input=None, variables=None, check_forces=True, units=None):
         self.units = units
         self.input_script = script = None
+        fixed_types_from_script = False
         if input is not None:
             from .lammps_input import read_input
             script = self.input_script = read_input(input, variables)
@@ -379,6 +380,7 @@ class LammpsReader(FrameReader):
                 pair_columns = script.pair_columns(pairs)
             if not len(fixed_types) and not len(fixed_ids):
                 fixed_types = script.fixed_types
+                fixed_types_from_script = True
             if body_force is None and script.gravity is not None:
                 body_force = script.gravity
             if not walls:
@@ -415,6 +417,9 @@ class LammpsReader(FrameReader):
         self.walls = tuple(str(w) for w in walls)
         self.wall_reach = script.wall_reach(self.walls) if script is not None else 2.0
         self.fixed_types = tuple(index_array(list(fixed_types), "fixed_types").tolist())
+        # the script's boundary types may hold no particle (LIGGGHTS runs declare a type for a wall's material only):
+        # only the types a user names are refused when they select nothing
+        self._named_fixed_types = () if fixed_types_from_script else self.fixed_types
         self.fixed_ids = np.unique(index_array(list(fixed_ids), "fixed_ids"))
         self.body_force = self._check_body_force(body_force, dimension, "LAMMPS")
         self.masses_by_type = None if masses is None else {int(k): float(v) for k, v in dict(masses).items()}
@@ -544,8 +549,9 @@ class LammpsReader(FrameReader):
         return []
 
     def _check_selection(self, types, ids, timestep):
-        """Fixed types and IDs that select no particle are errors (a typo must not read as 'no boundary')."""
-        missing = [t for t in self.fixed_types if not np.any(types == t)]
+        """Fixed types and IDs a user names that select no particle are errors (a typo must not read as 'no
+        boundary')."""
+        missing = [t for t in self._named_fixed_types if not np.any(types == t)]
         if missing:
             raise ValueError(f"fixed_types: type(s) {missing} select no particle in {self.atoms_path} at timestep "
                              f"{timestep} (types present: {sorted(set(types.tolist()))})")
