@@ -7,7 +7,6 @@ import os
 import pickle
 import shutil
 import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -260,7 +259,8 @@ def test_a_type_the_script_declares_for_a_wall_material_only_is_no_boundary_and_
     atoms, pairs, script = (os.path.join(d, f) for f in ("atoms.dump", "pairs.dump", "in.wall"))
     frames = LiggghtsReader(atoms, pairs, input=script)
     assert frames.fixed_types == (2,)
-    with pytest.raises(ValueError, match=r"the run has walls \(fix wall/gran\) whose contacts are not given"):
+    with pytest.raises(ValueError, match=r"the run has walls whose contacts are not read \(fix floor: a primitive "
+                                         r"wall"):
         frames[0]                      # its primitive wall's contacts are in no dump: the force check, not the types
     snap = LiggghtsReader(atoms, pairs, input=script, check_forces=False)[0]
     assert not snap.fixed.any() and len(snap.positions) == 50
@@ -303,9 +303,73 @@ def test_mesh_wall_force_of_a_packing_at_rest_is_its_weight_and_the_ifd_integrat
 
 
 def test_a_mesh_run_without_its_wall_dump_fails_the_force_check_naming_the_option():
-    with pytest.raises(ValueError, match=r"timestep 302500: the contact forces .* whose contacts are not given: "
-                                         r".*wall/gran/local .*wall_contacts=, --wall-contacts"):
+    with pytest.raises(ValueError, match=r"timestep 302500: the contact forces .* whose contacts are not read \(fix "
+                                         r"floor: a mesh wall: give its compute wall/gran/local dump \(wall_contacts=, "
+                                         r"--wall-contacts\)"):
         mesh_reader(walls=None)[0]
+
+
+def without_forces(tmp_path, name):
+    """The atoms dump of tests/data/liggghts/NAME without its fx fy fz columns (as many users dump it)."""
+    out = []
+    drop = None
+    for line in open(os.path.join(DATA, name, "atoms.dump")):
+        if line.startswith("ITEM: ATOMS"):
+            words = line.split()[2:]
+            drop = [words.index(c) for c in ("fx", "fy", "fz")]
+            out.append("ITEM: ATOMS " + " ".join(w for k, w in enumerate(words) if k not in drop) + "\n")
+        elif drop is not None and not line.startswith("ITEM:") and len(line.split()) > max(drop):
+            out.append(" ".join(w for k, w in enumerate(line.split()) if k not in drop) + "\n")
+        else:
+            out.append(line)
+            if line.startswith("ITEM:"):
+                drop = None if not line.startswith("ITEM: ATOMS") else drop
+    path = tmp_path / "atoms.dump"
+    path.write_text("".join(out))
+    return path
+
+
+def test_walls_whose_contacts_are_not_read_are_refused_where_no_force_check_can_notice(tmp_path):
+    # without fx fy fz no force balance can show a wall's forces missing: a mesh wall without its wall dump, and a
+    # primitive wall (never reported by wall/gran/local), read silently with exit 0 and no wall force in any field.
+    # Where the input script shows them, the frame is refused; --no-check-forces reads it anyway
+    atoms = without_forces(tmp_path, "mesh")
+    with pytest.raises(ValueError, match=r"mesh/in.mesh has walls whose contacts are not read \(fix floor: a mesh "
+                                         r"wall: give .*--wall-contacts.*no fx fy fz.*--no-check-forces"):
+        LiggghtsReader(atoms, os.path.join(MESH, "pairs.dump"), input=os.path.join(MESH, "in.mesh"))[0]
+    with_walls = LiggghtsReader(atoms, os.path.join(MESH, "pairs.dump"), input=os.path.join(MESH, "in.mesh"),
+                                wall_contacts=os.path.join(MESH, "walls.dump"))[0]
+    assert np.count_nonzero(with_walls.contacts.j < 0) == 31
+    unchecked = LiggghtsReader(atoms, os.path.join(MESH, "pairs.dump"), input=os.path.join(MESH, "in.mesh"),
+                               check_forces=False)[0]
+    assert not np.any(unchecked.contacts.j < 0)
+    d = os.path.join(DATA, "wall")
+    with pytest.raises(ValueError, match=r"fix floor: a primitive wall, whose contacts LIGGGHTS' wall/gran/local does "
+                                         r"not report.*no fx fy fz"):
+        LiggghtsReader(without_forces(tmp_path, "wall"), os.path.join(d, "pairs.dump"),
+                       input=os.path.join(d, "in.wall"))[0]
+
+
+def test_wall_rows_without_a_force_are_near_walls_not_contacts(tmp_path):
+    # neigh_modify contact_distance_factor > 1 makes LIGGGHTS list walls near a particle that do not touch it: delta
+    # < 0, force 0. Such a row (here: its contact point moved 0.3 radii below the floor) was refused as a contact
+    # point beyond the radius (with input=), or counted as a contact (coordination numbers, fabric) without it
+    def near(zero_force):
+        def edit(lines):
+            words = lines[9].split()
+            r = float(words[5]) + float(words[28])      # the centre's z + delta: the radius (contact point z = 0)
+            words[2] = repr(-0.3 * r)
+            words[28] = repr(-0.3 * r)
+            if zero_force:
+                for c in range(15, 27):                  # force, its parts, the torque
+                    words[c] = "0"
+            lines[9] = " ".join(words) + "\n"
+        return edit
+    snap = damaged(tmp_path, near(True))
+    snap.check_forces = False                            # (the atoms' forces still hold that wall's force)
+    assert np.count_nonzero(snap[0].contacts.j < 0) == 30
+    with pytest.raises(ValueError, match=r"contact point .*further than the radius"):
+        damaged(tmp_path, near(False))[0]
 
 
 def test_wrong_wall_keywords_are_refused_naming_the_file_and_the_flag():
@@ -370,16 +434,62 @@ def test_a_wall_dump_of_other_timesteps_is_refused(tmp_path):
         damaged(tmp_path, shift)
 
 
-def test_cli_reads_mesh_walls_and_refuses_wrong_keywords(tmp_path):
-    base = [sys.executable, "-m", "cgbound", "run", os.path.join(MESH, "atoms.dump"), "--format", "liggghts",
-            "--pairs", os.path.join(MESH, "pairs.dump"), "--input", os.path.join(MESH, "in.mesh"),
-            "--wall-contacts", os.path.join(MESH, "walls.dump"), "--grid", "2,2,4", "--kernel", "lucy",
-            "--width", "0.001", "--fields", "density,boundary_stress"]
-    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(os.path.abspath(cg.__file__))))
-    good = subprocess.run(base + ["-o", str(tmp_path / "out.npz")], capture_output=True, text=True, env=env)
-    assert good.returncode == 0, good.stderr
+def test_cli_reads_mesh_walls_and_refuses_wrong_keywords(tmp_path, capsys):
+    from cgbound.cli import main
+    base = ["run", os.path.join(MESH, "atoms.dump"), "--format", "liggghts", "--pairs", os.path.join(MESH, "pairs.dump"),
+            "--input", os.path.join(MESH, "in.mesh"), "--wall-contacts", os.path.join(MESH, "walls.dump"), "--grid",
+            "2,2,4", "--kernel", "lucy", "--width", "0.001", "--fields", "density,boundary_stress", "-q"]
+    assert main(base + ["-o", str(tmp_path / "out.npz")]) == 0
     assert (tmp_path / "out.npz").exists()
-    bad = subprocess.run(base + ["--wall-values", "pos,id,force", "-o", str(tmp_path / "bad.npz")],
-                         capture_output=True, text=True, env=env)
-    assert bad.returncode == 2 and "Traceback" not in bad.stderr
-    assert "--wall-values: the keywords pos id force make 12 columns" in bad.stderr
+    capsys.readouterr()
+    assert main(base + ["--wall-values", "pos,id,force", "-o", str(tmp_path / "bad.npz")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("cgbound: error: --wall-values: ") and "Traceback" not in err and "12 columns" in err
+    assert not (tmp_path / "bad.npz").exists()
+
+
+def test_a_wall_compute_with_history_is_read_its_count_from_the_dump():
+    # tests/data/liggghts/history: 'compute wgl all wall/gran/local' without keywords, LIGGGHTS' default set with the
+    # hertz/history wall's 3 history values (25 columns). With --input the script's parse refused the dump ("comes
+    # after its 'history' values"); with --wall-values 'history' was refused for want of a count no flag could give
+    d = os.path.join(DATA, "history")
+    atoms, pairs, walls, script = (os.path.join(d, f) for f in ("atoms.dump", "pairs.dump", "walls.dump", "in.history"))
+    for options in ({"input": script},
+                    {"input": script, "wall_values": ("pos", "vel", "id", "force", "torque", "history", "contactArea")},
+                    {"wall_values": ("pos", "vel", "id", "force", "torque", "history", "contactArea"),
+                     "pair_values": VALUES, "body_force": G}):
+        frames = LiggghtsReader(atoms, pairs, wall_contacts=walls, **options)
+        # pos 6, vel 6, id 3, force 3, torque 3, then history, then the area: the 25th and last column
+        assert frames.wall_columns["history"] == ("c_wgl[22]", "c_wgl[23]", "c_wgl[24]")
+        assert frames.wall_columns["contactArea"] == ("c_wgl[25]",)
+        for k in range(len(frames)):
+            assert frames.force_mismatch(k) < TOL
+            assert np.count_nonzero(frames[k].contacts.j < 0) > 0
+    # a count that does not fit the dump is still refused
+    with pytest.raises(ValueError, match=r"wall_values: the keywords .* make 24 columns but the wall contact dump .* "
+                                         r"holds 25"):
+        LiggghtsReader(atoms, pairs, wall_contacts=walls, input=script, wall_history=2)
+
+
+def test_the_verbose_flag_of_a_compute_writes_no_column(tmp_path):
+    # LIGGGHTS 3.8 takes 'verbose' on a wall/gran/local line and writes no column for it (a genuine run dumped 23
+    # columns for 'pos vel id force torque delta contactArea verbose'); the script was refused ("unknown keyword")
+    text = open(os.path.join(MESH, "in.mesh")).read().replace("delta contactArea\n", "delta contactArea verbose\n")
+    assert "contactArea verbose" in text
+    (tmp_path / "in.mesh").write_text(text)
+    frames = LiggghtsReader(os.path.join(MESH, "atoms.dump"), os.path.join(MESH, "pairs.dump"),
+                            wall_contacts=os.path.join(MESH, "walls.dump"), input=tmp_path / "in.mesh")
+    assert frames.wall_values == WALL_VALUES
+    assert frames.force_mismatch(0) < TOL
+
+
+def test_a_pattern_of_wall_files_is_refused_naming_the_flag_and_the_fix(tmp_path, capsys):
+    # one wall file per frame ('dump ... walls.*.dump') was refused as "no such file: 'walls.*.dump'"
+    from cgbound.cli import main
+    args = ["run", os.path.join(MESH, "atoms.dump"), "--format", "liggghts", "--pairs", os.path.join(MESH, "pairs.dump"),
+            "--input", os.path.join(MESH, "in.mesh"), "--wall-contacts", os.path.join(MESH, "walls.*.dump"), "--grid",
+            "2,2,4", "--kernel", "lucy", "--width", "0.001", "-o", str(tmp_path / "o.npz"), "-q"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("cgbound: error: --wall-contacts: one file holding every frame's wall contacts, not a "
+                          "pattern") and "cat walls.*.dump > walls.dump" in err

@@ -225,6 +225,10 @@ def check(args):
         raise UsageError("--var", "given without --input (variables are the input script's)")
     if ext == ".stat":
         stat_kernel_check(args)
+    if args.wall_contacts and any(c in args.wall_contacts for c in "*?["):
+        raise UsageError("--wall-contacts", f"one file holding every frame's wall contacts, not a pattern "
+                                            f"({args.wall_contacts!r}): join the per-frame files in time order "
+                                            f"(e.g. cat walls.*.dump > walls.dump, the names sorted by timestep)")
     for name in ("restart", "input", "wall_contacts"):
         if getattr(args, name):
             existing_file(getattr(args, name), "--" + name.replace("_", "-"))

@@ -538,7 +538,32 @@ class LammpsReader(FrameReader):
             hints = self._balance_hints()
             check_force_balance(frame.force_balance(), atoms.ids, self.atoms_path, timestep, FORCE_BALANCE_TOLERANCE,
                                 hints)
+        elif self.check_forces and atoms.forces is None:
+            self._refuse_unread_walls(timestep)
         return frame
+
+    def _unread_walls(self):
+        """The input script's wall fixes whose contacts this reader does not read: {fix ID: why} (LAMMPS: a fix
+        wall/gran without 'contacts' or not among ``walls``)."""
+        script = self.input_script
+        if script is None:
+            return {}
+        return {f: "no 'contacts' keyword, or not given as walls= (--walls)" for f in script.gran_walls
+                if f not in self.walls}
+
+    def _refuse_unread_walls(self, timestep):
+        """Without the atoms' forces no force check notices a wall's contacts missing, and every field would lack its
+        forces silently: refused where the input script shows such walls."""
+        unread = self._unread_walls()
+        if not unread:
+            return
+        named = "; ".join(f"fix {f}: {why}" for f, why in unread.items())
+        raise ValueError(f"{self.atoms_path}: timestep {timestep}: the input script {self.input_script.path} has walls "
+                         f"whose contacts are not read ({named}), and the atoms dump has no fx fy fz to check the force "
+                         f"balance, so their forces would be missing from every field unnoticed. Fix: read the walls' "
+                         f"contacts (see the reader's Walls section), or dump fx fy fz so that the force check shows "
+                         f"whether any particle touches them; or read anyway (check_forces=False, --no-check-forces) "
+                         f"knowing that their forces are missing")
 
     #: the dump of a wall-contact compute (a LIGGGHTS reader's wall/gran/local), None: LAMMPS has its walls' contacts
     #: in the atoms dump

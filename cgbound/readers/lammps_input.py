@@ -52,7 +52,7 @@ import numpy as np
 from .files import decode_text
 
 __all__ = ["InputScript", "InputScriptError", "ComputeSpec", "DumpSpec", "read_input", "LIGGGHTS_LAYOUT",
-           "LIGGGHTS_WALL_LAYOUT"]
+           "LIGGGHTS_WALL_LAYOUT", "LIGGGHTS_FLAG_KEYWORDS"]
 
 #: compute pair/gran/local: (keyword, meanings of its columns) in the order LIGGGHTS writes them
 LIGGGHTS_LAYOUT = (
@@ -89,6 +89,9 @@ LIGGGHTS_WALL_LAYOUT = (
     ("contactPoint", ("unset1", "unset2", "unset3")),
     ("heatFlux", ("heatFlux",)),
 )
+#: keywords of compute pair/gran/local and wall/gran/local that write no column (LIGGGHTS 3.8: 'verbose' on a
+#: wall/gran/local line, its dump as wide as the other keywords make it)
+LIGGGHTS_FLAG_KEYWORDS = ("verbose",)
 _LIGGGHTS_DEFAULT = ("pos", "vel", "id", "force", "torque", "history", "contactArea")
 _PAIR_LOCAL = re.compile(r"^(dist|eng|force|fx|fy|fz|p[1-9][0-9]*)$")
 _PROPERTY_LOCAL = re.compile(r"^(natom[1-4]|ntype[1-4]|batom[12]|btype|aatom[1-3]|atype|datom[1-4]|dtype|"
@@ -628,7 +631,7 @@ class _Parser:
                 k += 1
             columns = tuple(values)
         else:
-            keywords = tuple(args) if args else _LIGGGHTS_DEFAULT
+            keywords = tuple(a for a in args if a not in LIGGGHTS_FLAG_KEYWORDS) if args else _LIGGGHTS_DEFAULT
             layout = LIGGGHTS_WALL_LAYOUT if style == "wall/gran/local" else LIGGGHTS_LAYOUT
             known = {k for k, _ in layout}
             for k in keywords:
@@ -699,8 +702,9 @@ class _Parser:
                     self.fail(f"dump {did}: {tok}: compute {ident} has {len(cols)} columns")
                 meaning = cols[k - 1] if k <= len(cols) else None
                 if meaning is None and cols and cols[-1] is None and k >= len(cols):
-                    self.fail(f"dump {did}: {tok}: column {k} of compute {ident} comes after its 'history' "
-                              "values, whose number depends on the pair style")
+                    # (a history value or one after them: their number depends on the contact model; the reader
+                    # counts them from the dump's columns)
+                    meaning = f"after history {k - len(cols) + 1}"
                 names.append(f"c_{ident}[{k}]")
                 meanings.append(f"{ident}:{meaning}")
         spec = DumpSpec(did, style, fname, tuple(names), tuple(meanings), self.where)

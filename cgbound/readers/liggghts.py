@@ -91,9 +91,15 @@ particle IDs, the centre it wrote against the atoms dump's, the contact point wi
 wall model with ``cohesion`` or without ``input=``). Measured on the mesh scene: every particle balances to 2e-12 of
 the RMS contact force; at rest the wall force is the weight to 1e-6.
 
-LIGGGHTS reports the mesh walls of one ``fix wall/gran`` only (the last defined; a second compute is refused) and
-never primitive walls (``primitive ... zplane``: a warning, no rows). Their contacts stay missing, and the force
-check refuses such frames naming them. (``fix wall/gran ... store_force yes`` writes a primitive wall's force on each
+Rows without a force are dropped: with ``neigh_modify contact_distance_factor`` > 1 LIGGGHTS lists walls near a
+particle that do not touch it (``delta`` < 0, force 0), which are not contacts. LIGGGHTS 3.8 takes one mesh
+``fix wall/gran`` (every mesh in its ``meshes`` list; a second one is an error there) and never reports primitive
+walls (``primitive ... zplane``: a warning, no rows). Their contacts stay missing: the force check refuses such
+frames naming them, and where the atoms dump has no ``fx fy fz`` to check, a frame of a run whose input script
+(``input=``) has such walls, or mesh walls without ``wall_contacts=``, is refused. A moving mesh (``fix
+move/mesh``) with a velocity fails the force check on LIGGGHTS 3.8's own output: inside ``run 0`` wall/gran/local
+recomputes tangential forces other than those the particles felt (1.8-3.1 times the RMS contact force on a drum
+and a conveyor floor), so such runs are refused; a mesh at rest, or moved with zero velocity, balances. (``fix wall/gran ... store_force yes`` writes a primitive wall's force on each
 particle as ``f_force_ID[1..3]``, verified on LIGGGHTS 3.8; reading it is not implemented.)
 """
 import os
@@ -105,7 +111,7 @@ from ._lammps_dump import scan_dump
 from .checks import (compute_columns, contact_geometry_error, dump_local_header, geometry_misfits, repeated_pairs,
                      row_norms, thin_box, written_resolution)
 from .lammps import LammpsReader, contact_indices
-from .lammps_input import LIGGGHTS_LAYOUT, LIGGGHTS_WALL_LAYOUT
+from .lammps_input import LIGGGHTS_FLAG_KEYWORDS, LIGGGHTS_LAYOUT, LIGGGHTS_WALL_LAYOUT
 
 __all__ = ["LiggghtsReader", "pair_gran_local_columns", "wall_gran_local_columns"]
 
@@ -139,9 +145,22 @@ def wall_gran_local_columns(compute="wgl", values=DEFAULT_WALL_VALUES, history=0
     return _layout_columns(_WALL_LAYOUT, "wall/gran/local", compute, values, history, "wall_values")
 
 
+def _history_count(columns_of, compute, values, history, path):
+    """The number of history values: ``history`` where given (or where 'history' is not among ``values``), else what
+    the dump ``path``'s columns of ``compute`` leave after the other keywords' (their number depends on the contact
+    model, so a script cannot tell it); ``columns_of``: pair_gran_local_columns or wall_gran_local_columns."""
+    if "history" not in values or history:
+        return history
+    others = [v for v in values if v != "history" and v not in LIGGGHTS_FLAG_KEYWORDS]
+    taken = sum(len(c) for c in columns_of(compute, others, 0).values()) if others else 0
+    left = len(compute_columns(dump_local_header(os.fspath(path)), compute)) - taken
+    return left if left > 0 else history
+
+
 def _layout_columns(layout, style, compute, values, history, argument):
-    """The ``c_ID[k]`` names of each keyword of ``values`` in ``layout``'s fixed order."""
-    values = list(values)
+    """The ``c_ID[k]`` names of each keyword of ``values`` in ``layout``'s fixed order (flags such as 'verbose'
+    write none)."""
+    values = [v for v in values if v not in LIGGGHTS_FLAG_KEYWORDS]
     keywords = tuple(k for k, _ in layout)
     unknown = [v for v in values if v not in keywords]
     if unknown:
@@ -212,6 +231,7 @@ class LiggghtsReader(LammpsReader):
             pair_values = DEFAULT_VALUES
         from_values = pair_columns is None and pairs is not None
         if from_values:
+            history = _history_count(pair_gran_local_columns, pair_compute, pair_values, history, pairs)
             pair_columns = pair_gran_local_columns(pair_compute, pair_values, history)
         if pair_columns is not None:
             pair_columns = {k: tuple(v) for k, v in dict(pair_columns).items()}
@@ -258,7 +278,8 @@ class LiggghtsReader(LammpsReader):
             raise ValueError(f"wall_values: the keywords of the 'compute {compute} all wall/gran/local' line that "
                              f"wrote {path} are needed (wall_values=, --wall-values; or the input script, --input)")
         values = tuple(str(v) for v in values)
-        columns = wall_gran_local_columns(compute, values, history)
+        columns = wall_gran_local_columns(compute, values, _history_count(wall_gran_local_columns, compute, values,
+                                                                         history, path))
         if "id" not in columns or not ("force" in columns or {"force_normal", "force_tangential"} <= set(columns)):
             raise ValueError(f"wall_values: compute wall/gran/local needs 'id' (the particle's ID) and 'force' (or "
                              f"both 'force_normal' and 'force_tangential'), got {' '.join(values)}")
@@ -311,8 +332,28 @@ class LiggghtsReader(LammpsReader):
                 "fixed particles are not marked (fixed_types=, fixed_ids=; --fixed-types, --fixed-ids)",
                 self._walls_hint()]
 
+    def _unread_walls(self):
+        """The input script's fix wall/gran whose contacts are not read: primitive walls (LIGGGHTS' wall/gran/local
+        reports mesh walls only), and mesh walls without a wall contact dump (wall_contacts=)."""
+        script = self.input_script
+        if script is None:
+            return {}
+        unread = {}
+        for fix, words in script.gran_walls.items():
+            if "primitive" in words:
+                unread[fix] = "a primitive wall, whose contacts LIGGGHTS' wall/gran/local does not report"
+            elif self._wall_dump is None:
+                unread[fix] = "a mesh wall: give its compute wall/gran/local dump (wall_contacts=, --wall-contacts)"
+        return unread
+
     def _walls_hint(self):
         """The cause 'walls' of a force mismatch: their contacts not given, or not all of them in the dump given."""
+        unread = self._unread_walls()
+        if unread:
+            return ("the run has walls whose contacts are not read (" + "; ".join(f"fix {f}: {why}" for f, why in
+                                                                           unread.items()) + "); make primitive walls "
+                    "meshes or a boundary of fixed particles, or read anyway (check_forces=False, --no-check-forces) "
+                    "knowing that their forces are missing from every field")
         if self._wall_dump is None:
             return ("the run has walls (fix wall/gran) whose contacts are not given: for mesh walls dump "
                     "'compute ID all wall/gran/local pos id force' and give that dump (wall_contacts=, "
@@ -321,8 +362,9 @@ class LiggghtsReader(LammpsReader):
                     "particles, or read anyway (check_forces=False, --no-check-forces) knowing that the walls' forces "
                     "are missing from every field")
         return (f"a wall's contacts are not in the wall contact dump {self.wall_contacts_path}: LIGGGHTS' "
-                f"wall/gran/local reports the mesh walls of one fix wall/gran only (the last defined), never "
-                f"primitive walls; put every mesh in that fix's 'meshes' list, or check that the dump is this run's")
+                f"wall/gran/local never reports primitive walls (make them meshes of the one mesh fix wall/gran), a "
+                f"moving mesh's tangential forces there need not be those the particles felt (fix move/mesh), or the "
+                f"dump is not this run's")
 
     def _dumped_wall_contacts(self, atoms_offset, timestep, atoms, box):
         """The wall contacts of this frame from the wall/gran/local dump: boundary contacts (j = -1), the force on
@@ -349,17 +391,21 @@ class LiggghtsReader(LammpsReader):
             force = self._vectors(tab, names["force_normal"]) + self._vectors(tab, names["force_tangential"])
         point = self._vectors(tab, names["pos"][:3])
         written = self._vectors(tab, names["pos"][3:6])
-        self._check_wall_rows(tab, fr.get("first_line"), timestep, atoms, box, k, point, written)
+        # rows without a force: walls near a particle, not touching it, which LIGGGHTS lists where neigh_modify
+        # contact_distance_factor > 1 (delta < 0); not contacts (they would count in coordination numbers and fabric)
+        touching = (force != 0.0).any(axis=1)
+        self._check_wall_rows(tab, fr.get("first_line"), timestep, atoms, box, k, point, written, touching)
         if self.wrap and any(box.periodic):
             point = box.wrap(point)
-        wall_j = np.full(k.shape, -1, np.int64)
         overlap = tab[names["delta"][0]].copy() if "delta" in names else np.full(k.shape, np.nan)
+        k, force, point, overlap = k[touching], force[touching], point[touching], overlap[touching]
+        wall_j = np.full(k.shape, -1, np.int64)
         return [(k, wall_j, force, point, np.stack([atoms.ids[k], wall_j], axis=1), overlap, None)]
 
-    def _check_wall_rows(self, tab, first_line, timestep, atoms, box, k, point, written):
+    def _check_wall_rows(self, tab, first_line, timestep, atoms, box, k, point, written, touching):
         """Refuse wall contacts whose geometry the atoms dump does not give: the particle's centre as the wall dump
-        wrote it ('pos' values 4-6) against the atoms dump's, and the contact point within the wall model's reach
-        (a radius for a repulsive model) of the centre."""
+        wrote it ('pos' values 4-6) against the atoms dump's, and the contact point of the rows with a force
+        (``touching``) within the wall model's reach (a radius for a repulsive model) of the centre."""
         names, path = self.wall_columns, self.wall_contacts_path
         centre = np.take(atoms.positions, k, axis=0)
         off = row_norms(box.minimum_image(written - centre))
@@ -394,8 +440,8 @@ class LiggghtsReader(LammpsReader):
         def reaches(j):
             return (f"the contact point is {dist[j]:.9g} from the centre, {dist[j] / radii[j]:.6g} radii "
                     f"(r = {radii[j]:.6g})")
-        self._refuse_wall_misfits(dist - reach * radii, radii + atoms.extent, slack, timestep, first_line, atoms, k,
-                                  what, reaches, hints)
+        self._refuse_wall_misfits(np.where(touching, dist - reach * radii, -radii), radii + atoms.extent, slack,
+                                  timestep, first_line, atoms, k, what, reaches, hints)
 
     def _refuse_wall_misfits(self, err, scale, slack, timestep, first_line, atoms, k, what, detail, hints):
         found = geometry_misfits(err, scale, slack=slack)
