@@ -493,3 +493,18 @@ def test_a_pattern_of_wall_files_is_refused_naming_the_flag_and_the_fix(tmp_path
     err = capsys.readouterr().err
     assert err.startswith("cgbound: error: --wall-contacts: one file holding every frame's wall contacts, not a "
                           "pattern") and "cat walls.*.dump > walls.dump" in err
+
+
+def test_a_force_mismatch_names_the_dumps_default_six_digits(tmp_path):
+    # a wall dump in LIGGGHTS' default %g (6 significant digits) mismatched by 3.5e-6 of the RMS contact force and
+    # was refused naming columns, gravity, walls and runs, not the precision it was written with
+    lines = open(os.path.join(MESH, "walls.dump")).read().splitlines()
+    for k, line in enumerate(lines):
+        if not line.startswith("ITEM:") and len(line.split()) > 3:      # (a contact's row)
+            lines[k] = " ".join(f"{float(w):g}" for w in line.split())
+    (tmp_path / "walls.dump").write_text("\n".join(lines) + "\n")
+    frames = LiggghtsReader(os.path.join(MESH, "atoms.dump"), os.path.join(MESH, "pairs.dump"),
+                            wall_contacts=tmp_path / "walls.dump", input=os.path.join(MESH, "in.mesh"))
+    with pytest.raises(ValueError, match=r"timestep 302500: the contact forces .* mismatch [0-9.e-]+ of the RMS .*"
+                                         r"6 significant digits .*format float %.17g"):
+        frames[0]

@@ -101,7 +101,9 @@ def check_force_balance(balance, ids, path, timestep, tolerance, hints):
         f"({balance['scale']:.3g}) at atom ID {int(ids[worst])}, tolerance {tolerance:g}. Likely causes: "
         + "; ".join(hints) + ". Frames dumped during a run (not inside 'run 0') mismatch by 1e-3..1e-1: "
         "write each frame inside its own 'run 0' (the recipe in the cgbound.readers.lammps docstring), or "
-        "read them anyway with check_forces=False (--no-check-forces)")
+        "read them anyway with check_forces=False (--no-check-forces). Values written with 6 significant digits "
+        "(the dumps' default format, %g) mismatch by about 1e-7..1e-4: write them with 'dump_modify ID format "
+        "float %.17g'")
 
 
 def check_selects(selected, name, flag, path, where, present):
