@@ -70,9 +70,9 @@ GRADIENT_INLINE void batch_add(const job *jb, double *out, cg_index obj, int cou
         double grad[3];
         for (int a = 0; a < nr; ++a) grad[a] = factor[i] * q[a][i];
         double *o = out + node[i] * jb->out_width;
+        int kv = 0;
         if (nr == 3) {
             /* four values' 12 terms as three vectors of 4 (element by element: the same products and sums) */
-            int kv = 0;
             const v4 g = {grad[0], grad[1], grad[2], 0.0};
             const v4 ga = __builtin_shufflevector(g, g, 0, 1, 2, 0), gb = __builtin_shufflevector(g, g, 1, 2, 0, 1),
                      gc = __builtin_shufflevector(g, g, 2, 0, 1, 2);
@@ -91,14 +91,9 @@ GRADIENT_INLINE void batch_add(const job *jb, double *out, cg_index obj, int cou
                 memcpy(p + 4, &ob, sizeof ob);
                 memcpy(p + 8, &oc, sizeof oc);
             }
-            for (; kv < nv; ++kv) {
-                o[3 * kv] += grad[0] * v[kv];
-                o[3 * kv + 1] += grad[1] * v[kv];
-                o[3 * kv + 2] += grad[2] * v[kv];
-            }
-        } else
-            for (int kv = 0; kv < nv; ++kv)
-                for (int d = 0; d < nr; ++d) o[kv * nr + d] += grad[d] * v[kv];
+        }
+        for (; kv < nv; ++kv) /* (the values left) */
+            for (int d = 0; d < nr; ++d) o[kv * nr + d] += grad[d] * v[kv];
     }
 }
 
