@@ -796,38 +796,48 @@ class LammpsReader(FrameReader):
     def _check_wall_geometry(self, wall, atoms, k, point, box):
         """Refuse wall contacts whose contact point (on the wall) is further from the particle's centre than
         ``wall_reach`` radii (the module docstring): positions that are not positions miss the wall's points."""
-        reach = self.wall_reach
-        radii = np.take(atoms.radii, k)
-        dist = row_norms(box.minimum_image(np.take(atoms.positions, k, axis=0) - point))
-        slack = (np.sqrt(3) * (atoms.resolution + written_resolution(point[:, 0], point[:, -1]))
-                 + reach * atoms.radius_resolution)
-        found = geometry_misfits(dist - reach * radii, radii + atoms.extent, slack=slack)
-        if found is None:
-            return
-        bad, tol, ratio = found
-        hints = ["the radius (diameter) column is not the radii"]
-        if reach == 1:
-            what = (f"have their contact point (f_{wall}[5..7]) further than the radius from the particle's centre, "
-                    "which a repulsive wall model cannot")
-            hints.append(f"the wall model pulls beyond contact (fix {wall} wall/gran granular ... jkr): give the input "
-                         "script (--input)")
-        else:
-            what = (f"have their contact point (f_{wall}[5..7]) further than {reach:g} radii from the particle's "
-                    "centre, which no wall model can")
-
         def location(j):
             text = f"atom {int(atoms.ids[k[j]])}"
             if atoms.first_line is not None:
                 text += f" (the atoms dump's line {atoms.first_line + int(atoms.order[k[j]])})"
             return text
 
+        self._refuse_far_wall_points(atoms, k, point, box, f"fix {wall}", f"f_{wall}[5..7]",
+                                     (point[:, 0], point[:, -1]), location, [], f"fix {wall} wall/gran granular ... jkr")
+
+    def _refuse_far_wall_points(self, atoms, k, point, box, wall, columns, written, location, hints, cohesive,
+                                touching=None):
+        """The wall contacts' reach rule (shared by the readers' walls): refuse contacts whose contact point ``point``
+        (written as ``columns``; ``written``: their values as read, for their written decimals) lies further from
+        the particle's centre than ``wall_reach`` radii; only the rows ``touching`` count where given (the others
+        are not contacts). ``wall`` names the walls, ``location(j)`` the j-th contact's lines, ``hints`` the causes
+        of the reader's own, ``cohesive`` the wall model that would pull beyond contact."""
+        reach = self.wall_reach
+        radii = np.take(atoms.radii, k)
+        dist = row_norms(box.minimum_image(np.take(atoms.positions, k, axis=0) - point))
+        slack = np.sqrt(3) * (atoms.resolution + written_resolution(*written)) + reach * atoms.radius_resolution
+        err = dist - reach * radii
+        if touching is not None:
+            err = np.where(touching, err, -radii)
+        found = geometry_misfits(err, radii + atoms.extent, slack=slack)
+        if found is None:
+            return
+        bad, tol, ratio = found
+        hints = hints + ["the radius (diameter) column is not the radii"]
+        if reach == 1:
+            what = (f"have their contact point ({columns}) further than the radius from the particle's centre, "
+                    "which a repulsive wall model cannot")
+            hints.append(f"the wall model pulls beyond contact ({cohesive}): give the input script (--input)")
+        else:
+            what = (f"have their contact point ({columns}) further than {reach:g} radii from the particle's "
+                    "centre, which no wall model can")
+
         def detail(j):
             return (f"the contact point is {dist[j]:.9g} from the centre, {dist[j] / radii[j]:.6g} radii (r = "
                     f"{radii[j]:.6g}; tolerance {tol * (radii[j] + atoms.extent) + slack:.2g})")
 
-        raise contact_geometry_error(self.atoms_path, f"the wall contacts of fix {wall}", atoms.timestep, bad,
-                                     ratio / tol, what, detail, location,
-                                     hints)
+        raise contact_geometry_error(self.atoms_path, f"the wall contacts of {wall}", atoms.timestep, bad,
+                                     ratio / tol, what, detail, location, hints)
 
     def _pair_contacts(self, offset, timestep, atoms, box):
         """The contacts of the pairs dump's frame at ``offset``: (i, j, force, point, contact IDs, overlap)."""

@@ -317,7 +317,7 @@ class LiggghtsReader(LammpsReader):
         script = self.input_script
         models = [] if script is None else list(script.gran_walls.values())
         # repulsive wall models touch within a radius; a cohesive one (or one not known) may pull from further
-        self.wall_contact_reach = 1.0 if models and not any("cohesion" in m for m in models) else 2.0
+        self.wall_reach = 1.0 if models and not any("cohesion" in m for m in models) else 2.0
 
     #: fix deform's lengths without a 'units' keyword are box lengths in LIGGGHTS (tests/data/liggghts/in.deform:
     #: 'final 0 0.0024' after 'lattice sc 0.001' ends at a box 0.0024 wide)
@@ -420,40 +420,20 @@ class LiggghtsReader(LammpsReader):
             show = ", ".join
             return (f"the wall dump has ({show(f'{v:.9g}' for v in written[j])}), the atoms dump "
                     f"({show(f'{v:.9g}' for v in centre[j])})")
-        self._refuse_wall_misfits(off, scale, slack, timestep, first_line, atoms, k, what, centres, hints)
-        if atoms.radii is None:
-            return
-        reach = self.wall_contact_reach
-        radii = np.take(atoms.radii, k)
-        dist = row_norms(box.minimum_image(centre - point))
-        slack = (np.sqrt(3) * (atoms.resolution + written_resolution(*(tab[c] for c in names["pos"][:3])))
-                 + reach * atoms.radius_resolution)
-        what = (f"have their contact point (wall/gran/local 'pos' values 1-3, columns {' '.join(names['pos'][:3])}) "
-                + ("further than the radius from the particle's centre, which a repulsive wall model cannot"
-                   if reach == 1 else f"further than {reach:g} radii from the particle's centre, which no wall "
-                                      "model can"))
-        hints = hints + ["the radius (diameter) column is not the radii"]
-        if reach == 1:
-            hints.append("the wall model pulls beyond contact (fix wall/gran ... cohesion): give the input script "
-                         "(--input) that says so")
-
-        def reaches(j):
-            return (f"the contact point is {dist[j]:.9g} from the centre, {dist[j] / radii[j]:.6g} radii "
-                    f"(r = {radii[j]:.6g})")
-        self._refuse_wall_misfits(np.where(touching, dist - reach * radii, -radii), radii + atoms.extent, slack,
-                                  timestep, first_line, atoms, k, what, reaches, hints)
-
-    def _refuse_wall_misfits(self, err, scale, slack, timestep, first_line, atoms, k, what, detail, hints):
-        found = geometry_misfits(err, scale, slack=slack)
-        if found is None:
-            return
-        bad, tol, ratio = found
 
         def location(j):
             line = "" if first_line is None else f" (the wall contact dump's line {first_line + j})"
             return f"atom {int(atoms.ids[k[j]])}'s wall contact{line}"
-        raise contact_geometry_error(self.atoms_path, f"the wall contacts of {self.wall_contacts_path}", timestep,
-                                     bad, ratio / tol, what, detail, location, hints)
+        found = geometry_misfits(off, scale, slack=slack)
+        if found is not None:
+            bad, tol, ratio = found
+            raise contact_geometry_error(self.atoms_path, f"the wall contacts of {path}", timestep, bad, ratio / tol,
+                                         what, centres, location, hints)
+        if atoms.radii is not None:
+            self._refuse_far_wall_points(atoms, k, point, box, path,
+                                         f"wall/gran/local 'pos' values 1-3, columns {' '.join(names['pos'][:3])}",
+                                         tuple(tab[c] for c in names["pos"][:3]), location, hints,
+                                         "fix wall/gran ... cohesion", touching)
 
     def _pair_id_columns(self):
         return self.pair_columns["id"][:2]
