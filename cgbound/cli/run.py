@@ -475,9 +475,17 @@ def make_kernel(args):
         if args.kernel == "gaussian":
             return Gaussian(args.width, cutoff=args.cutoff, normalize=args.normalize,
                             averaged_axes=args.averaged_kernel)
-        if args.kernel == "lucy":
-            return Lucy(args.cutoff if args.cutoff is not None else 3 * args.width, averaged_axes=args.averaged_kernel)
-        return Heaviside(args.cutoff if args.cutoff is not None else args.width, averaged_axes=args.averaged_kernel)
+    kernel, per_width = (Lucy, 3.0) if args.kernel == "lucy" else (Heaviside, 1.0)
+    if args.cutoff is not None:
+        with as_usage("--cutoff"):
+            return kernel(args.cutoff, averaged_axes=args.averaged_kernel)
+    # the cutoff made from --width: its errors are --width's (the API names its cutoff argument)
+    try:
+        return kernel(per_width * args.width, averaged_axes=args.averaged_kernel)
+    except (ValueError, TypeError, OverflowError) as exc:
+        why = str(exc).split(": ", 1)[-1] if str(exc).startswith("cutoff: ") else str(exc)
+        raise UsageError("--width", f"gives a {kernel.__name__} cutoff of {per_width:g} x {args.width:g} = "
+                                    f"{per_width * args.width:g}: {why}") from exc
 
 
 def warn_if_no_particle_reached(args, out):
